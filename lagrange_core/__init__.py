@@ -1,0 +1,25 @@
+"""lagrange_core: state a mechanical system as a lecture does; derive, compile, integrate.
+
+Public API
+----------
+System, Particle, coordinates, t
+    State a system (:mod:`lagrange_core.systems`).
+derive, Equations
+    The Euler–Lagrange equations in the canonical form M q̈ = F + Φ_qᵀ λ
+    (:mod:`lagrange_core.derive`).
+compile_kernels, Kernels
+    numba kernels, cached on disk (:mod:`lagrange_core.codegen`).
+Linearization
+    Linearisation about an equilibrium (:mod:`lagrange_core.linearize`).
+problems
+    The catalogue of the lecture's problems.
+"""
+from . import problems
+from .codegen import Kernels, compile_kernels
+from .derive import Equations, derive
+from .linearize import Linearization
+from .systems import Particle, System, coordinates, t
+
+__all__ = ["System", "Particle", "coordinates", "t", "derive", "Equations", "compile_kernels",
+           "Kernels", "Linearization", "problems"]
+__version__ = "0.1.0"

@@ -1,0 +1,68 @@
+"""Small dense linear algebra for numba kernels (no allocation, no Python objects)."""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+#: Pivots smaller than this times the largest matrix entry count as singular.
+SINGULAR_RTOL = 1e-13
+
+
+@njit(cache=True)
+def solve_augmented(W, N):
+    """Solve A X = B in place, where ``W = [A | B]`` and A is the leading N x N block.
+
+    Gaussian elimination with partial pivoting; the solution X overwrites B
+    (``W[:, N:]``) and A is destroyed.  For the few unknowns of a mechanical
+    system this beats a LAPACK call, which allocates.
+
+    Returns
+    -------
+    int
+        0 on success, 1 if A is singular to working precision (a pivot below
+        ``SINGULAR_RTOL`` times the largest entry of A).
+    """
+    ncol = W.shape[1]
+    scale = 0.0
+    for i in range(N):
+        for j in range(N):
+            a = abs(W[i, j])
+            if a > scale:
+                scale = a
+    if not scale > 0.0:
+        return 1
+    tiny = SINGULAR_RTOL * scale
+    for k in range(N):
+        piv = k
+        best = abs(W[k, k])
+        for i in range(k + 1, N):
+            a = abs(W[i, k])
+            if a > best:
+                best = a
+                piv = i
+        if not best > tiny:   # also catches NaN
+            return 1
+        if piv != k:
+            for j in range(k, ncol):
+                tmp = W[k, j]
+                W[k, j] = W[piv, j]
+                W[piv, j] = tmp
+        inv = 1.0 / W[k, k]
+        for i in range(k + 1, N):
+            f = W[i, k] * inv
+            if f != 0.0:
+                for j in range(k + 1, ncol):
+                    W[i, j] -= f * W[k, j]
+    for c in range(N, ncol):
+        for i in range(N - 1, -1, -1):
+            s = W[i, c]
+            for j in range(i + 1, N):
+                s -= W[i, j] * W[j, c]
+            W[i, c] = s / W[i, i]
+    return 0
+
+
+@njit(cache=True)
+def sign(x):
+    """sympy's sign(x): -1, 0 or 1."""
+    return np.sign(x)
