@@ -1,0 +1,81 @@
+"""The Kapitza pendulum: one object for averaging, Floquet and direct integration.
+
+Conventions (shared/PHYSICS.md): θ from the downward vertical (θ = π upright);
+pivot y_p = A cos ωt (vertical drive) or x_p = A cos ωt (horizontal drive);
+viscous damping γ (1/s):
+
+    θ̈ = −γ θ̇ − (g − A ω² cos ωt) sin θ / l          (vertical drive)
+
+The analyses live in their own modules (:mod:`kapitza.averaging`,
+:mod:`kapitza.floquet`); this class holds the pendulum's constants and routes
+to them, so a user meets one object.
+"""
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+from lagrange_core import problems
+
+__all__ = ["KapitzaPendulum"]
+
+_DRIVES = ("vertical", "horizontal")
+
+
+@functools.lru_cache(maxsize=None)
+def _driven_pendulum(drive: str, damped: bool):
+    # one System per variant and process: derivation and kernels are shared
+    return problems.driven_pendulum(drive, damping=damped)
+
+
+@dataclass(frozen=True)
+class KapitzaPendulum:
+    """A pendulum whose pivot is shaken as A cos ωt.
+
+    Parameters
+    ----------
+    l : float
+        Rod length (m), > 0.
+    g : float
+        Gravitational acceleration (m/s²), ≥ 0.
+    damping : float
+        Linear viscous damping rate γ (1/s), ≥ 0.
+    drive : {"vertical", "horizontal"}
+        Direction of the pivot's oscillation.
+    """
+
+    l: float = 1.0
+    g: float = 9.81
+    damping: float = 0.0
+    drive: str = "vertical"
+
+    def __post_init__(self):
+        for name in ("l", "g", "damping"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ValueError(f"KapitzaPendulum: {name} must be a finite number, got {value!r}.")
+        if self.l <= 0:
+            raise ValueError(f"KapitzaPendulum: the length l must be > 0 (m), got {self.l}.")
+        if self.g < 0 or self.damping < 0:
+            raise ValueError("KapitzaPendulum: g and damping must be ≥ 0, got "
+                             f"g={self.g}, damping={self.damping}.")
+        if self.drive not in _DRIVES:
+            raise ValueError(f"KapitzaPendulum: drive must be one of {_DRIVES}, got {self.drive!r}.")
+
+    @property
+    def omega0(self) -> float:
+        """Small-oscillation angular frequency √(g/l) of the undriven pendulum (rad/s)."""
+        return math.sqrt(self.g / self.l)
+
+    @property
+    def system(self):
+        """The lagrange_core system (``problems.driven_pendulum``) behind this pendulum."""
+        return _driven_pendulum(self.drive, self.damping > 0)
+
+    def params(self, A: float, omega: float) -> dict:
+        """Parameter dict of :attr:`system` for drive amplitude A (m) and ω (rad/s); m = 1 kg."""
+        p = {"m": 1.0, "l": self.l, "g": self.g, "A": A, "omega": omega}
+        if self.damping > 0:
+            p["gamma"] = self.damping
+        return p
