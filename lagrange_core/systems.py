@@ -358,6 +358,45 @@ class System:
                 "regular there.")
         return (qdd, lam) if self.n_constraints else qdd
 
+    def simulate(self, q0, qdot0, t_span, params=None, *, method=None, rtol=1e-9, t_eval=None,
+                 **options):
+        """Integrate the equations of motion; returns a frozen :class:`Trajectory`.
+
+        Parameters
+        ----------
+        q0, qdot0 : sequence of float or dict name -> float
+            Initial coordinates and velocities (order of :attr:`coordinates`).
+        t_span : (t0, t1)
+            Start and end time (s), t1 > t0.
+        params : dict
+            Parameter values by name.
+        method : str, optional
+            A name from ``lagrange_core.integrate.METHODS`` ("dop853", "rk8",
+            "rkn12", "rkn12-fixed", "yoshida6", "scipy:DOP853", "scipy:LSODA",
+            "scipy:Radau", ...).  None: "rkn12" if the equations have the form
+            q̈ = f(q, t) (no velocity dependence, no constraints), else "dop853".
+        rtol : float
+            Relative tolerance (atol defaults to rtol).
+        t_eval : array, optional
+            Store only these times (dense output); else every accepted step.
+        **options
+            ``atol``, ``events`` (list of :class:`lagrange_core.integrate.Event`),
+            ``max_steps``, ``h`` (fixed-step methods), ``stride`` (store every
+            k-th step), ``error_check`` (rerun at rtol/1000 to estimate the
+            error), ``chunk_steps``.  See :func:`lagrange_core.integrate.simulate`.
+
+        Raises
+        ------
+        ValueError
+            Bad input, an ineligible method, or a singular mass matrix during the
+            run (the message names the time and state).
+        lagrange_core.integrate.SimulationInterrupted
+            On Ctrl-C, carrying the part computed in ``.trajectory``.
+        """
+        from .integrate import simulate
+        return simulate(self, q0, qdot0, t_span, params, method=method, rtol=rtol,
+                        t_eval=t_eval, **options)
+
     def linearize(self, params=None, about=None, t=0.0):
         """Linearise about an equilibrium: M δq̈ + C δq̇ + K δq = 0.
 

@@ -1,0 +1,473 @@
+"""Kernel templates of the integrators (bound per system by ``system.kernels.bind``).
+
+Every function here is a *template*: plain Python that calls the generated
+kernels of one system by name (``rhs``, ``accelerations``, ``augmented``,
+``constraint_residual``, ``energy``, ``N_DOF``, ``N_CONSTRAINTS``, ...; see
+:mod:`lagrange_core.codegen`).  :meth:`Kernels.bind` compiles a copy against a
+system, so the system's right-hand side is inlined into the integrator loop and
+the machine code is cached on disk.  Method coefficient tables are passed in as
+arrays (they are data, :mod:`lagrange_core.integrate` owns them).
+
+The drivers integrate in *chunks*: a call advances until ``t_end``, until a step
+budget is used up, until the output buffer is full or until a terminal event,
+and returns a status, with the whole integrator state in the arrays it was given
+(``y``, ``f``, ``tv``, ``stats``) so the next call continues exactly where this
+one stopped.  Python regains control between chunks (Ctrl-C, memory).
+
+Shared state layout
+-------------------
+``tv`` (float64): [t, t_end, h (next step), error sum, h_min, t_last_output]
+``stats`` (int64): [steps, rejected, rhs evaluations, outputs stored, stride
+counter, next t_eval index, events stored, spare]
+
+Status codes returned: see ``STATUS_*`` in :mod:`lagrange_core.integrate`
+(0 done, 1 chunk budget used, 2 output buffer full, 3 terminal event,
+4 singular mass matrix, 5 step size underflow / non-finite state,
+6 event buffer full).
+
+Events (``ev_int`` rows: kind, index, direction, terminal; ``ev_val`` the
+value): kind 0 coordinate q_j − value, 1 velocity q̇_j − value, 2 multiplier
+λ_j − value, 3 energy − value.  direction +1 only upward crossings, −1 only
+downward, 0 both.
+"""
+import math
+
+import numpy as np
+
+KERNEL_IMPORTS = """
+from lagrange_core._linalg import solve_augmented
+"""
+
+
+# -- helpers -----------------------------------------------------------------------------
+
+def event_value(kind, idx, val, t, y, p, W, qdd, lam):
+    """Value of one event function g(t, y) (see the module docstring)."""
+    n = N_DOF
+    if kind == 0:
+        return y[idx] - val
+    if kind == 1:
+        return y[n + idx] - val
+    if kind == 2:
+        accelerations(y[:n], y[n:], t, p, qdd, lam, W)
+        return lam[idx] - val
+    return energy(y[:n], y[n:], t, p) - val
+
+
+def project_constraints(y, t, p, W, P, res):
+    """Project y = [q, q̇] back onto Φ(q, t) = 0 and Φ̇ = 0 (no-op without constraints).
+
+    Least-squares (Euclidean) projection with Φ_q from the augmented matrix:
+    Δq = −Φ_qᵀ (Φ_q Φ_qᵀ)⁻¹ Φ, three Gauss–Newton iterations for q (quadratic
+    convergence from a drift of the size of the tolerance), then one exact linear
+    step Δq̇ = −Φ_qᵀ (Φ_q Φ_qᵀ)⁻¹ Φ̇ (Φ̇ is linear in q̇).  ``P`` is scratch (m, m + 1).
+    Returns 0, or 1 if Φ_q Φ_qᵀ is singular (redundant constraints).
+    """
+    n = N_DOF
+    m = N_CONSTRAINTS
+    if m == 0:
+        return 0
+    for sweep in range(4):
+        constraint_residual(y[:n], y[n:], t, p, res)
+        augmented(y[:n], y[n:], t, p, W)
+        for a in range(m):
+            for b in range(m):
+                s = 0.0
+                for j in range(n):
+                    s += W[n + a, j] * W[n + b, j]
+                P[a, b] = s
+            P[a, m] = res[a] if sweep < 3 else res[m + a]
+        if solve_augmented(P, m) != 0:
+            return 1
+        off = 0 if sweep < 3 else n
+        for j in range(n):
+            s = 0.0
+            for a in range(m):
+                s += W[n + a, j] * P[a, m]
+            y[off + j] -= s
+    return 0
+
+
+def dop853_dense_eval(Fd, y0, x, out):
+    """DOP853 dense output at fraction x of the step (7th-order polynomial, Hairer's form)."""
+    n2 = y0.shape[0]
+    for i in range(n2):
+        acc = 0.0
+        for r in range(6, -1, -1):
+            acc += Fd[r, i]
+            if (6 - r) % 2 == 0:
+                acc *= x
+            else:
+                acc *= 1.0 - x
+        out[i] = acc + y0[i]
+
+
+def dop853_locate(kind, idx, val, t0, h, y0, Fd, ga, gb, p, W, qdd, lam, yt):
+    """Root of one event function on the dense output of a DOP853 step.
+
+    Illinois (modified regula falsi) on x ∈ [0, 1], bracket shrunk until it is a
+    few ulps of t wide.  Returns the step fraction x of the crossing.
+    """
+    a = 0.0
+    b = 1.0
+    fa = ga
+    fb = gb
+    side = 0
+    tol = 4.0 * 2.220446049250313e-16 * max(abs(t0), abs(t0 + h), 1e-300) / abs(h)
+    for it in range(200):
+        if b - a <= tol:
+            break
+        x = (a * fb - b * fa) / (fb - fa)
+        if not (a < x < b):
+            x = 0.5 * (a + b)
+        dop853_dense_eval(Fd, y0, x, yt)
+        fx = event_value(kind, idx, val, t0 + x * h, yt, p, W, qdd, lam)
+        if fx == 0.0:
+            return x
+        if (fx > 0.0) == (fb > 0.0):
+            b = x
+            fb = fx
+            if side == -1:
+                fa *= 0.5
+            side = -1
+        else:
+            a = x
+            fa = fx
+            if side == 1:
+                fb *= 0.5
+            side = 1
+    return 0.5 * (a + b)
+
+
+def dop853_initial_step(t, y, f, p, rtol, atol, W, y1, f1):
+    """Hairer's starting step size (as scipy's ``select_initial_step``, order 7)."""
+    n2 = y.shape[0]
+    d0 = 0.0
+    d1 = 0.0
+    for i in range(n2):
+        sc = atol + abs(y[i]) * rtol
+        d0 += (y[i] / sc) ** 2
+        d1 += (f[i] / sc) ** 2
+    d0 = math.sqrt(d0 / n2)
+    d1 = math.sqrt(d1 / n2)
+    if d0 < 1e-5 or d1 < 1e-5:
+        h0 = 1e-6
+    else:
+        h0 = 0.01 * d0 / d1
+    for i in range(n2):
+        y1[i] = y[i] + h0 * f[i]
+    rhs(t + h0, y1, p, f1, W)
+    d2 = 0.0
+    for i in range(n2):
+        sc = atol + abs(y[i]) * rtol
+        d2 += ((f1[i] - f[i]) / sc) ** 2
+    d2 = math.sqrt(d2 / n2) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
+    return min(100.0 * h0, h1)
+
+
+# -- DOP853 (adaptive, or fixed step) --------------------------------------------------
+
+def dop853_chunk(y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adaptive, max_steps,
+                 t_eval, stride, tout, yout, ev_int, ev_val, ev_g, ev_t, ev_k, ev_y):
+    """Advance the DOP853 pair (Dormand & Prince 8(5,3)) by one chunk.
+
+    Parameters (arrays are updated in place; see the module docstring)
+    ----------
+    y, f : (2n,) state [q, q̇] at tv[0] and its derivative (FSAL).
+    A, B, C, E3, E5, D : the coefficient table (scipy's ``dop853_coefficients``).
+    adaptive : bool
+        False: fixed steps of tv[2] (the 8th-order solution, no rejection; the
+        error estimate is still accumulated).
+    max_steps : steps allowed in this chunk.
+    t_eval : output times (empty: store every ``stride``-th accepted step).
+    tout, yout : output buffers; stats[3] rows used.
+    ev_* : event specification, last values g, and the event buffers.
+
+    Step-size control is Hairer's (scipy's): the error norm is the RMS of the
+    combined 5th/3rd-order estimate scaled by atol + rtol·max(|y|, |y_new|),
+    new h = h·min(10, max(0.2, 0.9·err^(−1/8))), no growth right after a rejection.
+    """
+    n = N_DOF
+    n2 = 2 * n
+    m = N_CONSTRAINTS
+    W = np.zeros((n + m, n + m + 1))
+    P = np.zeros((max(m, 1), max(m, 1) + 1))
+    res = np.zeros(max(2 * m, 1))
+    K = np.empty((16, n2))
+    ynew = np.empty(n2)
+    ytmp = np.empty(n2)
+    Fd = np.empty((7, n2))
+    qdd = np.empty(n)
+    lam = np.empty(max(m, 1))
+    n_ev = ev_int.shape[0]
+    g_new = np.empty(max(n_ev, 1))
+    x_root = np.empty(max(n_ev, 1))
+    use_teval = t_eval.shape[0] > 0
+    cap = tout.shape[0]
+
+    t = tv[0]
+    t_end = tv[1]
+    h = tv[2]
+    rejected = False
+    for step in range(max_steps + 1):
+        if t >= t_end:
+            return 0
+        if step == max_steps:
+            return 1
+        if (not use_teval) and stats[3] + 2 > cap:
+            return 2
+        if stats[6] + n_ev > ev_t.shape[0]:
+            return 6
+        hmin = 16.0 * 2.220446049250313e-16 * max(abs(t), abs(t_end))
+        while True:
+            last = False
+            hs = h
+            if t + hs >= t_end or (not adaptive and t + hs * (1.0 + 1e-10) >= t_end):
+                hs = t_end - t
+                last = True
+            # stages
+            for i in range(n2):
+                K[0, i] = f[i]
+            status = 0
+            for s in range(1, 12):
+                for i in range(n2):
+                    acc = 0.0
+                    for j in range(s):
+                        acc += A[s, j] * K[j, i]
+                    ytmp[i] = y[i] + hs * acc
+                status = rhs(t + C[s] * hs, ytmp, p, K[s], W)
+                if status != 0:
+                    break
+            if status != 0:
+                tv[0] = t
+                return 4
+            for i in range(n2):
+                acc = 0.0
+                for j in range(12):
+                    acc += B[j] * K[j, i]
+                ynew[i] = y[i] + hs * acc
+            status = rhs(t + hs, ynew, p, K[12], W)
+            stats[2] += 12
+            if status != 0:
+                tv[0] = t
+                return 4
+            # error estimate (Hairer's combination of the 5th- and 3rd-order estimates)
+            e5n = 0.0
+            e3n = 0.0
+            est = 0.0
+            for i in range(n2):
+                a5 = 0.0
+                a3 = 0.0
+                for j in range(13):
+                    a5 += E5[j] * K[j, i]
+                    a3 += E3[j] * K[j, i]
+                a5 *= hs
+                a3 *= hs
+                sc = atol + rtol * max(abs(y[i]), abs(ynew[i]))
+                e5n += (a5 / sc) ** 2
+                e3n += (a3 / sc) ** 2
+                den = a5 * a5 + 0.01 * a3 * a3
+                if den > 0.0:
+                    ei = a5 * a5 / math.sqrt(den)
+                    if ei > est:
+                        est = ei
+            if e5n == 0.0 and e3n == 0.0:
+                err = 0.0
+            else:
+                err = e5n / math.sqrt((e5n + 0.01 * e3n) * n2)
+            finite = math.isfinite(err)
+            if (not adaptive) or (finite and err < 1.0):
+                break
+            stats[1] += 1
+            if finite:
+                h = hs * max(0.2, 0.9 * err ** (-1.0 / 8.0))
+            else:
+                h = 0.2 * hs
+            rejected = True
+            if h < hmin:
+                tv[0] = t
+                tv[2] = h
+                return 5
+        if not math.isfinite(err):
+            tv[0] = t
+            return 5
+        # accepted: FSAL derivative is K[12]
+        stats[0] += 1
+        tv[3] += est
+        have_dense = False
+        # events
+        t_stop = t + hs
+        x_stop = 1.0
+        fired = False
+        for e in range(n_ev):
+            g_new[e] = event_value(ev_int[e, 0], ev_int[e, 1], ev_val[e], t + hs, ynew, p, W,
+                                   qdd, lam)
+            x_root[e] = -1.0
+            go = ev_g[e]
+            gn = g_new[e]
+            cross = (go < 0.0 and gn >= 0.0) or (go > 0.0 and gn <= 0.0)
+            if cross and gn != go:
+                d = ev_int[e, 2]
+                up = gn > go
+                if d == 0 or (d > 0 and up) or (d < 0 and not up):
+                    if not have_dense:
+                        dop853_dense(t, hs, y, ynew, K, A, C, D, p, W, ytmp, Fd)
+                        stats[2] += 3
+                        have_dense = True
+                    x_root[e] = dop853_locate(ev_int[e, 0], ev_int[e, 1], ev_val[e], t, hs, y,
+                                              Fd, go, gn, p, W, qdd, lam, ytmp)
+                    if ev_int[e, 3] != 0 and x_root[e] <= x_stop:
+                        x_stop = x_root[e]
+                        fired = True
+        for e in range(n_ev):
+            if x_root[e] >= 0.0 and x_root[e] <= x_stop:
+                k = stats[6]
+                ev_t[k] = t + x_root[e] * hs
+                ev_k[k] = e
+                dop853_dense_eval(Fd, y, x_root[e], ytmp)
+                for i in range(n2):
+                    ev_y[k, i] = ytmp[i]
+                stats[6] += 1
+            ev_g[e] = g_new[e]
+        if fired:
+            t_stop = t + x_stop * hs
+        # dense output at the requested times
+        if use_teval:
+            ie = stats[5]
+            while ie < t_eval.shape[0] and t_eval[ie] <= t_stop:
+                if not have_dense:
+                    dop853_dense(t, hs, y, ynew, K, A, C, D, p, W, ytmp, Fd)
+                    stats[2] += 3
+                    have_dense = True
+                if t_eval[ie] == t + hs and not fired:
+                    for i in range(n2):
+                        yout[ie, i] = ynew[i]
+                else:
+                    dop853_dense_eval(Fd, y, (t_eval[ie] - t) / hs, ytmp)
+                    for i in range(n2):
+                        yout[ie, i] = ytmp[i]
+                tout[ie] = t_eval[ie]
+                ie += 1
+            stats[5] = ie
+            stats[3] = ie
+        if fired:
+            dop853_dense_eval(Fd, y, x_stop, ynew)
+            t_new = t_stop
+        else:
+            t_new = t + hs
+        if m > 0:
+            if project_constraints(ynew, t_new, p, W, P, res) != 0:
+                tv[0] = t
+                return 4
+        if fired or m > 0:
+            status = rhs(t_new, ynew, p, K[12], W)
+            stats[2] += 1
+            if status != 0:
+                tv[0] = t
+                return 4
+        for i in range(n2):
+            y[i] = ynew[i]
+            f[i] = K[12, i]
+        t = t_new if not last or fired else t_end
+        tv[0] = t
+        if not use_teval:
+            stats[4] += 1
+            if stats[4] >= stride or fired or t >= t_end:
+                stats[4] = 0
+                k = stats[3]
+                tout[k] = t
+                for i in range(n2):
+                    yout[k, i] = y[i]
+                stats[3] += 1
+        if fired:
+            return 3
+        # next step size
+        if adaptive:
+            if err == 0.0:
+                factor = 10.0
+            else:
+                factor = min(10.0, 0.9 * err ** (-1.0 / 8.0))
+            if rejected:
+                factor = min(1.0, factor)
+            h = hs * factor if not last else max(h, hs)
+            rejected = False
+        tv[2] = h
+    return 1
+
+
+def dop853_dense(t, h, y, ynew, K, A, C, D, p, W, ytmp, Fd):
+    """The three extra stages and the coefficients Fd of DOP853's dense output."""
+    n2 = y.shape[0]
+    for s in range(13, 16):
+        for i in range(n2):
+            acc = 0.0
+            for j in range(s):
+                acc += A[s, j] * K[j, i]
+            ytmp[i] = y[i] + h * acc
+        rhs(t + C[s] * h, ytmp, p, K[s], W)
+    for i in range(n2):
+        dy = ynew[i] - y[i]
+        Fd[0, i] = dy
+        Fd[1, i] = h * K[0, i] - dy
+        Fd[2, i] = 2.0 * dy - h * (K[12, i] + K[0, i])
+        for r in range(4):
+            acc = 0.0
+            for j in range(16):
+                acc += D[r, j] * K[j, i]
+            Fd[3 + r, i] = h * acc
+
+
+def derivative_start(t, y, p, f):
+    """f = dy/dt at (t, y); returns the kernel status."""
+    n = N_DOF
+    m = N_CONSTRAINTS
+    W = np.zeros((n + m, n + m + 1))
+    return rhs(t, y, p, f, W)
+
+
+def project_start(t, y, p):
+    """Project an initial state onto the constraints (returns the status)."""
+    n = N_DOF
+    m = N_CONSTRAINTS
+    W = np.zeros((n + m, n + m + 1))
+    P = np.zeros((max(m, 1), max(m, 1) + 1))
+    res = np.zeros(max(2 * m, 1))
+    return project_constraints(y, t, p, W, P, res)
+
+
+def initial_step(t, y, f, p, rtol, atol):
+    n = N_DOF
+    m = N_CONSTRAINTS
+    W = np.zeros((n + m, n + m + 1))
+    return dop853_initial_step(t, y, f, p, rtol, atol, W, np.empty_like(y), np.empty_like(y))
+
+
+def along(T, Y, p, E, LAM, RES):
+    """Energy, multipliers and constraint residual max(|Φ|, |Φ̇|) along a trajectory."""
+    n = N_DOF
+    m = N_CONSTRAINTS
+    W = np.zeros((n + m, n + m + 1))
+    qdd = np.empty(n)
+    lam = np.empty(max(m, 1))
+    res = np.empty(max(2 * m, 1))
+    for k in range(T.shape[0]):
+        q = Y[k, :n]
+        qd = Y[k, n:]
+        E[k] = energy(q, qd, T[k], p)
+        if m > 0:
+            accelerations(q, qd, T[k], p, qdd, lam, W)
+            constraint_residual(q, qd, T[k], p, res)
+            r = 0.0
+            for a in range(m):
+                LAM[k, a] = lam[a]
+                r = max(r, abs(res[a]), abs(res[m + a]))
+            RES[k] = r
+
+
+KERNEL_TEMPLATES = [event_value, project_constraints, dop853_dense_eval, dop853_locate,
+                    dop853_initial_step, dop853_chunk, dop853_dense, derivative_start,
+                    project_start, initial_step, along]

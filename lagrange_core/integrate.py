@@ -1,0 +1,684 @@
+"""Integrate the equations of motion of a :class:`~lagrange_core.System`.
+
+Entry point: :meth:`System.simulate` (which calls :func:`simulate`).  It returns
+a frozen :class:`Trajectory`.
+
+Methods
+-------
+Methods are chosen by name from the registry :data:`METHODS` (a dict
+name -> :class:`Method`).  ``list(METHODS)`` gives the valid names:
+
+``"dop853"``
+    Dormand–Prince 8(5,3), adaptive, 7th-order dense output (Hairer's DOP853,
+    with scipy's coefficient table).  The general-purpose default.
+``"rk8"``
+    The same 8th-order formula at a fixed step ``h`` (no error control; the
+    local error estimates are still summed).
+``"rkn12"``
+    Dormand, El-Mikkawy & Prince's Runge–Kutta–Nyström 12(10) pair, adaptive,
+    for q̈ = f(q, t) (no velocity dependence, no constraints).
+``"rkn12-fixed"``
+    The same 12th-order formula at a fixed step.
+``"yoshida6"``
+    A symplectic, time-reversible 6th-order composition of velocity Verlet
+    (Yoshida 1990), fixed step, for q̈ = f(q, t).
+``"scipy:<name>"``
+    :func:`scipy.integrate.solve_ivp` with ``method=<name>`` (``RK45``,
+    ``RK23``, ``DOP853``, ``LSODA``, ``Radau``, ``BDF``); the implicit ones
+    get the exact compiled Jacobian.  For comparison: every step crosses the
+    Python boundary.
+
+``method=None`` picks ``"rkn12"`` when the system is RKN-eligible (the derived
+forcing F does not depend on the velocities and there are no constraints) and
+``"dop853"`` otherwise.
+
+Rules for adding a method (the base-class contract)
+---------------------------------------------------
+1. A method is a :class:`Method` entry in :data:`METHODS`: its name, its
+   family (which driver runs it), its order, whether it is adaptive, its
+   coefficient table, and a one-line description.  The class carries data only.
+2. The step itself is a plain function in :mod:`lagrange_core._integrator_kernels`
+   listed in ``KERNEL_TEMPLATES``; it calls the system's kernels by name and is
+   compiled per system with ``system.kernels.bind``.  No Python objects, no
+   allocation inside the step loop, coefficients passed as arrays.
+3. A driver advances in chunks and keeps its whole state in the arrays it is
+   given (see the kernel module docstring), returning one of the ``STATUS_*``
+   codes, so that Python can stop, store output and continue.
+4. A method that only applies to some systems declares it (``requires``) and
+   :func:`simulate` raises a ValueError saying why a system is not eligible.
+5. Every method reports the counts (steps, rejected steps, right-hand-side
+   evaluations) and an error estimate, and gets a row in the parametrized tests
+   (tests/test_integrate.py) against the closed-form problems.
+
+Error estimate
+--------------
+``Trajectory.error_estimate`` is, by default, the *sum over accepted steps of
+the local error estimates* (max norm over the state, in the units of q and q̇).
+For an embedded pair the local estimate is that of the lower-order member, so
+for problems without exponential error growth (oscillators, the pendulum) the
+sum is an upper bound of the global error of the higher-order solution the
+method propagates; for chaotic or unstable motion it is not (errors grow like
+e^{λt}).  With ``error_check=True`` the run is repeated at rtol/1000, atol/1000
+and the estimate is the largest difference at the stored times (which
+estimates the true error whenever the method's error scales with tolerance).
+Methods without an embedded estimate (the symplectic one) report NaN unless
+``error_check=True``.
+
+Memory and interruption
+-----------------------
+Without ``t_eval`` every ``stride``-th accepted step is stored (default every
+step); with ``t_eval`` only those times are.  The integration runs in chunks of
+at most ``chunk_steps`` steps in compiled code; between chunks Python stores
+output and checks for Ctrl-C.  On KeyboardInterrupt :func:`simulate` raises
+:class:`SimulationInterrupted` (a KeyboardInterrupt, so scripts still stop)
+whose ``trajectory`` attribute holds everything computed so far (status
+``"interrupted"``).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["Method", "METHODS", "Event", "turning_point", "crossing", "multiplier_zero",
+           "Trajectory", "SimulationInterrupted", "simulate", "rkn_eligibility"]
+
+STATUS_DONE, STATUS_CHUNK, STATUS_FULL, STATUS_EVENT, STATUS_SINGULAR, STATUS_UNDERFLOW, \
+    STATUS_EVFULL = range(7)
+
+
+# -- methods -------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Method:
+    """One integration method: data only (rule 1 of the module docstring).
+
+    Attributes
+    ----------
+    name : str
+        Registry key.
+    family : str
+        Which driver runs it: ``"dop853"``, ``"rkn"``, ``"symplectic"``, ``"scipy"``.
+    order : int
+        Order of the propagated solution.
+    adaptive : bool
+        Step-size control from an embedded error estimate (else a fixed step ``h``).
+    requires : str
+        ``""`` (any system) or ``"rkn"`` (q̈ = f(q, t): no velocity dependence,
+        no constraints).
+    description : str
+    """
+
+    name: str
+    family: str
+    order: int
+    adaptive: bool
+    requires: str = ""
+    description: str = ""
+    table: dict = field(default_factory=dict, repr=False, compare=False)
+
+
+def _dop853_table():
+    from scipy.integrate._ivp import dop853_coefficients as c
+    return {"A": np.ascontiguousarray(c.A, dtype=float), "B": np.ascontiguousarray(c.B, dtype=float),
+            "C": np.ascontiguousarray(c.C, dtype=float), "E3": np.ascontiguousarray(c.E3, dtype=float),
+            "E5": np.ascontiguousarray(c.E5, dtype=float), "D": np.ascontiguousarray(c.D, dtype=float)}
+
+
+_SCIPY_METHODS = ("RK23", "RK45", "DOP853", "LSODA", "Radau", "BDF")
+_IMPLICIT = ("LSODA", "Radau", "BDF")
+
+METHODS: dict[str, Method] = {
+    "dop853": Method("dop853", "dop853", 8, True, "",
+                     "Dormand–Prince 8(5,3), adaptive, dense output (Hairer's DOP853)",
+                     _dop853_table()),
+    "rk8": Method("rk8", "dop853", 8, False, "",
+                  "the 8th-order DOP853 formula at a fixed step h", _dop853_table()),
+}
+for _name in _SCIPY_METHODS:
+    METHODS[f"scipy:{_name}"] = Method(f"scipy:{_name}", "scipy", 0, True, "",
+                                       f"scipy.integrate.solve_ivp(method={_name!r})")
+
+
+# -- events --------------------------------------------------------------------------------
+
+_EVENT_KINDS = {"coordinate": 0, "velocity": 1, "multiplier": 2, "energy": 3}
+
+
+@dataclass(frozen=True)
+class Event:
+    """An event g(t, y) = 0 located during integration.
+
+    Parameters
+    ----------
+    kind : {"coordinate", "velocity", "multiplier", "energy"}
+        g = q_j − value, q̇_j − value, λ_j − value or h − value.
+    target : str or int
+        Coordinate name (or index) for "coordinate"/"velocity"; multiplier index
+        for "multiplier"; ignored for "energy".
+    value : float
+    direction : int
+        +1 only upward crossings (g from − to +), −1 only downward, 0 both.
+    terminal : bool
+        Stop the integration at the first occurrence.
+    name : str
+        Label in ``Trajectory.events`` (default from kind and target).
+
+    A root at the very first time is not reported (the run starts on it).
+    """
+
+    kind: str
+    target: object = 0
+    value: float = 0.0
+    direction: int = 0
+    terminal: bool = False
+    name: str = ""
+
+    def __post_init__(self):
+        if self.kind not in _EVENT_KINDS:
+            raise ValueError(f"Event kind must be one of {list(_EVENT_KINDS)}, got {self.kind!r}.")
+        if self.direction not in (-1, 0, 1):
+            raise ValueError(f"Event direction must be -1, 0 or +1, got {self.direction!r}.")
+        if not math.isfinite(float(self.value)):
+            raise ValueError(f"Event value must be finite, got {self.value!r}.")
+        if not self.name:
+            object.__setattr__(self, "name", f"{self.kind}:{self.target}={self.value:g}")
+
+
+def turning_point(coordinate, *, direction=0, terminal=False) -> Event:
+    """Event q̇_j = 0 (a turning point of coordinate ``coordinate``)."""
+    return Event("velocity", coordinate, 0.0, direction, terminal, f"turning point of {coordinate}")
+
+
+def crossing(coordinate, value=0.0, *, direction=0, terminal=False) -> Event:
+    """Event q_j = value."""
+    return Event("coordinate", coordinate, float(value), direction, terminal,
+                 f"{coordinate} = {value:g}")
+
+
+def multiplier_zero(index=0, *, direction=0, terminal=False) -> Event:
+    """Event λ_index = 0 (a constraint force vanishes: a string goes slack, a bead leaves)."""
+    return Event("multiplier", index, 0.0, direction, terminal, f"multiplier {index} = 0")
+
+
+@dataclass(frozen=True)
+class EventRecord:
+    """One located event: its name, time (s) and state."""
+
+    name: str
+    t: float
+    q: np.ndarray
+    qdot: np.ndarray
+
+
+# -- result --------------------------------------------------------------------------------
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """The result of :func:`simulate` (immutable).
+
+    Attributes
+    ----------
+    t : ndarray (N,)
+        Times (s).
+    q, qdot : ndarray (N, n)
+        Coordinates and velocities, one row per time, one column per coordinate.
+    energy : ndarray (N,)
+        The energy function h along the way (J).
+    multipliers : ndarray (N, m) or None
+        Lagrange multipliers λ (constrained systems); the generalized constraint
+        force is Φ_qᵀ λ.
+    constraint_residual : ndarray (N,) or None
+        max(|Φ|, |Φ̇|) after projection (constrained systems).
+    error_estimate : float
+        See the module docstring ("Error estimate"); ``error_estimate_kind`` says
+        which estimate it is.
+    n_steps, n_rejected, n_rhs : int
+        Accepted steps, rejected steps, right-hand-side evaluations.
+    status : str
+        "success", "event" (a terminal event stopped it), "max_steps",
+        "interrupted".
+    events : tuple of EventRecord
+        Located events in time order.
+    """
+
+    coordinates: tuple
+    t: np.ndarray
+    q: np.ndarray
+    qdot: np.ndarray
+    energy: np.ndarray
+    multipliers: np.ndarray | None
+    constraint_residual: np.ndarray | None
+    error_estimate: float
+    error_estimate_kind: str
+    n_steps: int
+    n_rejected: int
+    n_rhs: int
+    status: str
+    message: str
+    events: tuple
+    method: str
+    rtol: float
+    atol: float
+    wall_time: float
+
+    def __len__(self):
+        return self.t.shape[0]
+
+    @property
+    def y(self) -> np.ndarray:
+        """The first-order state [q, q̇] as an (N, 2n) array."""
+        return np.hstack([self.q, self.qdot])
+
+    def event_times(self, name: str | None = None) -> np.ndarray:
+        """Times of the located events (of one name, or all)."""
+        return np.array([e.t for e in self.events if name is None or e.name == name])
+
+    def to_dataframe(self):
+        """A pandas DataFrame indexed by t: coordinates, ``<name>_dot``, energy, λ, residual."""
+        import pandas as pd
+        data = {}
+        for j, c in enumerate(self.coordinates):
+            data[c] = self.q[:, j]
+        for j, c in enumerate(self.coordinates):
+            data[f"{c}_dot"] = self.qdot[:, j]
+        data["energy"] = self.energy
+        if self.multipliers is not None:
+            for a in range(self.multipliers.shape[1]):
+                data[f"lambda{a}"] = self.multipliers[:, a]
+            data["constraint_residual"] = self.constraint_residual
+        return pd.DataFrame(data, index=pd.Index(self.t, name="t"))
+
+
+class SimulationInterrupted(KeyboardInterrupt):
+    """Ctrl-C during :func:`simulate`; ``.trajectory`` holds the part computed."""
+
+    def __init__(self, trajectory):
+        super().__init__(f"integration interrupted at t = {trajectory.t[-1]:.6g} s; the part "
+                         "computed is in the exception's .trajectory")
+        self.trajectory = trajectory
+
+
+# -- eligibility ------------------------------------------------------------------------
+
+def rkn_eligibility(system) -> tuple[bool, str]:
+    """Whether ``system`` has the form q̈ = f(q, t) that RKN and symplectic methods need.
+
+    Returns (eligible, reason).  F is checked after expansion, so velocity terms
+    that cancel (the driven pendulum's θ̇² terms do) do not count.
+    """
+    cached = getattr(system, "_rkn_eligibility", None)
+    if cached is not None:
+        return cached
+    import symengine as se
+    eq = system.equations
+    result = (True, "")
+    if system.n_constraints:
+        result = (False, f"{system._label()} has {system.n_constraints} constraint(s); the "
+                  "multipliers depend on the velocities (γ contains q̇²)")
+    else:
+        for i, Fi in enumerate(eq.forcing_se):
+            for qd in system.qdot:
+                d = se.expand(se.diff(Fi, se.sympify(qd)))
+                if d != 0:
+                    import sympy as sp
+                    if sp.simplify(sp.sympify(d)) != 0:
+                        result = (False, f"the generalized force F[{i}] of {system._label()} "
+                                  f"depends on the velocity {qd.name} (∂F/∂{qd.name} = "
+                                  f"{sp.sympify(d)}); RKN methods need q̈ = f(q, t)")
+                        break
+            if not result[0]:
+                break
+    try:
+        system._rkn_eligibility = result
+    except AttributeError:
+        pass
+    return result
+
+
+# -- driver ------------------------------------------------------------------------------
+
+def _bound(system):
+    from . import _integrator_kernels
+    return system.kernels.bind(_integrator_kernels)
+
+
+def _check_inputs(system, q0, qdot0, t_span, params, method, rtol, atol, t_eval, h, stride,
+                  max_steps):
+    q0 = system.coordinate_array(q0, "q0")
+    qd0 = system.coordinate_array(qdot0, "qdot0")
+    p = system.parameter_array(params)
+    try:
+        t0, t1 = (float(v) for v in t_span)
+    except (TypeError, ValueError):
+        raise ValueError(f"t_span must be a pair (t0, t1) of numbers, got {t_span!r}.") from None
+    if not (math.isfinite(t0) and math.isfinite(t1)):
+        raise ValueError(f"t_span must be finite, got {t_span!r}.")
+    if not t1 > t0:
+        raise ValueError(f"t_span = {t_span!r}: the end time must be after the start time "
+                         "(backward integration is not supported; substitute t → −t instead).")
+    rtol = float(rtol)
+    if not (rtol > 0 and math.isfinite(rtol)):
+        raise ValueError(f"rtol must be a positive number, got {rtol!r}.")
+    if rtol < 1e-15:
+        raise ValueError(f"rtol = {rtol:g} is below what float64 can resolve; use rtol ≥ 1e-15.")
+    atol = rtol if atol is None else float(atol)
+    if not (atol > 0 and math.isfinite(atol)):
+        raise ValueError(f"atol must be a positive number, got {atol!r}.")
+    if t_eval is not None:
+        t_eval = np.asarray(t_eval, dtype=float).reshape(-1)
+        if t_eval.size == 0:
+            raise ValueError("t_eval is empty: nothing would be stored. Pass None to store steps.")
+        if not np.all(np.isfinite(t_eval)):
+            raise ValueError("t_eval must be finite.")
+        if np.any(np.diff(t_eval) < 0):
+            raise ValueError("t_eval must be sorted in increasing order.")
+        if t_eval[0] < t0 or t_eval[-1] > t1:
+            raise ValueError(f"t_eval must lie within t_span = ({t0}, {t1}); got "
+                             f"[{t_eval[0]}, {t_eval[-1]}].")
+    if int(stride) != stride or stride < 1:
+        raise ValueError(f"stride must be a positive whole number, got {stride!r}.")
+    if max_steps is not None and (int(max_steps) != max_steps or max_steps < 1):
+        raise ValueError(f"max_steps must be a positive whole number, got {max_steps!r}.")
+    if h is not None:
+        h = float(h)
+        if not (h > 0 and math.isfinite(h)):
+            raise ValueError(f"h must be a positive step size (s), got {h!r}.")
+    return q0, qd0, p, t0, t1, rtol, atol, t_eval, h
+
+
+def _choose_method(system, method):
+    if method is None:
+        ok, _ = rkn_eligibility(system)
+        method = "rkn12" if ok and "rkn12" in METHODS else "dop853"
+    if isinstance(method, Method):
+        method = method.name
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}; valid names: {sorted(METHODS)}.")
+    meth = METHODS[method]
+    if meth.requires == "rkn":
+        ok, why = rkn_eligibility(system)
+        if not ok:
+            raise ValueError(f"method {method!r} needs equations of the form q̈ = f(q, t), but "
+                             f"{why}. Use method='dop853' instead.")
+    return meth
+
+
+def _event_arrays(system, events):
+    events = tuple(events or ())
+    ev_int = np.zeros((len(events), 4), dtype=np.int64)
+    ev_val = np.zeros(len(events))
+    for k, ev in enumerate(events):
+        if not isinstance(ev, Event):
+            raise TypeError(f"events must be Event objects (see turning_point, crossing, "
+                            f"multiplier_zero), got {ev!r}.")
+        idx = ev.target
+        if ev.kind in ("coordinate", "velocity"):
+            if isinstance(idx, str):
+                if idx not in system.coordinates:
+                    raise ValueError(f"event {ev.name!r}: {idx!r} is not a coordinate of "
+                                     f"{system._label()} ({list(system.coordinates)}).")
+                idx = system.coordinates.index(idx)
+            elif not (0 <= int(idx) < system.n_dof):
+                raise ValueError(f"event {ev.name!r}: coordinate index {idx} out of range.")
+        elif ev.kind == "multiplier":
+            if not (0 <= int(idx) < system.n_constraints):
+                raise ValueError(f"event {ev.name!r}: {system._label()} has "
+                                 f"{system.n_constraints} multiplier(s); index {idx} is invalid.")
+        else:
+            idx = 0
+        ev_int[k] = (_EVENT_KINDS[ev.kind], int(idx), ev.direction, int(ev.terminal))
+        ev_val[k] = ev.value
+    return events, ev_int, ev_val
+
+
+def simulate(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1e-9, atol=None,
+             t_eval=None, events=(), max_steps=None, h=None, stride=1, error_check=False,
+             chunk_steps=20000) -> Trajectory:
+    """Integrate ``system`` from (q0, q̇0) over ``t_span``.  See :meth:`System.simulate`."""
+    q0, qd0, p, t0, t1, rtol, atol, t_eval, h = _check_inputs(
+        system, q0, qdot0, t_span, params, method, rtol, atol, t_eval, h, stride, max_steps)
+    meth = _choose_method(system, method)
+    if not meth.adaptive and meth.family != "scipy" and h is None:
+        raise ValueError(f"method {meth.name!r} has a fixed step: pass h (s), e.g. "
+                         f"h={(t1 - t0) / 1000:.3g}.")
+    events, ev_int, ev_val = _event_arrays(system, events)
+    start = time.perf_counter()
+    if meth.family == "scipy":
+        traj = _run_scipy(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, ev_int,
+                          ev_val, max_steps, stride)
+    else:
+        traj = _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events,
+                             ev_int, ev_val, max_steps, h, stride, chunk_steps, start)
+    if error_check and traj.status in ("success", "event"):
+        ref = simulate(system, q0, qd0, (t0, traj.t[-1]), _param_dict(system, p), method=meth.name,
+                       rtol=max(rtol / 1000, 1e-15), atol=atol / 1000, t_eval=traj.t,
+                       h=None if h is None else h / 4, max_steps=None)
+        n = min(len(ref.t), len(traj.t))
+        diff = max(np.max(np.abs(ref.q[:n] - traj.q[:n])), np.max(np.abs(ref.qdot[:n] - traj.qdot[:n])))
+        traj = _replace(traj, error_estimate=float(diff),
+                        error_estimate_kind="difference from a rerun at rtol/1000"
+                        + (" and h/4" if h is not None else ""))
+    return traj
+
+
+def _param_dict(system, p):
+    return dict(zip(system.parameters, p.tolist()))
+
+
+def _replace(traj, **kw):
+    from dataclasses import replace
+    return replace(traj, **kw)
+
+
+def _finish(system, meth, T, Y, p, err, err_kind, counts, status, message, ev_list, rtol, atol,
+            start):
+    n = system.n_dof
+    m = system.n_constraints
+    b = _bound(system)
+    T = np.ascontiguousarray(T)
+    Y = np.ascontiguousarray(Y)
+    E = np.empty(T.shape[0])
+    LAM = np.zeros((T.shape[0], max(m, 1)))
+    RES = np.zeros(T.shape[0])
+    b.along(T, Y, p, E, LAM, RES)
+    return Trajectory(
+        coordinates=system.coordinates, t=T, q=Y[:, :n].copy(), qdot=Y[:, n:].copy(), energy=E,
+        multipliers=LAM[:, :m].copy() if m else None, constraint_residual=RES if m else None,
+        error_estimate=float(err), error_estimate_kind=err_kind, n_steps=int(counts[0]),
+        n_rejected=int(counts[1]), n_rhs=int(counts[2]), status=status, message=message,
+        events=tuple(sorted(ev_list, key=lambda e: e.t)), method=meth.name, rtol=rtol, atol=atol,
+        wall_time=time.perf_counter() - start)
+
+
+def _singular_error(system, t, y):
+    n = system.n_dof
+    return ValueError(
+        f"integration of {system._label()} stopped at t = {t!r} s: the mass matrix"
+        f"{' augmented by the constraint Jacobian' if system.n_constraints else ''} is singular "
+        f"(q = {y[:n].tolist()}, q̇ = {y[n:].tolist()}). The coordinates are degenerate there "
+        "(e.g. a pole of spherical coordinates) or the constraints became redundant; restate the "
+        "system in coordinates that are regular along the motion.")
+
+
+def _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, ev_int, ev_val,
+                  max_steps, h, stride, chunk_steps, start):
+    b = _bound(system)
+    n = system.n_dof
+    y = np.concatenate([q0, qd0])
+    if system.n_constraints:
+        if b.project_start(t0, y, p) != 0:
+            raise _singular_error(system, t0, y)
+    f = np.empty(2 * n)
+    if b.derivative_start(t0, y, p, f) != 0:
+        raise _singular_error(system, t0, y)
+    if meth.adaptive:
+        h0 = b.initial_step(t0, y, f, p, rtol, atol)
+    else:
+        h0 = h
+    tv = np.array([t0, t1, h0, 0.0, 0.0, t0])
+    stats = np.zeros(8, dtype=np.int64)
+    stats[2] = 1 + (2 if meth.adaptive else 0)
+    if t_eval is not None:
+        cap = t_eval.shape[0]
+        tout = np.empty(cap)
+        yout = np.empty((cap, 2 * n))
+        k0 = int(np.searchsorted(t_eval, t0, side="right"))
+        tout[:k0] = t_eval[:k0]
+        yout[:k0] = y
+        stats[3] = stats[5] = k0
+        t_eval_arr = t_eval
+        pieces_t, pieces_y = [], []
+    else:
+        cap = 4096
+        tout = np.empty(cap)
+        yout = np.empty((cap, 2 * n))
+        t_eval_arr = np.empty(0)
+        pieces_t, pieces_y = [np.array([t0])], [y[None, :].copy()]
+    ev_g = np.empty(len(events))
+    qdd = np.empty(n)
+    for k in range(len(events)):
+        ev_g[k] = _event_value_py(system, ev_int[k], ev_val[k], t0, y, p)
+    ev_cap = max(64, 4 * len(events))
+    ev_t = np.empty(ev_cap)
+    ev_k = np.empty(ev_cap, dtype=np.int64)
+    ev_y = np.empty((ev_cap, 2 * n))
+    ev_list = []
+    total_limit = max_steps if max_steps is not None else np.iinfo(np.int64).max
+    status_name, message = "success", "reached the end of t_span"
+    tab = meth.table
+
+    def drain():
+        k = int(stats[6])
+        for i in range(k):
+            ev_list.append(EventRecord(events[ev_k[i]].name, float(ev_t[i]), ev_y[i, :n].copy(),
+                                       ev_y[i, n:].copy()))
+        stats[6] = 0
+        if t_eval is None:
+            k = int(stats[3])
+            if k:
+                pieces_t.append(tout[:k].copy())
+                pieces_y.append(yout[:k].copy())
+            stats[3] = 0
+
+    interrupted = False
+    try:
+        while True:
+            budget = int(min(chunk_steps, total_limit - stats[0]))
+            if budget <= 0:
+                status_name = "max_steps"
+                message = f"stopped after max_steps = {max_steps} steps at t = {tv[0]:.6g} s"
+                break
+            if meth.family == "dop853":
+                code = b.dop853_chunk(y, f, tv, stats, p, rtol, atol, tab["A"], tab["B"], tab["C"],
+                                      tab["E3"], tab["E5"], tab["D"], meth.adaptive, budget,
+                                      t_eval_arr, int(stride), tout, yout, ev_int, ev_val, ev_g,
+                                      ev_t, ev_k, ev_y)
+            else:
+                code = _run_family(b, meth, y, f, tv, stats, p, rtol, atol, budget, t_eval_arr,
+                                   int(stride), tout, yout, ev_int, ev_val, ev_g, ev_t, ev_k, ev_y)
+            drain()
+            if code == STATUS_DONE:
+                break
+            if code == STATUS_EVENT:
+                status_name, message = "event", f"terminal event at t = {tv[0]:.17g} s"
+                break
+            if code == STATUS_SINGULAR:
+                raise _singular_error(system, float(tv[0]), y)
+            if code == STATUS_UNDERFLOW:
+                raise FloatingPointError(
+                    f"integration of {system._label()} failed at t = {tv[0]!r} s: the step size "
+                    f"fell below the resolution of t (state q = {y[:n].tolist()}, q̇ = "
+                    f"{y[n:].tolist()}). The solution may blow up or become non-finite there; "
+                    "check parameters and initial conditions.")
+    except KeyboardInterrupt:
+        drain()
+        interrupted = True
+        status_name, message = "interrupted", f"interrupted (Ctrl-C) at t = {tv[0]:.6g} s"
+    if t_eval is not None:
+        k = int(stats[3])
+        T, Y = tout[:k], yout[:k]
+    else:
+        T, Y = np.concatenate(pieces_t), np.concatenate(pieces_y)
+    kind = "sum of local error estimates" if np.isfinite(tv[3]) and meth.family != "symplectic" \
+        else "none"
+    err = tv[3] if meth.family != "symplectic" else float("nan")
+    traj = _finish(system, meth, T, Y, p, err, kind, stats, status_name, message, ev_list, rtol,
+                   atol, start)
+    if interrupted:
+        raise SimulationInterrupted(traj)
+    return traj
+
+
+def _run_family(*args):
+    raise NotImplementedError
+
+
+def _event_value_py(system, row, val, t, y, p):
+    n = system.n_dof
+    kind, idx = int(row[0]), int(row[1])
+    if kind == 0:
+        return y[idx] - val
+    if kind == 1:
+        return y[n + idx] - val
+    k = system.kernels
+    if kind == 2:
+        qdd = np.empty(n)
+        lam = np.empty(system.n_constraints)
+        k.accelerations(y[:n], y[n:], t, p, qdd, lam, k.work_array())
+        return lam[idx] - val
+    return k.energy(y[:n], y[n:], t, p) - val
+
+
+# -- scipy ------------------------------------------------------------------------------
+
+def _run_scipy(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, ev_int, ev_val,
+               max_steps, stride):
+    from scipy.integrate import solve_ivp
+    start = time.perf_counter()
+    k = system.kernels
+    n = system.n_dof
+    W = k.work_array()
+    name = meth.name.split(":", 1)[1]
+    state = {"status": 0, "t": t0, "y": None}
+
+    def fun(t, y):
+        out = np.empty(2 * n)
+        if k.rhs(t, y, p, out, W) != 0:
+            state.update(status=1, t=t, y=y.copy())
+            raise _singular_error(system, t, y)
+        return out
+
+    def jac(t, y):
+        J = np.empty((2 * n, 2 * n))
+        k.jacobian(t, y, p, J)
+        return J
+
+    ev_funcs = []
+    for e in range(len(events)):
+        def g(t, y, _e=e):
+            return _event_value_py(system, ev_int[_e], ev_val[_e], t, y, p)
+        g.terminal = bool(ev_int[e, 3])
+        g.direction = float(ev_int[e, 2])
+        ev_funcs.append(g)
+    kw = {"jac": jac} if name in _IMPLICIT else {}
+    y0 = np.concatenate([q0, qd0])
+    sol = solve_ivp(fun, (t0, t1), y0, method=name, rtol=rtol, atol=atol, t_eval=t_eval,
+                    events=ev_funcs or None, **kw)
+    if not sol.success and sol.status != 1:
+        raise FloatingPointError(f"scipy {name} failed on {system._label()}: {sol.message}")
+    T, Y = sol.t, sol.y.T
+    if t_eval is None and stride > 1:
+        keep = np.r_[np.arange(0, len(T) - 1, stride), len(T) - 1]
+        T, Y = T[keep], Y[keep]
+    ev_list = []
+    for e in range(len(events)):
+        for te, ye in zip(sol.t_events[e], sol.y_events[e]):
+            if te > t0:
+                ev_list.append(EventRecord(events[e].name, float(te), ye[:n].copy(), ye[n:].copy()))
+    counts = (max(len(sol.t) - 1, 0), 0, sol.nfev)
+    status = "event" if sol.status == 1 else "success"
+    return _finish(system, meth, T, Y, p, float("nan"), "none (scipy)", counts, status,
+                   sol.message, ev_list, rtol, atol, start)
