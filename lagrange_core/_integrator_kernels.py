@@ -36,6 +36,10 @@ import numpy as np
 
 KERNEL_IMPORTS = """
 from lagrange_core._linalg import solve_augmented
+try:                      # the scratch shape of the kernel contract (older kernels: the augmented block)
+    _WORK_SHAPE = WORK_SHAPE
+except NameError:
+    _WORK_SHAPE = (N_DOF + N_CONSTRAINTS, N_DOF + N_CONSTRAINTS + 1)
 """
 
 
@@ -194,7 +198,7 @@ def dop853_chunk(y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adaptive, m
     n = N_DOF
     n2 = 2 * n
     m = N_CONSTRAINTS
-    W = np.zeros((n + m, n + m + 1))
+    W = np.zeros(_WORK_SHAPE)
     P = np.zeros((max(m, 1), max(m, 1) + 1))
     res = np.zeros(max(2 * m, 1))
     K = np.empty((16, n2))
@@ -425,7 +429,7 @@ def derivative_start(t, y, p, f):
     """f = dy/dt at (t, y); returns the kernel status."""
     n = N_DOF
     m = N_CONSTRAINTS
-    W = np.zeros((n + m, n + m + 1))
+    W = np.zeros(_WORK_SHAPE)
     return rhs(t, y, p, f, W)
 
 
@@ -433,7 +437,7 @@ def project_start(t, y, p):
     """Project an initial state onto the constraints (returns the status)."""
     n = N_DOF
     m = N_CONSTRAINTS
-    W = np.zeros((n + m, n + m + 1))
+    W = np.zeros(_WORK_SHAPE)
     P = np.zeros((max(m, 1), max(m, 1) + 1))
     res = np.zeros(max(2 * m, 1))
     return project_constraints(y, t, p, W, P, res)
@@ -442,7 +446,7 @@ def project_start(t, y, p):
 def initial_step(t, y, f, p, rtol, atol):
     n = N_DOF
     m = N_CONSTRAINTS
-    W = np.zeros((n + m, n + m + 1))
+    W = np.zeros(_WORK_SHAPE)
     return dop853_initial_step(t, y, f, p, rtol, atol, W, np.empty_like(y), np.empty_like(y))
 
 
@@ -450,7 +454,7 @@ def along(T, Y, p, E, LAM, RES):
     """Energy, multipliers and constraint residual max(|Φ|, |Φ̇|) along a trajectory."""
     n = N_DOF
     m = N_CONSTRAINTS
-    W = np.zeros((n + m, n + m + 1))
+    W = np.zeros(_WORK_SHAPE)
     qdd = np.empty(n)
     lam = np.empty(max(m, 1))
     res = np.empty(max(2 * m, 1))
@@ -468,6 +472,352 @@ def along(T, Y, p, E, LAM, RES):
             RES[k] = r
 
 
+
+# -- q̈ = f(q, t): RKN 12(10) and the symplectic composition ------------------------------
+
+def accel_only(q, t, p, out, zero, qdd, lam, W):
+    """q̈ = f(q, t) into ``out`` (velocities passed as zeros: F does not depend on them)."""
+    status = accelerations(q, zero, t, p, qdd, lam, W)
+    for i in range(q.shape[0]):
+        out[i] = qdd[i]
+    return status
+
+
+def second_order_step(family, t, q, v, a0, h, p, c, A, b, bp, w, K, qn, vn, qs, zero, qdd,
+                      lam, W):
+    """One step of a method for q̈ = f(q, t) from (t, q, v) with q̈(t) = a0.
+
+    family 0: RKN (c, A, b, bp; stages K[s]); family 1: the symmetric composition
+    of velocity Verlet with substep weights w (time advances with the drifts,
+    which keeps the composition symmetric for a time-dependent f).
+    On return qn, vn hold the new state and K[0] holds f at (t + h, qn) for
+    family 1.  Returns the kernel status.
+    """
+    n = q.shape[0]
+    status = 0
+    if family == 0:
+        for i in range(n):
+            K[0, i] = a0[i]
+        ns = c.shape[0]
+        for s in range(1, ns):
+            ch = c[s] * h
+            for i in range(n):
+                acc = 0.0
+                for j in range(s):
+                    acc += A[s, j] * K[j, i]
+                qs[i] = q[i] + ch * v[i] + h * h * acc
+            status = accel_only(qs, t + ch, p, K[s], zero, qdd, lam, W)
+            if status != 0:
+                return status
+        for i in range(n):
+            accq = 0.0
+            accv = 0.0
+            for j in range(ns):
+                accq += b[j] * K[j, i]
+                accv += bp[j] * K[j, i]
+            qn[i] = q[i] + h * v[i] + h * h * accq
+            vn[i] = v[i] + h * accv
+        return 0
+    for i in range(n):
+        qn[i] = q[i]
+        vn[i] = v[i]
+        K[0, i] = a0[i]
+    tt = t
+    for k in range(w.shape[0]):
+        hk = w[k] * h
+        for i in range(n):
+            vn[i] += 0.5 * hk * K[0, i]
+            qn[i] += hk * vn[i]
+        tt = t + h * _partial_sum(w, k)
+        status = accel_only(qn, tt, p, K[0], zero, qdd, lam, W)
+        if status != 0:
+            return status
+        for i in range(n):
+            vn[i] += 0.5 * hk * K[0, i]
+    return 0
+
+
+def _partial_sum(w, k):
+    s = 0.0
+    for j in range(k + 1):
+        s += w[j]
+    return s
+
+
+def second_order_chunk(family, y, f, tv, stats, p, rtol, atol, c, A, b, bp, bh, bph, w,
+                       adaptive, max_steps, t_eval, stride, tout, yout, ev_int, ev_val, ev_g,
+                       ev_t, ev_k, ev_y):
+    """Advance an RKN (family 0) or symplectic (family 1) method by one chunk.
+
+    Same state layout, statuses and outputs as :func:`dop853_chunk`.  Output at
+    ``t_eval`` is exact: steps are shortened to land on each requested time (so
+    many closely spaced outputs cost extra steps).  Events are located by
+    Illinois iteration on x where every trial evaluates g after a step of x·h from
+    the step start (the method's own accuracy, no interpolant).
+
+    Step-size control (adaptive RKN): err = RMS of the difference of the 12th- and
+    10th-order solutions [Δq, Δv] scaled by atol + rtol·max(|y|, |y_new|);
+    new h = h·min(5, max(0.2, 0.9·err^(−1/11))), no growth right after a rejection.
+    """
+    n = N_DOF
+    n2 = 2 * n
+    m = N_CONSTRAINTS
+    W = np.zeros(_WORK_SHAPE)
+    ns = max(c.shape[0], 1)
+    K = np.empty((ns, n))
+    qn = np.empty(n)
+    vn = np.empty(n)
+    qs = np.empty(n)
+    zero = np.zeros(n)
+    qdd = np.empty(n)
+    lam = np.empty(max(m, 1))
+    ytmp = np.empty(n2)
+    anew = np.empty(n)
+    n_ev = ev_int.shape[0]
+    g_new = np.empty(max(n_ev, 1))
+    x_root = np.empty(max(n_ev, 1))
+    use_teval = t_eval.shape[0] > 0
+    cap = tout.shape[0]
+    evals = (ns - 1) if family == 0 else w.shape[0]
+    expo = -1.0 / 11.0
+
+    q = y[:n]
+    v = y[n:]
+    a0 = f[n:]
+    t = tv[0]
+    t_end = tv[1]
+    h = tv[2]
+    rejected = False
+    for step in range(max_steps + 1):
+        if t >= t_end:
+            return 0
+        if step == max_steps:
+            return 1
+        if (not use_teval) and stats[3] + 2 > cap:
+            return 2
+        if stats[6] + n_ev > ev_t.shape[0]:
+            return 6
+        hmin = 16.0 * 2.220446049250313e-16 * max(abs(t), abs(t_end))
+        t_target = t_end
+        if use_teval and stats[5] < t_eval.shape[0]:
+            t_target = min(t_end, t_eval[stats[5]])
+        while True:
+            clipped = False
+            hs = h
+            if t + hs >= t_target or (not adaptive and t + hs * (1.0 + 1e-10) >= t_target):
+                hs = t_target - t
+                clipped = True
+            status = second_order_step(family, t, q, v, a0, hs, p, c, A, b, bp, w, K, qn, vn,
+                                       qs, zero, qdd, lam, W)
+            stats[2] += evals
+            if status != 0:
+                tv[0] = t
+                return 4
+            err = 0.0
+            est = 0.0
+            if family == 0:
+                e2 = 0.0
+                for i in range(n):
+                    dq = 0.0
+                    dv = 0.0
+                    for j in range(ns):
+                        dq += (b[j] - bh[j]) * K[j, i]
+                        dv += (bp[j] - bph[j]) * K[j, i]
+                    dq *= hs * hs
+                    dv *= hs
+                    sq = atol + rtol * max(abs(q[i]), abs(qn[i]))
+                    sv = atol + rtol * max(abs(v[i]), abs(vn[i]))
+                    e2 += (dq / sq) ** 2 + (dv / sv) ** 2
+                    est = max(est, abs(dq), abs(dv))
+                err = math.sqrt(e2 / n2)
+            finite = math.isfinite(err)
+            for i in range(n):
+                if not (math.isfinite(qn[i]) and math.isfinite(vn[i])):
+                    finite = False
+            if (not adaptive) or (finite and err < 1.0):
+                if not finite:
+                    tv[0] = t
+                    return 5
+                break
+            stats[1] += 1
+            if finite:
+                h = hs * max(0.2, 0.9 * err ** expo)
+            else:
+                h = 0.2 * hs
+            rejected = True
+            if h < hmin:
+                tv[0] = t
+                tv[2] = h
+                return 5
+        # accepted
+        stats[0] += 1
+        tv[3] += est
+        t_new = t_target if clipped else t + hs
+        if family == 0:
+            status = accel_only(qn, t_new, p, anew, zero, qdd, lam, W)
+            stats[2] += 1
+            if status != 0:
+                tv[0] = t
+                return 4
+        else:
+            for i in range(n):
+                anew[i] = K[0, i]
+        # events: Illinois on the step fraction, each trial a fresh step from t
+        x_stop = 1.0
+        fired = False
+        for i in range(n):
+            ytmp[i] = qn[i]
+            ytmp[n + i] = vn[i]
+        for e in range(n_ev):
+            g_new[e] = event_value(ev_int[e, 0], ev_int[e, 1], ev_val[e], t_new, ytmp, p, W,
+                                   qdd, lam)
+        for e in range(n_ev):
+            x_root[e] = -1.0
+            go = ev_g[e]
+            gn = g_new[e]
+            cross = (go < 0.0 and gn >= 0.0) or (go > 0.0 and gn <= 0.0)
+            if cross and gn != go:
+                d = ev_int[e, 2]
+                up = gn > go
+                if d == 0 or (d > 0 and up) or (d < 0 and not up):
+                    x_root[e] = second_order_locate(family, e, ev_int, ev_val, t, q, v, a0, hs,
+                                                    go, gn, p, c, A, b, bp, w, K, ytmp, qs,
+                                                    zero, qdd, lam, W, stats, evals)
+                    if ev_int[e, 3] != 0 and x_root[e] <= x_stop:
+                        x_stop = x_root[e]
+                        fired = True
+        for e in range(n_ev):
+            if x_root[e] >= 0.0 and x_root[e] <= x_stop:
+                k = stats[6]
+                ev_t[k] = t + x_root[e] * hs
+                ev_k[k] = e
+                second_order_step(family, t, q, v, a0, x_root[e] * hs, p, c, A, b, bp, w, K,
+                                  ytmp[:n], ytmp[n:], qs, zero, qdd, lam, W)
+                stats[2] += evals
+                for i in range(n2):
+                    ev_y[k, i] = ytmp[i]
+                stats[6] += 1
+            ev_g[e] = g_new[e]
+        if fired:
+            t_new = t + x_stop * hs
+            second_order_step(family, t, q, v, a0, x_stop * hs, p, c, A, b, bp, w, K, qn, vn,
+                              qs, zero, qdd, lam, W)
+            accel_only(qn, t_new, p, anew, zero, qdd, lam, W)
+            stats[2] += evals + 1
+        for i in range(n):
+            q[i] = qn[i]
+            v[i] = vn[i]
+            a0[i] = anew[i]
+            f[i] = vn[i]
+        t = t_new
+        tv[0] = t
+        if use_teval:
+            # steps are clipped to land on the next requested time, so none lies inside
+            ie = stats[5]
+            while ie < t_eval.shape[0] and t_eval[ie] == t:
+                tout[ie] = t
+                for i in range(n2):
+                    yout[ie, i] = y[i]
+                ie += 1
+            stats[5] = ie
+            stats[3] = ie
+        else:
+            stats[4] += 1
+            if stats[4] >= stride or fired or t >= t_end:
+                stats[4] = 0
+                k = stats[3]
+                tout[k] = t
+                for i in range(n2):
+                    yout[k, i] = y[i]
+                stats[3] += 1
+        if fired:
+            return 3
+        if adaptive:
+            if err == 0.0:
+                factor = 5.0
+            else:
+                factor = min(5.0, 0.9 * err ** expo)
+            if rejected:
+                factor = min(1.0, factor)
+            if clipped:
+                h = max(h, hs * factor)
+            else:
+                h = hs * factor
+            rejected = False
+        tv[2] = h
+    return 1
+
+
+def second_order_locate(family, e, ev_int, ev_val, t, q, v, a0, h, ga, gb, p, c, A, b, bp, w,
+                        K, ytmp, qs, zero, qdd, lam, W, stats, evals):
+    """Step fraction x of an event crossing: Illinois iteration, each trial a step of x·h."""
+    n = q.shape[0]
+    a = 0.0
+    bb = 1.0
+    fa = ga
+    fb = gb
+    side = 0
+    tol = 4.0 * 2.220446049250313e-16 * max(abs(t), abs(t + h), 1e-300) / abs(h)
+    for it in range(100):
+        if bb - a <= tol:
+            break
+        x = (a * fb - bb * fa) / (fb - fa)
+        if not (a < x < bb):
+            x = 0.5 * (a + bb)
+        second_order_step(family, t, q, v, a0, x * h, p, c, A, b, bp, w, K, ytmp[:n], ytmp[n:],
+                          qs, zero, qdd, lam, W)
+        stats[2] += evals
+        fx = event_value(ev_int[e, 0], ev_int[e, 1], ev_val[e], t + x * h, ytmp, p, W, qdd, lam)
+        if fx == 0.0:
+            return x
+        if (fx > 0.0) == (fb > 0.0):
+            bb = x
+            fb = fx
+            if side == -1:
+                fa *= 0.5
+            side = -1
+        else:
+            a = x
+            fa = fx
+            if side == 1:
+                fb *= 0.5
+            side = 1
+    return 0.5 * (a + bb)
+
+
+def rkn_initial_step(t, y, f, p, rtol, atol):
+    """Starting step for RKN 12(10): Hairer's estimate with exponent 1/11."""
+    n = N_DOF
+    m = N_CONSTRAINTS
+    W = np.zeros(_WORK_SHAPE)
+    n2 = 2 * n
+    d0 = 0.0
+    d1 = 0.0
+    for i in range(n2):
+        sc = atol + abs(y[i]) * rtol
+        d0 += (y[i] / sc) ** 2
+        d1 += (f[i] / sc) ** 2
+    d0 = math.sqrt(d0 / n2)
+    d1 = math.sqrt(d1 / n2)
+    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+    y1 = np.empty(n2)
+    f1 = np.empty(n2)
+    for i in range(n2):
+        y1[i] = y[i] + h0 * f[i]
+    rhs(t + h0, y1, p, f1, W)
+    d2 = 0.0
+    for i in range(n2):
+        sc = atol + abs(y[i]) * rtol
+        d2 += ((f1[i] - f[i]) / sc) ** 2
+    d2 = math.sqrt(d2 / n2) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / 11.0)
+    return min(100.0 * h0, h1)
+
 KERNEL_TEMPLATES = [event_value, project_constraints, dop853_dense_eval, dop853_locate,
                     dop853_initial_step, dop853_chunk, dop853_dense, derivative_start,
-                    project_start, initial_step, along]
+                    project_start, initial_step, along, accel_only,
+                    second_order_step, _partial_sum, second_order_chunk, second_order_locate,
+                    rkn_initial_step]

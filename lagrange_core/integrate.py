@@ -137,6 +137,28 @@ METHODS: dict[str, Method] = {
     "rk8": Method("rk8", "dop853", 8, False, "",
                   "the 8th-order DOP853 formula at a fixed step h", _dop853_table()),
 }
+def _rkn12_table():
+    from .integrator_tables import rkn12_table
+    t = rkn12_table()
+    t["w"] = np.zeros(1)
+    return t
+
+
+def _yoshida6_table():
+    from .integrator_tables import yoshida6_weights
+    z = np.zeros(1)
+    return {"c": z, "A": np.zeros((1, 1)), "b": z, "bp": z, "bh": z, "bph": z,
+            "w": yoshida6_weights()}
+
+
+METHODS["rkn12"] = Method("rkn12", "rkn", 12, True, "rkn",
+                          "Dormand–El-Mikkawy–Prince RKN 12(10), adaptive, for q̈ = f(q, t)",
+                          _rkn12_table())
+METHODS["rkn12-fixed"] = Method("rkn12-fixed", "rkn", 12, False, "rkn",
+                                "the 12th-order RKN formula at a fixed step h", _rkn12_table())
+METHODS["yoshida6"] = Method("yoshida6", "symplectic", 6, False, "rkn",
+                             "Yoshida's symmetric 6th-order composition of velocity Verlet "
+                             "(symplectic for constant M), fixed step h", _yoshida6_table())
 for _name in _SCIPY_METHODS:
     METHODS[f"scipy:{_name}"] = Method(f"scipy:{_name}", "scipy", 0, True, "",
                                        f"scipy.integrate.solve_ivp(method={_name!r})")
@@ -514,7 +536,9 @@ def _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, 
     f = np.empty(2 * n)
     if b.derivative_start(t0, y, p, f) != 0:
         raise _singular_error(system, t0, y)
-    if meth.adaptive:
+    if meth.adaptive and meth.family == "rkn":
+        h0 = b.rkn_initial_step(t0, y, f, p, rtol, atol)
+    elif meth.adaptive:
         h0 = b.initial_step(t0, y, f, p, rtol, atol)
     else:
         h0 = h
@@ -612,8 +636,14 @@ def _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, 
     return traj
 
 
-def _run_family(*args):
-    raise NotImplementedError
+def _run_family(b, meth, y, f, tv, stats, p, rtol, atol, budget, t_eval_arr, stride, tout, yout,
+                ev_int, ev_val, ev_g, ev_t, ev_k, ev_y):
+    tab = meth.table
+    family = 0 if meth.family == "rkn" else 1
+    return b.second_order_chunk(family, y, f, tv, stats, p, rtol, atol, tab["c"], tab["A"],
+                                tab["b"], tab["bp"], tab["bh"], tab["bph"], tab["w"],
+                                meth.adaptive, budget, t_eval_arr, stride, tout, yout, ev_int,
+                                ev_val, ev_g, ev_t, ev_k, ev_y)
 
 
 def _event_value_py(system, row, val, t, y, p):
