@@ -463,11 +463,13 @@ def simulate(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1e-9, 
     q0, qd0, p, t0, t1, rtol, atol, t_eval, h = _check_inputs(
         system, q0, qdot0, t_span, params, method, rtol, atol, t_eval, h, stride, max_steps)
     meth = _choose_method(system, method)
-    if not meth.adaptive and meth.family != "scipy" and h is None:
+    if not meth.adaptive and meth.family != "scipy" and h is None and meth.name != "rkn12-fixed":
         raise ValueError(f"method {meth.name!r} has a fixed step: pass h (s), e.g. "
                          f"h={(t1 - t0) / 1000:.3g}.")
     events, ev_int, ev_val = _event_arrays(system, events)
     start = time.perf_counter()
+    if h is None and meth.name == "rkn12-fixed":
+        h = _step_from_tolerance(system, q0, qd0, p, t0, t1, rtol, atol)
     if meth.family == "scipy":
         traj = _run_scipy(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, ev_int,
                           ev_val, max_steps, stride)
@@ -484,6 +486,19 @@ def simulate(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1e-9, 
                         error_estimate_kind="difference from a rerun at rtol/1000"
                         + (" and h/4" if h is not None else ""))
     return traj
+
+
+def _step_from_tolerance(system, q0, qd0, p, t0, t1, rtol, atol):
+    """Fixed step for "rkn12-fixed" without ``h``: a pilot run of the adaptive RKN 12(10)
+    over the first 1/20 of t_span at the same tolerances; h is the 20th percentile of
+    its accepted steps, rounded down so that a whole number of steps spans t_span.
+    """
+    span = t1 - t0
+    pilot = simulate(system, q0, qd0, (t0, t0 + span / 20), _param_dict(system, p),
+                     method="rkn12", rtol=rtol, atol=atol)
+    steps = np.diff(pilot.t)[:-1] if len(pilot.t) > 2 else np.diff(pilot.t)
+    h = float(np.percentile(steps, 20))
+    return span / math.ceil(span / h)
 
 
 def _param_dict(system, p):
@@ -529,12 +544,16 @@ def _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, 
                   max_steps, h, stride, chunk_steps, start):
     b = _bound(system)
     n = system.n_dof
+    fast = None
+    if meth.family == "rkn" and not events:
+        from .integrator_fast import fast_model
+        fast = fast_model(system)
     y = np.concatenate([q0, qd0])
     if system.n_constraints:
         if b.project_start(t0, y, p) != 0:
             raise _singular_error(system, t0, y)
     f = np.empty(2 * n)
-    if b.derivative_start(t0, y, p, f) != 0:
+    if (b.derivative_start(t0, y, p, f) if fast is None else fast.module.fast_start(y, f, t0, p)) != 0:
         raise _singular_error(system, t0, y)
     if meth.adaptive and meth.family == "rkn":
         h0 = b.rkn_initial_step(t0, y, f, p, rtol, atol)
@@ -600,6 +619,12 @@ def _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, 
                                       tab["E3"], tab["E5"], tab["D"], meth.adaptive, budget,
                                       t_eval_arr, int(stride), tout, yout, ev_int, ev_val, ev_g,
                                       ev_t, ev_k, ev_y)
+            elif fast is not None:
+                tab = meth.table
+                code = fast.module.fast_rkn_chunk(
+                    y, f, tv, stats, p, tab["c"], tab["A"], tab["b"], tab["bp"], tab["bh"],
+                    tab["bph"], meth.adaptive, rtol, atol, budget, t_eval_arr, int(stride), tout,
+                    yout)
             else:
                 code = _run_family(b, meth, y, f, tv, stats, p, rtol, atol, budget, t_eval_arr,
                                    int(stride), tout, yout, ev_int, ev_val, ev_g, ev_t, ev_k, ev_y)
