@@ -60,9 +60,3 @@ def solve_augmented(W, N):
                 s -= W[i, j] * W[j, c]
             W[i, c] = s / W[i, i]
     return 0
-
-
-@njit(cache=True)
-def sign(x):
-    """sympy's sign(x): -1, 0 or 1."""
-    return np.sign(x)

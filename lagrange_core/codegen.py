@@ -6,10 +6,13 @@ For a system with n coordinates, m constraints and k parameters, the generated
 module defines these ``@njit(cache=True)`` functions.  Arrays are float64;
 ``p`` holds the parameter values in the order of ``System.parameters``;
 ``y = [q, q̇]`` is the first-order state; ``W`` is a scratch array of shape
-``(n + m, n + m + 1)`` that the caller allocates once (no kernel on the hot
-path allocates).
+``WORK_SHAPE`` (a module constant; ``new_work()`` or ``Kernels.work_array()``
+make one) that the caller allocates once, so no kernel on the hot path
+allocates.  Its leading ``(n + m, n + m + 1)`` block holds the augmented
+system; the rows below hold the values of the symbolic terms.
 
 =========================================================  ====================================
+``new_work() -> W``                                        a fresh scratch array
 ``mass_forcing(q, qd, t, p, M, F)``                        fills M (n, n) and F (n)
 ``augmented(q, qd, t, p, W)``                              fills W = [[M, −Φ_qᵀ, F], [Φ_q, 0, γ]]
 ``solve_state(q, qd, t, p, W) -> int``                     augmented + solve; W[:, -1] = [q̈, λ]
@@ -22,10 +25,18 @@ path allocates).
 =========================================================  ====================================
 
 Integer returns are a status: 0 success, 1 singular (augmented) mass matrix.
-Module constants: ``N_DOF``, ``N_CONSTRAINTS``, ``N_PARAMETERS``, ``N_PARTICLES``.
+Module constants: ``N_DOF``, ``N_CONSTRAINTS``, ``N_PARAMETERS``, ``N_PARTICLES``,
+``WORK_SHAPE``.
 
-Common subexpressions are removed across all outputs of a kernel at once
-(symengine's ``cse``); M is symmetric and only its upper triangle is computed.
+What is generated, and what is fixed: the generated code evaluates each
+*distinct* symbolic term once (common subexpressions removed across all terms
+at once with symengine's ``cse``): per particle its mass, Jacobian ∂r/∂q, the
+q̈-free part of its acceleration and ∂r/∂t; the rest of F (potential, forces,
+dissipation, explicit-Lagrangian terms); Φ_q and γ.  Index tables say where
+each term goes, and fixed loops (:mod:`lagrange_core._core_kernels`) assemble
+M = Σ m JᵀJ + M' and F.  Generated code, and numba's compile time, thus grow
+with the number of distinct terms rather than with n² entries of n terms each.
+The Jacobian is exact: the complex step on the same kernels.
 
 Kernel templates
 ----------------
@@ -36,7 +47,8 @@ system, so the system's kernels are inlined into the algorithm's loop and the
 result is cached on disk like the kernels themselves (numba cannot cache a
 function that receives another jitted function as an argument).  A template
 module lists its templates in ``KERNEL_TEMPLATES`` and the import lines they
-need in ``KERNEL_IMPORTS``.
+need in ``KERNEL_IMPORTS``; optionally ``KERNEL_JIT_OPTIONS`` maps a template's
+name to extra njit options (e.g. ``"parallel=True"`` for a grid loop over ``prange``).
 
 The disk cache
 --------------
@@ -75,24 +87,58 @@ _HEADER = '''\
 import math
 import numpy as np
 from numba import njit
-from math import (sin, cos, tan, exp, log, sqrt, asin, acos, atan, atan2,
-                  sinh, cosh, tanh, asinh, acosh, atanh, pi, e as E)
-from lagrange_core._linalg import solve_augmented, sign
+from numpy import (sin, cos, tan, exp, log, sqrt, arcsin as asin, arccos as acos,
+                   arctan as atan, arctan2 as atan2, sinh, cosh, tanh, arcsinh as asinh,
+                   arccosh as acosh, arctanh as atanh, pi, e as E, sign)
+from lagrange_core._core_kernels import assemble, solve, jacobian_from_columns, particle_energy
 
 N_DOF = {n}
 N_CONSTRAINTS = {m}
 N_PARAMETERS = {k}
 N_PARTICLES = {n_particles}
+N_VALUES = {n_values}
+WORK_SHAPE = {work_shape!r}
+COMPLEX_STEP = 1e-200
 COORDINATES = {coordinates!r}
 PARAMETERS = {parameters!r}
 '''
 
-_FIXED_KERNELS = '''
+
+_WRAPPERS = '''
+
+# -- thin wrappers around the shared loops of lagrange_core._core_kernels ----------
+
+@njit(cache=True)
+def new_work():
+    return np.zeros(WORK_SHAPE)
+
+
+@njit(cache=True)
+def augmented(q, qd, t, p, W):
+    N = N_DOF + N_CONSTRAINTS
+    if W.shape[0] >= WORK_SHAPE[0]:
+        u = W[N:].reshape(-1)
+    else:                      # a bare (N, N+1) array: correct, but allocates
+        u = np.empty(N_VALUES)
+    _values(q, qd, t, p, u)
+    assemble(u, W, P_MASS, P_PTR, P_COL, P_JAC, P_BIAS, F_REST, M_REST,
+             PHI_Q, GAMMA)
+
 
 @njit(cache=True)
 def solve_state(q, qd, t, p, W):
     augmented(q, qd, t, p, W)
-    return solve_augmented(W, N_DOF + N_CONSTRAINTS)
+    return solve(W, F_REST, GAMMA)
+
+
+@njit(cache=True)
+def mass_forcing(q, qd, t, p, M, F):
+    W = new_work()
+    augmented(q, qd, t, p, W)
+    for i in range(N_DOF):
+        F[i] = W[i, N_DOF + N_CONSTRAINTS]
+        for j in range(N_DOF):
+            M[i, j] = W[i, j]
 
 
 @njit(cache=True)
@@ -121,21 +167,28 @@ def rhs(t, y, p, dydt, W):
 def jacobian(t, y, p, J):
     n = N_DOF
     N = n + N_CONSTRAINTS
-    q = y[:n]
-    qd = y[n:]
-    W = np.empty((N, N + 1))
-    status = solve_state(q, qd, t, p, W)
-    B = np.empty((N, N + 2 * n))
-    _jacobian_system(q, qd, t, p, W[:n, N], W[n:, N], B)
-    status = max(status, solve_augmented(B, N))
-    for i in range(2 * n):
-        for j in range(2 * n):
-            J[i, j] = 0.0
-    for i in range(n):
-        J[i, n + i] = 1.0
-        for j in range(2 * n):
-            J[n + i, j] = B[i, N + j]
-    return status
+    W = new_work()
+    status = solve_state(y[:n], y[n:], t, p, W)
+    x = W[:N, N].copy()
+    augmented(y[:n], y[n:], t, p, W)
+    # complex step: Im f(y + i h e_j) / h = ∂f/∂y_j to rounding error
+    uc = np.zeros(N_VALUES, dtype=np.complex128)
+    cols = np.zeros((2 * n, N, N + 1), dtype=np.complex128)
+    yc = np.zeros(2 * n, dtype=np.complex128)
+    for j in range(2 * n):
+        for i in range(2 * n):
+            yc[i] = y[i]
+        yc[j] += 1j * COMPLEX_STEP
+        _values(yc[:n], yc[n:], t, p, uc)
+        assemble(uc, cols[j], P_MASS, P_PTR, P_COL, P_JAC, P_BIAS, F_REST, M_REST, PHI_Q, GAMMA)
+    return max(status, jacobian_from_columns(W, cols, x, J, COMPLEX_STEP))
+
+
+@njit(cache=True)
+def energy(q, qd, t, p):
+    u = np.empty(N_VALUES)
+    _values(q, qd, t, p, u)
+    return _energy_rest(q, qd, t, p) + particle_energy(u, qd, P_MASS, P_PTR, P_COL, P_JAC, P_RT)
 '''
 
 
@@ -153,7 +206,7 @@ def _generator_fingerprint() -> str:
     """Hash of the generator's own sources: changing the generator invalidates the cache."""
     here = Path(__file__).parent
     h = hashlib.sha256()
-    for name in ("codegen.py", "derive.py", "_linalg.py"):
+    for name in ("codegen.py", "derive.py", "_linalg.py", "_core_kernels.py"):
         h.update((here / name).read_bytes())
     return h.hexdigest()
 
@@ -163,11 +216,11 @@ def _generator_fingerprint() -> str:
 class _Printer:
     """Renames a system's symbols to kernel locals and prints symengine expressions."""
 
-    def __init__(self, system, extra_vectors=()):
+    def __init__(self, system):
         self.subs = {}
         self.loads = {}
         groups = [("q", "_q", system.q), ("qd", "_v", system.qdot),
-                  ("p", "_p", system.parameter_symbols)] + list(extra_vectors)
+                  ("p", "_p", system.parameter_symbols)]
         for array, prefix, symbols in groups:
             lines = []
             for i, s in enumerate(symbols):
@@ -185,19 +238,19 @@ class _Printer:
     def code(expr) -> str:
         text = str(expr)
         for name in set(re.findall(r"(?<![\w.])([A-Za-z_]\w*)", text)):
-            if name.startswith("_") or re.fullmatch(r"x\d+", name):
-                continue    # a kernel local or a CSE temporary
+            if name == "t" or name.startswith("_") or re.fullmatch(r"x\d+", name):
+                continue    # time (a kernel argument), a kernel local or a CSE temporary
             if name not in _ALLOWED_NAMES:
                 raise ValueError(
                     f"cannot compile the function or constant {name!r} in {text[:200]}: the kernels "
                     f"support {sorted(_ALLOWED_NAMES)}. Rewrite the expression with these.")
         return text
 
-    def body(self, outputs, arrays):
+    def body(self, outputs, arrays, renamed=False):
         """Kernel body: loads of the named input arrays, CSE'd temporaries, output stores.
 
         ``outputs`` is a list of (target string, expression)."""
-        exprs = [self.rename(e) for _, e in outputs]
+        exprs = [e if renamed else self.rename(e) for _, e in outputs]
         replacements, reduced = se.cse(exprs) if exprs else ([], [])
         lines = []
         for a in arrays:
@@ -211,67 +264,81 @@ def _function(name, args, lines, ret=None):
     body = lines + ([f"return {ret}"] if ret is not None else [])
     if not body:
         body = ["pass"]
-    return "\n\n@njit(cache=True)\ndef {}({}):\n{}\n".format(
+    # error_model="numpy": a division by zero gives inf/nan (caught by the callers' status
+    # checks) instead of a per-division branch, which also keeps compile times down.
+    return "\n\n@njit(cache=True, error_model=\"numpy\")\ndef {}({}):\n{}\n".format(
         name, ", ".join(args), textwrap.indent("\n".join(body), "    "))
+
+
+class _ValueTable:
+    """Distinct expressions, each stored once; index 0 is the constant zero."""
+
+    def __init__(self, printer):
+        self.printer = printer
+        self.index = {}
+        self.exprs = []
+
+    def __call__(self, expr) -> int:
+        expr = self.printer.rename(expr)
+        if expr == 0:
+            return 0
+        if expr not in self.index:
+            self.exprs.append(expr)
+            self.index[expr] = len(self.exprs)
+        return self.index[expr]
+
+
+def _table(name, rows, width=None) -> str:
+    arr = np.asarray(rows, dtype=np.int64)
+    if width is not None:
+        arr = arr.reshape(-1, width)
+    return f"{name} = np.array({arr.ravel().tolist()!r}, dtype=np.int64).reshape({arr.shape!r})\n"
 
 
 def generate_source(equations) -> str:
     """Python source of the kernel module for ``equations`` (see the module docstring)."""
     system = equations.system
     n, m = system.n_dof, system.n_constraints
-    a_syms = [se.Symbol(f"_acc{i}") for i in range(n)]
-    l_syms = [se.Symbol(f"_lam{i}") for i in range(m)]
-    pr = _Printer(system, extra_vectors=[("a", "_a", a_syms), ("lam", "_l", l_syms)])
-    M, F = equations.mass_matrix_se, equations.forcing_se
-    Phi_q, gamma = equations.constraint_jacobian_se, equations.constraint_rhs_se
+    pr = _Printer(system)
+    value = _ValueTable(pr)
 
+    def pad3(vec):
+        return [value(c) for c in vec] + [0] * (3 - len(vec))
+
+    p_mass, p_ptr, p_col, p_jac, p_bias, p_rt = [], [0], [], [], [], []
+    for pt in equations.particle_terms:
+        p_mass.append(value(pt.mass))
+        for j in range(n):
+            column = [pt.jacobian[c][j] for c in range(len(pt.bias))]
+            if any(e != 0 for e in column):
+                p_col.append(j)
+                p_jac.append(pad3(column))
+        p_ptr.append(len(p_col))
+        p_bias.append(pad3(pt.bias))
+        p_rt.append(pad3(pt.r_t))
+    m_rest = [[value(e) for e in row] for row in equations.mass_rest_se]
+    f_rest = [value(e) for e in equations.forcing_rest_se]
+    phi_q = [[value(e) for e in row] for row in equations.constraint_jacobian_se]
+    gamma = [value(e) for e in equations.constraint_rhs_se]
+
+    N = n + m
+    n_values = len(value.exprs) + 1
+    work_shape = (N + -(-n_values // (N + 1)), N + 1)
     src = [_HEADER.format(label=repr(system.name or "a system"), n=n, m=m,
                           k=len(system.parameters), n_particles=len(system.particles),
+                          n_values=n_values, work_shape=work_shape,
                           coordinates=system.coordinates, parameters=system.parameters)]
+    src.append(_table("P_MASS", p_mass) + _table("P_PTR", p_ptr) + _table("P_COL", p_col)
+               + _table("P_JAC", p_jac, 3) + _table("P_BIAS", p_bias, 3)
+               + _table("P_RT", p_rt, 3) + _table("F_REST", f_rest)
+               + _table("M_REST", m_rest, n) + _table("PHI_Q", phi_q, n)
+               + _table("GAMMA", gamma))
 
-    upper = [(f"M[{i}, {j}]", M[i][j]) for i in range(n) for j in range(i, n)]
-    mirror = [f"M[{j}, {i}] = M[{i}, {j}]" for i in range(n) for j in range(i + 1, n)]
-    src.append(_function("mass_forcing", ["q", "qd", "t", "p", "M", "F"],
-                         pr.body(upper + [(f"F[{i}]", F[i]) for i in range(n)], ["q", "qd", "p"])
-                         + mirror))
-
-    last = n + m
-    aug = upper + [(f"W[{i}, {last}]", F[i]) for i in range(n)]
-    aug += [(f"W[{n + k}, {j}]", Phi_q[k][j]) for k in range(m) for j in range(n)]
-    aug += [(f"W[{n + k}, {last}]", gamma[k]) for k in range(m)]
-    aug = [(tgt.replace("M[", "W["), e) for tgt, e in aug]
-    aug_tail = [f"W[{j}, {i}] = W[{i}, {j}]" for i in range(n) for j in range(i + 1, n)]
-    aug_tail += [f"W[{j}, {n + k}] = -W[{n + k}, {j}]" for k in range(m) for j in range(n)]
-    aug_tail += [f"W[{n + k}, {n + l}] = 0.0" for k in range(m) for l in range(m)]
-    src.append(_function("augmented", ["q", "qd", "t", "p", "W"],
-                         pr.body(aug, ["q", "qd", "p"]) + aug_tail))
-
-    # Jacobian: G = F + Φ_qᵀ λ − M a and H = γ − Φ_q a vanish along solutions, so
-    # [M −Φ_qᵀ; Φ_q 0] d[q̈, λ]/dy = [∂G/∂y; ∂H/∂y] at fixed (a, λ).
-    qs = [pr.subs[se.sympify(s)] for s in system.q]
-    vs = [pr.subs[se.sympify(s)] for s in system.qdot]
-    G = [F[i] + sum((Phi_q[k][i] * l_syms[k] for k in range(m)), se.Integer(0))
-         - sum((M[i][j] * a_syms[j] for j in range(n)), se.Integer(0)) for i in range(n)]
-    H = [gamma[k] - sum((Phi_q[k][j] * a_syms[j] for j in range(n)), se.Integer(0))
-         for k in range(m)]
-    jac = [(tgt.replace("M[", "B["), e) for tgt, e in upper]
-    jac += [(f"B[{n + k}, {j}]", Phi_q[k][j]) for k in range(m) for j in range(n)]
-    for r, expr in enumerate(G + H):
-        e = pr.rename(expr)
-        for c, var in enumerate(qs + vs):
-            d = se.diff(e, var)
-            if d != 0:
-                jac.append((f"B[{r}, {last + c}]", d))
-    jac_tail = [f"B[{j}, {i}] = B[{i}, {j}]" for i in range(n) for j in range(i + 1, n)]
-    jac_tail += [f"B[{j}, {n + k}] = -B[{n + k}, {j}]" for k in range(m) for j in range(n)]
-    jac_tail += [f"B[{n + k}, {n + l}] = 0.0" for k in range(m) for l in range(m)]
-    zero = ["for _i in range(B.shape[0]):", "    for _j in range(B.shape[1]):",
-            "        B[_i, _j] = 0.0"]
-    src.append(_function("_jacobian_system", ["q", "qd", "t", "p", "a", "lam", "B"],
-                         zero + pr.body(jac, ["q", "qd", "p", "a", "lam"]) + jac_tail))
-
-    src.append(_function("energy", ["q", "qd", "t", "p"],
-                         pr.body([("_h", equations.energy_se)], ["q", "qd", "p"]), ret="_h"))
+    outputs = [(f"u[{i + 1}]", e) for i, e in enumerate(value.exprs)]
+    src.append(_function("_values", ["q", "qd", "t", "p", "u"],
+                         ["u[0] = 0.0"] + pr.body(outputs, ["q", "qd", "p"], renamed=True)))
+    src.append(_function("_energy_rest", ["q", "qd", "t", "p"],
+                         pr.body([("_h", equations.energy_rest_se)], ["q", "qd", "p"]), ret="_h"))
     res = [(f"out[{k}]", c) for k, c in enumerate(equations.constraints_se)]
     res += [(f"out[{m + k}]", c) for k, c in enumerate(equations.constraint_velocity_se)]
     src.append(_function("constraint_residual", ["q", "qd", "t", "p", "out"],
@@ -280,7 +347,7 @@ def generate_source(equations) -> str:
                  for c, comp in enumerate(particle.position)]
     src.append(_function("particle_positions", ["q", "t", "p", "out"],
                          ["out[:, :] = 0.0"] + pr.body(positions, ["q", "p"])))
-    src.append(_FIXED_KERNELS)
+    src.append(_WRAPPERS)
     return "".join(src)
 
 
@@ -307,7 +374,7 @@ def _load_module(path: Path, name: str) -> types.ModuleType:
     return module
 
 
-_KERNEL_NAMES = ("mass_forcing", "augmented", "solve_state", "accelerations", "rhs", "jacobian",
+_KERNEL_NAMES = ("new_work", "mass_forcing", "augmented", "solve_state", "accelerations", "rhs", "jacobian",
                  "energy", "constraint_residual", "particle_positions")
 
 
@@ -334,11 +401,15 @@ class Kernels:
 
     def work_array(self) -> np.ndarray:
         """A fresh scratch array ``W`` of the shape the kernels expect."""
-        N = self.n_dof + self.n_constraints
-        return np.zeros((N, N + 1))
+        return np.zeros(self.module.WORK_SHAPE)
 
-    def warm(self) -> "Kernels":
-        """Compile (or load from the disk cache) the main kernels for float64 arrays."""
+    def warm(self, jacobian: bool = False) -> "Kernels":
+        """Compile (or load from the disk cache) the main kernels for float64 arrays.
+
+        The Jacobian (complex-step variant of the kernels, the slowest to
+        compile) is included only with ``jacobian=True``; otherwise it compiles
+        on first use.
+        """
         n, m = self.n_dof, self.n_constraints
         q = np.zeros(n)
         p = np.ones(len(self.parameters))
@@ -347,8 +418,9 @@ class Kernels:
         self.accelerations(q, q, 0.0, p, np.zeros(n), np.zeros(m), W)
         y = np.zeros(2 * n)
         self.rhs(0.0, y, p, np.zeros(2 * n), W)
-        self.jacobian(0.0, y, p, np.zeros((2 * n, 2 * n)))
         self.energy(q, q, 0.0, p)
+        if jacobian:
+            self.jacobian(0.0, y, p, np.zeros((2 * n, 2 * n)))
         return self
 
     def bind(self, template_module: types.ModuleType) -> types.ModuleType:
@@ -367,10 +439,13 @@ class Kernels:
 def _template_source(template_module) -> str:
     parts = [f"# templates from {template_module.__name__}\n",
              textwrap.dedent(getattr(template_module, "KERNEL_IMPORTS", "")), "\n"]
+    # optional extra njit options per template, e.g. {"grid_kernel": "parallel=True"}
+    options = getattr(template_module, "KERNEL_JIT_OPTIONS", {})
     for fn in template_module.KERNEL_TEMPLATES:
         src = textwrap.dedent(inspect.getsource(fn))
         src = "\n".join(line for line in src.splitlines() if not line.startswith("@"))
-        parts.append(f"\n\n@njit(cache=True)\n{src}\n")
+        extra = options.get(fn.__name__, "")
+        parts.append(f"\n\n@njit(cache=True{', ' + extra if extra else ''})\n{src}\n")
     return "".join(parts)
 
 
@@ -380,7 +455,7 @@ def _bind(kernels: Kernels, template_module) -> types.ModuleType:
     header = (f"# Generated by lagrange_core.codegen: {template_module.__name__} bound to "
               f"{core_name}. Do not edit.\nimport math\nimport numpy as np\n"
               f"from numba import njit\nfrom {core_name} import *\n"
-              f"from {core_name} import _jacobian_system\n")
+              f"")
     text = header + body
     digest = hashlib.sha256(text.encode()).hexdigest()[:16]
     name = f"{core_name}__{template_module.__name__.replace('.', '_')}_{digest}"

@@ -36,19 +36,31 @@ import symengine as se
 
 from .systems import System, t as t_symbol
 
-__all__ = ["Equations", "derive"]
+__all__ = ["Equations", "ParticleTerms", "derive"]
 
 
 def _se(expr):
     return se.sympify(expr)
 
 
-def _to_sympy(expr):
-    return sp.sympify(expr)
+def _symbol_map(system):
+    """symengine drops sympy's assumptions: map plain names back to the system's symbols."""
+    symbols = [*system.q, *system.qdot, *system.parameter_symbols, t_symbol]
+    return {sp.Symbol(s.name): s for s in symbols}
 
 
-def _matrix_to_sympy(rows):
-    return sp.Matrix([[_to_sympy(e) for e in row] for row in rows]) if rows else sp.zeros(0, 0)
+@dataclass(frozen=True)
+class ParticleTerms:
+    """One particle's share of the equations (symengine expressions).
+
+    M gets m JᵀJ and F gets −m Jᵀ·bias, where J = ∂r/∂q (d × n) and bias is
+    the part of r̈ without q̈: (∂v/∂q) q̇ + ∂v/∂t with v = J q̇ + ∂r/∂t.
+    """
+
+    mass: object
+    jacobian: tuple     # d x n
+    bias: tuple         # d
+    r_t: tuple          # d: ∂r/∂t
 
 
 @dataclass(frozen=True, eq=False)
@@ -78,6 +90,10 @@ class Equations:
     """
 
     system: System
+    particle_terms: tuple            # ParticleTerms, one per particle
+    mass_rest_se: tuple              # n x n: velocity Hessian of the explicit L'
+    forcing_rest_se: tuple           # n: F without the particle inertia terms
+    energy_rest_se: object           # h without the particles' kinetic part
     mass_matrix_se: tuple            # n x n, tuple of tuples
     forcing_se: tuple                # n
     constraints_se: tuple            # m: Φ
@@ -89,31 +105,39 @@ class Equations:
     _explicit_time: bool = field(repr=False, default=False)
 
     # -- sympy views --------------------------------------------------------------
+    def _to_sympy(self, expr):
+        return sp.sympify(expr).xreplace(self._symbols)
+
+    @functools.cached_property
+    def _symbols(self):
+        return _symbol_map(self.system)
+
     @functools.cached_property
     def mass_matrix(self) -> sp.Matrix:
-        return _matrix_to_sympy(self.mass_matrix_se)
+        n = len(self.system.q)
+        return sp.Matrix(n, n, [self._to_sympy(e) for row in self.mass_matrix_se for e in row])
 
     @functools.cached_property
     def forcing(self) -> sp.Matrix:
-        return sp.Matrix([_to_sympy(e) for e in self.forcing_se])
+        return sp.Matrix([self._to_sympy(e) for e in self.forcing_se])
 
     @functools.cached_property
     def constraint_jacobian(self) -> sp.Matrix:
-        if not self.constraints_se:
-            return sp.zeros(0, len(self.system.q))
-        return _matrix_to_sympy(self.constraint_jacobian_se)
+        m, n = len(self.constraints_se), len(self.system.q)
+        return sp.Matrix(m, n, [self._to_sympy(e) for row in self.constraint_jacobian_se
+                                for e in row])
 
     @functools.cached_property
     def constraint_rhs(self) -> sp.Matrix:
-        return sp.Matrix([_to_sympy(e) for e in self.constraint_rhs_se])
+        return sp.Matrix([self._to_sympy(e) for e in self.constraint_rhs_se])
 
     @functools.cached_property
     def lagrangian(self) -> sp.Expr:
-        return _to_sympy(self.lagrangian_se)
+        return self._to_sympy(self.lagrangian_se)
 
     @functools.cached_property
     def energy(self) -> sp.Expr:
-        return _to_sympy(self.energy_se)
+        return self._to_sympy(self.energy_se)
 
     # -- first integrals ---------------------------------------------------------
     @property
@@ -144,7 +168,7 @@ class Equations:
                 continue
             if any(c.has(qj) for c in s.constraints):
                 continue
-            out[qj.name] = sp.simplify(_to_sympy(se.diff(L, _se(vj))))
+            out[qj.name] = sp.simplify(self._to_sympy(se.diff(L, _se(vj))))
         return out
 
 
@@ -165,49 +189,57 @@ def derive(system: System) -> Equations:
     t = _se(t_symbol)
     n = len(q)
 
-    M = [[se.Integer(0)] * n for _ in range(n)]
-    F = [se.Integer(0)] * n
-    T = se.Integer(0)
+    zero = se.Integer(0)
 
-    # Particle terms: M = Σ m JᵀJ, F -= Σ m Jᵀ (velocity-product + explicit-time part of r̈).
+    # Particle terms: each particle's mass, Jacobian J = ∂r/∂q, the q̈-free part of its
+    # acceleration ("bias" (∂v/∂q) q̇ + ∂v/∂t) and ∂r/∂t.  The compiled kernels assemble
+    # M and F from these numerically; here they are also assembled symbolically.
+    particle_terms = []
     for particle in system.particles:
         m = _se(particle.mass)
         r = [_se(c) for c in particle.position]
         J = [[se.diff(rk, qj) for qj in q] for rk in r]
-        vel = [sum((J[k][j] * v[j] for j in range(n)), se.Integer(0)) + se.diff(r[k], t)
-               for k in range(len(r))]
-        bias = [sum((se.diff(vel[k], q[j]) * v[j] for j in range(n)), se.Integer(0))
-                + se.diff(vel[k], t) for k in range(len(r))]
+        r_t = [se.diff(rk, t) for rk in r]
+        vel = [sum((J[k][j] * v[j] for j in range(n)), zero) + r_t[k] for k in range(len(r))]
+        bias = [sum((se.diff(vel[k], q[j]) * v[j] for j in range(n)), zero) + se.diff(vel[k], t)
+                for k in range(len(r))]
+        particle_terms.append(ParticleTerms(m, tuple(map(tuple, J)), tuple(bias), tuple(r_t)))
+
+    # Explicit Lagrangian term L'(q, q̇, t), potential V(q, t), forces and dissipation.
+    L_extra = _se(system.lagrangian_term)
+    V = _se(system.potential)
+    D = _se(system.dissipation)
+    dL_dv = [se.diff(L_extra, vj) for vj in v]
+    M_rest = [[se.diff(dL_dv[i], v[j]) for j in range(n)] for i in range(n)]
+    F_rest = [se.diff(L_extra, q[i])
+              - sum((se.diff(dL_dv[i], q[j]) * v[j] for j in range(n)), zero)
+              - se.diff(dL_dv[i], t)
+              - se.diff(V, q[i]) + _se(system.forces[i]) - se.diff(D, v[i]) for i in range(n)]
+
+    # Assembled: M = M' + Σ m JᵀJ,  F = F' − Σ m Jᵀ bias.
+    M = [row[:] for row in M_rest]
+    F = F_rest[:]
+    T = zero
+    for pt in particle_terms:
+        d = len(pt.bias)
         for i in range(n):
             for j in range(i, n):
-                mij = sum((J[k][i] * J[k][j] for k in range(len(r))), se.Integer(0))
+                mij = sum((pt.jacobian[k][i] * pt.jacobian[k][j] for k in range(d)), zero)
                 if mij != 0:
-                    M[i][j] = M[i][j] + m * mij
-            fi = sum((J[k][i] * bias[k] for k in range(len(r))), se.Integer(0))
+                    M[i][j] = M[i][j] + pt.mass * mij
+            fi = sum((pt.jacobian[k][i] * pt.bias[k] for k in range(d)), zero)
             if fi != 0:
-                F[i] = F[i] - m * fi
-        T = T + m * sum((vk * vk for vk in vel), se.Integer(0)) / 2
+                F[i] = F[i] - pt.mass * fi
+        vel = [sum((pt.jacobian[k][j] * v[j] for j in range(n)), zero) + pt.r_t[k] for k in range(d)]
+        T = T + pt.mass * sum((vk * vk for vk in vel), zero) / 2
     for i in range(n):
         for j in range(i):
             M[i][j] = M[j][i]
 
-    # Explicit Lagrangian term L'(q, q̇, t) and potential V(q, t).
-    L_extra = _se(system.lagrangian_term)
-    V = _se(system.potential)
-    if L_extra != 0:
-        dL_dv = [se.diff(L_extra, vj) for vj in v]
-        for i in range(n):
-            for j in range(n):
-                M[i][j] = M[i][j] + se.diff(dL_dv[i], v[j])
-            F[i] = (F[i] + se.diff(L_extra, q[i])
-                    - sum((se.diff(dL_dv[i], q[j]) * v[j] for j in range(n)), se.Integer(0))
-                    - se.diff(dL_dv[i], t))
-    D = _se(system.dissipation)
-    for i in range(n):
-        F[i] = F[i] - se.diff(V, q[i]) + _se(system.forces[i]) - se.diff(D, v[i])
-
     L = T - V + L_extra
-    energy = sum((vj * se.diff(L, vj) for vj in v), se.Integer(0)) - L
+    energy = sum((vj * se.diff(L, vj) for vj in v), zero) - L
+    # h = Σ ½ m (|J q̇|² − |∂r/∂t|²) + V + h(L'): the kernels add the particle part numerically
+    energy_rest = V + sum((vj * dl for vj, dl in zip(v, dL_dv)), zero) - L_extra
 
     # Constraints: Φ_q q̈ = γ with γ = -(∂Φ̇/∂q) q̇ - ∂Φ̇/∂t.
     Phi = [_se(c) for c in system.constraints]
@@ -220,6 +252,10 @@ def derive(system: System) -> Equations:
     explicit_time = (se.diff(L, t) != 0) or any(se.diff(c, t) != 0 for c in Phi)
     return Equations(
         system=system,
+        particle_terms=tuple(particle_terms),
+        mass_rest_se=tuple(tuple(row) for row in M_rest),
+        forcing_rest_se=tuple(F_rest),
+        energy_rest_se=energy_rest,
         mass_matrix_se=tuple(tuple(row) for row in M),
         forcing_se=tuple(F),
         constraints_se=tuple(Phi),

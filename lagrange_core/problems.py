@@ -9,7 +9,9 @@ import sympy as sp
 
 from .systems import Particle, System, coordinates, t
 
-__all__ = ["pendulum", "n_link_pendulum", "double_pendulum", "driven_pendulum"]
+__all__ = ["pendulum", "n_link_pendulum", "double_pendulum", "driven_pendulum", "central_force",
+           "spherical_pendulum", "guitar_string", "bead_string", "block_on_wedge",
+           "swinging_atwood", "swinging_atwood_stop"]
 
 
 def pendulum() -> System:
@@ -88,3 +90,274 @@ def driven_pendulum(direction: str = "vertical", damping: bool = False) -> Syste
     D = m * l**2 * gamma * theta_dot**2 / 2 if damping else 0
     return System([theta], particles=[bob], potential=m * g * bob.position[1], dissipation=D,
                   name=f"{direction}ly driven pendulum" + (" (damped)" if damping else ""))
+
+
+# -- central force (Kepler) ---------------------------------------------------------------------
+
+def central_force(V=None) -> System:
+    """A particle of mass ``m`` in a central potential V(r), in the plane.
+
+    Coordinates ``r`` (m, distance from the centre) and ``phi`` (rad, polar
+    angle).  Parameters: ``m`` (kg), plus those of V.  The default is the Kepler
+    potential V = −k/r with ``k`` > 0 (J·m), e.g. k = G M m.
+
+    Parameters
+    ----------
+    V : sympy expression or callable, optional
+        The potential energy V(r) (J).  Either a callable ``V(r)`` that returns a
+        sympy expression, or an expression in a symbol named ``r`` (any
+        assumptions); its other free symbols become parameters.
+
+    Closed forms (any V(r))
+    -----------------------
+    * φ is cyclic: the angular momentum p_φ = L = m r² φ̇ is conserved
+      (``system.equations.conserved_momenta['phi']``), and so is the energy
+      E = ½ m ṙ² + L²/(2 m r²) + V(r).
+    * The radial turning points are the roots of E = L²/(2 m r²) + V(r).
+
+    For V = −k/r with E < 0 (Kepler's ellipse, semi-major axis a = −k/(2E),
+    eccentricity e = √(1 + 2 E L²/(m k²))): the turning points are r = a(1 ∓ e),
+    and the period is T = 2π √(m a³ / k) (Kepler's third law), exactly.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> kappa = sp.Symbol("kappa", positive=True)
+    >>> oscillator = central_force(lambda r: kappa * r**2 / 2)   # isotropic oscillator
+    """
+    (r, phi), _ = coordinates("r phi")
+    m = sp.Symbol("m", positive=True)
+    if V is None:
+        k = sp.Symbol("k", positive=True)
+        potential = -k / r
+    elif callable(V) and not isinstance(V, sp.Basic):
+        potential = sp.sympify(V(r))
+    else:
+        potential = sp.sympify(V)
+        potential = potential.xreplace({s: r for s in potential.free_symbols if s.name == "r"})
+    if not isinstance(potential, sp.Expr):
+        raise TypeError(f"central_force: V must be a sympy expression in r or a callable r -> "
+                        f"expression, got {V!r}.")
+    bad = sorted(s.name for s in potential.free_symbols if s.name in ("phi", "phi_dot", "r_dot"))
+    if bad:
+        raise ValueError(f"central_force: V must depend on r only (a central force), but it "
+                         f"contains {bad}.")
+    particle = Particle(m, (r * sp.cos(phi), r * sp.sin(phi)), "particle")
+    return System([r, phi], particles=[particle], potential=potential,
+                  name="Kepler problem" if V is None else "central force")
+
+
+# -- spherical pendulum -------------------------------------------------------------------------
+
+def spherical_pendulum(form: str = "spherical") -> System:
+    """Bob of mass ``m`` on a massless rod of length ``l`` free to swing in 3-D.
+
+    Parameters ``g``, ``l``, ``m``; the pivot is at the origin, z points up.
+
+    Parameters
+    ----------
+    form : {"spherical", "cartesian"}
+        ``"spherical"``: coordinates ``theta`` (rad, from the downward vertical)
+        and ``phi`` (rad, azimuth), bob at (l sin θ cos φ, l sin θ sin φ, −l cos θ).
+        The chart is singular at the poles θ = 0, π (the mass matrix
+        diag(m l², m l² sin² θ) loses rank), so motion *through* the bottom
+        cannot be integrated in it.
+
+        ``"cartesian"``: coordinates ``x``, ``y``, ``z`` (m) of the bob and the
+        holonomic constraint x² + y² + z² − l² = 0.  Regular everywhere,
+        including through the poles.  The multiplier λ gives the constraint
+        force 2λ (x, y, z) on the bob, so the rod's tension is T = −2 λ l (N).
+
+    Closed forms (spherical form)
+    -----------------------------
+    * φ is cyclic: p_φ = m l² sin² θ φ̇ is conserved; so is the energy
+      E = ½ m l² (θ̇² + sin² θ φ̇²) − m g l cos θ.
+    * Steady conical motion at θ0 (0 < θ0 < π/2) needs φ̇² = g / (l cos θ0).
+    * Small oscillations of θ about it (at fixed p_φ) have angular frequency
+      ω² = φ̇² (1 + 3 cos² θ0).
+    * With p_φ = 0 the motion is the plane pendulum: period
+      T = 4 K(sin²(θ_max/2)) √(l/g), K the complete elliptic integral of the first
+      kind with parameter m = sin²(θ_max/2).
+    """
+    m, l, g = sp.symbols("m l g", positive=True)
+    if form == "spherical":
+        (theta, phi), _ = coordinates("theta phi")
+        bob = Particle(m, (l * sp.sin(theta) * sp.cos(phi), l * sp.sin(theta) * sp.sin(phi),
+                           -l * sp.cos(theta)), "bob")
+        return System([theta, phi], particles=[bob], potential=m * g * bob.position[2],
+                      name="spherical pendulum")
+    if form == "cartesian":
+        (x, y, z), _ = coordinates("x y z")
+        bob = Particle(m, (x, y, z), "bob")
+        return System([x, y, z], particles=[bob], potential=m * g * z,
+                      constraints=[x**2 + y**2 + z**2 - l**2],
+                      name="spherical pendulum (Cartesian)")
+    raise ValueError(f"spherical_pendulum: form must be 'spherical' or 'cartesian', got {form!r}.")
+
+
+# -- block on a wedge ---------------------------------------------------------------------------
+
+def block_on_wedge(normal_coordinate: bool = False) -> System:
+    """A block of mass ``m`` sliding without friction on a wedge of mass ``M`` that
+    slides without friction on a horizontal floor (Morin, *Introduction to
+    Classical Mechanics*, the sliding wedge).
+
+    Coordinates ``X`` (m): the wedge's horizontal position; ``s`` (m): the block's
+    distance down the incline from the wedge's reference point.  Parameters
+    ``m``, ``M`` (kg), ``alpha`` (rad, incline angle, 0 < α < π/2), ``g``.
+    The incline descends towards +x: the block is at
+    (X + s cos α, −s sin α) + n (sin α, cos α).
+
+    Parameters
+    ----------
+    normal_coordinate : bool
+        False: the block stays on the incline by construction (coordinates
+        X, s).  True: a third coordinate ``n`` (m), the block's height above the
+        incline along its outward normal (sin α, cos α), held at 0 by the
+        constraint n = 0.  The multiplier λ is then the generalized force on n,
+        which is the normal force N the wedge exerts on the block (N).
+
+    Closed forms
+    ------------
+    With D = M + m sin² α:
+
+    * s̈ = (M + m) g sin α / D   (the block's acceleration relative to the wedge),
+    * Ẍ = −m g sin α cos α / D  (the wedge recoils towards −x),
+    * N = M m g cos α / D.
+
+    X is cyclic: the horizontal momentum p_X = (M + m) Ẋ + m ṡ cos α is
+    conserved.  Limits: α → 0 gives s̈ → 0, N → m g; α → π/2 gives s̈ → g,
+    Ẍ → 0, N → 0.
+    """
+    names = "X s n" if normal_coordinate else "X s"
+    q, _ = coordinates(names)
+    X, s = q[0], q[1]
+    n = q[2] if normal_coordinate else 0
+    m, M, alpha, g = sp.symbols("m M alpha g", positive=True)
+    wedge = Particle(M, (X, 0), "wedge")
+    block = Particle(m, (X + s * sp.cos(alpha) + n * sp.sin(alpha),
+                         -s * sp.sin(alpha) + n * sp.cos(alpha)), "block")
+    return System(q, particles=[wedge, block], potential=m * g * block.position[1],
+                  constraints=[n] if normal_coordinate else (),
+                  name="block on wedge" + (" (normal coordinate)" if normal_coordinate else ""))
+
+
+# -- swinging Atwood machine -------------------------------------------------------------------
+
+def swinging_atwood() -> System:
+    """The swinging Atwood machine with two equal masses ``m`` (Morin; Tufillaro,
+    Abbott & Griffiths, Am. J. Phys. 52, 895 (1984) for general masses).
+
+    A string runs over two small pulleys; one mass hangs straight down from the
+    left pulley, the other swings from the right pulley as a pendulum of
+    variable length.  Coordinates ``r`` (m): the length of string from the right
+    pulley to the swinging mass; ``theta`` (rad): its angle from the downward
+    vertical.  Parameters ``g``, ``m``.  The pulleys' size and separation do not
+    enter; heights are measured so that the hanging mass is at y = r (the
+    string's length only adds a constant to V).
+
+        L = m ṙ² + ½ m r² θ̇² − m g r (1 − cos θ).
+
+    Closed forms
+    ------------
+    * The energy E = m ṙ² + ½ m r² θ̇² + m g r (1 − cos θ) is conserved.
+    * 2 r̈ = r θ̇² − g (1 − cos θ): with θ = θ̇ = 0 initially r moves uniformly,
+      r(t) = r0 + ṙ0 t, so with ṙ0 < 0 it reaches 0 at t = −r0/ṙ0.
+    * r θ̈ + 2 ṙ θ̇ + g sin θ = 0.
+
+    At r = 0 the swinging mass reaches its pulley and the model (a point mass on
+    a taut string below the pulley) ends; its chart is singular there (mass
+    matrix diag(2m, m r²)).  Integrate with :func:`swinging_atwood_stop` as a
+    terminal event so the Trajectory stops there and says so.
+    """
+    (r, theta), _ = coordinates("r theta")
+    m, g = sp.symbols("m g", positive=True)
+    hanging = Particle(m, (0, r), "hanging mass")
+    swinging = Particle(m, (r * sp.sin(theta), -r * sp.cos(theta)), "swinging mass")
+    return System([r, theta], particles=[hanging, swinging],
+                  potential=m * g * (hanging.position[1] + swinging.position[1]),
+                  name="swinging Atwood machine")
+
+
+def swinging_atwood_stop(r_min: float = 0.0):
+    """The terminal event r = ``r_min`` (falling) for :func:`swinging_atwood`.
+
+    With it, :meth:`System.simulate` stops where the swinging mass reaches its
+    pulley (the model's end) instead of integrating into the singular chart;
+    the Trajectory's ``status`` is ``"event"`` and ``events[-1].name`` says why.
+    ``r_min`` > 0 stops short of the pulley (a pulley of that radius).
+    """
+    from .integrate import Event
+    r_min = float(r_min)
+    if not r_min >= 0:
+        raise ValueError(f"swinging_atwood_stop: r_min must be ≥ 0 (m), got {r_min}.")
+    return Event("coordinate", "r", r_min, -1, True,
+                 f"r = {r_min:g}: the swinging mass reaches its pulley and leaves the model")
+
+
+# -- the guitar string -------------------------------------------------------------------------
+
+def guitar_string():
+    """The transverse vibrations of a string: a field, not a system of particles.
+
+    A string of linear density ``mu`` (kg/m) under tension ``F`` (N), transverse
+    displacement y(x, t) (m).  Its Lagrangian density (J/m) is
+
+        ℒ = ½ μ y_t² − F (√(1 + y_x²) − 1),
+
+    kinetic energy per length minus the tension times the stretch per length.
+    Returns a :class:`lagrange_core.fields.Field1D`; ``.field_equation`` is
+    derived by the engine:
+
+        μ y_tt − F y_xx / (1 + y_x²)^(3/2) = 0.
+
+    "Do you recognize the result?"  In the small-slope limit |y_x| ≪ 1
+    (``.small_amplitude()``, ℒ ≈ ½ μ y_t² − ½ F y_x², relative error O(y_x²)) it
+    is the **wave equation** y_tt = c² y_xx with c = √(F/μ); a string of length
+    l fixed at both ends sounds the harmonic series f_n = n c / (2 l).
+
+    The string discretised into N beads is :func:`bead_string`, an ordinary
+    System; its normal modes ω_n = 2 √(F/(μ h²)) sin(nπ / (2(N + 1))),
+    h = l/(N + 1), are the dispersion relation of a lattice, and for n ≪ N they
+    tend to the string's harmonic series, ω_n → n π c / l (relative error
+    (nπ/(N+1))²/24).
+    """
+    from .fields import Field1D, field_symbols
+    y, y_t, y_x = field_symbols("y")
+    mu, F = sp.symbols("mu F", positive=True)
+    return Field1D(mu * y_t**2 / 2 - F * (sp.sqrt(1 + y_x**2) - 1), "y", "guitar string")
+
+
+def bead_string(n: int, *, small_slope: bool = False) -> System:
+    """The guitar string as ``n`` beads: an ordinary System of transversally moving particles.
+
+    A string of length ``l`` (m), linear density ``mu`` (kg/m) and tension ``F``
+    (N), fixed at x = 0 and x = l, is replaced by ``n`` beads of mass μ h at
+    x_i = i h, h = l/(n + 1), joined by straight segments under tension F.
+    Coordinates ``y1`` … ``yn`` (m), the beads' transverse displacements;
+    parameters ``F``, ``l``, ``mu``.  The potential is the tension times the
+    stretch, F Σ (√(h² + (y_{i+1} − y_i)²) − h) (with y_0 = y_{n+1} = 0), or
+    with ``small_slope=True`` its quadratic limit F Σ (y_{i+1} − y_i)² / (2h).
+
+    Closed form: both forms have the normal modes (about y = 0)
+
+        ω_k = 2 √(F/(μ h²)) sin(kπ / (2(n + 1))),   k = 1 … n,
+
+    which for k ≪ n approach the string's ω_k = k π c / l, c = √(F/μ)
+    (see :func:`guitar_string`).
+    """
+    if int(n) != n or n < 1:
+        raise ValueError(f"bead_string needs a whole number of beads n ≥ 1, got {n!r}.")
+    n = int(n)
+    ys, _ = coordinates([f"y{i}" for i in range(1, n + 1)])
+    mu, F, l = sp.symbols("mu F l", positive=True)
+    h = l / (n + 1)
+    beads = [Particle(mu * h, (i * h, y), f"bead {i}") for i, y in enumerate(ys, start=1)]
+    ends = (0,) + ys + (0,)
+    gaps = [ends[i + 1] - ends[i] for i in range(n + 1)]
+    if small_slope:
+        V = F * sp.Add(*[d**2 for d in gaps]) / (2 * h)
+    else:
+        V = F * sp.Add(*[sp.sqrt(h**2 + d**2) - h for d in gaps])
+    return System(ys, particles=beads, potential=V,
+                  name=f"string of {n} beads" + (" (small slope)" if small_slope else ""))
