@@ -26,6 +26,7 @@ nothing accumulates).
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.util
 import inspect
@@ -86,6 +87,11 @@ def _drive_substitution(exprs, t, qset):
     return [e.xreplace(repl) for e in exprs], alphas
 
 
+# numpy error model (no zero-division branch) and contraction / reassociation of sums;
+# not the finite-math flags, so the NaN/inf checks of the loop stay meaningful.
+_JIT = '@njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc", "arcp", "nsz"})'
+
+
 def _print(expr):
     return sp.pycode(expr, fully_qualified_modules=True, standard="python3")
 
@@ -107,7 +113,7 @@ def _generated_source(system) -> tuple[str, int, bool]:
     qset = set(system.q)
     if n == 1:
         m00 = sp.trigsimp(M[0][0])
-        exprs = [sp.expand(F[0]) / m00]
+        exprs = [sp.cancel(sp.expand(F[0]) / m00)]
     else:
         exprs = [sp.trigsimp(M[i][j]) if sp.count_ops(M[i][j]) < 200 else M[i][j]
                  for i in range(n) for j in range(i, n)] + F
@@ -146,7 +152,7 @@ def _generated_source(system) -> tuple[str, int, bool]:
     if n == 1:
         body.append("return 0")
     src = [f"N_DOF = {n}", f"N_DRIVE = {len(alphas)}", "", "",
-           "@njit(cache=True)", "def fast_accel(q, t, cs, p, out, Wn):",
+           _JIT, "def fast_accel(q, t, cs, p, out, Wn):",
            textwrap.indent("\n".join(body), "    "), "", "",
            "@njit(cache=True)", "def drive_rates(p, out):"]
     rl = [f"_p{i} = p[{i}]" for i in range(len(system.parameter_symbols))]
@@ -265,9 +271,10 @@ def fast_rkn_chunk(y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol, ato
                 dv *= hs
                 if not (np.isfinite(qn[i]) and np.isfinite(vn[i])):
                     finite = False
-                sq = atol + rtol * max(abs(q[i]), abs(qn[i]))
-                sv = atol + rtol * max(abs(v[i]), abs(vn[i]))
-                e2 += (dq / sq) ** 2 + (dv / sv) ** 2
+                if adaptive:
+                    sq = atol + rtol * max(abs(q[i]), abs(qn[i]))
+                    sv = atol + rtol * max(abs(v[i]), abs(vn[i]))
+                    e2 += (dq / sq) ** 2 + (dv / sv) ** 2
                 est = max(est, abs(dq), abs(dv))
             err = np.sqrt(e2 / n2)
             if (not adaptive) or (finite and err < 1.0):
@@ -361,6 +368,7 @@ from lagrange_core._linalg import solve_augmented
 """
 
 
+@functools.cache
 def _this_source_hash() -> str:
     return hashlib.sha256(Path(__file__).read_bytes()).hexdigest()
 
@@ -372,9 +380,18 @@ def fast_model(system) -> FastModel | None:
     """The specialised module of an RKN-eligible ``system`` (None if not eligible)."""
     from .integrate import rkn_eligibility
     from .codegen import cache_dir
+    cached = system.__dict__.get("_lc_fast_model")
+    if cached is not None:
+        return cached
     ok, _ = rkn_eligibility(system)
     if not ok:
         return None
+    model = _fast_model(system, cache_dir)
+    system.__dict__["_lc_fast_model"] = model
+    return model
+
+
+def _fast_model(system, cache_dir):
     key = hashlib.sha256((_this_source_hash() + system.statement_key()).encode()).hexdigest()[:20]
     if key in _LOADED:
         return _LOADED[key]
@@ -386,7 +403,7 @@ def fast_model(system) -> FastModel | None:
         parts = [_HEADER.format(label=repr(system.name or "a system")), gen]
         for fn in FAST_TEMPLATES:
             src = textwrap.dedent(inspect.getsource(fn))
-            parts.append(f"\n\n@njit(cache=True)\n{src}")
+            parts.append(f"\n\n{_JIT}\n{src}")
         _write(path, "".join(parts))
         _write(meta, f"{nd} {int(has_t)}")
     nd, has_t = (int(x) for x in meta.read_text().split())

@@ -1,0 +1,191 @@
+"""Work–precision on the driven pendulum: what accuracy costs in time (issue 3, point 5).
+
+Problem: ``lagrange_core.problems.driven_pendulum()`` (vertical drive), A = 0.05 m,
+l = 1 m, g = 9.81 m/s², ω = 2π·60 rad/s, from θ = π − 0.1 at rest, for 2000 drive
+periods (33.3 s).  Error = |θ(T) − θ_ref(T)| (rad) at the final time.
+
+Reference: heyoka's Taylor integrator in long double at tol 1e-18, cross-checked
+against our RKN 12 at a fixed step 4x finer than any timed run (the script prints
+the difference and refuses to continue if the two disagree by more than 1e-11; float64 rounding over ~10⁵ steps alone is ~1e-12).
+Without heyoka the reference is our RKN 12 cross-checked with DOP853 at rtol 1e-13.
+
+Each configuration is timed as the best of ``--repeat`` runs (after a warm-up run,
+so compile time is excluded).  Peers: scipy's DOP853, LSODA and Radau (the
+implicit ones get the exact compiled Jacobian) and heyoka (optional: skipped
+cleanly when it is not installed).  Slow peers stop tightening the tolerance
+once a run takes longer than ``--budget`` seconds.
+
+Output: ``benchmarks/results/work_precision.csv`` (one row per run) and a table
+of the time needed to reach each error level (the fastest run whose error is at
+most that level), with the ratio of our best method to heyoka.
+
+Usage::
+
+    python benchmarks/bench_work_precision.py            # full: 2000 periods
+    python benchmarks/bench_work_precision.py --quick    # 200 periods, fewer runs
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from lagrange_core import problems  # noqa: E402
+
+A, L, G = 0.05, 1.0, 9.81
+OMEGA = 2 * math.pi * 60
+THETA0 = math.pi - 0.1
+PARAMS = dict(A=A, g=G, l=L, m=1.0, omega=OMEGA)
+LEVELS = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10]
+
+
+def best_time(fn, repeat):
+    best, out = float("inf"), None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def heyoka_integrator(tol, long_double=False):
+    import heyoka as hy
+    th, v = hy.make_vars("th", "v")
+    rhs = -(G - A * OMEGA**2 * hy.cos(OMEGA * hy.time)) * hy.sin(th) / L
+    if long_double:
+        ld = np.longdouble
+        return hy.taylor_adaptive([(th, v), (v, rhs)], [ld(THETA0), ld(0.0)], tol=ld(tol),
+                                  fp_type=ld)
+    return hy.taylor_adaptive([(th, v), (v, rhs)], [THETA0, 0.0], tol=tol)
+
+
+def have_heyoka():
+    try:
+        import heyoka  # noqa: F401
+        return True
+    except ImportError:
+        return False
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="200 periods, fewer tolerances, 1 repeat")
+    ap.add_argument("--periods", type=int, default=None)
+    ap.add_argument("--repeat", type=int, default=None)
+    ap.add_argument("--budget", type=float, default=None, help="seconds per slow-peer run")
+    args = ap.parse_args(argv)
+    periods = args.periods or (200 if args.quick else 2000)
+    repeat = args.repeat or (1 if args.quick else 3)
+    budget = args.budget or (2.0 if args.quick else 20.0)
+    T = periods * 2 * math.pi / OMEGA
+    system = problems.driven_pendulum()
+    q0, v0 = [THETA0], [0.0]
+
+    def ours(method, **kw):
+        return lambda: system.simulate(q0, v0, (0.0, T), PARAMS, method=method, stride=10**9, **kw)
+
+    # warm-up (compile / load every kernel once)
+    for m in ("rkn12", "rkn12-fixed", "dop853"):
+        system.simulate(q0, v0, (0.0, 0.01), PARAMS, method=m, h=1e-3 if "fixed" in m else None)
+    system.simulate(q0, v0, (0.0, 0.01), PARAMS, method="yoshida6", h=1e-3)
+
+    # reference
+    finest_h = T / (periods * 20) / 4
+    own = system.simulate(q0, v0, (0.0, T), PARAMS, method="rkn12-fixed", h=finest_h,
+                          stride=10**9)
+    if have_heyoka():
+        ta = heyoka_integrator(1e-18, long_double=True)
+        ta.propagate_until(np.longdouble(T))
+        ref = float(ta.state[0])
+        ref_name = "heyoka long double, tol 1e-18"
+    else:
+        ref = float(own.q[-1, 0])
+        ref_name = "rkn12-fixed, h = T/(80 per period)"
+        chk = system.simulate(q0, v0, (0.0, T), PARAMS, method="dop853", rtol=1e-13, atol=1e-13,
+                              stride=10**9)
+        own = chk
+    cross = abs(float(own.q[-1, 0]) - ref)
+    print(f"driven pendulum, {periods} periods (T = {T:.4f} s); reference θ(T) = {ref:.16f} "
+          f"({ref_name}); cross-check difference {cross:.2e}")
+    if cross > 1e-11:
+        raise SystemExit(f"reference and cross-check disagree by {cross:.2e} > 1e-11; not timing.")
+
+    rows = []
+
+    def record(name, tol, seconds, theta, steps, nrhs):
+        err = abs(theta - ref)
+        rows.append(dict(method=name, tol=tol, error=err, time_s=seconds, steps=steps, rhs=nrhs))
+        print(f"  {name:<14} tol {tol:8.1e}  error {err:9.2e}  time {seconds * 1e3:10.2f} ms  "
+              f"steps {steps}")
+
+    tols = [1e-5, 1e-7, 1e-9, 1e-11, 1e-13] if args.quick else \
+        [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13]
+    for method in ("rkn12-fixed", "rkn12", "dop853"):
+        for tol in tols:
+            sec, tr = best_time(ours(method, rtol=tol, atol=tol), repeat)
+            record(method, tol, sec, float(tr.q[-1, 0]), tr.n_steps, tr.n_rhs)
+    for per_period in ([20, 60] if args.quick else [20, 40, 80, 160]):
+        h = T / (periods * per_period)
+        sec, tr = best_time(ours("yoshida6", h=h), repeat)
+        record("yoshida6", h, sec, float(tr.q[-1, 0]), tr.n_steps, tr.n_rhs)
+    if have_heyoka():
+        for tol in ([1e-5, 1e-8, 1e-11, 1e-14] if args.quick else
+                    [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14]):
+            ta = heyoka_integrator(tol)
+
+            def run(ta=ta):
+                ta.time = 0.0
+                ta.state[:] = [THETA0, 0.0]
+                return ta.propagate_until(T)
+            run()
+            sec, res = best_time(run, repeat)
+            record("heyoka", tol, sec, float(ta.state[0]), int(res[3]), -1)
+    else:
+        print("  heyoka not installed: skipped (pip install 'kapitza[bench]')")
+    for name in ("scipy:DOP853", "scipy:LSODA", "scipy:Radau"):
+        for tol in ([1e-4, 1e-6] if args.quick else [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10]):
+            sec, tr = best_time(ours(name, rtol=tol, atol=tol), 1)
+            record(name, tol, sec, float(tr.q[-1, 0]), tr.n_steps, tr.n_rhs)
+            if sec > budget:
+                break
+
+    out_dir = ROOT / "benchmarks" / "results"
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / "work_precision.csv"
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    print(f"\nwrote {path}")
+
+    # time to reach each error level: the fastest run with error ≤ level
+    names = list(dict.fromkeys(r["method"] for r in rows))
+
+    def cost(name, level):
+        ts = [r["time_s"] for r in rows if r["method"] == name and r["error"] <= level]
+        return min(ts) if ts else float("nan")
+
+    ours_names = [n for n in names if n in ("rkn12-fixed", "rkn12", "dop853", "yoshida6")]
+    print("\ntime (ms) to reach |Δθ(T)| ≤ level (fastest run at or below it; '-' = no run did)")
+    head = f"{'level':>8} " + " ".join(f"{n:>13}" for n in names) + "   best ours / heyoka"
+    print(head)
+    for level in LEVELS:
+        vals = [cost(n, level) for n in names]
+        best_ours = min((cost(n, level) for n in ours_names), default=float("nan"))
+        hey = cost("heyoka", level) if "heyoka" in names else float("nan")
+        ratio = best_ours / hey if hey == hey and best_ours == best_ours else float("nan")
+        cells = " ".join(f"{v * 1e3:13.2f}" if v == v else f"{'-':>13}" for v in vals)
+        print(f"{level:8.0e} {cells}   {ratio:8.2f}")
+    return rows
+
+
+if __name__ == "__main__":
+    main()
