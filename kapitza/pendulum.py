@@ -79,3 +79,38 @@ class KapitzaPendulum:
         if self.damping > 0:
             p["gamma"] = self.damping
         return p
+
+    # -- averaging (kapitza.averaging) ------------------------------------------------------
+    def effective_potential(self, theta, A, omega):
+        """Kapitza effective potential per unit mass U_eff(θ)/m (J/kg), first-order averaging.
+
+        Vertical drive: −g l cos θ + A² ω² sin² θ / 4; horizontal: −g l cos θ +
+        A² ω² cos² θ / 4.  Broadcasts over θ (rad), A (m), ω (rad/s).  See
+        :func:`kapitza.averaging.pendulum_effective_potential`.
+        """
+        from .averaging import pendulum_effective_potential
+        return pendulum_effective_potential(theta, A, omega, l=self.l, g=self.g, drive=self.drive)
+
+    def averaged(self, A, omega, order: int = 1, warn: bool = True):
+        """Averaged predictions: equilibria, stability, slow frequencies, validity flags.
+
+        ``A`` (m) and ``omega`` (rad/s) may be arrays (closed forms, numpy speed).
+        ``order=2`` adds the next order (vertical drive).  Returns
+        :class:`kapitza.averaging.PendulumAveraging` with ``.inverted``, ``.hanging``
+        (and ``.tilted`` for the horizontal drive); see
+        :func:`kapitza.averaging.pendulum_averaged` for formulas and accuracy.
+        """
+        from .averaging import pendulum_averaged
+        return pendulum_averaged(A, omega, l=self.l, g=self.g, damping=self.damping,
+                                 drive=self.drive, order=order, warn=warn)
+
+    def stability_window(self, omega, order: int = 2):
+        """Amplitudes A_min < A < A_max that hold the pendulum upright at each ω (vertical drive).
+
+        See :func:`kapitza.averaging.stability_window`.
+        """
+        if self.drive != "vertical":
+            raise ValueError("stability_window is defined for the vertical drive; the "
+                             "horizontally driven pendulum has no stable upright state.")
+        from .averaging import stability_window
+        return stability_window(omega, l=self.l, g=self.g, damping=self.damping, order=order)
