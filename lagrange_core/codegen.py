@@ -216,7 +216,8 @@ def _generator_fingerprint() -> str:
 class _Printer:
     """Renames a system's symbols to kernel locals and prints symengine expressions."""
 
-    def __init__(self, system):
+    def __init__(self, system, cse=True):
+        self.cse = cse
         self.subs = {}
         self.loads = {}
         groups = [("q", "_q", system.q), ("qd", "_v", system.qdot),
@@ -251,7 +252,7 @@ class _Printer:
 
         ``outputs`` is a list of (target string, expression)."""
         exprs = [e if renamed else self.rename(e) for _, e in outputs]
-        replacements, reduced = se.cse(exprs) if exprs else ([], [])
+        replacements, reduced = se.cse(exprs) if exprs and self.cse else ([], exprs)
         lines = []
         for a in arrays:
             lines.extend(self.loads.get(a, []))
@@ -295,11 +296,14 @@ def _table(name, rows, width=None) -> str:
     return f"{name} = np.array({arr.ravel().tolist()!r}, dtype=np.int64).reshape({arr.shape!r})\n"
 
 
-def generate_source(equations) -> str:
-    """Python source of the kernel module for ``equations`` (see the module docstring)."""
+def generate_source(equations, cse: bool = True) -> str:
+    """Python source of the kernel module for ``equations`` (see the module docstring).
+
+    ``cse=False`` prints every term in full (for checking that CSE changes nothing).
+    """
     system = equations.system
     n, m = system.n_dof, system.n_constraints
-    pr = _Printer(system)
+    pr = _Printer(system, cse)
     value = _ValueTable(pr)
 
     def pad3(vec):

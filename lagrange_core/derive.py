@@ -29,6 +29,7 @@ Lagrangian term L' adds its velocity Hessian to M and
 from __future__ import annotations
 
 import functools
+import random
 from dataclasses import dataclass, field
 
 import sympy as sp
@@ -41,6 +42,24 @@ __all__ = ["Equations", "ParticleTerms", "derive"]
 
 def _se(expr):
     return se.sympify(expr)
+
+
+def _is_zero(expr) -> bool:
+    """Whether an expression vanishes identically (cheap symengine expansion, then sympy)."""
+    expr = se.expand(expr)
+    if expr == 0:
+        return True
+    # a value clearly away from zero at a random point settles it without simplification
+    rng = random.Random(len(str(expr)))
+    for _ in range(3):
+        point = {s: rng.uniform(0.3, 1.7) for s in expr.free_symbols}
+        try:
+            value = complex(expr.subs(point))
+        except (TypeError, ValueError, RuntimeError):
+            break
+        if abs(value) > 1e-9:
+            return False
+    return sp.simplify(sp.sympify(expr)) == 0
 
 
 def _symbol_map(system):
@@ -162,7 +181,7 @@ class Equations:
         L = self.lagrangian_se
         out = {}
         for j, (qj, vj) in enumerate(zip(s.q, s.qdot)):
-            if se.diff(L, _se(qj)) != 0:
+            if not _is_zero(se.diff(L, _se(qj))):
                 continue
             if s.forces[j] != 0 or sp.diff(s.dissipation, vj) != 0:
                 continue
@@ -249,7 +268,7 @@ def derive(system: System) -> Equations:
     gamma = [-(sum((se.diff(pd, q[j]) * v[j] for j in range(n)), se.Integer(0)) + se.diff(pd, t))
              for pd in Phi_dot]
 
-    explicit_time = (se.diff(L, t) != 0) or any(se.diff(c, t) != 0 for c in Phi)
+    explicit_time = not _is_zero(se.diff(L, t)) or not all(_is_zero(se.diff(c, t)) for c in Phi)
     return Equations(
         system=system,
         particle_terms=tuple(particle_terms),

@@ -267,7 +267,7 @@ class System:
     def kernels(self):
         """Compiled numba kernels (:class:`lagrange_core.codegen.Kernels`), cached on disk."""
         from .codegen import compile_kernels
-        return compile_kernels(self.equations)
+        return compile_kernels(self)
 
     # -- numerics ---------------------------------------------------------------
     def parameter_array(self, params: Mapping[str, float] | None) -> np.ndarray:

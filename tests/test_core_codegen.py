@@ -1,0 +1,123 @@
+"""Compiled kernels: exactness, the disk cache, and no recompilation on parameter changes."""
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+import sympy as sp
+from numba import njit
+
+import lagrange_core as lc
+from lagrange_core import codegen, problems
+
+PARAMS = dict(m1=1.3, m2=0.7, l1=1.1, l2=0.9, g=9.81)
+
+
+@pytest.fixture(scope="module")
+def double():
+    system = problems.double_pendulum()
+    return system, system.kernels
+
+
+def test_jacobian_is_exact(double):
+    """Complex-step Jacobian against the symbolic derivative of q̈ = M⁻¹F."""
+    system, k = double
+    e = system.equations
+    qdd = e.mass_matrix.LUsolve(e.forcing)
+    y_syms = [*system.q, *system.qdot]
+    J_sym = sp.lambdify([*y_syms, *system.parameter_symbols], qdd.jacobian(y_syms))
+    y = np.array([0.3, -1.2, 0.5, 2.0])
+    p = system.parameter_array(PARAMS)
+    J = np.empty((4, 4))
+    assert k.jacobian(0.0, y, p, J) == 0
+    np.testing.assert_array_equal(J[:2], [[0, 0, 1, 0], [0, 0, 0, 1]])
+    expected = np.array(J_sym(*y, *p), dtype=float)
+    np.testing.assert_allclose(J[2:], expected, rtol=1e-13, atol=1e-13 * np.abs(expected).max())
+
+
+def test_constrained_jacobian_matches_finite_differences():
+    (x, y), _ = lc.coordinates("x y")
+    m, l, g = sp.symbols("m l g", positive=True)
+    system = lc.System([x, y], particles=[lc.Particle(m, (x, y))], potential=m * g * y,
+                       constraints=[x**2 + y**2 - l**2])
+    k = system.kernels
+    p = system.parameter_array(dict(m=1.0, l=1.0, g=9.81))
+    state = np.array([np.sin(0.4), -np.cos(0.4), 0.7 * np.cos(0.4), 0.7 * np.sin(0.4)])
+    J = np.empty((4, 4))
+    assert k.jacobian(0.0, state, p, J) == 0
+    W = k.work_array()
+
+    def f(s):
+        out = np.empty(4)
+        k.rhs(0.0, s, p, out, W)
+        return out
+
+    h = 1e-6
+    J_fd = np.column_stack([(f(state + h * e) - f(state - h * e)) / (2 * h) for e in np.eye(4)])
+    np.testing.assert_allclose(J, J_fd, atol=1e-7)
+
+
+def test_common_subexpression_elimination_changes_nothing(double, tmp_path):
+    system, k = double
+    plain = codegen._load_module(_write(tmp_path, codegen.generate_source(system.equations, cse=False)),
+                                 "lc_test_plain_double")
+    rng = np.random.default_rng(1)
+    p = system.parameter_array(PARAMS)
+    for _ in range(5):
+        y = rng.uniform(-2, 2, 4)
+        a, b = np.empty(4), np.empty(4)
+        k.rhs(0.3, y, p, a, k.work_array())
+        plain.rhs(0.3, y, p, b, plain.new_work())
+        np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-13)
+
+
+def _write(tmp_path, text):
+    path = tmp_path / "lc_test_plain_double.py"
+    path.write_text(text)
+    return path
+
+
+def test_parameter_change_does_not_recompile(double):
+    system, k = double
+    W = k.work_array()
+    out = np.empty(4)
+    before = {name: len(getattr(k, name).signatures) for name in ("rhs", "accelerations")}
+    for g in (1.0, 9.81, 24.8):
+        k.rhs(0.0, np.ones(4), system.parameter_array({**PARAMS, "g": g}), out, W)
+        system.accelerations([0.1, 0.2], [0, 0], 0.0, {**PARAMS, "g": g})
+    assert {name: len(getattr(k, name).signatures) for name in before} == before
+
+
+def test_kernels_are_callable_from_numba_code(double):
+    system, k = double
+    rhs = k.rhs
+
+    @njit
+    def euler(y, p, h, steps):
+        W = np.zeros((8, 3))   # any scratch with at least WORK_SHAPE rows works
+        dy = np.empty_like(y)
+        for _ in range(steps):
+            rhs(0.0, y, p, dy, W)
+            y = y + h * dy
+        return y
+
+    assert k.work_array().shape[1] == 3
+    y = euler(np.array([0.1, 0.0, 0.0, 0.0]), system.parameter_array(PARAMS), 1e-4, 10)
+    assert np.all(np.isfinite(y)) and y[0] < 0.1
+
+
+def test_fresh_process_loads_from_disk_cache_without_deriving(double):
+    """The disk cache is keyed by the statement: a new process neither derives nor compiles."""
+    script = textwrap.dedent("""
+        import json, lagrange_core as lc
+        s = lc.problems.double_pendulum()
+        k = s.kernels
+        print(json.dumps({"derived": "equations" in s.__dict__,
+                          "rhs_hits": sum(k.rhs.stats.cache_hits.values()),
+                          "rhs_misses": sum(k.rhs.stats.cache_misses.values())}))
+    """)
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
+    import json
+    info = json.loads(out.stdout.strip().splitlines()[-1])
+    assert info == {"derived": False, "rhs_hits": 1, "rhs_misses": 0}
