@@ -139,6 +139,8 @@ def fourier_split(expr, omega, time=t_symbol) -> dict[int, tuple[sp.Expr, sp.Exp
     e = sp.expand(e, power_exp=True, mul=True, multinomial=True, power_base=False, log=False)
     coeffs: dict[int, sp.Expr] = {}
     for term in sp.Add.make_args(e):
+        if term == 0:
+            continue
         coef, dep = term.as_independent(phase, as_Add=False)
         exponent = sp.S.Zero
         for factor in sp.Mul.make_args(dep):
@@ -816,18 +818,29 @@ def effective(q, p, G, H):
             H[a, b] = Uh[a, b]
     for k in range(N_FAST):
         x = _solve(M, f[k].reshape(n, 1))[:, 0]
-        value += w[k] * np.dot(f[k], x)
+        fx = 0.0
+        for i in range(n):
+            fx += f[k, i] * x[i]
+        value += w[k] * fx
         Y = np.empty((n, n))
         for a in range(n):
-            Mx = Mg[a] @ x
-            G[a] += w[k] * (2.0 * np.dot(fg[k, :, a], x) - np.dot(x, Mx))
+            # y_a = f_a − M_a x;  gradient term 2 f_a·x − x·M_a x
+            g = 0.0
             for i in range(n):
-                Y[i, a] = fg[k, i, a] - Mx[i]
+                Mx = 0.0
+                for j in range(n):
+                    Mx += Mg[a, i, j] * x[j]
+                g += 2.0 * fg[k, i, a] * x[i] - x[i] * Mx
+                Y[i, a] = fg[k, i, a] - Mx
+            G[a] += w[k] * g
         Z = _solve(M, Y)
         for a in range(n):
             for b in range(n):
-                s = 2.0 * np.dot(fh[k, :, a, b], x) + 2.0 * np.dot(Y[:, a], Z[:, b])
-                s -= np.dot(x, Mh[a, b] @ x)
+                s = 0.0
+                for i in range(n):
+                    s += 2.0 * fh[k, i, a, b] * x[i] + 2.0 * Y[i, a] * Z[i, b]
+                    for j in range(n):
+                        s -= x[i] * Mh[a, b, i, j] * x[j]
                 H[a, b] += w[k] * s
     return value
 '''
@@ -956,7 +969,10 @@ class EquilibriumPrediction:
     Attributes
     ----------
     name : str
-        "hanging", "inverted", "tilted+" or "tilted-".
+        "hanging", "inverted", "tilted+" or "tilted-".  The tilted pair is, for the
+        vertical drive, the unstable maxima of U_eff at cos θ = −2 g l/(A² ω²)
+        (present when the upright is stable; first order at any ``order``); for
+        the horizontal drive, the stable tilted minima at cos θ* = 2 g l/(A² ω²).
     theta : array
         Angle from the downward vertical (rad); NaN where it does not exist.
     exists : bool array
@@ -1041,13 +1057,14 @@ class PendulumAveraging:
 
     @property
     def tilted(self) -> EquilibriumPrediction:
-        """The tilted equilibrium θ* > 0 of the horizontal drive (−θ* is its mirror)."""
+        """The tilted equilibrium θ* > 0 (−θ* is its mirror; see EquilibriumPrediction.name)."""
         return self["tilted+"]
 
     @property
     def valid(self):
-        """All equilibria's predictions valid (per point)."""
-        return _item(np.logical_and.reduce([np.asarray(e.valid) for e in self.equilibria]))
+        """The predictions for every existing equilibrium are valid (per point)."""
+        return _item(np.logical_and.reduce([np.asarray(e.valid) | ~np.asarray(e.exists)
+                                            for e in self.equilibria]))
 
     def to_dataframe(self) -> pd.DataFrame:
         """One row per (A, ω) point and equilibrium."""
@@ -1157,6 +1174,16 @@ def pendulum_averaged(A, omega, *, l=1.0, g=9.81, damping=0.0, drive="vertical",
                        if order == 1 else np.full_like(a, np.nan))
                 err = np.where((w2[1] > 0) & (w2[2] > 0), err, np.nan)
             finish(name, np.full_like(A, theta), np.ones_like(A, bool), w2[order], w2d, stable, err)
+        # the maxima of U_eff between them, cos θ = −2gl/(A²ω²), exist when the upright is
+        # stable (first order at any ``order``): the separatrix of the slow motion
+        with np.errstate(divide="ignore", invalid="ignore"):
+            c = np.where(vib > 0, -w02 / np.where(vib > 0, vib, 1.0), -np.inf)
+        exists = c > -1
+        ts = np.arccos(np.clip(c, -1, 1))
+        w2 = -vib * np.sin(ts) ** 2
+        for name, sgn in (("tilted+", 1.0), ("tilted-", -1.0)):
+            finish(name, sgn * ts, exists, w2, w2 - gam**2 / 4, np.zeros_like(exists),
+                   np.full_like(A, np.nan))
     else:
         nan = np.full_like(A, np.nan)
         for name, theta, w2 in (("hanging", 0.0, w02 - vib), ("inverted", math.pi, -w02 - vib)):
