@@ -333,6 +333,8 @@ def dop853_chunk(y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adaptive, m
                 ev_t[k] = t + x_root[e] * hs
                 ev_k[k] = e
                 dop853_dense_eval(Fd, y, x_root[e], ytmp)
+                if m > 0:
+                    project_constraints(ytmp, ev_t[k], p, W, P, res)
                 for i in range(n2):
                     ev_y[k, i] = ytmp[i]
                 stats[6] += 1
@@ -349,11 +351,13 @@ def dop853_chunk(y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adaptive, m
                     have_dense = True
                 if t_eval[ie] == t + hs and not fired:
                     for i in range(n2):
-                        yout[ie, i] = ynew[i]
+                        ytmp[i] = ynew[i]
                 else:
                     dop853_dense_eval(Fd, y, (t_eval[ie] - t) / hs, ytmp)
-                    for i in range(n2):
-                        yout[ie, i] = ytmp[i]
+                if m > 0:   # the step and its interpolant drift off Φ = 0 by ~ the tolerance
+                    project_constraints(ytmp, t_eval[ie], p, W, P, res)
+                for i in range(n2):
+                    yout[ie, i] = ytmp[i]
                 tout[ie] = t_eval[ie]
                 ie += 1
             stats[5] = ie
