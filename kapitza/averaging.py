@@ -57,6 +57,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import importlib.util
+import inspect
 import itertools
 import math
 import os
@@ -189,8 +190,13 @@ def fourier_split(expr, omega, time=t_symbol) -> dict[int, tuple[sp.Expr, sp.Exp
 # General averaging
 # ======================================================================================
 
+@functools.cache
 def _source_hash() -> str:
-    return hashlib.sha256(Path(__file__).read_bytes()).hexdigest()
+    """Hash of the code that generates the averaging kernels (not of the whole module, so
+    that unrelated edits keep the disk cache)."""
+    parts = [inspect.getsource(AveragedSystem._generate_source), inspect.getsource(_Printer),
+             inspect.getsource(_function), _FIXED_SOURCE, repr(sorted(_ALLOWED))]
+    return hashlib.sha256("".join(parts).encode()).hexdigest()
 
 
 def average(system: System, omega: str = "omega") -> "AveragedSystem":
@@ -405,7 +411,8 @@ class AveragedSystem:
         total = self.slow_potential
         for k, _, f in self.fast_forces:
             x = M.LUsolve(f)
-            total += sp.simplify((f.T * x)[0]) / (4 * k ** 2 * self.omega ** 2)
+            total += (f.T * x)[0] / (4 * k ** 2 * self.omega ** 2)
+        # simplification pays for one coordinate; for more it costs seconds and rarely helps
         return sp.simplify(total) if self.system.n_dof == 1 else total
 
     def _check_conservative(self):
@@ -660,6 +667,54 @@ class AveragedSystem:
             warnings.warn(f"averaging about {modes.about.tolist()}: " + "; ".join(reasons),
                           AveragingValidityWarning, stacklevel=2)
         return modes
+
+    def minimum_amplitude(self, params, about, amplitude: str = "A", upper: float = None) -> float:
+        """The smallest value of the parameter ``amplitude`` that makes ``about`` stable.
+
+        Bisects (brentq) the smallest Ω² of the averaged linearisation about
+        ``about`` in the parameter named ``amplitude`` at the other values in
+        ``params``; ``about`` must be an equilibrium for every amplitude (e.g.
+        the upright chain).  First-order averaging, so the value has a relative
+        error O(ε²) (see the module docstring); for the N-link pendulum on a
+        vertical pivot it is √2 g / (ω ω_min) (:func:`multiple_pendulum_upright`).
+
+        Parameters
+        ----------
+        upper : float, optional
+            Upper end of the search (default: doubled from 1e-6 × the other
+            lengths until stable, at most 60 times).
+
+        Raises
+        ------
+        ValueError
+            If ``amplitude`` is not a parameter or no stabilising value is found.
+        """
+        if amplitude not in self.system.parameters:
+            raise ValueError(f"{amplitude!r} is not a parameter; the parameters are "
+                             f"{list(self.system.parameters)}.")
+        base = dict(params)
+
+        def lowest(x):
+            base[amplitude] = x
+            return float(self.slow_modes(base, about, warn=False).omega_squared[0])
+
+        lo = 0.0
+        if lowest(lo) > 0:
+            return 0.0
+        hi = upper if upper is not None else 1e-6
+        for _ in range(60):
+            if lowest(hi) > 0:
+                break
+            if upper is not None:
+                hi = None
+                break
+            lo, hi = hi, 2 * hi
+        else:
+            hi = None
+        if hi is None:
+            raise ValueError(f"no value of {amplitude!r} up to the search limit makes "
+                             f"{list(np.atleast_1d(about))} stable in first-order averaging.")
+        return float(scipy.optimize.brentq(lowest, lo, hi, xtol=1e-14, rtol=1e-12))
 
     def predict(self, params, guesses=None, warn: bool = True) -> AveragingPrediction:
         """All equilibria (see :meth:`equilibria`) with their slow modes."""

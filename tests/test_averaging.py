@@ -370,6 +370,10 @@ def test_double_pendulum_closed_form(chain2):
     np.testing.assert_allclose(modes.omega_squared, closed, rtol=1e-10)
     np.testing.assert_allclose(av.multiple_pendulum_upright([1, 1], [L, L], A=A, omega=w)
                                .omega_squared, closed, rtol=1e-10)
+    # the minimum drive found by the general code: A ω = √((2 + √2) g l)
+    A_min = av.average(chain2).minimum_amplitude(
+        {"omega": w, "g": G, "l1": L, "l2": L, "m1": 1.0, "m2": 1.0}, [math.pi, math.pi])
+    assert A_min * w == pytest.approx(math.sqrt((2 + math.sqrt(2)) * G * L), rel=1e-9)
 
 
 def test_acheson_theorem_general_chain_matches_general_code():
