@@ -16,6 +16,8 @@ import functools
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from lagrange_core import problems
 
 __all__ = ["KapitzaPendulum"]
@@ -104,13 +106,86 @@ class KapitzaPendulum:
         return pendulum_averaged(A, omega, l=self.l, g=self.g, damping=self.damping,
                                  drive=self.drive, order=order, warn=warn)
 
-    def stability_window(self, omega, order: int = 2):
-        """Amplitudes A_min < A < A_max that hold the pendulum upright at each ω (vertical drive).
+    def stability_window(self, omega, about: str = "inverted", tol: float = 1e-10, *,
+                         method: str = "floquet", order: int = 2):
+        """Amplitudes A_min < A < A_max that stabilise the pendulum at each ω (vertical drive).
 
-        See :func:`kapitza.averaging.stability_window`.
+        method="floquet" (default): exact, by root-finding on the Floquet condition
+        (characteristic curves a0, b1 of the Mathieu equation; with damping
+        |tr M| = 1 + e^(−γT)) to relative accuracy ``tol``; returns a
+        :class:`kapitza.floquet.FloquetWindow` with the certified accuracy.  See
+        :func:`kapitza.mathieu.pendulum_stability_window`.
+
+        method="averaging": the averaging prediction of order ``order`` (inverted
+        only); see :func:`kapitza.averaging.stability_window`.
         """
         if self.drive != "vertical":
             raise ValueError("stability_window is defined for the vertical drive; the "
                              "horizontally driven pendulum has no stable upright state.")
-        from .averaging import stability_window
-        return stability_window(omega, l=self.l, g=self.g, damping=self.damping, order=order)
+        if method == "averaging":
+            from .averaging import stability_window
+            return stability_window(omega, l=self.l, g=self.g, damping=self.damping, order=order)
+        if method != "floquet":
+            raise ValueError(f"method must be 'floquet' or 'averaging', got {method!r}.")
+        from .floquet import FloquetWindow
+        from .mathieu import pendulum_stability_window
+        w = np.atleast_1d(np.asarray(omega, dtype=float))
+        Amin, Amax, acc = pendulum_stability_window(w, l=self.l, g=self.g, gamma=self.damping,
+                                                    about=about, tol=tol)
+        return FloquetWindow(omega=w, A_min=Amin, A_max=Amax, accuracy=acc, about=about,
+                             tol=tol)
+
+    # -- Floquet (kapitza.floquet, kapitza.mathieu) ---------------------------------------
+    def _equilibrium(self, about):
+        if self.drive != "vertical":
+            raise ValueError("Floquet analysis needs an equilibrium that persists under the "
+                             "drive; with the horizontal drive neither θ = 0 nor θ = π does. "
+                             "Use drive='vertical'.")
+        if about == "inverted":
+            return [math.pi]
+        if about == "hanging":
+            return [0.0]
+        raise ValueError(f"about must be 'inverted' (θ = π) or 'hanging' (θ = 0), got {about!r}.")
+
+    def floquet(self, A: float, omega: float, about: str = "inverted", tol: float = 1e-10):
+        """Floquet analysis of the linearised pendulum about θ = π or θ = 0 (vertical drive).
+
+        Integrates the monodromy of the system's exact Jacobian over one drive
+        period (:func:`kapitza.floquet.floquet`) to relative accuracy ``tol``.
+
+        Returns
+        -------
+        kapitza.floquet.FloquetResult
+            ``trace``, ``multipliers``, ``stable``, ``omega_slow`` (rad/s; the exact
+            linear slow frequency: cos(πβ) = tr M e^(γT/2)/2, Ω = βω/2), guards.
+        """
+        from .floquet import floquet
+        q = self._equilibrium(about)
+        for name, v in (("A", A), ("omega", omega)):
+            if np.ndim(v) != 0 or not np.isfinite(v):
+                raise ValueError(f"{name} must be a finite scalar, got {v!r}; use "
+                                 "stability_map for grids.")
+        if A < 0 or omega <= 0:
+            raise ValueError(f"need A ≥ 0 (m) and omega > 0 (rad/s), got A={A}, omega={omega}.")
+        return floquet(self.system, self.params(float(A), float(omega)), q, tol=tol)
+
+    def stability_map(self, A, omega, about: str = "inverted", *, trace: bool = False,
+                      tol: float = 1e-10):
+        """Stability of θ = π (or θ = 0) over the grid A × ω (vertical drive).
+
+        Undamped: characteristic values of the Mathieu equation once per A and a
+        comparison for every ω (the whole grid in milliseconds; boundaries exact
+        to ≈ 1e-15 relative); damped or ``trace=True``: the monodromy trace at
+        every point to ``tol``.  See :func:`kapitza.mathieu.pendulum_stability_map`.
+
+        Returns
+        -------
+        kapitza.floquet.StabilityMap
+            axes A (m), omega (rad/s); ``stable``, ``label`` / ``boundary`` (period
+            T or 2T bounds each unstable region), ``trace``, ``log_growth``;
+            ``to_dataframe()``, ``figure()`` (with the averaging prediction).
+        """
+        from .mathieu import pendulum_stability_map
+        self._equilibrium(about)
+        return pendulum_stability_map(A, omega, l=self.l, g=self.g, gamma=self.damping,
+                                      about=about, trace=trace, tol=tol)

@@ -1,0 +1,909 @@
+"""Floquet analysis of a lagrange_core system linearised about a driven equilibrium.
+
+The linear time-periodic system
+-------------------------------
+Let y* = [q*, 0] be a state that persists under the drive (q̈ = 0 with q̇ = 0 at
+all t, e.g. the inverted pendulum θ = π).  Small deviations obey
+
+    x′ = J(t) x,    J(t) = ∂(dy/dt)/∂y at (t, y*),    J(t + T) = J(t),
+
+with J from the system's exact compiled ``jacobian`` kernel (no finite
+differences) and T = 2π/ω the drive period.  For a mechanical system J has the
+block form [[0, I], [J_q(t), J_v(t)]]; the monodromy M = X(T) (X′ = J X,
+X(0) = I, 2n × 2n) decides stability: the equilibrium is (linearly,
+asymptotically) stable when every multiplier λ (eigenvalue of M) has |λ| < 1,
+and, for an undamped system, when all lie on the unit circle.
+
+How M is computed (and how accurate it is)
+------------------------------------------
+1. J is sampled at equally spaced times of one period with the system's kernel
+   (a kernel template bound per system, looping over the parameter grid in
+   numba) and expanded in a trigonometric series.  The harmonic content is
+   probed at a few grid points with 16, 32, ... samples until the upper half
+   of the spectrum is at rounding level; every point is then sampled with the
+   fewest samples that carry it (4 for a pivot drive A cos ωt, where J is
+   exactly affine in cos ωt) and its Nyquist harmonic re-checked.
+2. X′ = J(t) X is integrated over one period by a Taylor series method of
+   order ``order`` (16): the Taylor coefficients of J follow exactly from its
+   Fourier series, those of X from the recurrence (m+1) X_(m+1) = Σ J_j X_(m−j),
+   and each step is as long as the last two series terms allow for the
+   tolerance; their sum over the steps is the reported error estimate
+   (relative to max(1, ‖M‖) in the balanced variables (q, dq/d(ωt)), in which
+   the integration runs over s = ωt ∈ [0, 2π]).  This "truncation order + step from the
+   tolerance" control is what makes grids fast: a handful of steps per period.
+   A reversible system (J even in t with no velocity block: undamped, drive
+   ∝ cos ωt) integrates only half a period, M = P X(T/2)⁻¹ P X(T/2),
+   P = diag(I, −I).
+3. X is renormalised when it grows past 1e150 and the logarithm of the scale
+   is kept, so multipliers of 1e100 or 1e1000 per period are reported as
+   log|λ| without overflow.
+
+Accuracy guards
+---------------
+* Liouville: det M = exp(∮ tr J dt) (tr J = −γ for the damped pendulum, so
+  det M = e^(−γT)); ∮ tr J dt is exact from the Fourier mean of J.
+* Undamped (∮ tr J dt = 0) Lagrangian systems have a symplectic monodromy: the
+  characteristic polynomial is palindromic (multipliers in pairs λ, 1/λ).
+A result whose residual exceeds ``guard_tol`` (or, for very large growth, the
+rounding floor ≈ 1e-13·max|λ|/min|λ|) is flagged in ``FloquetResult.flags``.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit, prange
+
+__all__ = ["FloquetResult", "StabilityMap", "FloquetWindow", "floquet", "floquet_grid",
+           "stability_map", "monodromy_data"]
+
+# -- kernel template: J(t) samples over a parameter grid -------------------------------
+
+KERNEL_IMPORTS = "from numba import prange\n"
+KERNEL_JIT_OPTIONS = {"floquet_sample_jacobian": "parallel=True"}
+
+
+def floquet_sample_jacobian(P, ystar, T, n_samples, out, status):
+    """out[i, k] = J(k T[i] / n_samples, ystar, P[i]) for every grid point i."""
+    npts = P.shape[0]
+    d = ystar.size
+    for i in prange(npts):
+        J = np.empty((d, d))
+        st = 0
+        for k in range(n_samples):
+            st = max(st, jacobian(k * T[i] / n_samples, ystar, P[i], J))
+            for r in range(d):
+                for c in range(d):
+                    out[i, k, r, c] = J[r, c]
+        status[i] = st
+
+
+KERNEL_TEMPLATES = [floquet_sample_jacobian]
+
+
+# -- monodromy from the Fourier series of the lower block L(t) = [J_q, J_v] ------------
+
+@njit(cache=True)
+def _taylor_period(C, S, K, omega, t_end, tol, order, X, work, coef, reversible):
+    """X = fundamental matrix at t_end by a Taylor series method.
+
+    Returns (log scale, error estimate, steps).  At each step t0 the Taylor
+    coefficients of L(t0 + τ) = C0 + Σ_k C_k cos kω(t0+τ) + S_k sin kω(t0+τ) are
+    exact, and those of X follow from (m+1) X_(m+1) = Σ_j J_j X_(m−j); the
+    harmonic sums are formed first (Y_k = Σ_j c_jk X_(m−j)) so each order costs
+    one small product per harmonic.  The step h is chosen from the last two
+    coefficients so that their terms ‖X_m‖ h^m stay below tol/10 relative to
+    ‖X(t0)‖ (Jorba & Zou, Exp. Math. 14 (2005) 99); the sum of these tail terms
+    over the steps is the returned error estimate.  ``reversible``: no sine
+    terms and no velocity block (only the position rows of X enter).
+    """
+    d = X.shape[0]
+    n = d // 2
+    p = order
+    nc = n if reversible else d          # columns of L that can be non-zero
+    Y = np.empty((nc, d))
+    L0 = np.empty((n, d))
+    for r in range(d):
+        for c in range(d):
+            X[r, c] = 1.0 if r == c else 0.0
+    logscale = 0.0
+    err = 0.0
+    t0 = 0.0
+    nsteps = 0
+    while t0 < t_end * (1.0 - 1e-15):
+        nsteps += 1
+        # coef[k, m, 0/1]: Taylor coefficient m of cos / sin (kω(t0 + τ)); L0 = L(t0)
+        for r in range(n):
+            for c in range(d):
+                L0[r, c] = C[0, r, c]
+        for k in range(1, K + 1):
+            u = k * omega
+            cph = math.cos(u * t0)
+            sph = math.sin(u * t0)
+            f = 1.0
+            for m in range(p + 1):
+                if m > 0:
+                    f *= u / m
+                q = m % 4
+                coef[k, m, 0] = f * (cph if q == 0 else (-sph if q == 1 else (-cph if q == 2 else sph)))
+                coef[k, m, 1] = f * (sph if q == 0 else (cph if q == 1 else (-sph if q == 2 else -cph)))
+            for r in range(n):
+                for c in range(d):
+                    L0[r, c] += C[k, r, c] * cph + S[k, r, c] * sph
+        for r in range(d):
+            for c in range(d):
+                work[0, r, c] = X[r, c]
+        for m in range(p):
+            inv = 1.0 / (m + 1)
+            for r in range(n):
+                for c in range(d):
+                    work[m + 1, r, c] = work[m, n + r, c] * inv
+                    s = 0.0
+                    for k2 in range(nc):
+                        s += L0[r, k2] * work[m, k2, c]
+                    work[m + 1, n + r, c] = s
+            for k in range(1, K + 1):
+                for part in range(1 if reversible else 2):
+                    for r in range(nc):
+                        for c in range(d):
+                            Y[r, c] = 0.0
+                    for j in range(1, m + 1):
+                        cj = coef[k, j, part]
+                        for r in range(nc):
+                            for c in range(d):
+                                Y[r, c] += cj * work[m - j, r, c]
+                    for r in range(n):
+                        for c in range(d):
+                            s = 0.0
+                            for k2 in range(nc):
+                                s += (C[k, r, k2] if part == 0 else S[k, r, k2]) * Y[k2, c]
+                            work[m + 1, n + r, c] += s
+            for r in range(n):
+                for c in range(d):
+                    work[m + 1, n + r, c] *= inv
+        ref = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        for r in range(d):
+            for c in range(d):
+                ref = max(ref, abs(X[r, c]))
+                a1 = max(a1, abs(work[p - 1, r, c]))
+                a2 = max(a2, abs(work[p, r, c]))
+        target = 0.1 * tol * ref
+        h = t_end - t0
+        if a1 > 0.0:
+            h = min(h, (target / a1) ** (1.0 / (p - 1)))
+        if a2 > 0.0:
+            h = min(h, (target / a2) ** (1.0 / p))
+        # Horner: X(t0 + h) = Σ X_m h^m
+        for r in range(d):
+            for c in range(d):
+                s = work[p, r, c]
+                for m in range(p - 1, -1, -1):
+                    s = s * h + work[m, r, c]
+                X[r, c] = s
+        err += (a1 * h ** (p - 1) + a2 * h ** p) / max(ref, 1e-300)
+        t0 += h
+        big = 0.0
+        for r in range(d):
+            for c in range(d):
+                big = max(big, abs(X[r, c]))
+        if big > 1e150:
+            for r in range(d):
+                for c in range(d):
+                    X[r, c] /= big
+            logscale += math.log(big)
+    return logscale, err, nsteps
+
+
+@njit(cache=True)
+def _period_map(C, S, K, omega, T, tol, order, X, work, coef, half):
+    """Monodromy into X by the Taylor method; returns (log scale, error estimate).
+
+    ``half``: J is even in t and has no velocity block (a reversible undamped
+    system), so X(−t) = P X(t) P with P = diag(I, −I) and M = P X(T/2)⁻¹ P X(T/2):
+    half the integration (not used once X(T/2) needs rescaling).
+    """
+    d = X.shape[0]
+    n = d // 2
+    if half:
+        ls, err, ns = _taylor_period(C, S, K, omega, 0.5 * T, tol, order, X, work, coef, True)
+        if ls == 0.0:
+            PX = X.copy()
+            for r in range(n, d):
+                for c in range(d):
+                    PX[r, c] = -PX[r, c]
+            Xinv = np.linalg.inv(X)
+            nx = 0.0
+            ni = 0.0
+            for r in range(d):
+                for c in range(d):
+                    nx = max(nx, abs(X[r, c]))
+                    ni = max(ni, abs(Xinv[r, c]))
+            Y = Xinv @ PX
+            for r in range(d):
+                for c in range(d):
+                    X[r, c] = -Y[r, c] if r >= n else Y[r, c]
+            # M = P X⁻¹ P X: relative errors of X enter twice, amplified by the condition
+            return 0.0, 2.0 * err * max(1.0, nx * ni), 2 * ns
+    return _taylor_period(C, S, K, omega, T, tol, order, X, work, coef, False)
+
+
+@njit(cache=True, parallel=True)
+def _monodromy_grid(C, S, K, omega, T, tol, order, half, M, logscale, error, steps):
+    """Monodromy to tolerance for every grid point (Taylor method, see _taylor_period)."""
+    npts = C.shape[0]
+    d = M.shape[1]
+    for i in prange(npts):
+        work = np.empty((order + 1, d, d))
+        coef = np.empty((K + 1, order + 1, 2))
+        X = np.empty((d, d))
+        ls, err, ns = _period_map(C[i], S[i], K, omega[i], T[i], tol, order, X, work, coef, half)
+        M[i] = X
+        logscale[i] = ls
+        error[i] = err
+        steps[i] = ns
+
+
+# -- results ---------------------------------------------------------------------------
+
+_LABELS = ("stable", "T", "2T", "complex")
+
+
+@dataclass(frozen=True)
+class FloquetResult:
+    """Floquet analysis of one linear time-periodic system x′ = J(t) x.
+
+    Attributes
+    ----------
+    period : float
+        Drive period T = 2π/ω (s).
+    monodromy_scaled : ndarray (2n, 2n)
+        M e^(−log_scale); M itself is :attr:`monodromy` (inf where it overflows).
+    log_scale : float
+        log of the factor divided out of M (0 unless M would exceed 1e150).
+    multipliers : ndarray, complex (2n)
+        Floquet multipliers λ (eigenvalues of M) by decreasing modulus; ±inf if
+        |λ| overflows a float (see :attr:`log_abs_multipliers`).
+    log_abs_multipliers : ndarray (2n)
+        log|λ|, finite even for astronomically large growth.
+    trace : float
+        tr M (±inf if beyond float range).
+    stable : bool
+        Linear stability: all |λ| < 1 (damped), all |λ| = 1 within the error
+        estimate (undamped).  2 × 2: Jury's test |tr M| ≤ 1 + det M with the
+        exact det; 4 × 4 undamped: both λ + 1/λ real in [−2, 2].
+    omega_slow : ndarray
+        Slow angular frequencies (rad/s) of the stable solutions, arg(λ)/T ∈
+        [0, ω/2], one per pair of multipliers (NaN if unstable).  For the
+        pendulum cos(πβ) = tr M e^(γT/2)/2 and Ω = βω/2: the exact linear value
+        that first-order averaging approximates.
+    exponents : ndarray, complex (2n)
+        Floquet exponents μ = log λ / T (1/s); the real part is the growth rate.
+    boundary : str
+        "stable", or the kind of instability: "T" (real multiplier > 1: the
+        region is bounded by period-T solutions), "2T" (real < −1: period 2T),
+        "complex" (a complex quadruplet leaves the unit circle).
+    error_estimate : float
+        Estimated error of M relative to max(1, ‖M‖).
+    steps, samples : int
+        Taylor steps per period; samples of J per period.
+    liouville_residual : float
+        |det M / exp(∮ tr J dt) − 1|.
+    pairing_residual : float
+        max |c_k − c_{2n−k}| of the characteristic polynomial (relative); NaN
+        for damped systems (no λ, 1/λ symmetry) or huge growth.
+    flags : tuple of str
+        Accuracy warnings; empty when every guard passed.
+    """
+
+    period: float
+    monodromy_scaled: np.ndarray
+    log_scale: float
+    multipliers: np.ndarray
+    log_abs_multipliers: np.ndarray
+    trace: float
+    stable: bool
+    omega_slow: np.ndarray
+    exponents: np.ndarray
+    boundary: str
+    error_estimate: float
+    steps: int
+    samples: int
+    liouville_residual: float
+    pairing_residual: float
+    flags: tuple = field(default=())
+
+    @property
+    def monodromy(self) -> np.ndarray:
+        """M (entries ±inf if beyond float range; use monodromy_scaled and log_scale)."""
+        if self.log_scale > 700:
+            with np.errstate(over="ignore", invalid="ignore"):
+                return self.monodromy_scaled * np.inf
+        return self.monodromy_scaled * math.exp(self.log_scale)
+
+    @property
+    def log_growth(self) -> float:
+        """max log|λ| per period (> 0 unstable); the growth rate is log_growth / period."""
+        return float(self.log_abs_multipliers[0])
+
+    def to_dataframe(self):
+        """One row per multiplier: λ, |λ|, log|λ|, exponent."""
+        import pandas as pd
+        return pd.DataFrame({"multiplier": self.multipliers,
+                             "abs": np.abs(self.multipliers),
+                             "log_abs": self.log_abs_multipliers,
+                             "exponent": self.exponents,
+                             "stable": self.stable, "boundary": self.boundary})
+
+
+@dataclass(frozen=True)
+class StabilityMap:
+    """Stability of a driven equilibrium over an (A, ω) grid.
+
+    Attributes
+    ----------
+    A, omega : ndarray
+        Grid axes: drive amplitude (m) and angular frequency (rad/s).
+    stable : bool ndarray (len(A), len(omega))
+    label : int8 ndarray (len(A), len(omega))
+        0 stable; 1 unstable in a region bounded by period-T solutions
+        (multiplier +1); 2 bounded by period-2T solutions (multiplier −1);
+        3 complex multipliers (combination resonance).
+    trace : ndarray or None
+        tr M per point (None when computed from characteristic values only).
+    log_growth : ndarray or None
+        max log|λ| per period (None as above).
+    error_estimate : float
+        Largest error estimate over the grid: of M (relative) for integration,
+        of the boundaries (relative, in a) for characteristic values.
+    about : str
+        The equilibrium.
+    method : str
+        "characteristic values" or "monodromy".
+    meta : dict
+        Fixed parameters, l and g for the averaging overlay, timing, flags.
+    """
+
+    A: np.ndarray
+    omega: np.ndarray
+    stable: np.ndarray
+    label: np.ndarray
+    trace: np.ndarray | None
+    log_growth: np.ndarray | None
+    error_estimate: float
+    about: str
+    method: str
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def boundary(self) -> np.ndarray:
+        """Label names per point: "stable", "T", "2T" or "complex"."""
+        return np.asarray(_LABELS, dtype=object)[self.label]
+
+    def to_dataframe(self):
+        """Long format: one row per grid point (A, omega, stable, boundary, trace, log_growth)."""
+        import pandas as pd
+        AA, WW = np.meshgrid(self.A, self.omega, indexing="ij")
+        data = {"A": AA.ravel(), "omega": WW.ravel(), "stable": self.stable.ravel(),
+                "boundary": self.boundary.ravel()}
+        if self.trace is not None:
+            data["trace"] = self.trace.ravel()
+        if self.log_growth is not None:
+            data["log_growth"] = self.log_growth.ravel()
+        return pd.DataFrame(data)
+
+    def figure(self, **kwargs):
+        """Matplotlib Figure of the map with the averaging prediction (:mod:`kapitza.plots`)."""
+        from .plots import stability_map_figure
+        return stability_map_figure(self, **kwargs)
+
+
+@dataclass(frozen=True)
+class FloquetWindow:
+    """Drive amplitudes A_min < A < A_max that stabilise an equilibrium, per ω (exact).
+
+    Attributes
+    ----------
+    omega : ndarray
+        Drive angular frequencies (rad/s).
+    A_min, A_max : ndarray
+        Window edges (m); NaN where there is no window.
+    accuracy : ndarray
+        Certified relative accuracy of the edges: the Floquet condition changes
+        sign across A·(1 ± accuracy).
+    about : str
+    tol : float
+        The requested relative accuracy.
+    """
+
+    omega: np.ndarray
+    A_min: np.ndarray
+    A_max: np.ndarray
+    accuracy: np.ndarray
+    about: str
+    tol: float
+
+    def to_dataframe(self):
+        """One row per ω: omega, A_min, A_max, accuracy."""
+        import pandas as pd
+        return pd.DataFrame({"omega": self.omega, "A_min": self.A_min, "A_max": self.A_max,
+                             "accuracy": self.accuracy})
+
+
+# -- drivers ---------------------------------------------------------------------------
+
+def _check_system(system):
+    if system.n_constraints:
+        raise ValueError(
+            f"Floquet analysis needs independent coordinates; {system!r} has "
+            f"{system.n_constraints} constraint(s). State it in minimal coordinates.")
+
+
+def _equilibrium_state(system, about):
+    if about is None:
+        raise ValueError("pass the driven equilibrium as `about` (coordinates, e.g. "
+                         "{'theta': np.pi}); velocities are zero.")
+    q = system.coordinate_array(about, "about")
+    return np.concatenate([q, np.zeros(system.n_dof)])
+
+
+def _check_persists(system, kernels, P, ystar, T, idx):
+    """Raise unless q̈ = 0 at y* through the period (checked at a few grid points)."""
+    n = system.n_dof
+    dydt = np.empty(2 * n)
+    W = kernels.work_array()
+    J = np.empty((2 * n, 2 * n))
+    for i in idx:
+        for k in range(8):
+            t = k * T[i] / 8
+            kernels.rhs(t, ystar, P[i], dydt, W)
+            kernels.jacobian(t, ystar, P[i], J)
+            scale = max(1.0, float(np.max(np.abs(J))))
+            if not np.all(np.abs(dydt) <= 1e-9 * scale):
+                raise ValueError(
+                    f"the state q = {ystar[:n].tolist()} does not persist under the drive: q̈ = "
+                    f"{dydt[n:].tolist()} at t = {t:.4g} s. Floquet analysis needs an "
+                    "equilibrium of the driven system (e.g. the inverted pendulum θ = π for a "
+                    "vertical drive).")
+
+
+def _sample(bound, P, ystar, T, M):
+    """FFT over one period of M samples of J's lower block, its scale, and its tail."""
+    npts = P.shape[0]
+    d = ystar.size
+    n = d // 2
+    out = np.empty((npts, M, d, d))
+    status = np.zeros(npts, dtype=np.int64)
+    bound.floquet_sample_jacobian(P, ystar, T, M, out, status)
+    if np.any(status != 0):
+        bad = int(np.argmax(status != 0))
+        raise ValueError(f"the mass matrix is singular at the equilibrium for parameters "
+                         f"{P[bad].tolist()}; cannot linearise there.")
+    top = out[:, :, :n, :]
+    if not (np.all(top[:, :, :, :n] == 0.0) and np.all(top[:, :, :, n:] == np.eye(n))):
+        raise ValueError("the Jacobian does not have the mechanical block form [[0, I], ...].")
+    L = out[:, :, n:, :]
+    F = np.fft.rfft(L, axis=1) / M
+    scale = np.maximum(np.max(np.abs(L), axis=(1, 2, 3)), 1e-300)
+    # harmonics above M/4 (with the Nyquist one) measure the aliasing of what lies beyond
+    tail = np.max(np.abs(F[:, M // 4 + 1:]), axis=(1, 2, 3)) / scale
+    return F, scale, tail
+
+
+def _sample_fourier(bound, P, ystar, T, tol, max_samples=256):
+    """Fourier coefficients (C, S) of J's lower block L(t) for every grid point."""
+    npts = P.shape[0]
+    thr = max(tol, 1e-13) * 1e-2
+    probe = np.array(sorted({0, npts // 3, npts // 2, (2 * npts) // 3, npts - 1}))
+    M = 16
+    while True:
+        F, scale, tail = _sample(bound, P[probe], ystar, T[probe], M)
+        if np.all(tail <= thr) or M >= max_samples:
+            break
+        M *= 2
+    mags = np.max(np.abs(F[:, 1:]), axis=(0, 2, 3)) / np.max(scale)
+    keep = np.nonzero(mags > 1e-15)[0]
+    K = int(keep[-1]) + 1 if keep.size else 0
+    M = max(4, 1 << int(math.ceil(math.log2(2 * K + 2))))
+    while True:
+        F, scale, tail = _sample(bound, P, ystar, T, M)
+        if np.all(tail <= thr) or M >= max_samples:
+            break
+        M *= 2
+    K = max(1, M // 4)
+    n, d = F.shape[2], F.shape[3]
+    C = np.empty((npts, K + 1, n, d))
+    S = np.empty((npts, K + 1, n, d))
+    C[:, 0] = F[:, 0].real
+    S[:, 0] = 0.0
+    C[:, 1:] = 2.0 * F[:, 1:K + 1].real
+    S[:, 1:] = -2.0 * F[:, 1:K + 1].imag
+    return np.ascontiguousarray(C), np.ascontiguousarray(S), K, M, float(np.max(tail))
+
+
+def _prepare(system, params, about, frequency, tol):
+    """Validate, broadcast the parameter grid, and sample J's Fourier series."""
+    _check_system(system)
+    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (1e-15 <= tol < 1):
+        raise ValueError(f"tol must be a number in [1e-15, 1), got {tol!r}.")
+    if frequency not in system.parameters:
+        raise ValueError(f"the drive frequency parameter {frequency!r} is not a parameter of "
+                         f"{system!r}; pass frequency=<name>.")
+    names = system.parameters
+    unknown = sorted(set(params) - set(names))
+    missing = [n for n in names if n not in params]
+    if unknown or missing:
+        raise ValueError(f"the parameters of {system!r} are {list(names)}; unknown {unknown}, "
+                         f"missing {missing}.")
+    arrays = np.broadcast_arrays(*[np.asarray(params[n], dtype=float) for n in names])
+    shape = arrays[0].shape
+    P = np.ascontiguousarray(np.stack([a.ravel() for a in arrays], axis=1))
+    if not np.all(np.isfinite(P)):
+        raise ValueError("parameter values must be finite.")
+    omega = P[:, names.index(frequency)].copy()
+    if np.any(omega <= 0):
+        raise ValueError(f"the drive frequency {frequency!r} must be > 0 (rad/s).")
+    T = 2 * np.pi / omega
+    ystar = _equilibrium_state(system, about)
+    kernels = system.kernels
+    npts = P.shape[0]
+    _check_persists(system, kernels, P, ystar, T, sorted({0, npts // 2, npts - 1}))
+    bound = kernels.bind(sys.modules[__name__])
+    C, S, K, samples, alias = _sample_fourier(bound, P, ystar, T, tol)
+    n = system.n_dof
+    # reversible: J even in t (no sine terms) and no velocity block, to rounding of the FFT
+    big = np.max(np.abs(C), axis=(1, 2, 3))[:, None, None, None]
+    half = bool(np.all(np.abs(S) <= 1e-13 * big) and np.all(np.abs(C[:, :, :, n:]) <= 1e-13 * big))
+    if half:
+        S = np.zeros_like(S)
+        C[:, :, :, n:] = 0.0
+    return dict(C=C, S=S, K=K, samples=samples, alias=alias, omega=omega, T=T, shape=shape,
+                n=n, half=half,
+                # ∮ tr J dt = T · tr(mean of J_v): the harmonics integrate to zero
+                liouville=T * np.trace(C[:, 0, :, n:], axis1=1, axis2=2))
+
+
+def _integrate(prep, idx, tol, order):
+    """Monodromies of the grid points ``idx`` (flat indices) to ``tol``."""
+    d = 2 * prep["n"]
+    n = prep["n"]
+    m = idx.size
+    # balanced variables (q, dq/ds), s = ωt: J_b = [[0, I], [L_q/ω², L_v/ω]], period 2π;
+    # then M = D⁻¹ M_b D with D = diag(I, I/ω), and errors are relative to a balanced norm
+    om = prep["omega"][idx]
+    C = prep["C"][idx].copy()
+    S = prep["S"][idx].copy()
+    C[:, :, :, :n] /= om[:, None, None, None] ** 2
+    S[:, :, :, :n] /= om[:, None, None, None] ** 2
+    C[:, :, :, n:] /= om[:, None, None, None]
+    S[:, :, :, n:] /= om[:, None, None, None]
+    Mout = np.empty((m, d, d))
+    logscale = np.empty(m)
+    err = np.empty(m)
+    steps = np.empty(m, dtype=np.int64)
+    # reversible (J even in t, no velocity block): integrate half a period
+    _monodromy_grid(C, S, prep["K"], np.ones(m), np.full(m, 2 * np.pi), float(tol), int(order),
+                    prep["half"], Mout, logscale, err, steps)
+    Mout[:, n:, :] *= om[:, None, None]
+    Mout[:, :, n:] /= om[:, None, None]
+    return Mout, logscale, np.maximum(err, prep["alias"]), steps
+
+
+def monodromy_data(system, params, about, *, frequency="omega", tol=1e-10, order=16):
+    """Monodromy matrices for a broadcast grid of parameter sets.
+
+    Parameters
+    ----------
+    system : lagrange_core.System
+        Unconstrained; its drive has angular frequency ``params[frequency]``.
+    params : dict
+        Parameter values by name; scalars or arrays (broadcast together).
+    about : sequence or dict
+        The equilibrium's coordinates q* (velocities zero).
+    tol : float
+        Target error of M relative to max(1, ‖M‖).
+
+    Returns
+    -------
+    dict with "M" (scaled: M = e^log_scale · this, shape + (2n, 2n)), "log_scale",
+    "error", "steps", "samples", "period", "liouville_exponent" (∮ tr J dt), "shape".
+    """
+    prep = _prepare(system, params, about, frequency, tol)
+    shape = prep["shape"]
+    d = 2 * prep["n"]
+    Mout, ls, err, steps = _integrate(prep, np.arange(prep["T"].size), tol, order)
+    return {"M": Mout.reshape(shape + (d, d)), "log_scale": ls.reshape(shape),
+            "error": err.reshape(shape), "steps": steps.reshape(shape),
+            "samples": prep["samples"], "period": prep["T"].reshape(shape),
+            "liouville_exponent": prep["liouville"].reshape(shape), "shape": shape}
+
+
+def _analyse(Ms, ls, T, liou, err, guard_tol):
+    """Multipliers, stability, labels, margins and guards for a stack of scaled monodromies.
+
+    ``margin`` is the distance of the stability test from its threshold in the
+    units of the error estimate's quantity; ``margin > 10 · err`` certifies the
+    classification.
+    """
+    npts, d, _ = Ms.shape
+    n = d // 2
+    undamped = np.abs(liou) <= 1e-12 * np.maximum(1.0, T)
+    symplectic4 = d == 4 and bool(np.all(undamped))
+    if d == 2:
+        # λ = (tr ± √(tr² − 4 det))/2 in the scaled frame (det̃ = det e^(−2 ls))
+        tr_ = np.trace(Ms, axis1=1, axis2=2).astype(complex)
+        det_ = np.linalg.det(Ms)
+        sq_ = np.sqrt(tr_ * tr_ - 4 * det_)
+        lam = np.stack([0.5 * (tr_ + sq_), 0.5 * (tr_ - sq_)], axis=1)
+    elif symplectic4:
+        lam = None         # from the reduced quadratic below
+    else:
+        lam = np.linalg.eigvals(Ms)
+    if lam is None:
+        with np.errstate(over="ignore", invalid="ignore"):
+            t1 = np.trace(Ms, axis1=1, axis2=2)
+            t2 = np.trace(Ms @ Ms, axis1=1, axis2=2)
+            e2 = 0.5 * (t1 * t1 - t2)                      # scaled: s2 e^(−2 ls)
+            # x̃ = x e^(−ls): x̃² − t1 x̃ + (e2 − 2 e^(−2ls)) = 0
+            c0 = e2 - 2.0 * np.exp(-2.0 * np.minimum(ls, 300))
+            sqd = np.sqrt((t1 * t1 - 4.0 * c0).astype(complex))
+            xs = np.stack([0.5 * (t1 + sqd), 0.5 * (t1 - sqd)], axis=1)
+            # λ̃ (scaled by e^(−ls)): λ̃² − x̃ λ̃ + e^(−2 ls) = 0
+            w = np.sqrt(xs * xs - 4.0 * np.exp(-2.0 * np.minimum(ls, 300))[:, None])
+            lam = np.concatenate([0.5 * (xs + w), 0.5 * (xs - w)], axis=1)
+    with np.errstate(divide="ignore"):
+        logabs = np.log(np.abs(lam)) + ls[:, None]
+    order = np.argsort(-logabs, axis=1)
+    lam = np.take_along_axis(lam, order, axis=1)
+    logabs = np.take_along_axis(logabs, order, axis=1)
+    trace_s = np.trace(Ms, axis1=1, axis2=2)
+    with np.errstate(over="ignore", invalid="ignore"):
+        trace = np.where(ls > 700, np.sign(trace_s) * np.inf,
+                         trace_s * np.exp(np.minimum(ls, 700)))
+    det_exact = np.exp(liou)
+    scale_m = np.maximum(1.0, np.max(np.abs(Ms), axis=(1, 2)) * np.exp(np.minimum(ls, 700)))
+    tol_abs = np.maximum(10.0 * err, 1e-13) * scale_m     # absolute error bound on entries
+    stable = np.empty(npts, dtype=bool)
+    label = np.zeros(npts, dtype=np.int8)
+    slow = np.full((npts, n), np.nan)
+    if d == 2:
+        # Jury: both multipliers in the closed unit disk iff |tr| ≤ 1 + det (det ≤ 1)
+        gap = (1.0 + det_exact) - np.abs(trace)
+        stable[:] = gap >= -2 * tol_abs
+        margin = np.abs(gap) / (2 * tol_abs)
+        label[:] = np.where(stable, 0, np.where(trace > 0, 1, 2))
+        with np.errstate(invalid="ignore"):
+            c = trace / (2.0 * np.sqrt(det_exact))
+        slow[:, 0] = np.where(stable, np.arccos(np.clip(c, -1, 1)) / T, np.nan)
+    elif symplectic4:
+        # symplectic 4 × 4: x = λ + 1/λ solves x² − s1 x + (s2 − 2) = 0
+        with np.errstate(over="ignore", invalid="ignore"):
+            tr2 = np.trace(Ms @ Ms, axis1=1, axis2=2) * np.exp(np.minimum(2 * ls, 1400))
+            s1 = trace
+            s2 = 0.5 * (s1 * s1 - tr2)
+            disc = s1 * s1 - 4.0 * (s2 - 2.0)
+            sq = np.sqrt(np.maximum(disc, 0.0))
+            x1 = 0.5 * (s1 + sq)
+            x2 = 0.5 * (s1 - sq)
+            # error bounds: tr errors ≤ 4 tol_abs, tr M² ≤ 32 tol_abs ‖M‖; x by first order
+            e_s1 = 4 * tol_abs
+            e_disc = 16 * tol_abs * scale_m * 4
+            e_x = e_s1 + np.where(sq > 0, e_disc / np.maximum(sq, 1e-300), np.sqrt(e_disc))
+        real = disc >= -e_disc
+        inside = (np.abs(x1) <= 2 + e_x) & (np.abs(x2) <= 2 + e_x)
+        stable[:] = real & inside & (ls < 700)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            margin = np.minimum(np.abs(disc) / e_disc,
+                                np.minimum(np.abs(np.abs(x1) - 2), np.abs(np.abs(x2) - 2)) / e_x)
+        margin = np.where(ls >= 700, np.inf, margin)
+        label[:] = np.where(stable, 0, np.where(~real, 3, np.where(x1 > -x2, 1, 2)))
+        slow[:, 0] = np.where(stable, np.arccos(np.clip(x1 / 2, -1, 1)) / T, np.nan)
+        slow[:, 1] = np.where(stable, np.arccos(np.clip(x2 / 2, -1, 1)) / T, np.nan)
+    else:
+        top = logabs[:, 0]
+        e_log = np.sqrt(tol_abs / scale_m)       # eigenvalues near a collision: √ε sensitivity
+        stable[:] = np.where(undamped, top <= e_log, top < 0.0)
+        margin = np.abs(top) / e_log
+        ang = np.abs(np.angle(lam[:, 0]))
+        label[:] = np.where(stable, 0, np.where(ang < 1e-6, 1, np.where(np.pi - ang < 1e-6,
+                                                                         2, 3)))
+        args = np.sort(np.abs(np.angle(lam)), axis=1)[:, ::2][:, :n]
+        slow[:] = np.where(stable[:, None], args / T[:, None], np.nan)
+    # guards
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        sign, logdet = np.linalg.slogdet(Ms)
+        liou_res = np.abs(sign * np.exp(logdet + d * ls - liou) - 1.0)
+        spread = logabs[:, 0] - logabs[:, -1]
+        floor = 1e-13 * np.exp(np.minimum(spread, 700))
+    pair = np.full(npts, np.nan)
+    if np.any(undamped) and d > 2:
+        # palindromic characteristic polynomial: power sums → coefficients (Newton)
+        Mk = np.broadcast_to(np.eye(d), Ms.shape).copy()
+        p = np.zeros((npts, d + 1))
+        for k in range(1, d + 1):
+            Mk = Mk @ Ms
+            p[:, k] = np.trace(Mk, axis1=1, axis2=2)
+        e = np.zeros((npts, d + 1))
+        e[:, 0] = 1.0
+        for k in range(1, d + 1):
+            acc = np.zeros(npts)
+            for i in range(1, k + 1):
+                acc += (-1) ** (i - 1) * e[:, k - i] * p[:, i]
+            e[:, k] = acc / k
+        with np.errstate(over="ignore", invalid="ignore"):
+            # e_k of the scaled matrix carries e^(−k ls)
+            ek = e * np.exp(np.arange(d + 1)[None, :] * np.minimum(ls, 50)[:, None])
+            scale = np.maximum(1.0, np.max(np.abs(ek), axis=1))
+            pr = np.max(np.abs(ek - ek[:, ::-1]), axis=1) / scale
+        pair = np.where(undamped & (ls < 50), pr, np.nan)
+    elif d == 2:
+        pair = np.where(undamped, liou_res, np.nan)      # λ1 λ2 = 1 is the pairing for 2 × 2
+    # a guard fails when its residual exceeds what the error estimate allows (×10)
+    lim = np.maximum(np.maximum(guard_tol, 10.0 * err), floor)
+    checkable = floor < 1e-2
+    bad_l = checkable & ~(liou_res <= lim)
+    bad_p = checkable & undamped & np.isfinite(pair) & ~(pair <= lim)
+    bad_e = err > 1e-3
+    flags = [()] * npts
+    for i in np.nonzero(bad_l | bad_p | bad_e)[0]:
+        f = []
+        if bad_l[i]:
+            f.append(f"Liouville: |det M/exp(∮tr J) − 1| = {liou_res[i]:.2e} > {lim[i]:.1e}")
+        if bad_p[i]:
+            f.append(f"multipliers not in pairs λ, 1/λ: residual {pair[i]:.2e} > {lim[i]:.1e}")
+        if bad_e[i]:
+            f.append(f"monodromy error estimate {err[i]:.1e} (rounding-limited?)")
+        flags[i] = tuple(f)
+    with np.errstate(over="ignore", invalid="ignore"):
+        mult = lam * np.where(ls > 700, np.inf, np.exp(np.minimum(ls, 700)))[:, None]
+        expo = (logabs + 1j * np.angle(lam)) / T[:, None]
+    return dict(multipliers=mult, logabs=logabs, trace=trace, stable=stable, label=label,
+                slow=slow, exponents=expo, liouville=liou_res, pairing=pair, margin=margin,
+                flags=flags)
+
+
+def floquet_grid(system, params, about, *, frequency="omega", tol=1e-10, guard_tol=1e-8,
+                 order=16, certify=False, coarse_tol=1e-4):
+    """Floquet analysis for every parameter set of a broadcast grid.
+
+    Parameters
+    ----------
+    certify : bool
+        Classification mode for maps: integrate every point to ``coarse_tol``
+        first, then again to ``tol`` only where the stability test is within 10×
+        the error estimate of its threshold.  Far from boundaries the reported
+        trace is then accurate to ``coarse_tol`` (see the "error" array), and
+        every classification is certified by its margin.
+
+    Returns
+    -------
+    dict of arrays over the grid's shape: "stable", "label" (0 stable, 1 T, 2 2T,
+    3 complex), "trace", "log_growth", "multipliers", "slow", "error", "steps",
+    "margin", "flags" (list, flat order), ...
+    """
+    prep = _prepare(system, params, about, frequency, tol)
+    shape = prep["shape"]
+    T, liou = prep["T"], prep["liouville"]
+    npts = T.size
+    idx = np.arange(npts)
+    first = max(tol, coarse_tol) if certify else tol
+    Ms, ls, err, steps = _integrate(prep, idx, first, order)
+    res = _analyse(Ms, ls, T, liou, err, guard_tol)
+    refined = 0
+    if certify and first > tol:
+        redo = np.nonzero(~(res["margin"] > 1.0))[0]
+        refined = redo.size
+        if refined:
+            M2, l2, e2, s2 = _integrate(prep, redo, tol, order)
+            r2 = _analyse(M2, l2, T[redo], liou[redo], e2, guard_tol)
+            Ms[redo], ls[redo], err[redo], steps[redo] = M2, l2, e2, s2
+            for k, v in r2.items():
+                if k == "flags":
+                    for j, i in enumerate(redo):
+                        res["flags"][i] = v[j]
+                else:
+                    res[k][redo] = v
+    d = Ms.shape[-1]
+    out = {k: v.reshape(shape + v.shape[1:]) for k, v in res.items() if k != "flags"}
+    out["flags"] = res["flags"]
+    out["log_growth"] = out["logabs"][..., 0]
+    out.update(M=Ms.reshape(shape + (d, d)), log_scale=ls.reshape(shape),
+               error=err.reshape(shape), steps=steps.reshape(shape), samples=prep["samples"],
+               period=T.reshape(shape), liouville_exponent=liou.reshape(shape),
+               refined=refined)
+    return out
+
+
+def floquet(system, params, about, *, frequency="omega", tol=1e-10, guard_tol=1e-8,
+            order=16) -> FloquetResult:
+    """Floquet analysis of ``system`` linearised about the driven equilibrium ``about``.
+
+    Parameters
+    ----------
+    system : lagrange_core.System
+        Unconstrained, driven with angular frequency ``params[frequency]``
+        (period T = 2π/ω).
+    params : dict
+        Parameter values (scalars).
+    about : sequence or dict
+        Coordinates of a state that persists under the drive (velocities zero).
+    tol : float
+        Target error of the monodromy relative to max(1, ‖M‖); the Taylor
+        steps are chosen to meet it and the estimate is reported.
+    order : int
+        Taylor order (steps get longer with the order; 12–24 are sensible).
+    guard_tol : float
+        Liouville / pairing residual above which the result is flagged.
+
+    Returns
+    -------
+    FloquetResult
+    """
+    for k, v in params.items():
+        if np.ndim(v) != 0:
+            raise ValueError(f"floquet takes scalar parameters; {k!r} is an array. Use "
+                             "floquet_grid or stability_map for grids.")
+    g = floquet_grid(system, params, about, frequency=frequency, tol=tol, guard_tol=guard_tol,
+                     order=order)
+    return FloquetResult(
+        period=float(g["period"]), monodromy_scaled=g["M"], log_scale=float(g["log_scale"]),
+        multipliers=g["multipliers"], log_abs_multipliers=g["logabs"], trace=float(g["trace"]),
+        stable=bool(g["stable"]), omega_slow=g["slow"], exponents=g["exponents"],
+        boundary=_LABELS[int(g["label"])], error_estimate=float(g["error"]),
+        steps=int(g["steps"]), samples=int(g["samples"]),
+        liouville_residual=float(g["liouville"]), pairing_residual=float(g["pairing"]),
+        flags=g["flags"][0])
+
+
+def stability_map(system, params, about, A, omega, *, amplitude="A", frequency="omega",
+                  tol=1e-10, coarse_tol=1e-4, guard_tol=1e-6,
+                  order=16) -> StabilityMap:
+    """Stability map of a driven equilibrium over an (A, ω) grid by monodromy integration.
+
+    Every point is integrated to ``coarse_tol``; the points whose stability test
+    lies within 10× its error estimate of the threshold are integrated again to
+    ``tol`` (see :func:`floquet_grid`, ``certify``).
+
+    Parameters
+    ----------
+    system : lagrange_core.System
+    params : dict
+        The other parameters (scalars).
+    about : sequence or dict
+        The equilibrium's coordinates.
+    A, omega : 1-d arrays
+        Grid axes for the parameters named ``amplitude`` and ``frequency``.
+    tol : float
+        Target error of the monodromy near boundaries (relative to max(1, ‖M‖)).
+
+    Returns
+    -------
+    StabilityMap
+        Arrays of shape (len(A), len(omega)); ``meta`` holds timing, the number
+        of refined and of flagged points.
+    """
+    A = np.atleast_1d(np.asarray(A, dtype=float))
+    omega = np.atleast_1d(np.asarray(omega, dtype=float))
+    if A.ndim != 1 or omega.ndim != 1:
+        raise ValueError("A and omega must be 1-d arrays (grid axes).")
+    p = {k: v for k, v in params.items() if k not in (amplitude, frequency)}
+    p[amplitude] = A[:, None]
+    p[frequency] = omega[None, :]
+    t0 = time.perf_counter()
+    g = floquet_grid(system, p, about, frequency=frequency, tol=tol, guard_tol=guard_tol,
+                     order=order, certify=True, coarse_tol=coarse_tol)
+    flagged = [f for f in g["flags"] if f]
+    return StabilityMap(A=A, omega=omega, stable=g["stable"], label=g["label"], trace=g["trace"],
+                        log_growth=g["log_growth"], error_estimate=float(np.max(g["error"])),
+                        about=str(about), method="monodromy",
+                        meta={"params": dict(params), "seconds": time.perf_counter() - t0,
+                              "refined_points": int(g["refined"]),
+                              "uncertified_points": int(np.sum(~(g["margin"] > 1.0))),
+                              "flagged_points": len(flagged),
+                              "flags_example": flagged[0] if flagged else (),
+                              "max_steps_per_period": int(np.max(g["steps"])),
+                              "samples": g["samples"]})
