@@ -130,14 +130,13 @@ def central_force(V=None) -> System:
     if V is None:
         k = sp.Symbol("k", positive=True)
         potential = -k / r
-    elif callable(V) and not isinstance(V, sp.Basic):
-        potential = sp.sympify(V(r))
     else:
-        potential = sp.sympify(V)
+        potential = V(r) if callable(V) and not isinstance(V, sp.Basic) else V
+        if not isinstance(potential, (sp.Expr, int, float)):
+            raise TypeError(f"central_force: V must be a sympy expression in r or a callable "
+                            f"r -> sympy expression, got {potential!r}.")
+        potential = sp.sympify(potential)
         potential = potential.xreplace({s: r for s in potential.free_symbols if s.name == "r"})
-    if not isinstance(potential, sp.Expr):
-        raise TypeError(f"central_force: V must be a sympy expression in r or a callable r -> "
-                        f"expression, got {V!r}.")
     bad = sorted(s.name for s in potential.free_symbols if s.name in ("phi", "phi_dot", "r_dot"))
     if bad:
         raise ValueError(f"central_force: V must depend on r only (a central force), but it "
