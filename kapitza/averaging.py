@@ -81,7 +81,8 @@ from lagrange_core.systems import System, t as t_symbol
 
 __all__ = [
     "MIN_FREQUENCY_RATIO", "MAX_AMPLITUDE_RATIO", "AveragingValidityWarning",
-    "fourier_split", "average", "AveragedSystem", "SlowModes", "AveragingPrediction",
+    "fourier_split", "average", "AveragedSystem", "SlowModes", "SlowModeSweep",
+    "AveragingPrediction",
     "pendulum_effective_potential", "pendulum_averaged", "PendulumAveraging",
     "EquilibriumPrediction", "StabilityWindow", "stability_window",
     "exponent_squared", "mathieu_a0", "mathieu_b1",
@@ -313,6 +314,36 @@ class AveragingPrediction:
     def to_dataframe(self) -> pd.DataFrame:
         frames = [e.to_dataframe().assign(equilibrium=i) for i, e in enumerate(self.equilibria)]
         return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+
+@dataclass(frozen=True)
+class SlowModeSweep:
+    """Slow modes about one equilibrium over a grid of parameter values.
+
+    Attributes
+    ----------
+    params : dict of ndarray
+        The broadcast parameter arrays.
+    about : ndarray (n,)
+    omega_squared : ndarray (..., n)
+        Ω² of the averaged linearisation, ascending per point (rad²/s²).
+    stable, valid : bool ndarray (...)
+        See :class:`SlowModes`.
+    """
+
+    params: dict
+    about: np.ndarray
+    omega_squared: np.ndarray
+    stable: np.ndarray
+    valid: np.ndarray
+
+    def to_dataframe(self) -> pd.DataFrame:
+        cols = {k: np.ravel(v) for k, v in self.params.items()}
+        for j in range(self.omega_squared.shape[-1]):
+            cols[f"omega_squared_{j}"] = self.omega_squared[..., j].ravel()
+        cols["stable"] = self.stable.ravel()
+        cols["valid"] = self.valid.ravel()
+        return pd.DataFrame(cols)
 
 
 class AveragedSystem:
@@ -667,6 +698,34 @@ class AveragedSystem:
             warnings.warn(f"averaging about {modes.about.tolist()}: " + "; ".join(reasons),
                           AveragingValidityWarning, stacklevel=2)
         return modes
+
+    def sweep(self, params, about) -> "SlowModeSweep":
+        """Slow modes about ``about`` over arrays of parameter values (no re-derivation).
+
+        Parameters
+        ----------
+        params : dict
+            Parameter values by name; any of them may be arrays, broadcast together.
+        about : sequence
+            An equilibrium for every point (e.g. the upright chain).
+
+        Returns
+        -------
+        SlowModeSweep
+            ``omega_squared`` of shape (..., n) and per-point ``stable``, ``valid``.
+        """
+        names = list(params)
+        arrays = np.broadcast_arrays(*[np.asarray(params[k], float) for k in names])
+        shape = arrays[0].shape
+        n = self.system.n_dof
+        w2 = np.empty(shape + (n,))
+        stable = np.empty(shape, bool)
+        valid = np.empty(shape, bool)
+        for idx in np.ndindex(shape):
+            modes = self.slow_modes({k: a[idx] for k, a in zip(names, arrays)}, about, warn=False)
+            w2[idx], stable[idx], valid[idx] = modes.omega_squared, modes.stable, modes.valid
+        return SlowModeSweep(params={k: a for k, a in zip(names, arrays)}, about=np.asarray(about, float),
+                             omega_squared=w2, stable=stable, valid=valid)
 
     def minimum_amplitude(self, params, about, amplitude: str = "A", upper: float = None) -> float:
         """The smallest value of the parameter ``amplitude`` that makes ``about`` stable.

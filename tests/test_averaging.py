@@ -370,6 +370,14 @@ def test_double_pendulum_closed_form(chain2):
     np.testing.assert_allclose(modes.omega_squared, closed, rtol=1e-10)
     np.testing.assert_allclose(av.multiple_pendulum_upright([1, 1], [L, L], A=A, omega=w)
                                .omega_squared, closed, rtol=1e-10)
+    # a sweep over drive arrays with the general code: stable exactly above the minimum drive
+    amps = np.array([0.4, 0.9, 1.1, 2.0])[:, None] * math.sqrt((2 + math.sqrt(2)) * G * L) / w
+    sw = av.average(chain2).sweep({"A": amps, "omega": np.array([w, 2 * w]), "g": G, "l1": L,
+                                   "l2": L, "m1": 1.0, "m2": 1.0}, [math.pi, math.pi])
+    assert sw.omega_squared.shape == (4, 2, 2)
+    np.testing.assert_array_equal(sw.stable[:, 0], [False, False, True, True])
+    np.testing.assert_array_equal(sw.stable[:, 1], [False, True, True, True])   # A ω doubled
+    assert len(sw.to_dataframe()) == 8
     # the minimum drive found by the general code: A ω = √((2 + √2) g l)
     A_min = av.average(chain2).minimum_amplitude(
         {"omega": w, "g": G, "l1": L, "l2": L, "m1": 1.0, "m2": 1.0}, [math.pi, math.pi])
