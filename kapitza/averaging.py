@@ -1061,11 +1061,11 @@ def pendulum_effective_potential(theta, A, omega, *, l=1.0, g=9.81, drive="verti
     Relative error O(ε²), ε² ~ ω0²/ω² ~ A²/l² (see :func:`exponent_squared`).
     Broadcasts over θ (rad), A (m) and ω (rad/s).
     """
+    if drive not in ("vertical", "horizontal"):
+        raise ValueError(f"drive must be 'vertical' or 'horizontal', got {drive!r}.")
     A, omega = _as_drive(A, omega)
     theta = np.asarray(theta, float)
     shake = np.sin(theta) if drive == "vertical" else np.cos(theta)
-    if drive not in ("vertical", "horizontal"):
-        raise ValueError(f"drive must be 'vertical' or 'horizontal', got {drive!r}.")
     return -g * l * np.cos(theta) + (A * omega * shake) ** 2 / 4
 
 
@@ -1229,7 +1229,10 @@ def pendulum_averaged(A, omega, *, l=1.0, g=9.81, damping=0.0, drive="vertical",
     pendulum this is exact in form: the damped Mathieu equation equals the
     undamped one at a′ = a − γ²/ω² with multipliers scaled by e^{−γT/2}, so the
     decay rate of an underdamped slow oscillation is exactly γ/2 and order 2
-    uses ν²(a′, q).  The upper (parametric-resonance) limit is evaluated at a′
+    uses ν²(a′, q), whose a′q²/2 term is the damping's weakening of the fast
+    response: Ω² gains −(γ/ω)² A²ω²/(2l²), so the minimum drive rises by a
+    relative (γ/ω)²/2 (the exact damped limit, where a Floquet multiplier
+    reaches 1, is matched to O(ε⁴)).  The upper (parametric-resonance) limit is evaluated at a′
     without the tongue's damping shift, i.e. it errs on the unstable side by
     O(γ/ω).
     """

@@ -181,6 +181,8 @@ def test_kapitza_pendulum_closed_forms_and_general_code(vertical):
     assert set(got) == {0.0, round(math.pi, 6), ts, -ts}
     assert r.tilted.theta == pytest.approx(ts, abs=1e-6) and not r.tilted.stable
     assert got[ts].omega_squared[0] == pytest.approx(r.tilted.omega_squared, rel=1e-10)
+    df = pred.to_dataframe()
+    assert len(df) == 4 and df.valid.all() and df.stable.sum() == 2
     assert got[0.0].omega_squared[0] == pytest.approx(r.hanging.omega_squared, rel=1e-12)
     assert got[round(math.pi, 6)].omega_squared[0] == pytest.approx(r.inverted.omega_squared,
                                                                      rel=1e-12)
@@ -290,6 +292,7 @@ def test_stability_window_against_exact_boundaries():
         assert win2.A_max[i] == pytest.approx(A_hi, rel=1e-5)
         assert np.isinf(win1.A_max[i])
     assert av.stability_window(1e6 * W0).A_max == pytest.approx(0.4540, abs=1e-4)
+    assert list(win2.to_dataframe().columns) == ["omega", "A_min", "A_max", "order"]
     # the order-2 stability flag sees the upper limit, order 1 does not
     w0 = 100 * W0
     above = av.pendulum_averaged(0.47, w0, order=2, warn=False).inverted
@@ -443,6 +446,7 @@ def test_double_pendulum_floquet(chain2):
         pred = av.multiple_pendulum_upright([1, 1], [L, L], g=G, A=factor * A_max, omega=w,
                                             order=2, warn=False)
         assert bool(pred.stable) == stable
+    assert len(pred.to_dataframe()) == 2 and len(mp.to_dataframe()) == 2
 
 
 # -- point 6: validity -----------------------------------------------------------------------
@@ -492,3 +496,19 @@ def test_bad_input_messages():
             KapitzaPendulum().params(0.1, 100.0), [1.0])
     with pytest.raises(ValueError, match="same length"):
         av.multiple_pendulum_upright([1, 1], [1])
+
+
+def test_damped_kapitza_limit_against_damped_floquet():
+    """With damping the exact lower limit is where a multiplier reaches 1 (|μ|max = 1)."""
+    w = 30 * W0
+    gamma = 0.1 * w
+    def growth(A):
+        return np.max(np.abs(np.linalg.eigvals(pendulum_monodromy(A, w, -1, gamma=gamma)))) - 1
+    exact = brentq(growth, 0.5 * math.sqrt(2 * G * L) / w, 2 * math.sqrt(2 * G * L) / w, xtol=1e-12)
+    first = av.stability_window(w, damping=gamma, order=1)
+    second = av.stability_window(w, damping=gamma, order=2)
+    # order 1: damping does not move the limit, error O(ε²) + O(γ²/ω²);
+    # order 2: includes the (γ/ω)² weakening of the fast response, error O(ε⁴)
+    assert first.A_min == pytest.approx(math.sqrt(2 * G * L) / w)
+    assert abs(second.A_min / exact - 1) < abs(first.A_min / exact - 1) / 10
+    assert second.A_min == pytest.approx(exact, rel=2e-4)
