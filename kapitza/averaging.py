@@ -409,12 +409,14 @@ class AveragedSystem:
                 for kind, coef in (("cos", c), ("sin", s)):
                     if coef == 0:
                         continue
-                    if coef.free_symbols & set(qd):
+                    if any(sp.simplify(sp.diff(coef, v)) != 0 for v in coef.free_symbols & set(qd)):
                         raise ValueError(
                             f"the fast part of the generalized force on {q[i].name} depends on the "
                             f"velocities ({coef} × {kind} {k}ωt); Landau–Lifshitz averaging assumes "
                             "a velocity-independent fast force (no fast Coriolis or friction "
                             "forces).")
+                    # velocity terms that cancel (checked above) are dropped
+                    coef = coef.xreplace({v: 0 for v in qd})
                     fast.setdefault((k, kind), [sp.S.Zero] * n)[i] = coef
         self.fast_forces = tuple((k, kind, sp.Matrix(vec)) for (k, kind), vec in sorted(fast.items()))
         zero_v = {v: 0 for v in qd}
