@@ -16,7 +16,7 @@ one stopped.  Python regains control between chunks (Ctrl-C, memory).
 
 Shared state layout
 -------------------
-``tv`` (float64): [t, t_end, h (next step), error sum, h_min, t_last_output]
+``tv`` (float64): [t, t_end, h (next step), error sum, spare, Kahan compensation of t]
 ``stats`` (int64): [steps, rejected, rhs evaluations, outputs stored, stride
 counter, next t_eval index, events stored, spare]
 
@@ -365,8 +365,13 @@ def dop853_chunk(y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adaptive, m
         if fired:
             dop853_dense_eval(Fd, y, x_stop, ynew)
             t_new = t_stop
+            tv[5] = 0.0
         else:
-            t_new = t + hs
+            # compensated (Kahan) sum of the steps: over 10⁵–10⁶ steps plain t += h loses
+            # ~1e-12 s, a drive-phase error ω δt that shows at the 1e-10 level
+            yk = hs - tv[5]
+            t_new = t + yk
+            tv[5] = (t_new - t) - yk
         if m > 0:
             if project_constraints(ynew, t_new, p, W, P, res) != 0:
                 tv[0] = t
@@ -656,7 +661,13 @@ def second_order_chunk(family, y, f, tv, stats, p, rtol, atol, c, A, b, bp, bh, 
         # accepted
         stats[0] += 1
         tv[3] += est
-        t_new = t_target if clipped else t + hs
+        if clipped:
+            t_new = t_target
+            tv[5] = 0.0
+        else:       # compensated (Kahan) sum of the steps, see dop853_chunk
+            yk = hs - tv[5]
+            t_new = t + yk
+            tv[5] = (t_new - t) - yk
         if family == 0:
             status = accel_only(qn, t_new, p, anew, zero, qdd, lam, W)
             stats[2] += 1

@@ -18,7 +18,10 @@ name -> :class:`Method`).  ``list(METHODS)`` gives the valid names:
     Dormand, El-Mikkawy & Prince's Runge–Kutta–Nyström 12(10) pair, adaptive,
     for q̈ = f(q, t) (no velocity dependence, no constraints).
 ``"rkn12-fixed"``
-    The same 12th-order formula at a fixed step.
+    The same 12th-order formula at a fixed step ``h``; without ``h`` the step is
+    chosen from the tolerance by a pilot run of ``"rkn12"`` over the first 1/20
+    of t_span (the 20th percentile of its steps).  The fastest method for the
+    driven pendulum (see benchmarks/README.md, "Work–precision").
 ``"yoshida6"``
     A symplectic, time-reversible 6th-order composition of velocity Verlet
     (Yoshida 1990), fixed step, for q̈ = f(q, t).
@@ -27,6 +30,12 @@ name -> :class:`Method`).  ``list(METHODS)`` gives the valid names:
     ``RK23``, ``DOP853``, ``LSODA``, ``Radau``, ``BDF``); the implicit ones
     get the exact compiled Jacobian.  For comparison: every step crosses the
     Python boundary.
+
+Without events, the RKN methods run on a kernel generated specially for
+q̈ = f(q, t) (:mod:`lagrange_core.integrator_fast`): a harmonic drive cos(αt + β)
+is advanced by rotations instead of new trig calls, and time and state are
+summed with compensation (Kahan) so 10⁵–10⁶ fixed steps do not accumulate
+rounding.  With events they use the generic kernels.
 
 ``method=None`` picks ``"rkn12"`` when the system is RKN-eligible (the derived
 forcing F does not depend on the velocities and there are no constraints) and
@@ -258,7 +267,8 @@ class Trajectory:
         See the module docstring ("Error estimate"); ``error_estimate_kind`` says
         which estimate it is.
     n_steps, n_rejected, n_rhs : int
-        Accepted steps, rejected steps, right-hand-side evaluations.
+        Accepted steps, rejected steps, right-hand-side evaluations (for the
+        scipy methods: scipy's steps and ``nfev``; rejections are not reported).
     status : str
         "success", "event" (a terminal event stopped it), "max_steps",
         "interrupted".
@@ -561,7 +571,7 @@ def _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, 
         h0 = b.initial_step(t0, y, f, p, rtol, atol)
     else:
         h0 = h
-    tv = np.array([t0, t1, h0, 0.0, 0.0, t0])
+    tv = np.array([t0, t1, h0, 0.0, 0.0, 0.0])
     stats = np.zeros(8, dtype=np.int64)
     stats[2] = 1 + (2 if meth.adaptive else 0)
     if t_eval is not None:
@@ -720,12 +730,16 @@ def _run_scipy(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, ev_
         ev_funcs.append(g)
     kw = {"jac": jac} if name in _IMPLICIT else {}
     y0 = np.concatenate([q0, qd0])
-    sol = solve_ivp(fun, (t0, t1), y0, method=name, rtol=rtol, atol=atol, t_eval=t_eval,
-                    events=ev_funcs or None, **kw)
+    sol = solve_ivp(fun, (t0, t1), y0, method=name, rtol=rtol, atol=atol,
+                    dense_output=t_eval is not None, events=ev_funcs or None, **kw)
     if not sol.success and sol.status != 1:
         raise FloatingPointError(f"scipy {name} failed on {system._label()}: {sol.message}")
+    n_steps = max(len(sol.t) - 1, 0)
     T, Y = sol.t, sol.y.T
-    if t_eval is None and stride > 1:
+    if t_eval is not None:     # scipy's own t_eval also evaluates the dense output
+        T = t_eval[t_eval <= sol.t[-1]]
+        Y = sol.sol(T).T if len(T) else np.empty((0, 2 * n))
+    elif stride > 1:
         keep = np.r_[np.arange(0, len(T) - 1, stride), len(T) - 1]
         T, Y = T[keep], Y[keep]
     ev_list = []
@@ -733,7 +747,7 @@ def _run_scipy(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, ev_
         for te, ye in zip(sol.t_events[e], sol.y_events[e]):
             if te > t0:
                 ev_list.append(EventRecord(events[e].name, float(te), ye[:n].copy(), ye[n:].copy()))
-    counts = (max(len(sol.t) - 1, 0), 0, sol.nfev)
+    counts = (n_steps, 0, sol.nfev)
     status = "event" if sol.status == 1 else "success"
     return _finish(system, meth, T, Y, p, float("nan"), "none (scipy)", counts, status,
                    sol.message, ev_list, rtol, atol, start)

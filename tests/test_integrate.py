@@ -378,6 +378,13 @@ def test_stride_and_t_eval_limit_memory(systems):
     assert len(one) == 1 and compute_error(one, ho_exact) < 1e-7
 
 
+def test_max_steps_stops_early_with_status(systems):
+    tr = systems["ho"].simulate([HO_Q0], [HO_V0], (0.0, 100.0), HO, method="dop853",
+                                max_steps=7)
+    assert tr.status == "max_steps" and tr.n_steps == 7 and tr.t[-1] < 100.0
+    assert compute_error(tr, ho_exact) < 1e-8
+
+
 def test_registry_lists_the_methods():
     for name in ("dop853", "rk8", "rkn12", "rkn12-fixed", "yoshida6", "scipy:DOP853",
                  "scipy:LSODA", "scipy:Radau"):
