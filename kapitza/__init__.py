@@ -5,7 +5,7 @@ Public API
 (filled by the averaging and Floquet modules)
 average, AveragedSystem, pendulum_averaged, stability_window, multiple_pendulum_upright, ...
     Averaging over a fast periodic drive (:mod:`kapitza.averaging`).
-floquet, floquet_grid, stability_map, FloquetResult, StabilityMap, FloquetWindow
+floquet_grid, stability_map, FloquetResult, StabilityMap, FloquetWindow (and floquet.floquet)
     Floquet analysis of any lagrange_core system about a driven equilibrium
     (:mod:`kapitza.floquet`).
 characteristic_value, mathieu_parameters, pendulum_stability_map, ...
@@ -21,13 +21,14 @@ from .averaging import (AveragedSystem, AveragingValidityWarning, average,  # no
 
 __all__ += ["average", "AveragedSystem", "AveragingValidityWarning", "pendulum_averaged",
             "pendulum_effective_potential", "stability_window", "multiple_pendulum_upright"]
-from .floquet import (FloquetResult, FloquetWindow, StabilityMap, floquet,  # noqa: E402
+# (the function kapitza.floquet.floquet is not re-exported: it would hide the module)
+from .floquet import (FloquetResult, FloquetWindow, StabilityMap,  # noqa: E402
                       floquet_grid, stability_map)
 from .mathieu import (characteristic_value, mathieu_monodromy_trace,  # noqa: E402
                       mathieu_parameters, pendulum_stability_map, pendulum_stability_window)
 from .plots import ince_strutt_figure, stability_map_figure  # noqa: E402
 
-__all__ += ["floquet", "floquet_grid", "stability_map", "FloquetResult", "FloquetWindow",
+__all__ += ["floquet_grid", "stability_map", "FloquetResult", "FloquetWindow",
             "StabilityMap", "characteristic_value", "mathieu_parameters",
             "mathieu_monodromy_trace", "pendulum_stability_map", "pendulum_stability_window",
             "stability_map_figure", "ince_strutt_figure"]
