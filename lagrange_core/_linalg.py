@@ -2,19 +2,20 @@
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba.extending import register_jitable
 
 #: Pivots smaller than this times the largest matrix entry count as singular.
 SINGULAR_RTOL = 1e-13
 
 
-@njit(cache=True)
+@register_jitable
 def solve_augmented(W, N):
     """Solve A X = B in place, where ``W = [A | B]`` and A is the leading N x N block.
 
     Gaussian elimination with partial pivoting; the solution X overwrites B
     (``W[:, N:]``) and A is destroyed.  For the few unknowns of a mechanical
-    system this beats a LAPACK call, which allocates.
+    system this beats a LAPACK call, which allocates.  ``register_jitable``:
+    compiled into each caller, where a constant N lets LLVM unroll it.
 
     Returns
     -------

@@ -15,7 +15,9 @@ system; the rows below hold the values of the symbolic terms.
 ``new_work() -> W``                                        a fresh scratch array
 ``mass_forcing(q, qd, t, p, M, F)``                        fills M (n, n) and F (n)
 ``augmented(q, qd, t, p, W)``                              fills W = [[M, −Φ_qᵀ, F], [Φ_q, 0, γ]]
-``solve_state(q, qd, t, p, W) -> int``                     augmented + solve; W[:, -1] = [q̈, λ]
+``augmented_y(y, t, p, W)``                                the same from the state y = [q, q̇]
+``solve_state(q, qd, t, p, W) -> int``                     augmented + solve; W[:N, N] = [q̈, λ]
+``solve_state_y(y, t, p, W) -> int``                       the same from the state y
 ``accelerations(q, qd, t, p, qdd, lam, W) -> int``         q̈ (n) and λ (m)
 ``rhs(t, y, p, dydt, W) -> int``                           dy/dt of the first-order system
 ``jacobian(t, y, p, J) -> int``                            ∂(dy/dt)/∂y, (2n, 2n), exact
@@ -90,13 +92,16 @@ from numba import njit
 from numpy import (sin, cos, tan, exp, log, sqrt, arcsin as asin, arccos as acos,
                    arctan as atan, arctan2 as atan2, sinh, cosh, tanh, arcsinh as asinh,
                    arccosh as acosh, arctanh as atanh, pi, e as E, sign)
-from lagrange_core._core_kernels import assemble, solve, jacobian_from_columns, particle_energy
+from lagrange_core._core_kernels import assemble
+from lagrange_core._linalg import solve_augmented
 
 N_DOF = {n}
 N_CONSTRAINTS = {m}
 N_PARAMETERS = {k}
 N_PARTICLES = {n_particles}
 N_VALUES = {n_values}
+N0 = {N}                        # rows of the augmented system; the values start below
+WIDTH = {N} + 1
 WORK_SHAPE = {work_shape!r}
 COMPLEX_STEP = 1e-200
 COORDINATES = {coordinates!r}
@@ -106,7 +111,7 @@ PARAMETERS = {parameters!r}
 
 _WRAPPERS = '''
 
-# -- thin wrappers around the shared loops of lagrange_core._core_kernels ----------
+# -- the fixed part --------------------------------------------------------------------
 
 @njit(cache=True)
 def new_work():
@@ -114,21 +119,21 @@ def new_work():
 
 
 @njit(cache=True)
+def _state(q, qd):
+    y = np.empty(2 * N_DOF, dtype=q.dtype)
+    y[:N_DOF] = q
+    y[N_DOF:] = qd
+    return y
+
+
+@njit(cache=True)
 def augmented(q, qd, t, p, W):
-    N = N_DOF + N_CONSTRAINTS
-    if W.shape[0] >= WORK_SHAPE[0]:
-        u = W[N:].reshape(-1)
-    else:                      # a bare (N, N+1) array: correct, but allocates
-        u = np.empty(N_VALUES)
-    _values(q, qd, t, p, u)
-    assemble(u, W, P_MASS, P_PTR, P_COL, P_JAC, P_BIAS, F_REST, M_REST,
-             PHI_Q, GAMMA)
+    augmented_y(_state(q, qd), t, p, W)
 
 
 @njit(cache=True)
 def solve_state(q, qd, t, p, W):
-    augmented(q, qd, t, p, W)
-    return solve(W, F_REST, GAMMA)
+    return solve_state_y(_state(q, qd), t, p, W)
 
 
 @njit(cache=True)
@@ -136,59 +141,54 @@ def mass_forcing(q, qd, t, p, M, F):
     W = new_work()
     augmented(q, qd, t, p, W)
     for i in range(N_DOF):
-        F[i] = W[i, N_DOF + N_CONSTRAINTS]
+        F[i] = W[i, N0]
         for j in range(N_DOF):
             M[i, j] = W[i, j]
 
 
 @njit(cache=True)
-def accelerations(q, qd, t, p, qdd, lam, W):
-    status = solve_state(q, qd, t, p, W)
-    last = N_DOF + N_CONSTRAINTS
-    for i in range(N_DOF):
-        qdd[i] = W[i, last]
-    for i in range(N_CONSTRAINTS):
-        lam[i] = W[N_DOF + i, last]
-    return status
-
-
-@njit(cache=True)
-def rhs(t, y, p, dydt, W):
-    n = N_DOF
-    status = solve_state(y[:n], y[n:], t, p, W)
-    last = n + N_CONSTRAINTS
-    for i in range(n):
-        dydt[i] = y[n + i]
-        dydt[n + i] = W[i, last]
-    return status
-
-
-@njit(cache=True)
 def jacobian(t, y, p, J):
+    # With x = [q̈, λ] held fixed, G = W[:, N] − W[:, :N] x vanishes along solutions, so
+    # [M −Φ_qᵀ; Φ_q 0] ∂x/∂y = ∂G/∂y.  ∂G/∂y_j by the complex step: Im G(y + i h e_j) / h
+    # is exact to rounding error (no subtractive cancellation) for analytic terms.
     n = N_DOF
-    N = n + N_CONSTRAINTS
+    N = N0
     W = new_work()
-    status = solve_state(y[:n], y[n:], t, p, W)
+    status = solve_state_y(y, t, p, W)
     x = W[:N, N].copy()
-    augmented(y[:n], y[n:], t, p, W)
-    # complex step: Im f(y + i h e_j) / h = ∂f/∂y_j to rounding error
-    uc = np.zeros(N_VALUES, dtype=np.complex128)
-    cols = np.zeros((2 * n, N, N + 1), dtype=np.complex128)
+    B = np.empty((N, N + 2 * n))
+    augmented_y(y, t, p, W)
+    B[:, :N] = W[:N, :N]
+    Wc = np.zeros(WORK_SHAPE, dtype=np.complex128)
     yc = np.zeros(2 * n, dtype=np.complex128)
     for j in range(2 * n):
         for i in range(2 * n):
             yc[i] = y[i]
         yc[j] += 1j * COMPLEX_STEP
-        _values(yc[:n], yc[n:], t, p, uc)
-        assemble(uc, cols[j], P_MASS, P_PTR, P_COL, P_JAC, P_BIAS, F_REST, M_REST, PHI_Q, GAMMA)
-    return max(status, jacobian_from_columns(W, cols, x, J, COMPLEX_STEP))
+        augmented_y(yc, t, p, Wc)
+        for r in range(N):
+            s = Wc[r, N].imag
+            for c in range(N):
+                s -= Wc[r, c].imag * x[c]
+            B[r, N + j] = s / COMPLEX_STEP
+    status = max(status, solve_augmented(B, N))
+    J[:, :] = 0.0
+    for i in range(n):
+        J[i, n + i] = 1.0
+        for j in range(2 * n):
+            J[n + i, j] = B[i, N + j]
+    return status
 
 
 @njit(cache=True)
 def energy(q, qd, t, p):
-    u = np.empty(N_VALUES)
-    _values(q, qd, t, p, u)
-    return _energy_rest(q, qd, t, p) + particle_energy(u, qd, P_MASS, P_PTR, P_COL, P_JAC, P_RT)
+    W = new_work()
+    augmented(q, qd, t, p, W)
+    h = _energy_rest(q, qd, t, p)
+    for i in range(N_DOF):
+        for j in range(N_DOF):
+            h += 0.5 * qd[i] * W[i, j] * qd[j]
+    return h
 '''
 
 
@@ -229,6 +229,9 @@ class _Printer:
                 self.subs[se.sympify(s)] = se.Symbol(local)
                 lines.append(f"{local} = {array}[{i}]")
             self.loads[array] = lines
+        n = len(system.q)
+        self.loads["y"] = ([f"_q{i} = y[{i}]" for i in range(n)]
+                           + [f"_v{i} = y[{n + i}]" for i in range(n)])
         from .systems import t
         self.subs[se.sympify(t)] = se.Symbol("t")
 
@@ -296,10 +299,123 @@ def _table(name, rows, width=None) -> str:
     return f"{name} = np.array({arr.ravel().tolist()!r}, dtype=np.int64).reshape({arr.shape!r})\n"
 
 
-def generate_source(equations, cse: bool = True) -> str:
+#: Up to this many particle products (Σ over particles of nnz(J)·(nnz(J)+3)/2) the assembly
+#: of M and F is unrolled into straight-line code (fastest to run; a double pendulum's
+#: right-hand side costs about as much as a hand-written one).  Beyond it, fixed loops read
+#: index tables, so compile time grows with the number of distinct terms only.
+UNROLL_LIMIT = 300
+
+_ACCELERATIONS_FROM_STATE = '''
+
+@njit(cache=True, error_model="numpy")
+def accelerations(q, qd, t, p, qdd, lam, W):
+    status = solve_state(q, qd, t, p, W)
+    for i in range(N_DOF):
+        qdd[i] = W[i, N0]
+    for i in range(N_CONSTRAINTS):
+        lam[i] = W[N_DOF + i, N0]
+    return status
+'''
+
+_TABLE_CHECK = '''
+
+@njit(cache=True)
+def _check_work(W):
+    if W.shape[0] < WORK_SHAPE[0] or W.shape[1] != WORK_SHAPE[1]:
+        raise ValueError("the scratch array W must have shape WORK_SHAPE (use new_work())")
+'''
+
+
+def _unrolled_assembly(pr, exprs, tables, n, m):
+    """Straight-line assembly: (lines computing locals _M{i}_{j} (i ≤ j) and _F{i} from the
+    distinct values, lines storing M, F, Φ_q and γ into W)."""
+    def u(f):
+        return f"_u{f}"
+
+    lines = pr.body([(u(i + 1), e) for i, e in enumerate(exprs)], [], renamed=True)
+    M = [[[] for _ in range(n)] for _ in range(n)]
+    F = [[] for _ in range(n)]
+    for i in range(n):
+        if tables["F_REST"][i]:
+            F[i].append(u(tables["F_REST"][i]))
+        for j in range(n):
+            if tables["M_REST"][i][j]:
+                M[i][j].append(u(tables["M_REST"][i][j]))
+    ptr, col, jac = tables["P_PTR"], tables["P_COL"], tables["P_JAC"]
+
+    def dot(a, b):
+        terms = [f"{u(x)}*{u(y)}" for x, y in zip(a, b) if x and y]
+        return " + ".join(terms)
+
+    for k, mass in enumerate(tables["P_MASS"]):
+        for a in range(ptr[k], ptr[k + 1]):
+            i = col[a]
+            d = dot(jac[a], tables["P_BIAS"][k])
+            if d:
+                F[i].append(f"-{u(mass)}*({d})")
+            for b in range(a, ptr[k + 1]):
+                j = col[b]
+                d = dot(jac[a], jac[b])
+                if d:
+                    M[i][j].append(f"{u(mass)}*({d})")      # j ≥ i: columns ascend
+    N = n + m
+    for i in range(n):
+        lines.append(f"_F{i} = {' + '.join(F[i]) or '0.0'}")
+        for j in range(i, n):
+            lines.append(f"_M{i}_{j} = {' + '.join(M[i][j]) or '0.0'}")
+    store = []
+    for i in range(n):
+        store.append(f"W[{i}, {N}] = _F{i}")
+        for j in range(i, n):
+            store.append(f"W[{i}, {j}] = _M{i}_{j}")
+            if j > i:
+                store.append(f"W[{j}, {i}] = _M{i}_{j}")
+    for c in range(m):
+        store.append(f"W[{n + c}, {N}] = {u(tables['GAMMA'][c]) if tables['GAMMA'][c] else '0.0'}")
+        for j in range(n):
+            f = tables["PHI_Q"][c][j]
+            store.append(f"W[{n + c}, {j}] = {u(f) if f else '0.0'}")
+            store.append(f"W[{j}, {n + c}] = -W[{n + c}, {j}]")
+        for d in range(m):
+            store.append(f"W[{n + c}, {n + d}] = 0.0")
+    return lines, store
+
+
+#: Unconstrained systems up to this many coordinates solve M q̈ = F by an unrolled LDLᵀ
+#: factorisation (M is symmetric positive definite); others by Gaussian elimination.
+CHOLESKY_UNROLL_LIMIT = 6
+
+
+def _unrolled_ldlt(n):
+    """Straight-line LDLᵀ solve of M x = F from the locals _M{i}_{j}, _F{i}; x in locals _x{i}.
+
+    Returns status 1 from the kernel if a pivot is below 1e-13 of the largest diagonal entry.
+    """
+    M = lambda i, j: f"_M{min(i, j)}_{max(i, j)}"      # noqa: E731  (upper triangle only)
+    lines = [f"_scale = max({', '.join(f'abs({M(i, i)})' for i in range(n))})"
+             if n > 1 else f"_scale = abs({M(0, 0)})",
+             "_tiny = 1e-13 * _scale"]
+    for j in range(n):
+        d = " - ".join([M(j, j)] + [f"_L{j}_{k}*_L{j}_{k}*_d{k}" for k in range(j)])
+        lines += [f"_d{j} = {d}", f"if not _d{j} > _tiny:", "    return 1"]
+        for i in range(j + 1, n):
+            num = " - ".join([M(i, j)] + [f"_L{i}_{k}*_L{j}_{k}*_d{k}" for k in range(j)])
+            lines.append(f"_L{i}_{j} = ({num}) / _d{j}")
+    for i in range(n):
+        z = " - ".join([f"_F{i}"] + [f"_L{i}_{k}*_z{k}" for k in range(i)])
+        lines.append(f"_z{i} = {z}")
+    for i in reversed(range(n)):
+        x = " - ".join([f"_z{i} / _d{i}"] + [f"_L{k}_{i}*_x{k}" for k in range(i + 1, n)])
+        lines.append(f"_x{i} = {x}")
+    return lines
+
+
+def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> str:
     """Python source of the kernel module for ``equations`` (see the module docstring).
 
-    ``cse=False`` prints every term in full (for checking that CSE changes nothing).
+    ``cse=False`` prints every term in full (for checking that CSE changes nothing);
+    ``unroll`` forces straight-line (True) or table-driven (False) assembly instead of
+    choosing by size (``UNROLL_LIMIT``).
     """
     system = equations.system
     n, m = system.n_dof, system.n_constraints
@@ -309,7 +425,7 @@ def generate_source(equations, cse: bool = True) -> str:
     def pad3(vec):
         return [value(c) for c in vec] + [0] * (3 - len(vec))
 
-    p_mass, p_ptr, p_col, p_jac, p_bias, p_rt = [], [0], [], [], [], []
+    p_mass, p_ptr, p_col, p_jac, p_bias = [], [0], [], [], []
     for pt in equations.particle_terms:
         p_mass.append(value(pt.mass))
         for j in range(n):
@@ -319,7 +435,6 @@ def generate_source(equations, cse: bool = True) -> str:
                 p_jac.append(pad3(column))
         p_ptr.append(len(p_col))
         p_bias.append(pad3(pt.bias))
-        p_rt.append(pad3(pt.r_t))
     m_rest = [[value(e) for e in row] for row in equations.mass_rest_se]
     f_rest = [value(e) for e in equations.forcing_rest_se]
     phi_q = [[value(e) for e in row] for row in equations.constraint_jacobian_se]
@@ -327,20 +442,62 @@ def generate_source(equations, cse: bool = True) -> str:
 
     N = n + m
     n_values = len(value.exprs) + 1
-    work_shape = (N + -(-n_values // (N + 1)), N + 1)
+    n_products = sum((p_ptr[k + 1] - p_ptr[k]) * (p_ptr[k + 1] - p_ptr[k] + 3) // 2
+                     for k in range(len(p_mass)))
+    unrolled = n_products <= UNROLL_LIMIT if unroll is None else unroll
+    work_shape = (N, N + 1) if unrolled else (N + -(-n_values // (N + 1)), N + 1)
     src = [_HEADER.format(label=repr(system.name or "a system"), n=n, m=m,
                           k=len(system.parameters), n_particles=len(system.particles),
-                          n_values=n_values, work_shape=work_shape,
+                          n_values=n_values, work_shape=work_shape, N=N,
                           coordinates=system.coordinates, parameters=system.parameters)]
-    src.append(_table("P_MASS", p_mass) + _table("P_PTR", p_ptr) + _table("P_COL", p_col)
-               + _table("P_JAC", p_jac, 3) + _table("P_BIAS", p_bias, 3)
-               + _table("P_RT", p_rt, 3) + _table("F_REST", f_rest)
-               + _table("M_REST", m_rest, n) + _table("PHI_Q", phi_q, n)
-               + _table("GAMMA", gamma))
+    tables = dict(P_MASS=p_mass, P_PTR=p_ptr, P_COL=p_col, P_JAC=p_jac, P_BIAS=p_bias,
+                  F_REST=f_rest, M_REST=m_rest, PHI_Q=phi_q, GAMMA=gamma)
+    if unrolled:
+        assembly, store = _unrolled_assembly(pr, value.exprs, tables, n, m)
+    else:
+        assembly = ["_check_work(W)", "_values(y, t, p, W)",
+                    "assemble(W, N0, WIDTH, P_MASS, P_PTR, P_COL, P_JAC, P_BIAS, F_REST, M_REST, "
+                    "PHI_Q, GAMMA)"]
+        store = []
+        src.append("".join(_table(name, rows, {"P_JAC": 3, "P_BIAS": 3, "M_REST": n,
+                                                 "PHI_Q": n}.get(name))
+                           for name, rows in tables.items()))
 
-    outputs = [(f"u[{i + 1}]", e) for i, e in enumerate(value.exprs)]
-    src.append(_function("_values", ["q", "qd", "t", "p", "u"],
-                         ["u[0] = 0.0"] + pr.body(outputs, ["q", "qd", "p"], renamed=True)))
+        def slot(f):     # where value number f lives in W (see _core_kernels.value)
+            return f"W[{N + f // (N + 1)}, {f % (N + 1)}]"
+
+        outputs = [(slot(i + 1), e) for i, e in enumerate(value.exprs)]
+        src.append(_function("_values", ["y", "t", "p", "W"], [f"{slot(0)} = 0.0"]
+                             + pr.body(outputs, ["y", "p"], renamed=True)))
+        src.append(_TABLE_CHECK)
+    # The hot kernels are single straight-line functions: every call between numba
+    # functions costs reference-count updates on its array arguments (~10-40 ns).
+    from_y = pr.loads["y"] + pr.loads["p"] if unrolled else []
+    from_q = pr.loads["q"] + pr.loads["qd"] + pr.loads["p"]
+    src.append(_function("augmented_y", ["y", "t", "p", "W"], from_y + assembly + store))
+    if unrolled and m == 0 and n <= CHOLESKY_UNROLL_LIMIT:
+        # M and F stay in registers; W is not touched on the hot path
+        solve = _unrolled_ldlt(n)
+        result = [f"_x{i}" for i in range(n)]
+        src.append(_function("solve_state_y", ["y", "t", "p", "W"], from_y + assembly + store
+                             + solve + [f"W[{i}, {N}] = _x{i}" for i in range(n)], ret="0"))
+    else:
+        solve = [f"_status = solve_augmented(W, {N})", "if _status != 0:", "    return _status"]
+        result = [f"W[{i}, {N}]" for i in range(n)]
+        assembly = assembly + store
+        src.append(_function("solve_state_y", ["y", "t", "p", "W"], from_y + assembly + solve,
+                             ret="0"))
+    copy = [f"dydt[{i}] = y[{n + i}]" for i in range(n)]
+    copy += [f"dydt[{n + i}] = {r}" for i, r in enumerate(result)]
+    src.append(_function("rhs", ["t", "y", "p", "dydt", "W"], from_y + assembly + solve + copy,
+                         ret="0"))
+    if unrolled:
+        lam = [f"lam[{c}] = W[{n + c}, {N}]" for c in range(m)]
+        src.append(_function("accelerations", ["q", "qd", "t", "p", "qdd", "lam", "W"],
+                             from_q + assembly + solve
+                             + [f"qdd[{i}] = {r}" for i, r in enumerate(result)] + lam, ret="0"))
+    else:
+        src.append(_ACCELERATIONS_FROM_STATE)
     src.append(_function("_energy_rest", ["q", "qd", "t", "p"],
                          pr.body([("_h", equations.energy_rest_se)], ["q", "qd", "p"]), ret="_h"))
     res = [(f"out[{k}]", c) for k, c in enumerate(equations.constraints_se)]

@@ -112,7 +112,7 @@ class Equations:
     particle_terms: tuple            # ParticleTerms, one per particle
     mass_rest_se: tuple              # n x n: velocity Hessian of the explicit L'
     forcing_rest_se: tuple           # n: F without the particle inertia terms
-    energy_rest_se: object           # h without the particles' kinetic part
+    energy_rest_se: object           # h − ½ q̇ᵀ M q̇
     mass_matrix_se: tuple            # n x n, tuple of tuples
     forcing_se: tuple                # n
     constraints_se: tuple            # m: Φ
@@ -257,8 +257,12 @@ def derive(system: System) -> Equations:
 
     L = T - V + L_extra
     energy = sum((vj * se.diff(L, vj) for vj in v), zero) - L
-    # h = Σ ½ m (|J q̇|² − |∂r/∂t|²) + V + h(L'): the kernels add the particle part numerically
-    energy_rest = V + sum((vj * dl for vj, dl in zip(v, dL_dv)), zero) - L_extra
+    # h = ½ q̇ᵀ M q̇ + [V − Σ ½ m |∂r/∂t|² + h(L') − ½ q̇ᵀ M' q̇]: the kernels evaluate the
+    # quadratic form from the assembled M and this bracket symbolically
+    energy_rest = (V - sum((pt.mass * sum((c * c for c in pt.r_t), zero) / 2
+                            for pt in particle_terms), zero)
+                   + sum((vj * dl for vj, dl in zip(v, dL_dv)), zero) - L_extra
+                   - sum((v[i] * M_rest[i][j] * v[j] for i in range(n) for j in range(n)), zero) / 2)
 
     # Constraints: Φ_q q̈ = γ with γ = -(∂Φ̇/∂q) q̇ - ∂Φ̇/∂t.
     Phi = [_se(c) for c in system.constraints]

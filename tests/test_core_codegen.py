@@ -121,3 +121,34 @@ def test_fresh_process_loads_from_disk_cache_without_deriving(double):
     import json
     info = json.loads(out.stdout.strip().splitlines()[-1])
     assert info == {"derived": False, "rhs_hits": 1, "rhs_misses": 0}
+
+
+@pytest.mark.parametrize("make", [lambda: problems.n_link_pendulum(4), "cartesian pendulum"],
+                         ids=["4-link", "constrained"])
+def test_table_driven_and_unrolled_assembly_agree(make, tmp_path):
+    """Large systems assemble M and F by loops over index tables; small ones are unrolled."""
+    if make == "cartesian pendulum":
+        (x, y), _ = lc.coordinates("x y")
+        m, l, g = sp.symbols("m l g", positive=True)
+        system = lc.System([x, y], particles=[lc.Particle(m, (x, y))], potential=m * g * y,
+                           constraints=[x**2 + y**2 - l**2], name="cartesian pendulum")
+        state = np.array([np.sin(0.4), -np.cos(0.4), 0.7 * np.cos(0.4), 0.7 * np.sin(0.4)])
+    else:
+        system = make()
+        state = np.random.default_rng(3).uniform(-2, 2, 2 * system.n_dof)
+    n = system.n_dof
+    p = np.random.default_rng(4).uniform(0.5, 2.0, len(system.parameters))
+    results = []
+    for unroll in (True, False):
+        name = f"lc_test_unroll_{unroll}_{system.n_dof}_{system.n_constraints}"
+        path = tmp_path / f"{name}.py"
+        path.write_text(codegen.generate_source(system.equations, unroll=unroll))
+        mod = codegen._load_module(path, name)
+        out, J = np.empty(2 * n), np.empty((2 * n, 2 * n))
+        assert mod.rhs(0.2, state, p, out, mod.new_work()) == 0
+        assert mod.jacobian(0.2, state, p, J) == 0
+        results.append((out, J, mod.energy(state[:n], state[n:], 0.2, p)))
+    (a, Ja, ha), (b, Jb, hb) = results
+    np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(Ja, Jb, rtol=1e-11, atol=1e-11)
+    assert ha == pytest.approx(hb, rel=1e-13)
