@@ -69,7 +69,7 @@ import sys
 import tempfile
 import textwrap
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -702,7 +702,7 @@ class AveragedSystem:
         reasons = _reasons(freq_ratio, amp)
         modes = SlowModes(about=self._wrap(qa), omega_squared=w2, frequencies=freqs,
                           stable=bool(np.all(w2 > 0)), eigenvalues=lam,
-                          damped_frequencies=damped, decay_rate=float(-np.max(lam.real)),
+                          damped_frequencies=damped, decay_rate=float(-np.max(lam.real)) + 0.0,
                           frequency_ratio=freq_ratio, amplitude_ratio=amp,
                           valid=not reasons, reasons=reasons)
         if warn and reasons:
