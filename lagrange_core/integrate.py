@@ -31,7 +31,7 @@ name -> :class:`Method`).  ``list(METHODS)`` gives the valid names:
     get the exact compiled Jacobian.  For comparison: every step crosses the
     Python boundary.
 
-Without events, the RKN methods run on a kernel generated specially for
+Without events, the RKN and symplectic methods run on a kernel generated specially for
 q̈ = f(q, t) (:mod:`lagrange_core.integrator_fast`): a harmonic drive cos(αt + β)
 is advanced by rotations instead of new trig calls, and time and state are
 summed with compensation (Kahan) so 10⁵–10⁶ fixed steps do not accumulate
@@ -351,12 +351,20 @@ def rkn_eligibility(system) -> tuple[bool, str]:
         result = (False, f"{system._label()} has {system.n_constraints} constraint(s); the "
                   "multipliers depend on the velocities (γ contains q̇²)")
     else:
+        rng = np.random.default_rng(12345)
         for i, Fi in enumerate(eq.forcing_se):
             for qd in system.qdot:
                 d = se.expand(se.diff(Fi, se.sympify(qd)))
                 if d != 0:
                     import sympy as sp
-                    if sp.simplify(sp.sympify(d)) != 0:
+                    # a numeric probe first (simplify of a large expression is slow):
+                    # clearly nonzero at a random point means it truly depends on q̇
+                    pt = {s: float(rng.uniform(0.3, 1.7)) for s in d.free_symbols}
+                    try:
+                        probe = abs(complex(d.subs(pt)))
+                    except (TypeError, ValueError, RuntimeError):
+                        probe = float("nan")
+                    if probe > 1e-9 or sp.simplify(sp.sympify(d)) != 0:
                         result = (False, f"the generalized force F[{i}] of {system._label()} "
                                   f"depends on the velocity {qd.name} (∂F/∂{qd.name} = "
                                   f"{sp.sympify(d)}); RKN methods need q̈ = f(q, t)")
@@ -555,7 +563,7 @@ def _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, 
     b = _bound(system)
     n = system.n_dof
     fast = None
-    if meth.family == "rkn" and not events:
+    if meth.family in ("rkn", "symplectic") and not events:
         from .integrator_fast import fast_model
         fast = fast_model(system)
     y = np.concatenate([q0, qd0])
@@ -629,6 +637,10 @@ def _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, 
                                       tab["E3"], tab["E5"], tab["D"], meth.adaptive, budget,
                                       t_eval_arr, int(stride), tout, yout, ev_int, ev_val, ev_g,
                                       ev_t, ev_k, ev_y)
+            elif fast is not None and meth.family == "symplectic":
+                code = fast.module.fast_symplectic_chunk(y, f, tv, stats, p, meth.table["w"],
+                                                         budget, t_eval_arr, int(stride), tout,
+                                                         yout)
             elif fast is not None:
                 tab = meth.table
                 code = fast.module.fast_rkn_chunk(
