@@ -205,7 +205,8 @@ def _period_map(C, S, K, omega, T, tol, order, X, work, coef, half):
 
     ``half``: J is even in t and has no velocity block (a reversible undamped
     system), so X(−t) = P X(t) P with P = diag(I, −I) and M = P X(T/2)⁻¹ P X(T/2):
-    half the integration (not used when X(T/2) is ill-conditioned, cond > 1e6).
+    half the integration (not used when X(T/2) is ill-conditioned, ‖X‖‖X⁻¹‖ > 1e3,
+    where the error bound 2·err·‖X‖‖X⁻¹‖ would spoil the estimate).
     """
     d = X.shape[0]
     n = d // 2
@@ -223,7 +224,7 @@ def _period_map(C, S, K, omega, T, tol, order, X, work, coef, half):
                 for c in range(d):
                     nx = max(nx, abs(X[r, c]))
                     ni = max(ni, abs(Xinv[r, c]))
-            if nx * ni < 1e6:
+            if nx * ni < 1e3:
                 Y = Xinv @ PX
                 for r in range(d):
                     for c in range(d):
@@ -866,13 +867,16 @@ def floquet(system, params, about, *, frequency="omega", tol=1e-10, guard_tol=1e
 
 
 def stability_map(system, params, about, A, omega, *, amplitude="A", frequency="omega",
-                  tol=1e-10, coarse_tol=1e-4, guard_tol=1e-6,
+                  tol=1e-8, coarse_tol=None, guard_tol=1e-6,
                   order=16) -> StabilityMap:
     """Stability map of a driven equilibrium over an (A, ω) grid by monodromy integration.
 
-    Every point is integrated to ``coarse_tol``; the points whose stability test
-    lies within 10× its error estimate of the threshold are integrated again to
-    ``tol`` (see :func:`floquet_grid`, ``certify``).
+    Every point is integrated to ``tol``; ``meta["uncertified_points"]`` counts
+    those whose stability test lies within 10× its error estimate of the
+    threshold.  With ``coarse_tol`` the grid is first integrated to that
+    tolerance and only the uncertified points again to ``tol`` (worth it when
+    boundaries are far apart on the grid; for near-identity monodromies — slow
+    motion, ω ≫ ω0 — nearly every point needs ``tol`` anyway).
 
     Parameters
     ----------
@@ -901,7 +905,8 @@ def stability_map(system, params, about, A, omega, *, amplitude="A", frequency="
     p[frequency] = omega[None, :]
     t0 = time.perf_counter()
     g = floquet_grid(system, p, about, frequency=frequency, tol=tol, guard_tol=guard_tol,
-                     order=order, certify=True, coarse_tol=coarse_tol)
+                     order=order, certify=coarse_tol is not None,
+                     coarse_tol=coarse_tol if coarse_tol is not None else tol)
     flagged = [f for f in g["flags"] if f]
     return StabilityMap(A=A, omega=omega, stable=g["stable"], label=g["label"], trace=g["trace"],
                         log_growth=g["log_growth"], error_estimate=float(np.max(g["error"])),

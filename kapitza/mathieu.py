@@ -145,8 +145,7 @@ def _sturm(d, e2, K, x):
     inv = 1.0 / p
     dp = -1.0
     s = dp * inv
-    if p < 0.0:
-        count += 1
+    count += p < 0.0            # branch-free: the sign pattern is unpredictable
     for i in range(1, K):
         r = e2[i - 1] * inv
         dp = -1.0 + r * dp * inv
@@ -155,8 +154,7 @@ def _sturm(d, e2, K, x):
             p = -1e-300
         inv = 1.0 / p
         s += dp * inv
-        if p < 0.0:
-            count += 1
+        count += p < 0.0
     return count, s
 
 
@@ -291,8 +289,20 @@ def _boundaries_below(q, amax, vals, orders, hist, qhist):
     e2 = np.empty(K)
     for family in range(4):
         _fill(family, q, K, d, e2)
-        cnt, _ = _sturm(d, e2, K, amax)
-        cnt = min(cnt, kmax)
+        # Gershgorin: the lowest eigenvalue is ≥ min(d_i − |e_i−1| − |e_i|); skip the count
+        # (and the family) when that bound is above every a of the grid
+        low = 1e300
+        for i in range(K):
+            rad = 0.0
+            if i > 0:
+                rad += math.sqrt(e2[i - 1])
+            if i < K - 1:
+                rad += math.sqrt(e2[i])
+            low = min(low, d[i] - rad)
+        cnt = 0
+        if low < amax:
+            cnt, _ = _sturm(d, e2, K, amax)
+            cnt = min(cnt, kmax)
         for k in range(cnt):
             g0 = hist[family, k, 0]
             g1 = hist[family, k, 1]
@@ -348,22 +358,27 @@ def _fill_row(stable_row, label_row, a, ascending, vals, n):
             stop = lo
         else:
             stop = na
-        st = cnt % 2 == 1
-        lab = 0 if st else (1 if (cnt // 2) % 2 == 0 else 2)
-        for m in range(start, stop):
-            j = m if ascending else na - 1 - m
-            stable_row[j] = st
-            label_row[j] = lab
+        if stop > start:
+            st = cnt % 2 == 1
+            lab = 0 if st else (1 if (cnt // 2) % 2 == 0 else 2)
+            if ascending:
+                stable_row[start:stop] = st
+                label_row[start:stop] = lab
+            else:
+                stable_row[na - stop:na - start] = st
+                label_row[na - stop:na - start] = lab
         start = stop
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def _classify_grid(q, a, kmax, stable, label, chunk):
     """stable[i, j], label[i, j] for (q[i], a[j]); label 0 stable, 1 period T, 2 period 2T.
 
     Characteristic values are computed once per q (continuation along the q axis
     within each chunk); a monotone a axis is then classified by runs between
-    them (binary search), any other by a scan per point.
+    them (binary search), any other by a scan per point.  Serial on purpose: the
+    whole 1000 × 1000 grid takes a few ms, and on the shared 2-core machine a
+    prange version was 2–3× slower (threads wait for a descheduled partner).
     """
     nq = q.size
     na = a.size
@@ -378,7 +393,7 @@ def _classify_grid(q, a, kmax, stable, label, chunk):
         if a[j] > a[j - 1]:
             descending = False
     nchunks = (nq + chunk - 1) // chunk
-    for c in prange(nchunks):
+    for c in range(nchunks):
         vals = np.empty(4 * kmax + 1)
         orders = np.empty(4 * kmax + 1, dtype=np.int64)
         hist = np.full((4, kmax, 2), np.nan)
