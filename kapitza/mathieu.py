@@ -202,6 +202,7 @@ def _eigen_k(d, e2, K, k, guess):
                     break
         guess = 0.5 * (lo + hi)
     x = guess
+    step_prev = 0.0          # no early stop on the first Newton step
     for it in range(200):
         c, s = _sturm(d, e2, K, x)
         if c <= k:
@@ -211,9 +212,13 @@ def _eigen_k(d, e2, K, k, guess):
         xn = x - 1.0 / s if s != 0.0 else 0.5 * (lo + hi)
         if not (lo < xn < hi):
             xn = 0.5 * (lo + hi)
+        step = abs(xn - x)
         tol = 4e-16 * abs(xn) + 1e-300
-        if abs(xn - x) <= tol or hi - lo <= tol:
+        # quadratic regime (the step shrank ≥ 10×) with |Δ| ≤ 1e-9|x|: the next
+        # correction, ~Δ²/gap, is below rounding, so stop one iteration early
+        if step <= tol or hi - lo <= tol or (step <= 1e-9 * abs(xn) and step < 0.1 * step_prev):
             return xn
+        step_prev = step
         x = xn
     return 0.5 * (lo + hi)
 

@@ -241,7 +241,7 @@ def test_map_sample_against_monodromy_and_boundary_points(pendulum, rng):
     unstable = ~m.stable[i, j]
     assert np.array_equal(m.label[i, j][unstable], np.where(tr[unstable] > 0, 1, 2))
     # points within 1e-6 (relative) of both boundaries, on either side
-    ws = np.array([3.0, 20.0, 150.0]) * W0
+    ws = np.array([3.0, 20.0, 150.0, 1e4]) * W0
     win = pendulum.stability_window(ws)
     for k, om in enumerate(ws):
         for edge, inside in ((win.A_min[k], 1 + 1e-6), (win.A_max[k], 1 - 1e-6)):
