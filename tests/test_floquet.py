@@ -368,3 +368,20 @@ def test_bad_input_is_explained(pendulum, double_pendulum):
         fq.floquet(double_pendulum, {"A": 0.1, "omega": 50.0}, [np.pi, np.pi])
     with pytest.raises(ValueError, match="kind"):
         mm.characteristic_value("c", 0, 1.0)
+
+
+def test_hanging_map_tongues(pendulum, rng):
+    # parametric resonance of the hanging pendulum: tongues at ω = 2ω0/r, period 2T for odd r
+    A = np.linspace(0.0, 3.0, 300)
+    w = np.linspace(0.5, 12.0, 300)
+    m = pendulum.stability_map(A, w, about="hanging")
+    i, j = rng.integers(0, 300, 300), rng.integers(0, 300, 300)
+    a, q, _ = mm.mathieu_parameters(A[i], w[j], L, G, 0.0, "hanging")
+    tr, _, _ = mm.mathieu_monodromy_trace(a, q, tol=1e-13)
+    assert np.array_equal(m.stable[i, j], np.abs(tr) < 2)
+    unstable = ~m.stable[i, j]
+    assert np.array_equal(m.label[i, j][unstable], np.where(tr[unstable] > 0, 1, 2))
+    # at ω = 2ω0 (a = 1) and ω = ω0 (a = 4) small drives sit inside the tongues
+    # (b1 < 1 < a1, b2 = 4 − q²/12 < 4 < a2 = 4 + 5q²/12); the r = 3 tongue is shifted by q²/16
+    small = pendulum.stability_map([0.05], [2 * W0, W0, 2 * W0 / 3], about="hanging")
+    assert small.label[0].tolist() == [2, 1, 0]
