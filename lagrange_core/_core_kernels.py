@@ -19,13 +19,14 @@ below assemble M = M' + Σ m JᵀJ and F = F' − Σ m Jᵀ·bias.  Generated co
 with it numba's compile time, grows with the number of distinct terms rather
 than with n² matrix entries of n terms each.
 
-The functions are ``register_jitable``: numba compiles them into each caller,
-where the tables are module constants, so for a small system LLVM unrolls the
-loops into straight-line code (a double pendulum's right-hand side costs about
-as much as a hand-written one).
+``assemble`` is compiled once per installation (numba's disk cache), for float
+and complex values (the complex step of the Jacobian), so a large system's own
+compile is only its ``_values``.  Small systems do not use these loops: the
+generator unrolls their assembly into straight-line code.
 """
 from __future__ import annotations
 
+from numba import njit
 from numba.extending import register_jitable
 
 
@@ -35,7 +36,7 @@ def value(W, N0, WIDTH, f):
     return W[N0 + f // WIDTH, f % WIDTH]
 
 
-@register_jitable
+@njit(cache=True)
 def assemble(W, N0, WIDTH, P_MASS, P_PTR, P_COL, P_JAC, P_BIAS, F_REST, M_REST, PHI_Q, GAMMA):
     """Fill W[:N, :N+1] = [[M, −Φ_qᵀ, F], [Φ_q, 0, γ]] (N = n + m) from the stored values."""
     n = F_REST.shape[0]

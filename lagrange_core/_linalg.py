@@ -2,20 +2,19 @@
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 from numba.extending import register_jitable
 
 #: Pivots smaller than this times the largest matrix entry count as singular.
 SINGULAR_RTOL = 1e-13
 
 
-@register_jitable
-def solve_augmented(W, N):
+def _gauss_solve(W, N):
     """Solve A X = B in place, where ``W = [A | B]`` and A is the leading N x N block.
 
     Gaussian elimination with partial pivoting; the solution X overwrites B
     (``W[:, N:]``) and A is destroyed.  For the few unknowns of a mechanical
-    system this beats a LAPACK call, which allocates.  ``register_jitable``:
-    compiled into each caller, where a constant N lets LLVM unroll it.
+    system this beats a LAPACK call, which allocates.
 
     Returns
     -------
@@ -61,3 +60,9 @@ def solve_augmented(W, N):
                 s -= W[i, j] * W[j, c]
             W[i, c] = s / W[i, i]
     return 0
+
+
+#: Inlined into each numba caller, where a constant N lets LLVM unroll it.
+solve_augmented = register_jitable(_gauss_solve)
+#: Compiled once per installation (numba's cache), for large systems: no per-system compile.
+solve_dense = njit(cache=True)(_gauss_solve)

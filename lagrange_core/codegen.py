@@ -93,7 +93,7 @@ from numpy import (sin, cos, tan, exp, log, sqrt, arcsin as asin, arccos as acos
                    arctan as atan, arctan2 as atan2, sinh, cosh, tanh, arcsinh as asinh,
                    arccosh as acosh, arctanh as atanh, pi, e as E, sign)
 from lagrange_core._core_kernels import assemble
-from lagrange_core._linalg import solve_augmented
+from lagrange_core._linalg import solve_augmented, solve_dense
 
 N_DOF = {n}
 N_CONSTRAINTS = {m}
@@ -118,11 +118,13 @@ def new_work():
     return np.zeros(WORK_SHAPE)
 
 
+# (explicit loops throughout: numba compiles slice assignments slowly)
 @njit(cache=True)
 def _state(q, qd):
     y = np.empty(2 * N_DOF, dtype=q.dtype)
-    y[:N_DOF] = q
-    y[N_DOF:] = qd
+    for i in range(N_DOF):
+        y[i] = q[i]
+        y[N_DOF + i] = qd[i]
     return y
 
 
@@ -155,10 +157,14 @@ def jacobian(t, y, p, J):
     N = N0
     W = new_work()
     status = solve_state_y(y, t, p, W)
-    x = W[:N, N].copy()
+    x = np.empty(N)
+    for r in range(N):
+        x[r] = W[r, N]
     B = np.empty((N, N + 2 * n))
     augmented_y(y, t, p, W)
-    B[:, :N] = W[:N, :N]
+    for r in range(N):
+        for c in range(N):
+            B[r, c] = W[r, c]
     Wc = np.zeros(WORK_SHAPE, dtype=np.complex128)
     yc = np.zeros(2 * n, dtype=np.complex128)
     for j in range(2 * n):
@@ -171,8 +177,10 @@ def jacobian(t, y, p, J):
             for c in range(N):
                 s -= Wc[r, c].imag * x[c]
             B[r, N + j] = s / COMPLEX_STEP
-    status = max(status, solve_augmented(B, N))
-    J[:, :] = 0.0
+    status = max(status, solve_dense(B, B.shape[0]))
+    for i in range(2 * n):
+        for j in range(2 * n):
+            J[i, j] = 0.0
     for i in range(n):
         J[i, n + i] = 1.0
         for j in range(2 * n):
@@ -303,7 +311,7 @@ def _table(name, rows, width=None) -> str:
 #: of M and F is unrolled into straight-line code (fastest to run; a double pendulum's
 #: right-hand side costs about as much as a hand-written one).  Beyond it, fixed loops read
 #: index tables, so compile time grows with the number of distinct terms only.
-UNROLL_LIMIT = 300
+UNROLL_LIMIT = 32
 
 _ACCELERATIONS_FROM_STATE = '''
 
@@ -482,7 +490,11 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
         src.append(_function("solve_state_y", ["y", "t", "p", "W"], from_y + assembly + store
                              + solve + [f"W[{i}, {N}] = _x{i}" for i in range(n)], ret="0"))
     else:
-        solve = [f"_status = solve_augmented(W, {N})", "if _status != 0:", "    return _status"]
+        # unrolled systems inline the elimination (constant N); table-driven ones share
+        # one compiled copy (W.shape[1] - 1 is N, and not a literal numba would specialise on)
+        solve = ([f"_status = solve_augmented(W, {N})"] if unrolled
+                 else ["_status = solve_dense(W, W.shape[1] - 1)"])
+        solve += ["if _status != 0:", "    return _status"]
         result = [f"W[{i}, {N}]" for i in range(n)]
         assembly = assembly + store
         src.append(_function("solve_state_y", ["y", "t", "p", "W"], from_y + assembly + solve,
@@ -507,7 +519,8 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
     positions = [(f"out[{i}, {c}]", comp) for i, particle in enumerate(system.particles)
                  for c, comp in enumerate(particle.position)]
     src.append(_function("particle_positions", ["q", "t", "p", "out"],
-                         ["out[:, :] = 0.0"] + pr.body(positions, ["q", "p"])))
+                         ["for _i in range(out.shape[0]):", "    for _c in range(out.shape[1]):",
+                          "        out[_i, _c] = 0.0"] + pr.body(positions, ["q", "p"])))
     src.append(_WRAPPERS)
     return "".join(src)
 
