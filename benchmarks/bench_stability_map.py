@@ -53,7 +53,7 @@ def best(f, repeat=5):
 
 @njit(cache=True, parallel=True)
 def rk4_grid_trace(a, q, N, out):
-    """Per-point baseline: RK4 with N steps on y″ = −(a − 2q cos 2τ) y over τ ∈ [0, π]."""
+    """Per-point baseline: N RK4 steps on y″ = −(a − 2q cos 2τ) y, τ ∈ [0, π]."""
     for i in prange(q.size):
         for j in range(a.size):
             h = math.pi / N

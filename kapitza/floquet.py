@@ -128,8 +128,11 @@ def _taylor_period(C, S, K, omega, t_end, tol, order, X, work, coef, reversible)
                 if m > 0:
                     f *= u / m
                 q = m % 4
-                coef[k, m, 0] = f * (cph if q == 0 else (-sph if q == 1 else (-cph if q == 2 else sph)))
-                coef[k, m, 1] = f * (sph if q == 0 else (cph if q == 1 else (-sph if q == 2 else -cph)))
+                # d^m/dτ^m of cos and sin cycle with period 4 in m
+                cm = cph if q == 0 else (-sph if q == 1 else (-cph if q == 2 else sph))
+                sm = sph if q == 0 else (cph if q == 1 else (-sph if q == 2 else -cph))
+                coef[k, m, 0] = f * cm
+                coef[k, m, 1] = f * sm
             for r in range(n):
                 for c in range(d):
                     L0[r, c] += C[k, r, c] * cph + S[k, r, c] * sph

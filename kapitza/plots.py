@@ -23,7 +23,7 @@ def _figure(figsize):
 
 
 def _averaging_boundary(omega, l, g):
-    """First-order Kapitza limit A ω = √(2 g l) (shared/PHYSICS.md), from kapitza.averaging if present."""
+    """First-order Kapitza limit A ω = √(2 g l) (PHYSICS.md), via kapitza.averaging if there."""
     try:
         from .averaging import stability_window
         return np.asarray(stability_window(omega, l=l, g=g, order=1).A_min, dtype=float)

@@ -13,8 +13,9 @@ import scipy.special
 import sympy as sp
 from scipy.integrate import solve_ivp
 
-from kapitza import floquet as fq
+import kapitza.floquet as fq  # the module (kapitza.floquet.floquet is the function)
 from kapitza import mathieu as mm
+from kapitza import plots
 from kapitza.pendulum import KapitzaPendulum
 from lagrange_core import problems
 from lagrange_core import t as t_sym
@@ -127,13 +128,8 @@ def test_mapping_to_mathieu(pendulum, damped):
 
 def test_ince_strutt_chart_renders():
     from matplotlib.figure import Figure
-    fig = fq_plots().ince_strutt_figure(q_max=10, a_range=(-10, 20), n=60)
+    fig = plots.ince_strutt_figure(q_max=10, a_range=(-10, 20), n=60)
     assert isinstance(fig, Figure) and len(fig.axes[0].lines) == 11      # a0..a5, b1..b5
-
-
-def fq_plots():
-    from kapitza import plots
-    return plots
 
 
 # -- 1. general Floquet: guards, slow frequency, accuracy control ------------------------
