@@ -381,3 +381,17 @@ def test_hanging_map_tongues(pendulum, rng):
     # (b1 < 1 < a1, b2 = 4 − q²/12 < 4 < a2 = 4 + 5q²/12); the r = 3 tongue is shifted by q²/16
     small = pendulum.stability_map([0.05], [2 * W0, W0, 2 * W0 / 3], about="hanging")
     assert small.label[0].tolist() == [2, 1, 0]
+
+
+def test_general_path_at_high_frequency_ratio(pendulum):
+    # ω/ω0 = 1e3, A = 2 A_min: the monodromy is within 1e-5 of the identity
+    w = 1e3 * W0
+    A = 2 * pendulum.stability_window(w).A_min[0]
+    r = pendulum.floquet(A, w, tol=1e-12)
+    a, q, _ = mm.mathieu_parameters(A, w, L, G, 0.0, "inverted")
+    assert r.trace == pytest.approx(mm.mathieu_trace(a, q, tol=1e-14), abs=1e-11)
+    assert r.stable and r.boundary == "stable"
+    Omega_av = math.sqrt(A**2 * w**2 / (2 * L**2) - G / L)
+    assert r.omega_slow[0] == pytest.approx(Omega_av, rel=1e-3)
+    df = r.to_dataframe()
+    assert len(df) == 2 and np.allclose(df["abs"], 1.0, atol=1e-9)
