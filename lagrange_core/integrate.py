@@ -76,7 +76,10 @@ Methods without an embedded estimate (the symplectic one) report NaN unless
 Memory and interruption
 -----------------------
 Without ``t_eval`` every ``stride``-th accepted step is stored (default every
-step); with ``t_eval`` only those times are.  The integration runs in chunks of
+step), but never more than about ``max_points`` rows (default 10⁶): when the
+store reaches it, every other stored row is dropped and the stride doubles, so
+a very long run keeps a uniformly thinned record of the whole interval (and its
+last point) in bounded memory.  With ``t_eval`` only those times are stored.  The integration runs in chunks of
 at most ``chunk_steps`` steps in compiled code; between chunks Python stores
 output and checks for Ctrl-C.  On KeyboardInterrupt :func:`simulate` raises
 :class:`SimulationInterrupted` (a KeyboardInterrupt, so scripts still stop)
@@ -476,7 +479,7 @@ def _event_arrays(system, events):
 
 def simulate(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1e-9, atol=None,
              t_eval=None, events=(), max_steps=None, h=None, stride=1, error_check=False,
-             chunk_steps=20000) -> Trajectory:
+             chunk_steps=20000, max_points=1_000_000) -> Trajectory:
     """Integrate ``system`` from (q0, q̇0) over ``t_span``.  See :meth:`System.simulate`."""
     q0, qd0, p, t0, t1, rtol, atol, t_eval, h = _check_inputs(
         system, q0, qdot0, t_span, params, method, rtol, atol, t_eval, h, stride, max_steps)
@@ -492,8 +495,11 @@ def simulate(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1e-9, 
         traj = _run_scipy(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, ev_int,
                           ev_val, max_steps, stride)
     else:
+        if int(max_points) != max_points or max_points < 2:
+            raise ValueError(f"max_points must be a whole number ≥ 2, got {max_points!r}.")
         traj = _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events,
-                             ev_int, ev_val, max_steps, h, stride, chunk_steps, start)
+                             ev_int, ev_val, max_steps, h, stride, chunk_steps, start,
+                             int(max_points))
     if error_check and traj.status in ("success", "event"):
         ref = simulate(system, q0, qd0, (t0, traj.t[-1]), _param_dict(system, p), method=meth.name,
                        rtol=max(rtol / 1000, 1e-15), atol=atol / 1000, t_eval=traj.t,
@@ -560,7 +566,7 @@ def _singular_error(system, t, y):
 
 
 def _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, ev_int, ev_val,
-                  max_steps, h, stride, chunk_steps, start):
+                  max_steps, h, stride, chunk_steps, start, max_points):
     b = _bound(system)
     n = system.n_dof
     fast = None
@@ -623,12 +629,26 @@ def _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, 
             if k:
                 pieces_t.append(tout[:k].copy())
                 pieces_y.append(yout[:k].copy())
+                stored[0] += k
             stats[3] = 0
+            if stored[0] > max_points:
+                # memory bound: keep every other stored row (and the last), store half as often
+                T_ = np.concatenate(pieces_t)
+                Y_ = np.concatenate(pieces_y)
+                keep = np.r_[np.arange(0, len(T_) - 1, 2), len(T_) - 1]
+                pieces_t[:] = [T_[keep]]
+                pieces_y[:] = [Y_[keep]]
+                stored[0] = len(keep)
+                stride_now[0] *= 2
 
+    stored = [1]
+    stride_now = [int(stride)]
     interrupted = False
     try:
         while True:
             budget = int(min(chunk_steps, total_limit - stats[0]))
+            if t_eval is None and budget > 0:   # a chunk stores ≤ budget/stride rows
+                budget = min(budget, stride_now[0] * max(max_points // 4, 1))
             if budget <= 0:
                 status_name = "max_steps"
                 message = f"stopped after max_steps = {max_steps} steps at t = {tv[0]:.6g} s"
@@ -636,21 +656,21 @@ def _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, 
             if meth.family == "dop853":
                 code = b.dop853_chunk(y, f, tv, stats, p, rtol, atol, tab["A"], tab["B"], tab["C"],
                                       tab["E3"], tab["E5"], tab["D"], meth.adaptive, budget,
-                                      t_eval_arr, int(stride), tout, yout, ev_int, ev_val, ev_g,
+                                      t_eval_arr, stride_now[0], tout, yout, ev_int, ev_val, ev_g,
                                       ev_t, ev_k, ev_y)
             elif fast is not None and meth.family == "symplectic":
                 code = fast.module.fast_symplectic_chunk(y, f, tv, stats, p, meth.table["w"],
-                                                         budget, t_eval_arr, int(stride), tout,
+                                                         budget, t_eval_arr, stride_now[0], tout,
                                                          yout)
             elif fast is not None:
                 tab = meth.table
                 code = fast.module.fast_rkn_chunk(
                     y, f, tv, stats, p, tab["c"], tab["A"], tab["b"], tab["bp"], tab["bh"],
-                    tab["bph"], meth.adaptive, rtol, atol, budget, t_eval_arr, int(stride), tout,
+                    tab["bph"], meth.adaptive, rtol, atol, budget, t_eval_arr, stride_now[0], tout,
                     yout)
             else:
                 code = _run_family(b, meth, y, f, tv, stats, p, rtol, atol, budget, t_eval_arr,
-                                   int(stride), tout, yout, ev_int, ev_val, ev_g, ev_t, ev_k, ev_y)
+                                   stride_now[0], tout, yout, ev_int, ev_val, ev_g, ev_t, ev_k, ev_y)
             drain()
             if code == STATUS_DONE:
                 break

@@ -382,8 +382,9 @@ class System:
         **options
             ``atol``, ``events`` (list of :class:`lagrange_core.integrate.Event`),
             ``max_steps``, ``h`` (fixed-step methods), ``stride`` (store every
-            k-th step), ``error_check`` (rerun at rtol/1000 to estimate the
-            error), ``chunk_steps``.  See :func:`lagrange_core.integrate.simulate`.
+            k-th step), ``max_points`` (memory bound on stored rows, default 10⁶),
+            ``error_check`` (rerun at rtol/1000 to estimate the error),
+            ``chunk_steps``.  See :mod:`lagrange_core.integrate`.
 
         Raises
         ------

@@ -408,6 +408,13 @@ def test_stride_and_t_eval_limit_memory(systems):
     assert len(full) == full.n_steps + 1
     assert len(thin) == math.ceil(full.n_steps / 10) + 1 or len(thin) == full.n_steps // 10 + 2
     assert thin.t[-1] == 50.0 and np.allclose(thin.q[-1], full.q[-1], rtol=0, atol=0)
+    capped = systems["ho"].simulate([HO_Q0], [HO_V0], (0.0, 500.0), HO, method="dop853",
+                                    max_points=100)
+    assert len(capped) <= 130 and capped.t[0] == 0.0 and capped.t[-1] == 500.0
+    assert np.all(np.diff(capped.t) > 0)
+    assert compute_error(capped, ho_exact) <= capped.error_estimate
+    gaps = np.diff(capped.t)
+    assert gaps.max() < 5 * np.median(gaps)          # thinned uniformly over the whole run
     one = systems["ho"].simulate([HO_Q0], [HO_V0], (0.0, 50.0), HO, method="rkn12", t_eval=[50.0])
     assert len(one) == 1 and compute_error(one, ho_exact) < 1e-7
 
