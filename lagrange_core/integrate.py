@@ -29,7 +29,8 @@ name -> :class:`Method`).  ``list(METHODS)`` gives the valid names:
     :func:`scipy.integrate.solve_ivp` with ``method=<name>`` (``RK45``,
     ``RK23``, ``DOP853``, ``LSODA``, ``Radau``, ``BDF``); the implicit ones
     get the exact compiled Jacobian.  For comparison: every step crosses the
-    Python boundary.
+    Python boundary, and constrained systems get no projection (their
+    ``constraint_residual`` shows the drift).
 
 Without events, the RKN and symplectic methods run on a kernel generated specially for
 q̈ = f(q, t) (:mod:`lagrange_core.integrator_fast`): a harmonic drive cos(αt + β)
