@@ -520,9 +520,30 @@ def _step_from_tolerance(system, q0, qd0, p, t0, t1, rtol, atol):
     number of steps spans t_span.  The pilot costs about 1/50 of an adaptive run.
     """
     span = t1 - t0
-    pilot = simulate(system, q0, qd0, (t0, t0 + span / 50), _param_dict(system, p),
-                     method="rkn12", rtol=rtol, atol=atol)
-    steps = np.sort(np.diff(pilot.t)[:-1] if len(pilot.t) > 2 else np.diff(pilot.t))
+    from .integrator_fast import fast_model
+    fast = fast_model(system)
+    if fast is not None:     # straight to the kernel: this runs before every such simulate
+        tab = METHODS["rkn12"].table
+        y = np.concatenate([q0, qd0])
+        f = np.empty_like(y)
+        if fast.module.fast_start(y, f, t0, p) != 0:
+            raise _singular_error(system, t0, y)
+        h0 = _bound(system).rkn_initial_step(t0, y, f, p, rtol, atol)
+        tv = np.array([t0, t0 + span / 50, h0, 0.0, 0.0, 0.0])
+        stats = np.zeros(8, dtype=np.int64)
+        tout = np.empty(4096)
+        yout = np.empty((4096, y.size))
+        fast.module.fast_rkn_chunk(y, f, tv, stats, p, tab["c"], tab["A"], tab["b"], tab["bp"],
+                                   tab["bh"], tab["bph"], True, rtol, atol, 4000, np.empty(0), 1,
+                                   tout, yout)
+        t_pilot = np.r_[t0, tout[:stats[3]]]
+    else:
+        t_pilot = simulate(system, q0, qd0, (t0, t0 + span / 50), _param_dict(system, p),
+                           method="rkn12", rtol=rtol, atol=atol).t
+    if len(t_pilot) < 2:     # the pilot failed at once: let the full run report why
+        t_pilot = simulate(system, q0, qd0, (t0, t0 + span / 50), _param_dict(system, p),
+                           method="rkn12", rtol=rtol, atol=atol).t
+    steps = np.sort(np.diff(t_pilot)[:-1] if len(t_pilot) > 2 else np.diff(t_pilot))
     h = float(steps[int(0.2 * (len(steps) - 1))])
     return span / math.ceil(span / h)
 
