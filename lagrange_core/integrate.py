@@ -38,6 +38,14 @@ is advanced by rotations instead of new trig calls, and time and state are
 summed with compensation (Kahan) so 10⁵–10⁶ fixed steps do not accumulate
 rounding.  With events they use the generic kernels.
 
+Output at ``t_eval`` and events: DOP853 interpolates with its 7th-order dense
+output and locates event roots on it to a few ulps of t (Illinois iteration);
+the RKN and symplectic methods have no interpolant, so they shorten steps to
+land exactly on each requested time (many closely spaced times cost extra
+steps) and locate events by re-stepping from the step start to each trial
+time (the method's own accuracy, a few ulps of t).  Constrained states are
+projected onto Φ = 0, Φ̇ = 0 after every step and at every output time.
+
 ``method=None`` picks ``"rkn12"`` when the system is RKN-eligible (the derived
 forcing F does not depend on the velocities and there are no constraints) and
 ``"dop853"`` otherwise.
