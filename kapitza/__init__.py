@@ -2,7 +2,9 @@
 
 Public API
 ----------
-(filled by the averaging and Floquet modules)
+KapitzaPendulum
+    The driven pendulum: averaging, Floquet stability and direct integration in one
+    object (:mod:`kapitza.pendulum`).
 average, AveragedSystem, pendulum_averaged, stability_window, multiple_pendulum_upright, ...
     Averaging over a fast periodic drive (:mod:`kapitza.averaging`).
 floquet_grid, stability_map, FloquetResult, StabilityMap, FloquetWindow (and floquet.floquet)
@@ -13,7 +15,9 @@ characteristic_value, mathieu_parameters, pendulum_stability_map, ...
 stability_map_figure, ince_strutt_figure
     Figures (:mod:`kapitza.plots`).
 """
-__all__: list[str] = []
+from .pendulum import KapitzaPendulum
+
+__all__: list[str] = ["KapitzaPendulum"]
 
 from .averaging import (AveragedSystem, AveragingValidityWarning, average,  # noqa: E402
                         multiple_pendulum_upright, pendulum_averaged,

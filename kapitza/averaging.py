@@ -59,18 +59,13 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import importlib.util
 import inspect
 import itertools
 import math
-import os
 import re
-import sys
-import tempfile
 import textwrap
 import warnings
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -486,8 +481,8 @@ class AveragedSystem:
         name = f"_lc_avg_{key.hexdigest()[:20]}"
         path = codegen.cache_dir() / f"{name}.py"
         if not path.exists():
-            _write_atomic(path, self._generate_source())
-        return _load_module(path, name)
+            codegen.write_module(path, self._generate_source())
+        return codegen.load_module(path, name)
 
     def _generate_source(self) -> str:
         system = self.system
@@ -538,7 +533,8 @@ class AveragedSystem:
                "import numpy as np\nfrom numba import njit\n"
                "from math import (sin, cos, tan, exp, log, sqrt, asin, acos, atan, atan2,\n"
                "                  sinh, cosh, tanh, asinh, acosh, atanh, pi, e as E)\n"
-               "from numpy import sign\n",
+               "from numpy import sign\n"
+               "from lagrange_core._linalg import solve_dense\n",
                f"N_DOF = {n}\nN_FAST = {K}\nPARAMETERS = {system.parameters!r}\n"]
         src.append(_function("slow_terms", ["q", "p", "U", "Ug", "Uh"],
                                      pr.body(slow_out, ["q", "p"])))
@@ -861,27 +857,6 @@ def _function(name, args, lines):
         name, ", ".join(args), textwrap.indent("\n".join(lines or ["pass"]), "    "))
 
 
-def _write_atomic(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".py")
-    with os.fdopen(fd, "w") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
-
-
-def _load_module(path: Path, name: str):
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    try:
-        spec.loader.exec_module(module)
-    except BaseException:
-        del sys.modules[name]
-        raise
-    return module
-
-
 # The fixed part of the generated module: U_eff, gradient and Hessian from the terms.
 # With x = M⁻¹f and y_a = ∂f/∂q_a − (∂M/∂q_a) x:
 #   ∂(fᵀM⁻¹f)/∂q_a = 2 f_aᵀx − xᵀM_a x,
@@ -890,34 +865,16 @@ _FIXED_SOURCE = '''
 
 @njit(cache=True)
 def _solve(M, B):
-    # Gaussian elimination with partial pivoting on copies: X = M⁻¹ B for a few unknowns
+    # X = M⁻¹ B (a few unknowns): Gaussian elimination on the augmented copy [M | B]
     n = M.shape[0]
-    m = B.shape[1]
-    A = M.copy()
-    X = B.copy()
-    for k in range(n):
-        piv = k
-        for i in range(k + 1, n):
-            if abs(A[i, k]) > abs(A[piv, k]):
-                piv = i
-        if piv != k:
-            for j in range(n):
-                A[k, j], A[piv, j] = A[piv, j], A[k, j]
-            for j in range(m):
-                X[k, j], X[piv, j] = X[piv, j], X[k, j]
-        for i in range(k + 1, n):
-            fac = A[i, k] / A[k, k]
-            for j in range(k, n):
-                A[i, j] -= fac * A[k, j]
-            for j in range(m):
-                X[i, j] -= fac * X[k, j]
-    for j in range(m):
-        for i in range(n - 1, -1, -1):
-            s = X[i, j]
-            for c in range(i + 1, n):
-                s -= A[i, c] * X[c, j]
-            X[i, j] = s / A[i, i]
-    return X
+    W = np.empty((n, n + B.shape[1]))
+    for i in range(n):
+        for j in range(n):
+            W[i, j] = M[i, j]
+        for j in range(B.shape[1]):
+            W[i, n + j] = B[i, j]
+    solve_dense(W, n)
+    return W[:, n:].copy()
 
 
 @njit(cache=True)

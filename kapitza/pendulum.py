@@ -189,3 +189,28 @@ class KapitzaPendulum:
         self._equilibrium(about)
         return pendulum_stability_map(A, omega, l=self.l, g=self.g, gamma=self.damping,
                                       about=about, trace=trace, tol=tol)
+
+    # -- direct integration (lagrange_core) --------------------------------------------
+    def simulate(self, theta0: float, theta_dot0: float, t_span, A: float, omega: float, *,
+                 method=None, rtol: float = 1e-9, t_eval=None, **options):
+        """Integrate the full nonlinear motion θ(t), the check on averaging and Floquet.
+
+        Parameters
+        ----------
+        theta0, theta_dot0 : float
+            Initial angle (rad, from the downward vertical) and angular velocity (rad/s).
+        t_span : (t0, t1)
+            Time interval (s).
+        A, omega : float
+            Drive amplitude (m) and angular frequency (rad/s).
+        method, rtol, t_eval, **options
+            As for :meth:`lagrange_core.System.simulate` (default: the adaptive
+            Runge–Kutta–Nyström 12(10) method when undamped, DOP853 when damped).
+
+        Returns
+        -------
+        lagrange_core.integrate.Trajectory
+            ``t``, ``q`` (column ``theta``), ``qdot``, ``energy``, ``error_estimate``, ...
+        """
+        return self.system.simulate([theta0], [theta_dot0], t_span, self.params(A, omega),
+                                    method=method, rtol=rtol, t_eval=t_eval, **options)

@@ -11,15 +11,20 @@ compile_kernels, Kernels
     numba kernels, cached on disk (:mod:`lagrange_core.codegen`).
 Linearization
     Linearisation about an equilibrium (:mod:`lagrange_core.linearize`).
+Trajectory, METHODS, Event, turning_point, crossing, multiplier_zero, SimulationInterrupted
+    Integration (``System.simulate``; :mod:`lagrange_core.integrate`).
 problems
     The catalogue of the lecture's problems.
 """
 from . import problems
 from .codegen import Kernels, compile_kernels
 from .derive import Equations, derive
+from .integrate import (METHODS, Event, SimulationInterrupted, Trajectory, crossing,
+                        multiplier_zero, turning_point)
 from .linearize import Linearization
 from .systems import Particle, System, coordinates, t
 
 __all__ = ["System", "Particle", "coordinates", "t", "derive", "Equations", "compile_kernels",
-           "Kernels", "Linearization", "problems"]
+           "Kernels", "Linearization", "problems", "Trajectory", "METHODS", "Event",
+           "turning_point", "crossing", "multiplier_zero", "SimulationInterrupted"]
 __version__ = "0.1.0"

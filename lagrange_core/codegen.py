@@ -527,14 +527,16 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
 
 # -- loading --------------------------------------------------------------------------
 
-def _write_atomic(path: Path, text: str) -> None:
+def write_module(path: Path, text: str) -> None:
+    """Write a generated module atomically (concurrent processes never see half a file)."""
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".py")
     with os.fdopen(fd, "w") as fh:
         fh.write(text)
     os.replace(tmp, path)
 
 
-def _load_module(path: Path, name: str) -> types.ModuleType:
+def load_module(path: Path, name: str) -> types.ModuleType:
+    """Import a generated module file under ``name`` (once per process)."""
     if name in sys.modules:
         return sys.modules[name]
     spec = importlib.util.spec_from_file_location(name, path)
@@ -635,8 +637,8 @@ def _bind(kernels: Kernels, template_module) -> types.ModuleType:
     name = f"{core_name}__{template_module.__name__.replace('.', '_')}_{digest}"
     path = kernels.path.parent / f"{name}.py"
     if not path.exists():
-        _write_atomic(path, text)
-    return _load_module(path, name)
+        write_module(path, text)
+    return load_module(path, name)
 
 
 def compile_kernels(system) -> Kernels:
@@ -664,5 +666,5 @@ def compile_kernels(system) -> Kernels:
     path = cache_dir() / f"{name}.py"
     if not path.exists():
         equations = equations if equations is not None else system.equations
-        _write_atomic(path, generate_source(equations))
-    return Kernels(_load_module(path, name), path).warm()
+        write_module(path, generate_source(equations))
+    return Kernels(load_module(path, name), path).warm()

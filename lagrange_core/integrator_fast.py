@@ -28,16 +28,14 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import importlib.util
 import inspect
-import os
-import sys
-import tempfile
 import textwrap
 from pathlib import Path
 
 import numpy as np
 import sympy as sp
+
+from .codegen import load_module, write_module
 
 __all__ = ["fast_model", "FastModel"]
 
@@ -545,27 +543,9 @@ def _fast_model(system, cache_dir):
         for fn in FAST_TEMPLATES:
             src = textwrap.dedent(inspect.getsource(fn))
             parts.append(f"\n\n{_JIT}\n{src}")
-        _write(path, "".join(parts))
-        _write(meta, f"{nd} {int(has_t)}")
+        write_module(path, "".join(parts))
+        write_module(meta, f"{nd} {int(has_t)}")
     nd, has_t = (int(x) for x in meta.read_text().split())
-    if name in sys.modules:
-        module = sys.modules[name]
-    else:
-        spec = importlib.util.spec_from_file_location(name, path)
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[name] = module
-        try:
-            spec.loader.exec_module(module)
-        except BaseException:
-            del sys.modules[name]
-            raise
-    model = FastModel(module, nd, bool(has_t))
+    model = FastModel(load_module(path, name), nd, bool(has_t))
     _LOADED[key] = model
     return model
-
-
-def _write(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
-    with os.fdopen(fd, "w") as fh:
-        fh.write(text)
-    os.replace(tmp, path)

@@ -60,7 +60,7 @@ def test_constrained_jacobian_matches_finite_differences():
 
 def test_common_subexpression_elimination_changes_nothing(double, tmp_path):
     system, k = double
-    plain = codegen._load_module(_write(tmp_path, codegen.generate_source(system.equations, cse=False)),
+    plain = codegen.load_module(_write(tmp_path, codegen.generate_source(system.equations, cse=False)),
                                  "lc_test_plain_double")
     rng = np.random.default_rng(1)
     p = system.parameter_array(PARAMS)
@@ -143,7 +143,7 @@ def test_table_driven_and_unrolled_assembly_agree(make, tmp_path):
         name = f"lc_test_unroll_{unroll}_{system.n_dof}_{system.n_constraints}"
         path = tmp_path / f"{name}.py"
         path.write_text(codegen.generate_source(system.equations, unroll=unroll))
-        mod = codegen._load_module(path, name)
+        mod = codegen.load_module(path, name)
         out, J = np.empty(2 * n), np.empty((2 * n, 2 * n))
         assert mod.rhs(0.2, state, p, out, mod.new_work()) == 0
         assert mod.jacobian(0.2, state, p, J) == 0
