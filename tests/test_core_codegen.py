@@ -58,10 +58,19 @@ def test_constrained_jacobian_matches_finite_differences():
     np.testing.assert_allclose(J, J_fd, atol=1e-7)
 
 
-def test_common_subexpression_elimination_changes_nothing(double, tmp_path):
+def _load_variant(source, stem):
+    """Load a generated source from the kernel cache directory (numba caches it there)."""
+    import hashlib
+    name = f"{stem}_{hashlib.sha256(source.encode()).hexdigest()[:16]}"
+    path = codegen.cache_dir() / f"{name}.py"
+    if not path.exists():
+        codegen.write_module(path, source)
+    return codegen.load_module(path, name)
+
+
+def test_common_subexpression_elimination_changes_nothing(double):
     system, k = double
-    plain = codegen.load_module(_write(tmp_path, codegen.generate_source(system.equations, cse=False)),
-                                 "lc_test_plain_double")
+    plain = _load_variant(codegen.generate_source(system.equations, cse=False), "lc_test_plain")
     rng = np.random.default_rng(1)
     p = system.parameter_array(PARAMS)
     for _ in range(5):
@@ -70,12 +79,6 @@ def test_common_subexpression_elimination_changes_nothing(double, tmp_path):
         k.rhs(0.3, y, p, a, k.work_array())
         plain.rhs(0.3, y, p, b, plain.new_work())
         np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-13)
-
-
-def _write(tmp_path, text):
-    path = tmp_path / "lc_test_plain_double.py"
-    path.write_text(text)
-    return path
 
 
 def test_parameter_change_does_not_recompile(double):
@@ -125,7 +128,7 @@ def test_fresh_process_loads_from_disk_cache_without_deriving(double):
 
 @pytest.mark.parametrize("make", [lambda: problems.n_link_pendulum(4), "cartesian pendulum"],
                          ids=["4-link", "constrained"])
-def test_table_driven_and_unrolled_assembly_agree(make, tmp_path):
+def test_table_driven_and_unrolled_assembly_agree(make):
     """Large systems assemble M and F by loops over index tables; small ones are unrolled."""
     if make == "cartesian pendulum":
         (x, y), _ = lc.coordinates("x y")
@@ -140,10 +143,8 @@ def test_table_driven_and_unrolled_assembly_agree(make, tmp_path):
     p = np.random.default_rng(4).uniform(0.5, 2.0, len(system.parameters))
     results = []
     for unroll in (True, False):
-        name = f"lc_test_unroll_{unroll}_{system.n_dof}_{system.n_constraints}"
-        path = tmp_path / f"{name}.py"
-        path.write_text(codegen.generate_source(system.equations, unroll=unroll))
-        mod = codegen.load_module(path, name)
+        mod = _load_variant(codegen.generate_source(system.equations, unroll=unroll),
+                            f"lc_test_unroll_{unroll}")
         out, J = np.empty(2 * n), np.empty((2 * n, 2 * n))
         assert mod.rhs(0.2, state, p, out, mod.new_work()) == 0
         assert mod.jacobian(0.2, state, p, J) == 0
