@@ -379,7 +379,9 @@ def dop853_chunk(y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adaptive, m
         if fired or m > 0:
             status = rhs(t_new, ynew, p, K[12], W)
             stats[2] += 1
-            if status != 0:
+            # a terminal event may sit exactly on a singular state (the swinging Atwood
+            # machine stopped at r = 0): the run ends there, so that is not an error
+            if status != 0 and not fired:
                 tv[0] = t
                 return 4
         for i in range(n2):

@@ -404,12 +404,7 @@ def test_swinging_atwood_equations(atwood, rng):
         assert atwood.kernels.energy(np.array([r, th]), np.array([rd, thd]), 0.0, p) == pytest.approx(E, rel=1e-13)
 
 
-@pytest.mark.parametrize("r_min", [
-    0.01,
-    pytest.param(0.0, marks=pytest.mark.xfail(
-        reason="integrate.py evaluates rhs at a terminal event's state, which is singular at "
-               "r = 0 exactly (reported to the integrators helper)", strict=False)),
-])
+@pytest.mark.parametrize("r_min", [0.01, 0.0])
 def test_swinging_atwood_stops_at_the_pulley(atwood, r_min):
     """With θ = θ̇ = 0 the masses balance and r moves uniformly: r = r_min at
     t = (r0 − r_min)/|ṙ0|.  The run stops there and says why instead of integrating into
