@@ -24,7 +24,7 @@ def test_chaotic_double_pendulum_conserves_energy_over_1e4_periods():
 
     DOP853 is not symplectic: its energy error drifts secularly, ∝ t · rtol^(7/8).  Measured
     over the same 10⁴ periods: 1.1e-4 (rtol 1e-9), 4.2e-6 (1e-10), 3.4e-8 (1e-12), 3.0e-9
-    (1e-13, about 8 s).  The velocity-dependent forces rule out the symplectic RKN methods."""
+    (1e-13, about 3 s).  The velocity-dependent forces rule out the symplectic RKN methods."""
     system = problems.double_pendulum()
     P = dict(g=9.81, l1=1.0, l2=1.0, m1=1.0, m2=1.0)
     T0 = 2 * math.pi * math.sqrt(P["l1"] / P["g"])
