@@ -13,10 +13,10 @@ Linearization
     Linearisation about an equilibrium (:mod:`lagrange_core.linearize`).
 Trajectory, METHODS, Event, turning_point, crossing, multiplier_zero, SimulationInterrupted
     Integration (``System.simulate``; :mod:`lagrange_core.integrate`).
-problems
-    The catalogue of the lecture's problems.
+problems, fields
+    The catalogue of the lecture's problems; 1-D fields (:class:`fields.Field1D`).
 """
-from . import problems
+from . import fields, problems
 from .codegen import Kernels, compile_kernels
 from .derive import Equations, derive
 from .integrate import (METHODS, Event, SimulationInterrupted, Trajectory, crossing,
@@ -25,6 +25,6 @@ from .linearize import Linearization
 from .systems import Particle, System, coordinates, t
 
 __all__ = ["System", "Particle", "coordinates", "t", "derive", "Equations", "compile_kernels",
-           "Kernels", "Linearization", "problems", "Trajectory", "METHODS", "Event",
+           "Kernels", "Linearization", "problems", "fields", "Trajectory", "METHODS", "Event",
            "turning_point", "crossing", "multiplier_zero", "SimulationInterrupted"]
 __version__ = "0.1.0"

@@ -37,14 +37,18 @@ def value(W, N0, WIDTH, f):
 
 
 @njit(cache=True)
-def assemble(W, N0, WIDTH, P_MASS, P_PTR, P_COL, P_JAC, P_BIAS, F_REST, M_REST, PHI_Q, GAMMA):
-    """Fill W[:N, :N+1] = [[M, −Φ_qᵀ, F], [Φ_q, 0, γ]] (N = n + m) from the stored values."""
+def assemble(W, N0, WIDTH, BAND, P_MASS, P_PTR, P_COL, P_JAC, P_BIAS, F_REST, M_REST, PHI_Q,
+             GAMMA):
+    """Fill W[:N, :N+1] = [[M, −Φ_qᵀ, F], [Φ_q, 0, γ]] (N = n + m) from the stored values.
+
+    Only the band |i − j| ≤ BAND of M is written (M is zero outside it by construction).
+    """
     n = F_REST.shape[0]
     m = GAMMA.shape[0]
     last = n + m
     for i in range(n):
         W[i, last] = value(W, N0, WIDTH, F_REST[i])
-        for j in range(n):
+        for j in range(max(0, i - BAND), min(n, i + BAND + 1)):
             W[i, j] = value(W, N0, WIDTH, M_REST[i, j])
     for k in range(P_MASS.shape[0]):
         mk = value(W, N0, WIDTH, P_MASS[k])

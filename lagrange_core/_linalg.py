@@ -66,3 +66,44 @@ def _gauss_solve(W, N):
 solve_augmented = register_jitable(_gauss_solve)
 #: Compiled once per installation (numba's cache), for large systems: no per-system compile.
 solve_dense = njit(cache=True)(_gauss_solve)
+
+
+@njit(cache=True)
+def solve_banded_spd(W, N, b):
+    """Solve M x = F in place for a symmetric positive definite M of half-bandwidth b.
+
+    ``W = [M | F]`` with M in the leading N x N block (only |i − j| ≤ b is read);
+    LDLᵀ without pivoting (M is a mass matrix), O(N b²): a chain of beads, whose M
+    is diagonal, costs O(N) instead of the O(N³) of dense elimination.  x overwrites
+    F; M's lower band is destroyed.  Returns 0, or 1 if a pivot falls below
+    ``SINGULAR_RTOL`` times the largest diagonal entry.
+    """
+    scale = 0.0
+    for i in range(N):
+        scale = max(scale, abs(W[i, i]))
+    if not scale > 0.0:
+        return 1
+    tiny = SINGULAR_RTOL * scale
+    for j in range(N):
+        d = W[j, j]
+        for k in range(max(0, j - b), j):
+            d -= W[j, k] * W[j, k] * W[k, k]
+        if not d > tiny:
+            return 1
+        W[j, j] = d
+        for i in range(j + 1, min(N, j + b + 1)):
+            s = W[i, j]
+            for k in range(max(0, i - b), j):
+                s -= W[i, k] * W[j, k] * W[k, k]
+            W[i, j] = s / d
+    for i in range(N):
+        s = W[i, N]
+        for k in range(max(0, i - b), i):
+            s -= W[i, k] * W[k, N]
+        W[i, N] = s
+    for i in range(N - 1, -1, -1):
+        s = W[i, N] / W[i, i]
+        for k in range(i + 1, min(N, i + b + 1)):
+            s -= W[k, i] * W[k, N]
+        W[i, N] = s
+    return 0

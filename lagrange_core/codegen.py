@@ -93,7 +93,7 @@ from numpy import (sin, cos, tan, exp, log, sqrt, arcsin as asin, arccos as acos
                    arctan as atan, arctan2 as atan2, sinh, cosh, tanh, arcsinh as asinh,
                    arccosh as acosh, arctanh as atanh, pi, e as E, sign)
 from lagrange_core._core_kernels import assemble
-from lagrange_core._linalg import solve_augmented, solve_dense
+from lagrange_core._linalg import solve_augmented, solve_dense, solve_banded_spd
 
 N_DOF = {n}
 N_CONSTRAINTS = {m}
@@ -102,6 +102,7 @@ N_PARTICLES = {n_particles}
 N_VALUES = {n_values}
 N0 = {N}                        # rows of the augmented system; the values start below
 WIDTH = {N} + 1
+BAND = {band}                   # half-bandwidth of the mass matrix (structural)
 WORK_SHAPE = {work_shape!r}
 COMPLEX_STEP = 1e-200
 COORDINATES = {coordinates!r}
@@ -452,11 +453,18 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
     n_values = len(value.exprs) + 1
     n_products = sum((p_ptr[k + 1] - p_ptr[k]) * (p_ptr[k + 1] - p_ptr[k] + 3) // 2
                      for k in range(len(p_mass)))
-    unrolled = n_products <= UNROLL_LIMIT if unroll is None else unroll
+    # straight-line code writes every entry of M: bound n too
+    unrolled = (n_products <= UNROLL_LIMIT and N <= 12) if unroll is None else unroll
+    # half-bandwidth of M (structurally): dense elimination becomes a banded LDLᵀ
+    band = max([abs(p_col[a] - p_col[b]) for k in range(len(p_mass))
+                for a in range(p_ptr[k], p_ptr[k + 1]) for b in range(a, p_ptr[k + 1])]
+               + [abs(i - j) for i in range(n) for j in range(n) if m_rest[i][j]] + [0])
+    if m:
+        band = n - 1    # the augmented system is solved densely: write all of M
     work_shape = (N, N + 1) if unrolled else (N + -(-n_values // (N + 1)), N + 1)
     src = [_HEADER.format(label=repr(system.name or "a system"), n=n, m=m,
                           k=len(system.parameters), n_particles=len(system.particles),
-                          n_values=n_values, work_shape=work_shape, N=N,
+                          n_values=n_values, work_shape=work_shape, N=N, band=band,
                           coordinates=system.coordinates, parameters=system.parameters)]
     tables = dict(P_MASS=p_mass, P_PTR=p_ptr, P_COL=p_col, P_JAC=p_jac, P_BIAS=p_bias,
                   F_REST=f_rest, M_REST=m_rest, PHI_Q=phi_q, GAMMA=gamma)
@@ -464,7 +472,7 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
         assembly, store = _unrolled_assembly(pr, value.exprs, tables, n, m)
     else:
         assembly = ["_check_work(W)", "_values(y, t, p, W)",
-                    "assemble(W, N0, WIDTH, P_MASS, P_PTR, P_COL, P_JAC, P_BIAS, F_REST, M_REST, "
+                    "assemble(W, N0, WIDTH, BAND, P_MASS, P_PTR, P_COL, P_JAC, P_BIAS, F_REST, M_REST, "
                     "PHI_Q, GAMMA)"]
         store = []
         src.append("".join(_table(name, rows, {"P_JAC": 3, "P_BIAS": 3, "M_REST": n,
@@ -492,8 +500,12 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
     else:
         # unrolled systems inline the elimination (constant N); table-driven ones share
         # one compiled copy (W.shape[1] - 1 is N, and not a literal numba would specialise on)
-        solve = ([f"_status = solve_augmented(W, {N})"] if unrolled
-                 else ["_status = solve_dense(W, W.shape[1] - 1)"])
+        if unrolled:
+            solve = [f"_status = solve_augmented(W, {N})"]
+        elif m == 0 and band < n - 1:
+            solve = ["_status = solve_banded_spd(W, W.shape[1] - 1, BAND)"]
+        else:
+            solve = ["_status = solve_dense(W, W.shape[1] - 1)"]
         solve += ["if _status != 0:", "    return _status"]
         result = [f"W[{i}, {N}]" for i in range(n)]
         assembly = assembly + store

@@ -217,10 +217,12 @@ def derive(system: System) -> Equations:
     for particle in system.particles:
         m = _se(particle.mass)
         r = [_se(c) for c in particle.position]
-        J = [[se.diff(rk, qj) for qj in q] for rk in r]
+        # only the coordinates the particle moves with: O(Σ nnz²) work, not O(n_particles n²)
+        moves = [j for j, qj in enumerate(q) if any(rk.has(qj) for rk in r)]
+        J = [[se.diff(rk, qj) if j in moves else zero for j, qj in enumerate(q)] for rk in r]
         r_t = [se.diff(rk, t) for rk in r]
-        vel = [sum((J[k][j] * v[j] for j in range(n)), zero) + r_t[k] for k in range(len(r))]
-        bias = [sum((se.diff(vel[k], q[j]) * v[j] for j in range(n)), zero) + se.diff(vel[k], t)
+        vel = [sum((J[k][j] * v[j] for j in moves), zero) + r_t[k] for k in range(len(r))]
+        bias = [sum((se.diff(vel[k], q[j]) * v[j] for j in moves), zero) + se.diff(vel[k], t)
                 for k in range(len(r))]
         particle_terms.append(ParticleTerms(m, tuple(map(tuple, J)), tuple(bias), tuple(r_t)))
 
@@ -229,11 +231,13 @@ def derive(system: System) -> Equations:
     V = _se(system.potential)
     D = _se(system.dissipation)
     dL_dv = [se.diff(L_extra, vj) for vj in v]
-    M_rest = [[se.diff(dL_dv[i], v[j]) for j in range(n)] for i in range(n)]
-    F_rest = [se.diff(L_extra, q[i])
-              - sum((se.diff(dL_dv[i], q[j]) * v[j] for j in range(n)), zero)
-              - se.diff(dL_dv[i], t)
-              - se.diff(V, q[i]) + _se(system.forces[i]) - se.diff(D, v[i]) for i in range(n)]
+    M_rest = [[se.diff(dL_dv[i], v[j]) if dL_dv[i] != 0 else zero for j in range(n)]
+              for i in range(n)]
+    F_rest = [- se.diff(V, q[i]) + _se(system.forces[i]) - se.diff(D, v[i]) for i in range(n)]
+    if L_extra != 0:
+        F_rest = [F_rest[i] + se.diff(L_extra, q[i])
+                  - sum((se.diff(dL_dv[i], q[j]) * v[j] for j in range(n)), zero)
+                  - se.diff(dL_dv[i], t) for i in range(n)]
 
     # Assembled: M = M' + Σ m JᵀJ,  F = F' − Σ m Jᵀ bias.
     M = [row[:] for row in M_rest]
@@ -241,15 +245,16 @@ def derive(system: System) -> Equations:
     T = zero
     for pt in particle_terms:
         d = len(pt.bias)
-        for i in range(n):
-            for j in range(i, n):
+        cols = [j for j in range(n) if any(pt.jacobian[k][j] != 0 for k in range(d))]
+        for a, i in enumerate(cols):
+            for j in cols[a:]:
                 mij = sum((pt.jacobian[k][i] * pt.jacobian[k][j] for k in range(d)), zero)
                 if mij != 0:
                     M[i][j] = M[i][j] + pt.mass * mij
             fi = sum((pt.jacobian[k][i] * pt.bias[k] for k in range(d)), zero)
             if fi != 0:
                 F[i] = F[i] - pt.mass * fi
-        vel = [sum((pt.jacobian[k][j] * v[j] for j in range(n)), zero) + pt.r_t[k] for k in range(d)]
+        vel = [sum((pt.jacobian[k][j] * v[j] for j in cols), zero) + pt.r_t[k] for k in range(d)]
         T = T + pt.mass * sum((vk * vk for vk in vel), zero) / 2
     for i in range(n):
         for j in range(i):
@@ -262,7 +267,8 @@ def derive(system: System) -> Equations:
     energy_rest = (V - sum((pt.mass * sum((c * c for c in pt.r_t), zero) / 2
                             for pt in particle_terms), zero)
                    + sum((vj * dl for vj, dl in zip(v, dL_dv)), zero) - L_extra
-                   - sum((v[i] * M_rest[i][j] * v[j] for i in range(n) for j in range(n)), zero) / 2)
+                   - sum((v[i] * M_rest[i][j] * v[j] for i in range(n) for j in range(n)
+                          if M_rest[i][j] != 0), zero) / 2)
 
     # Constraints: Φ_q q̈ = γ with γ = -(∂Φ̇/∂q) q̇ - ∂Φ̇/∂t.
     Phi = [_se(c) for c in system.constraints]
