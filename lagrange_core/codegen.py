@@ -28,17 +28,28 @@ system; the rows below hold the values of the symbolic terms.
 
 Integer returns are a status: 0 success, 1 singular (augmented) mass matrix.
 Module constants: ``N_DOF``, ``N_CONSTRAINTS``, ``N_PARAMETERS``, ``N_PARTICLES``,
-``WORK_SHAPE``.
+``WORK_SHAPE``, ``BAND`` (half-bandwidth of M).
 
 What is generated, and what is fixed: the generated code evaluates each
 *distinct* symbolic term once (common subexpressions removed across all terms
-at once with symengine's ``cse``): per particle its mass, Jacobian ∂r/∂q, the
-q̈-free part of its acceleration and ∂r/∂t; the rest of F (potential, forces,
-dissipation, explicit-Lagrangian terms); Φ_q and γ.  Index tables say where
-each term goes, and fixed loops (:mod:`lagrange_core._core_kernels`) assemble
-M = Σ m JᵀJ + M' and F.  Generated code, and numba's compile time, thus grow
-with the number of distinct terms rather than with n² entries of n terms each.
-The Jacobian is exact: the complex step on the same kernels.
+at once with symengine's ``cse``): per particle its mass, Jacobian ∂r/∂q and the
+q̈-free part of its acceleration; the rest of F (potential, forces,
+dissipation, explicit-Lagrangian terms); Φ_q and γ.  Then, by size:
+
+* small systems (few particle products, n + m ≤ 12): M = Σ m JᵀJ + M' and F
+  are assembled in straight-line code, and an unconstrained M (n ≤ 6) is
+  solved by an unrolled LDLᵀ, so M and F never leave registers (a double
+  pendulum's right-hand side costs what a hand-written one does);
+* large systems: index tables say where each term goes, and loops compiled
+  once per installation (:mod:`lagrange_core._core_kernels`) assemble M and F;
+  a banded mass matrix is solved by a banded LDLᵀ (a chain of beads: O(n)).
+  Generated code, and numba's compile time, grow with the number of distinct
+  terms rather than with n² matrix entries.
+
+The hot kernels (``rhs``, ``solve_state_y``, ``accelerations``) are single
+functions: each call between numba functions costs reference-count updates on
+its array arguments.  The Jacobian is exact: the complex step on the same
+kernels; it compiles on first use.
 
 Kernel templates
 ----------------
