@@ -56,7 +56,7 @@ def bench_derive(n, check=True):
 
     t0 = time.perf_counter()
     system = problems.n_link_pendulum(n)
-    eq = lc.derive(system)
+    lc.derive(system)
     t_ours = time.perf_counter() - t0
 
     err = float("nan")

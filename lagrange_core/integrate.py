@@ -639,7 +639,6 @@ def _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, 
         t_eval_arr = np.empty(0)
         pieces_t, pieces_y = [np.array([t0])], [y[None, :].copy()]
     ev_g = np.empty(len(events))
-    qdd = np.empty(n)
     for k in range(len(events)):
         ev_g[k] = _event_value_py(system, ev_int[k], ev_val[k], t0, y, p)
     ev_cap = max(64, 4 * len(events))
