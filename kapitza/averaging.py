@@ -199,8 +199,10 @@ def fourier_split(expr, omega, time=t_symbol) -> dict[int, tuple[sp.Expr, sp.Exp
 def _source_hash() -> str:
     """Hash of the code that generates the averaging kernels (not of the whole module, so
     that unrelated edits keep the disk cache)."""
+    from lagrange_core import _linalg
     parts = [inspect.getsource(AveragedSystem._generate_source), inspect.getsource(_Printer),
-             inspect.getsource(_function), _FIXED_SOURCE, repr(sorted(_ALLOWED))]
+             inspect.getsource(_function), _FIXED_SOURCE, repr(sorted(_ALLOWED)),
+             codegen.source_fingerprint(_linalg)]     # the generated code calls solve_dense
     return hashlib.sha256("".join(parts).encode()).hexdigest()
 
 

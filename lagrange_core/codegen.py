@@ -73,6 +73,7 @@ both instead of deriving and compiling.
 """
 from __future__ import annotations
 
+import ast
 import functools
 import hashlib
 import importlib.util
@@ -221,14 +222,31 @@ def cache_dir() -> Path:
     return path
 
 
+def source_fingerprint(*modules) -> str:
+    """Hash of the code of ``modules``, docstrings and comments excluded.
+
+    Generated modules are cached under a key that includes this hash of the code
+    that generates them *and* of the numba functions they call (numba's own cache
+    does not notice a change in a callee from another module).  Editing prose
+    keeps the cache.
+    """
+    h = hashlib.sha256()
+    for module in modules:
+        tree = ast.parse(inspect.getsource(module))
+        for node in ast.walk(tree):
+            body = getattr(node, "body", None)
+            if (isinstance(node, (ast.Module, ast.FunctionDef, ast.ClassDef)) and body
+                    and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant)
+                    and isinstance(body[0].value.value, str)):
+                node.body = body[1:] or [ast.Pass()]
+        h.update(ast.dump(tree).encode())
+    return h.hexdigest()
+
+
 @functools.cache
 def _generator_fingerprint() -> str:
-    """Hash of the generator's own sources: changing the generator invalidates the cache."""
-    here = Path(__file__).parent
-    h = hashlib.sha256()
-    for name in ("codegen.py", "derive.py", "_linalg.py", "_core_kernels.py"):
-        h.update((here / name).read_bytes())
-    return h.hexdigest()
+    from . import _core_kernels, _linalg, derive
+    return source_fingerprint(sys.modules[__name__], derive, _linalg, _core_kernels)
 
 
 # -- printing -------------------------------------------------------------------------

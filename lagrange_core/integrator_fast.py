@@ -29,13 +29,13 @@ from __future__ import annotations
 import functools
 import hashlib
 import inspect
+import sys
 import textwrap
-from pathlib import Path
 
 import numpy as np
 import sympy as sp
 
-from .codegen import load_module, write_module
+from .codegen import load_module, source_fingerprint, write_module
 
 __all__ = ["fast_model", "FastModel"]
 
@@ -508,8 +508,10 @@ from lagrange_core._linalg import solve_augmented
 
 
 @functools.cache
+@functools.cache
 def _this_source_hash() -> str:
-    return hashlib.sha256(Path(__file__).read_bytes()).hexdigest()
+    from . import _linalg
+    return source_fingerprint(sys.modules[__name__], _linalg)
 
 
 _LOADED: dict[str, FastModel] = {}

@@ -153,3 +153,21 @@ def test_table_driven_and_unrolled_assembly_agree(make):
     np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(Ja, Jb, rtol=1e-11, atol=1e-11)
     assert ha == pytest.approx(hb, rel=1e-13)
+
+
+def test_fingerprint_ignores_docstrings_and_comments(tmp_path):
+    """Editing prose keeps the kernel cache; editing code does not."""
+    import importlib.util
+
+    def fingerprint(text, name):
+        path = tmp_path / f"{name}.py"
+        path.write_text(text)
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return codegen.source_fingerprint(module)
+
+    base = fingerprint('"""Doc."""\ndef f(x):\n    """Doc."""\n    return x + 1\n', "fp_a")
+    prose = fingerprint('"""Other."""\ndef f(x):\n    # why\n    return x + 1\n', "fp_b")
+    code = fingerprint('"""Doc."""\ndef f(x):\n    """Doc."""\n    return x + 2\n', "fp_c")
+    assert base == prose != code
