@@ -106,6 +106,27 @@ def dop853_dense_eval(Fd, y0, x, out):
         out[i] = acc + y0[i]
 
 
+def illinois_trial(a, b, fa, fb):
+    """Next trial point of the Illinois (modified regula falsi) iteration on [a, b]."""
+    x = (a * fb - b * fa) / (fb - fa)
+    if not (a < x < b):
+        x = 0.5 * (a + b)
+    return x
+
+
+def illinois_update(x, fx, a, b, fa, fb, side):
+    """Shrink the bracket [a, b] with the value fx at x; halve the stale end's value
+    when the same end is kept twice (what makes regula falsi converge superlinearly).
+    Returns (a, b, fa, fb, side)."""
+    if (fx > 0.0) == (fb > 0.0):
+        if side == -1:
+            fa *= 0.5
+        return a, x, fa, fx, -1
+    if side == 1:
+        fb *= 0.5
+    return x, b, fx, fb, 1
+
+
 def dop853_locate(kind, idx, val, t0, h, y0, Fd, ga, gb, p, W, qdd, lam, yt):
     """Root of one event function on the dense output of a DOP853 step.
 
@@ -121,25 +142,12 @@ def dop853_locate(kind, idx, val, t0, h, y0, Fd, ga, gb, p, W, qdd, lam, yt):
     for it in range(200):
         if b - a <= tol:
             break
-        x = (a * fb - b * fa) / (fb - fa)
-        if not (a < x < b):
-            x = 0.5 * (a + b)
+        x = illinois_trial(a, b, fa, fb)
         dop853_dense_eval(Fd, y0, x, yt)
         fx = event_value(kind, idx, val, t0 + x * h, yt, p, W, qdd, lam)
         if fx == 0.0:
             return x
-        if (fx > 0.0) == (fb > 0.0):
-            b = x
-            fb = fx
-            if side == -1:
-                fa *= 0.5
-            side = -1
-        else:
-            a = x
-            fa = fx
-            if side == 1:
-                fb *= 0.5
-            side = 1
+        a, b, fa, fb, side = illinois_update(x, fx, a, b, fa, fb, side)
     return 0.5 * (a + b)
 
 
@@ -778,27 +786,14 @@ def second_order_locate(family, e, ev_int, ev_val, t, q, v, a0, h, ga, gb, p, c,
     for it in range(100):
         if bb - a <= tol:
             break
-        x = (a * fb - bb * fa) / (fb - fa)
-        if not (a < x < bb):
-            x = 0.5 * (a + bb)
+        x = illinois_trial(a, bb, fa, fb)
         second_order_step(family, t, q, v, a0, x * h, p, c, A, b, bp, w, K, ytmp[:n], ytmp[n:],
                           qs, zero, qdd, lam, W)
         stats[2] += evals
         fx = event_value(ev_int[e, 0], ev_int[e, 1], ev_val[e], t + x * h, ytmp, p, W, qdd, lam)
         if fx == 0.0:
             return x
-        if (fx > 0.0) == (fb > 0.0):
-            bb = x
-            fb = fx
-            if side == -1:
-                fa *= 0.5
-            side = -1
-        else:
-            a = x
-            fa = fx
-            if side == 1:
-                fb *= 0.5
-            side = 1
+        a, bb, fa, fb, side = illinois_update(x, fx, a, bb, fa, fb, side)
     return 0.5 * (a + bb)
 
 
@@ -833,7 +828,8 @@ def rkn_initial_step(t, y, f, p, rtol, atol):
         h1 = (0.01 / max(d1, d2)) ** (1.0 / 11.0)
     return min(100.0 * h0, h1)
 
-KERNEL_TEMPLATES = [event_value, project_constraints, dop853_dense_eval, dop853_locate,
+KERNEL_TEMPLATES = [event_value, project_constraints, dop853_dense_eval, illinois_trial,
+                    illinois_update, dop853_locate,
                     dop853_initial_step, dop853_chunk, dop853_dense, derivative_start,
                     project_start, initial_step, along, accel_only,
                     second_order_step, _partial_sum, second_order_chunk, second_order_locate,
