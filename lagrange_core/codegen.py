@@ -43,13 +43,18 @@ dissipation, explicit-Lagrangian terms); Φ_q and γ.  Then, by size:
 * large systems: index tables say where each term goes, and loops compiled
   once per installation (:mod:`lagrange_core._core_kernels`) assemble M and F;
   a banded mass matrix is solved by a banded LDLᵀ (a chain of beads: O(n)).
-  Generated code, and numba's compile time, grow with the number of distinct
-  terms rather than with n² matrix entries.
+  The distinct terms are evaluated by a program whose LLVM IR is written
+  directly (:mod:`lagrange_core._ir`), bypassing numba's front end, which costs
+  about 3 ms per arithmetic operation of generated source.  Compile time grows
+  with the number of distinct terms rather than with n² matrix entries.
 
 The hot kernels (``rhs``, ``solve_state_y``, ``accelerations``) are single
 functions: each call between numba functions costs reference-count updates on
-its array arguments.  The Jacobian is exact: the complex step on the same
-kernels; it compiles on first use.
+its array arguments.  The Jacobian is exact: forward-mode derivatives of the
+distinct terms (:func:`lagrange_core._ir.tangent_evaluator`, so ``abs`` and
+``sign`` are fine), then of the assembly (``_core_kernels.jacobian_from_values``).
+Only ``rhs`` is compiled when the kernels are made; the others compile on first
+use (:meth:`Kernels.warm`).
 
 Kernel templates
 ----------------
@@ -90,6 +95,8 @@ import numba
 import numpy as np
 import symengine as se
 
+from . import _ir
+
 __all__ = ["Kernels", "compile_kernels", "cache_dir"]
 
 _ALLOWED_NAMES = {"sin", "cos", "tan", "exp", "log", "sqrt", "asin", "acos", "atan", "atan2",
@@ -104,7 +111,8 @@ from numba import njit
 from numpy import (sin, cos, tan, exp, log, sqrt, arcsin as asin, arccos as acos,
                    arctan as atan, arctan2 as atan2, sinh, cosh, tanh, arcsinh as asinh,
                    arccosh as acosh, arctanh as atanh, pi, e as E, sign)
-from lagrange_core._core_kernels import assemble
+from lagrange_core._core_kernels import assemble, jacobian_from_values
+from lagrange_core._ir import value_evaluator, tangent_evaluator
 from lagrange_core._linalg import solve_augmented, solve_dense, solve_banded_spd
 
 N_DOF = {n}
@@ -116,7 +124,7 @@ N0 = {N}                        # rows of the augmented system; the values start
 WIDTH = {N} + 1
 BAND = {band}                   # half-bandwidth of the mass matrix (structural)
 WORK_SHAPE = {work_shape!r}
-COMPLEX_STEP = 1e-200
+VALUE_WORK_SHAPE = {value_work_shape!r}      # W with the value rows (the Jacobian's scratch)
 COORDINATES = {coordinates!r}
 PARAMETERS = {parameters!r}
 '''
@@ -163,42 +171,12 @@ def mass_forcing(q, qd, t, p, M, F):
 
 @njit(cache=True)
 def jacobian(t, y, p, J):
-    # With x = [q̈, λ] held fixed, G = W[:, N] − W[:, :N] x vanishes along solutions, so
-    # [M −Φ_qᵀ; Φ_q 0] ∂x/∂y = ∂G/∂y.  ∂G/∂y_j by the complex step: Im G(y + i h e_j) / h
-    # is exact to rounding error (no subtractive cancellation) for analytic terms.
-    n = N_DOF
-    N = N0
-    W = new_work()
-    status = solve_state_y(y, t, p, W)
-    x = np.empty(N)
-    for r in range(N):
-        x[r] = W[r, N]
-    B = np.empty((N, N + 2 * n))
-    augmented_y(y, t, p, W)
-    for r in range(N):
-        for c in range(N):
-            B[r, c] = W[r, c]
-    Wc = np.zeros(WORK_SHAPE, dtype=np.complex128)
-    yc = np.zeros(2 * n, dtype=np.complex128)
-    for j in range(2 * n):
-        for i in range(2 * n):
-            yc[i] = y[i]
-        yc[j] += 1j * COMPLEX_STEP
-        augmented_y(yc, t, p, Wc)
-        for r in range(N):
-            s = Wc[r, N].imag
-            for c in range(N):
-                s -= Wc[r, c].imag * x[c]
-            B[r, N + j] = s / COMPLEX_STEP
-    status = max(status, solve_dense(B, B.shape[0]))
-    for i in range(2 * n):
-        for j in range(2 * n):
-            J[i, j] = 0.0
-    for i in range(n):
-        J[i, n + i] = 1.0
-        for j in range(2 * n):
-            J[n + i, j] = B[i, N + j]
-    return status
+    # forward-mode derivatives of the distinct terms (_ir), then of the assembly
+    W = np.zeros(VALUE_WORK_SHAPE)
+    dV = np.zeros((N_VALUES, 2 * N_DOF))
+    _evaluate_tangents(y, t, p, W, dV)
+    return jacobian_from_values(W, dV, P_MASS, P_PTR, P_COL, P_JAC, P_BIAS, F_REST, M_REST,
+                                PHI_Q, GAMMA, J)
 
 
 @njit(cache=True)
@@ -246,7 +224,7 @@ def source_fingerprint(*modules) -> str:
 @functools.cache
 def _generator_fingerprint() -> str:
     from . import _core_kernels, _linalg, derive
-    return source_fingerprint(sys.modules[__name__], derive, _linalg, _core_kernels)
+    return source_fingerprint(sys.modules[__name__], derive, _ir, _linalg, _core_kernels)
 
 
 # -- printing -------------------------------------------------------------------------
@@ -490,30 +468,32 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
                + [abs(i - j) for i in range(n) for j in range(n) if m_rest[i][j]] + [0])
     if m:
         band = n - 1    # the augmented system is solved densely: write all of M
-    work_shape = (N, N + 1) if unrolled else (N + -(-n_values // (N + 1)), N + 1)
+    value_work_shape = (N + -(-n_values // (N + 1)), N + 1)     # N rows, then the values
+    work_shape = (N, N + 1) if unrolled else value_work_shape
     src = [_HEADER.format(label=repr(system.name or "a system"), n=n, m=m,
                           k=len(system.parameters), n_particles=len(system.particles),
                           n_values=n_values, work_shape=work_shape, N=N, band=band,
+                          value_work_shape=value_work_shape,
                           coordinates=system.coordinates, parameters=system.parameters)]
     tables = dict(P_MASS=p_mass, P_PTR=p_ptr, P_COL=p_col, P_JAC=p_jac, P_BIAS=p_bias,
                   F_REST=f_rest, M_REST=m_rest, PHI_Q=phi_q, GAMMA=gamma)
+    src.append("".join(_table(name, rows, {"P_JAC": 3, "P_BIAS": 3, "M_REST": n,
+                                             "PHI_Q": n}.get(name))
+                       for name, rows in tables.items()))
+    # The distinct terms as a program whose LLVM IR is written directly (_ir): numba's
+    # front end would take ~3 ms per operation.  Every system's Jacobian differentiates
+    # it; large systems also evaluate their values with it.
+    program = _ir.build_program(value.exprs, n, len(system.parameters), cse)
+    src.append(f"\nPROGRAM = {program!r}\n"
+               "_evaluate = value_evaluator(PROGRAM, N0, WIDTH)\n"
+               "_evaluate_tangents = tangent_evaluator(PROGRAM, N0, WIDTH)\n")
     if unrolled:
         assembly, store = _unrolled_assembly(pr, value.exprs, tables, n, m)
     else:
-        assembly = ["_check_work(W)", "_values(y, t, p, W)",
+        assembly = ["_check_work(W)", "_evaluate(y, t, p, W)",
                     "assemble(W, N0, WIDTH, BAND, P_MASS, P_PTR, P_COL, P_JAC, P_BIAS, F_REST, M_REST, "
                     "PHI_Q, GAMMA)"]
         store = []
-        src.append("".join(_table(name, rows, {"P_JAC": 3, "P_BIAS": 3, "M_REST": n,
-                                                 "PHI_Q": n}.get(name))
-                           for name, rows in tables.items()))
-
-        def slot(f):     # where value number f lives in W (see _core_kernels.value)
-            return f"W[{N + f // (N + 1)}, {f % (N + 1)}]"
-
-        outputs = [(slot(i + 1), e) for i, e in enumerate(value.exprs)]
-        src.append(_function("_values", ["y", "t", "p", "W"], [f"{slot(0)} = 0.0"]
-                             + pr.body(outputs, ["y", "p"], renamed=True)))
         src.append(_TABLE_CHECK)
     # The hot kernels are single straight-line functions: every call between numba
     # functions costs reference-count updates on its array arguments (~10-40 ns).
@@ -540,8 +520,12 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
         assembly = assembly + store
         src.append(_function("solve_state_y", ["y", "t", "p", "W"], from_y + assembly + solve,
                              ret="0"))
-    copy = [f"dydt[{i}] = y[{n + i}]" for i in range(n)]
-    copy += [f"dydt[{n + i}] = {r}" for i, r in enumerate(result)]
+    if unrolled:
+        copy = [f"dydt[{i}] = y[{n + i}]" for i in range(n)]
+        copy += [f"dydt[{n + i}] = {r}" for i, r in enumerate(result)]
+    else:   # a loop: numba lowers each indexing statement separately (~6 ms each)
+        copy = ["for _i in range(N_DOF):", "    dydt[_i] = y[N_DOF + _i]",
+                "    dydt[N_DOF + _i] = W[_i, N0]"]
     src.append(_function("rhs", ["t", "y", "p", "dydt", "W"], from_y + assembly + solve + copy,
                          ret="0"))
     if unrolled:
@@ -620,24 +604,27 @@ class Kernels:
         """A fresh scratch array ``W`` of the shape the kernels expect."""
         return np.zeros(self.module.WORK_SHAPE)
 
-    def warm(self, jacobian: bool = False) -> "Kernels":
-        """Compile (or load from the disk cache) the main kernels for float64 arrays.
+    def warm(self, *, jacobian: bool = False, everything: bool = False) -> "Kernels":
+        """Compile (or load from the disk cache) kernels for float64 arrays now.
 
-        The Jacobian (complex-step variant of the kernels, the slowest to
-        compile) is included only with ``jacobian=True``; otherwise it compiles
-        on first use.
+        By default only ``rhs`` (what an integrator needs: M, F and the solve);
+        ``jacobian=True`` adds the Jacobian and ``everything=True`` every kernel.
+        Kernels not compiled here compile on first use (about 0.3–1 s each, cold).
         """
         n, m = self.n_dof, self.n_constraints
         q = np.zeros(n)
+        y = np.zeros(2 * n)
         p = np.ones(len(self.parameters))
         W = self.work_array()
-        self.mass_forcing(q, q, 0.0, p, np.zeros((n, n)), np.zeros(n))
-        self.accelerations(q, q, 0.0, p, np.zeros(n), np.zeros(m), W)
-        y = np.zeros(2 * n)
         self.rhs(0.0, y, p, np.zeros(2 * n), W)
-        self.energy(q, q, 0.0, p)
-        if jacobian:
+        if jacobian or everything:
             self.jacobian(0.0, y, p, np.zeros((2 * n, 2 * n)))
+        if everything:
+            self.mass_forcing(q, q, 0.0, p, np.zeros((n, n)), np.zeros(n))
+            self.accelerations(q, q, 0.0, p, np.zeros(n), np.zeros(m), W)
+            self.energy(q, q, 0.0, p)
+            self.constraint_residual(q, q, 0.0, p, np.zeros(2 * m))
+            self.particle_positions(q, 0.0, p, np.zeros((self.n_particles, 3)))
         return self
 
     def bind(self, template_module: types.ModuleType) -> types.ModuleType:
@@ -695,7 +682,8 @@ def compile_kernels(system) -> Kernels:
     Returns
     -------
     Kernels
-        Already compiled for float64 arrays (:meth:`Kernels.warm`).
+        With ``rhs`` compiled for float64 arrays; the other kernels compile on
+        first use (:meth:`Kernels.warm`).
     """
     from .derive import Equations
     if isinstance(system, Equations):
