@@ -9,16 +9,18 @@ literal), and a numba ``@intrinsic`` writes its LLVM IR instruction by
 instruction, bypassing the front end: the same 300 operations cost a few
 milliseconds, plus LLVM's own optimisation.
 
-Two evaluators are made from a program:
+A program computes the distinct terms of a system and, from them, its
+*outputs* (the entries of the augmented matrix [[M, −Φ_qᵀ, F], [Φ_q, 0, γ]]).
+Two evaluators are made from it:
 
-* :func:`value_evaluator` stores each output value;
-* :func:`tangent_evaluator` also stores its derivatives with respect to every
-  state component ``y[j]`` (forward-mode differentiation, exact to rounding).
+* :func:`value_evaluator` stores outputs at given places of an array;
+* :func:`tangent_evaluator` also stores their derivatives with respect to the
+  state components ``y[j]`` (forward-mode differentiation, exact to rounding).
   Only structurally non-zero derivatives are computed and stored, so a term of
   two coordinates costs two tangent operations, not 2n.  The rules are the
-  textbook derivatives (listed in ``_TANGENT_RULES``); ``abs`` and ``sign``
-  have derivative ``sign(x)`` and 0 (0 at the kink x = 0), where the complex
-  step they replace failed.
+  textbook derivatives (``_Emitter.tangent`` and ``_Emitter.derivative``);
+  ``abs`` and ``sign`` have derivatives ``sign(x)`` and 0 (0 at the kink
+  x = 0), where the complex step used before gave wrong results.
 
 Program format
 --------------
@@ -29,9 +31,8 @@ Register r is the result of instruction r.  Instructions::
     (name, a)   name in UNARY: neg sqrt exp log sin cos tan asin acos atan
                 sinh cosh tanh asinh acosh atanh abs sign
 
-Outputs are registers; output f is stored as value number f + 1 at
-``W[N0 + (f + 1) // WIDTH, (f + 1) % WIDTH]`` (value 0, the constant zero, at
-``W[N0, 0]``): the value layout of :mod:`lagrange_core._core_kernels`.
+A program is ``(instructions, output registers, output dependencies)``
+(:func:`build_program`).
 """
 from __future__ import annotations
 
@@ -134,11 +135,28 @@ class _ProgramBuilder:
         return r
 
 
-def build_program(exprs, n_dof: int, n_parameters: int, cse: bool = True):
-    """Compile expressions in the kernel's local names to ``(instructions, outputs)``.
+def build_program(values, outputs, n_dof: int, n_parameters: int, cse: bool = True,
+                  definitions=()):
+    """Compile the distinct terms and the outputs built from them into a program.
 
-    ``exprs`` use ``_q{i}``, ``_v{i}`` (the state y = [q, q̇]), ``_p{i}`` and ``t``
-    (see ``codegen._Printer``).  Returns plain tuples, printable as a literal.
+    Parameters
+    ----------
+    values : list of symengine expressions
+        The distinct terms, in the kernel's local names: ``_q{i}``, ``_v{i}`` (the state
+        y = [q, q̇]), ``_p{i}`` and ``t`` (see ``codegen._Printer``).  Common
+        subexpressions are removed across all of them; term f (from 1) is then the
+        symbol ``_u{f}``.
+    outputs : list of symengine expressions
+        In the symbols ``_u{f}`` and ``definitions`` (and the locals above).
+    definitions : sequence of (symbol, expression)
+        Intermediate results shared between outputs, in evaluation order.
+
+    Returns
+    -------
+    (instructions, output registers, output dependencies)
+        Plain tuples, printable as a literal.  The dependencies of an output are the
+        state indices j its derivative ∂/∂y[j] is structurally non-zero for: the
+        tangent evaluator stores exactly these, in this order.
     """
     inputs = {}
     builder = _ProgramBuilder(inputs)
@@ -148,12 +166,25 @@ def build_program(exprs, n_dof: int, n_parameters: int, cse: bool = True):
     inputs["t"] = builder.emit(("t",))
     for i in range(n_parameters):
         inputs[f"_p{i}"] = builder.emit(("p", i))
-    exprs = [se.sympify(e) for e in exprs]
-    replacements, reduced = se.cse(exprs) if exprs and cse else ([], exprs)
+    values = [se.sympify(e) for e in values]
+    replacements, reduced = se.cse(values) if values and cse else ([], values)
     for symbol, e in replacements:
         inputs[str(symbol)] = builder(e)
-    outputs = tuple(builder(e) for e in reduced)
-    return tuple(builder.instructions), outputs
+    for f, e in enumerate(reduced, start=1):
+        inputs[f"_u{f}"] = builder(e)
+    for symbol, e in definitions:
+        inputs[str(symbol)] = builder(se.sympify(e))
+    registers = tuple(builder(se.sympify(e)) for e in outputs)
+    instructions = tuple(builder.instructions)
+    deps = []
+    for ins in instructions:
+        if ins[0] == "y":
+            deps.append(frozenset([ins[1]]))
+        elif ins[0] in ("t", "p", "c", "sign"):
+            deps.append(frozenset())
+        else:
+            deps.append(frozenset().union(*(deps[a] for a in ins[1:])))
+    return instructions, registers, tuple(tuple(sorted(deps[r])) for r in registers)
 
 
 # -- LLVM emission -------------------------------------------------------------------
@@ -217,7 +248,7 @@ class _Emitter:
 
     def tangent(self, op, v, a, b, da, db):
         """Tangent of v = op(a, b) from the operands' tangents."""
-        if not da and not db:
+        if (not da and not db) or op == "sign":
             return {}
         B, c = self.b, self.const
         if op == "add":
@@ -310,27 +341,41 @@ def _run(context, builder, instructions, load, tangents):
     return values, dvalues
 
 
-def _codegen(instructions, outputs, n0, width, tangents):
+def _codegen(program, targets, tangents):
+    instructions, registers, deps = program
+
     def codegen(context, builder, sig, args):
-        names = ("y", "t", "p", "W", "dV")
+        names = ("y", "t", "p", "W", "dA")
         arrays = {name: (ty, context.make_array(ty)(context, builder, val))
                   for name, ty, val in zip(names, sig.args, args) if name != "t"}
         t_value = context.cast(builder, args[1], sig.args[1], _F8)
+        intp = context.get_value_type(types.intp)
+        strides = {name: cgutils.unpack_tuple(builder, arr.strides, ty.ndim)
+                   for name, (ty, arr) in arrays.items()}
+        base = {name: builder.bitcast(arr.data, ir.IntType(8).as_pointer())
+                for name, (ty, arr) in arrays.items()}
 
         def pointer(name, *index):
-            ty, arr = arrays[name]
-            return cgutils.get_item_pointer(
-                context, builder, ty, arr, [context.get_constant(types.intp, i) for i in index])
+            # byte offset Σ index·stride: valid for any layout, and constant-folded by LLVM
+            offset = None
+            for i, stride in zip(index, strides[name]):
+                term = builder.mul(ir.Constant(intp, i), stride)
+                offset = term if offset is None else builder.add(offset, term)
+            return builder.bitcast(builder.gep(base[name], [offset]), ir.DoubleType().as_pointer())
 
         def load(ins):
             return t_value if ins[0] == "t" else builder.load(pointer(ins[0], ins[1]))
 
         values, dvalues = _run(context, builder, instructions, load, tangents)
-        builder.store(ir.Constant(ir.DoubleType(), 0.0), pointer("W", n0, 0))
-        for f, r in enumerate(outputs, start=1):
-            builder.store(values[r], pointer("W", n0 + f // width, f % width))
-            for j, dv in dvalues[r].items():
-                builder.store(dv, pointer("dV", f, j))
+        for row, col, out in targets:
+            builder.store(values[registers[out]], pointer("W", row, col))
+        if tangents:
+            zero = ir.Constant(ir.DoubleType(), 0.0)
+            k = 0
+            for r, js in zip(registers, deps):
+                for j in js:
+                    builder.store(dvalues[r].get(j, zero), pointer("dA", k))
+                    k += 1
         return context.get_dummy_value()
 
     return codegen
@@ -341,9 +386,10 @@ def _valid(y, t, p, W):
             and _is_float_array(p, 1) and _is_float_array(W, 2))
 
 
-def value_evaluator(program, n0: int, width: int):
-    """An intrinsic ``evaluate(y, t, p, W)`` storing the program's outputs as values in W."""
-    codegen = _codegen(*program, n0, width, tangents=False)
+def value_evaluator(program, targets):
+    """An intrinsic ``evaluate(y, t, p, W)`` that stores ``W[row, col]`` = output ``out``
+    for each ``(row, col, out)`` of ``targets``."""
+    codegen = _codegen(program, targets, tangents=False)
 
     @intrinsic
     def evaluate(typingctx, y, t, p, W):
@@ -353,15 +399,15 @@ def value_evaluator(program, n0: int, width: int):
     return evaluate
 
 
-def tangent_evaluator(program, n0: int, width: int):
-    """An intrinsic ``evaluate(y, t, p, W, dV)``: the values as :func:`value_evaluator`, and
-    ``dV[f, j] = ∂(value f)/∂y[j]`` for the structurally non-zero entries (dV is not
-    cleared: pass zeros)."""
-    codegen = _codegen(*program, n0, width, tangents=True)
+def tangent_evaluator(program, targets):
+    """An intrinsic ``evaluate(y, t, p, W, dA)``: W as :func:`value_evaluator`, and in
+    ``dA`` (1-D) the derivatives ∂(output o)/∂y[j] for o in order and j in the output's
+    dependencies (``program[2][o]``)."""
+    codegen = _codegen(program, targets, tangents=True)
 
     @intrinsic
-    def evaluate(typingctx, y, t, p, W, dV):
-        if _valid(y, t, p, W) and _is_float_array(dV, 2):
-            return types.void(y, t, p, W, dV), codegen
+    def evaluate(typingctx, y, t, p, W, dA):
+        if _valid(y, t, p, W) and _is_float_array(dA, 1):
+            return types.void(y, t, p, W, dA), codegen
 
     return evaluate

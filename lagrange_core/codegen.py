@@ -111,7 +111,7 @@ from numba import njit
 from numpy import (sin, cos, tan, exp, log, sqrt, arcsin as asin, arccos as acos,
                    arctan as atan, arctan2 as atan2, sinh, cosh, tanh, arcsinh as asinh,
                    arccosh as acosh, arctanh as atanh, pi, e as E, sign)
-from lagrange_core._core_kernels import assemble, jacobian_from_values
+from lagrange_core._core_kernels import check_work, jacobian_from_entries, jacobian_scratch
 from lagrange_core._ir import value_evaluator, tangent_evaluator
 from lagrange_core._linalg import solve_augmented, solve_dense, solve_banded_spd
 
@@ -119,12 +119,10 @@ N_DOF = {n}
 N_CONSTRAINTS = {m}
 N_PARAMETERS = {k}
 N_PARTICLES = {n_particles}
-N_VALUES = {n_values}
-N0 = {N}                        # rows of the augmented system; the values start below
-WIDTH = {N} + 1
+N_VALUES = {n_values}               # distinct symbolic terms
+N0 = {N}                        # rows of the augmented system
 BAND = {band}                   # half-bandwidth of the mass matrix (structural)
-WORK_SHAPE = {work_shape!r}
-VALUE_WORK_SHAPE = {value_work_shape!r}      # W with the value rows (the Jacobian's scratch)
+WORK_SHAPE = ({N}, {N} + 1)
 COORDINATES = {coordinates!r}
 PARAMETERS = {parameters!r}
 '''
@@ -171,12 +169,10 @@ def mass_forcing(q, qd, t, p, M, F):
 
 @njit(cache=True)
 def jacobian(t, y, p, J):
-    # forward-mode derivatives of the distinct terms (_ir), then of the assembly
-    W = np.zeros(VALUE_WORK_SHAPE)
-    dV = np.zeros((N_VALUES, 2 * N_DOF))
-    _evaluate_tangents(y, t, p, W, dV)
-    return jacobian_from_values(W, dV, P_MASS, P_PTR, P_COL, P_JAC, P_BIAS, F_REST, M_REST,
-                                PHI_Q, GAMMA, J)
+    # the augmented matrix and its forward-mode derivatives (_ir), then two solves
+    W, dA = jacobian_scratch(N0, N_TANGENTS)
+    _evaluate_tangents(y, t, p, W, dA)
+    return jacobian_from_entries(W, dA, TARGET_TABLE, TAN_PTR, TAN_J, J)
 
 
 @njit(cache=True)
@@ -256,7 +252,8 @@ class _Printer:
 
     @staticmethod
     def code(expr) -> str:
-        text = str(expr)
+        # x**2 -> (x*x): numba compiles an integer power as a subroutine (slow to compile)
+        text = re.sub(r"(?<![\w.])([A-Za-z_]\w*)\*\*2(?![\d.])", r"(\1*\1)", str(expr))
         for name in set(re.findall(r"(?<![\w.])([A-Za-z_]\w*)", text)):
             if name == "t" or name.startswith("_") or re.fullmatch(r"x\d+", name):
                 continue    # time (a kernel argument), a kernel local or a CSE temporary
@@ -333,52 +330,89 @@ def accelerations(q, qd, t, p, qdd, lam, W):
     return status
 '''
 
-_TABLE_CHECK = '''
+def _entries(equations, value):
+    """The augmented matrix as expressions in the distinct terms (symbols ``_u{f}``).
 
-@njit(cache=True)
-def _check_work(W):
-    if W.shape[0] < WORK_SHAPE[0] or W.shape[1] != WORK_SHAPE[1]:
-        raise ValueError("the scratch array W must have shape WORK_SHAPE (use new_work())")
-'''
+    M = M' + Σ_k m_k J_kᵀJ_k and F = F' − Σ_k m_k J_kᵀb_k, with J_k = ∂r_k/∂q and b_k
+    the q̈-free part of particle k's acceleration; ``value`` numbers each distinct term.
+    Particles whose Jacobian columns are the same terms are grouped: their masses are
+    summed before the product with J_iᵀJ_j, and their m_k b_k are summed before the dot
+    with J_i, by running sums shared between nested groups.  A chain of N links (where
+    links k ≥ i share column i) then costs O(N²) operations instead of O(N³).
 
+    Returns
+    -------
+    M, F, Φ_q, γ, definitions, n_products
+        M[i][j] for j ≥ i (lists of lists), F[i], Φ_q[c][j], γ[c]; the running sums as
+        (symbol ``_s{k}``, expression), in evaluation order; the number of particle
+        products Σ_k nnz(J_k)(nnz(J_k) + 3)/2 (the size of the assembly, ungrouped).
+    """
+    n = equations.system.n_dof
 
-def _unrolled_assembly(pr, exprs, tables, n, m):
-    """Straight-line assembly: (lines computing locals _M{i}_{j} (i ≤ j) and _F{i} from the
-    distinct values, lines storing M, F, Φ_q and γ into W)."""
-    def u(f):
-        return f"_u{f}"
-
-    lines = pr.body([(u(i + 1), e) for i, e in enumerate(exprs)], [], renamed=True)
-    M = [[[] for _ in range(n)] for _ in range(n)]
-    F = [[] for _ in range(n)]
-    for i in range(n):
-        if tables["F_REST"][i]:
-            F[i].append(u(tables["F_REST"][i]))
-        for j in range(n):
-            if tables["M_REST"][i][j]:
-                M[i][j].append(u(tables["M_REST"][i][j]))
-    ptr, col, jac = tables["P_PTR"], tables["P_COL"], tables["P_JAC"]
+    def u(expr):
+        f = value(expr)
+        return se.Symbol(f"_u{f}") if f else se.Integer(0)
 
     def dot(a, b):
-        terms = [f"{u(x)}*{u(y)}" for x, y in zip(a, b) if x and y]
-        return " + ".join(terms)
+        return se.Add(*[x * y for x, y in zip(a, b)])
 
-    for k, mass in enumerate(tables["P_MASS"]):
-        for a in range(ptr[k], ptr[k + 1]):
-            i = col[a]
-            d = dot(jac[a], tables["P_BIAS"][k])
-            if d:
-                F[i].append(f"-{u(mass)}*({d})")
-            for b in range(a, ptr[k + 1]):
-                j = col[b]
-                d = dot(jac[a], jac[b])
-                if d:
-                    M[i][j].append(f"{u(mass)}*({d})")      # j ≥ i: columns ascend
-    N = n + m
+    M = [[u(equations.mass_rest_se[i][j]) for j in range(n)] for i in range(n)]
+    F = [u(e) for e in equations.forcing_rest_se]
+    pair_masses = {}        # (i, j, J_i, J_j) -> masses of the particles with these columns
+    column_terms = {}       # (i, J_i) -> [(particle, mass, bias)]
+    n_products = 0
+    for k, pt in enumerate(equations.particle_terms):
+        mass = u(pt.mass)
+        dims = range(len(pt.bias))
+        cols = [j for j in range(n) if any(pt.jacobian[c][j] != 0 for c in dims)]
+        jac = {j: tuple(u(pt.jacobian[c][j]) for c in dims) for j in cols}
+        bias = [u(b) for b in pt.bias]
+        n_products += len(cols) * (len(cols) + 3) // 2
+        for a, i in enumerate(cols):
+            column_terms.setdefault((i, jac[i]), []).append((k, mass, bias))
+            for j in cols[a:]:
+                pair_masses.setdefault((i, j, jac[i], jac[j]), []).append(mass)
+    for (i, j, jac_i, jac_j), masses in pair_masses.items():
+        M[i][j] += se.Add(*masses) * dot(jac_i, jac_j)
+
+    definitions, sums = [], {}
+
+    def running_sum(members):
+        """Σ m_k b_k over members (by descending k) = that over members[:-1] + the last."""
+        key = tuple(k for k, _, _ in members)
+        if key not in sums:
+            _, mass, bias = members[-1]
+            rest = running_sum(members[:-1]) if len(members) > 1 else [0] * len(bias)
+            total = []
+            for c, b in enumerate(bias):
+                e = mass * b + rest[c]
+                if e != 0 and len(members) > 1:
+                    symbol = se.Symbol(f"_s{len(definitions)}")
+                    definitions.append((symbol, e))
+                    e = symbol
+                total.append(e)
+            sums[key] = total
+        return sums[key]
+
+    for (i, jac_i), members in column_terms.items():
+        F[i] -= dot(jac_i, running_sum(sorted(members, key=lambda x: -x[0])))
+    phi_q = [[u(e) for e in row] for row in equations.constraint_jacobian_se]
+    gamma = [u(e) for e in equations.constraint_rhs_se]
+    return M, F, phi_q, gamma, definitions, n_products
+
+
+def _unrolled_assembly(pr, exprs, M, F, phi_q, gamma, definitions):
+    """Straight-line assembly: (lines computing the distinct values ``_u{f}``, the running
+    sums ``_s{k}`` and the locals ``_M{i}_{j}`` (i ≤ j), ``_F{i}``; lines storing M, F, Φ_q
+    and γ into W)."""
+    n, m = len(F), len(gamma)
+    lines = pr.body([(f"_u{f}", e) for f, e in enumerate(exprs, start=1)], [], renamed=True)
+    lines += [f"{symbol} = {pr.code(e)}" for symbol, e in definitions]
     for i in range(n):
-        lines.append(f"_F{i} = {' + '.join(F[i]) or '0.0'}")
+        lines.append(f"_F{i} = {pr.code(F[i])}")
         for j in range(i, n):
-            lines.append(f"_M{i}_{j} = {' + '.join(M[i][j]) or '0.0'}")
+            lines.append(f"_M{i}_{j} = {pr.code(M[i][j])}")
+    N = n + m
     store = []
     for i in range(n):
         store.append(f"W[{i}, {N}] = _F{i}")
@@ -387,10 +421,9 @@ def _unrolled_assembly(pr, exprs, tables, n, m):
             if j > i:
                 store.append(f"W[{j}, {i}] = _M{i}_{j}")
     for c in range(m):
-        store.append(f"W[{n + c}, {N}] = {u(tables['GAMMA'][c]) if tables['GAMMA'][c] else '0.0'}")
+        store.append(f"W[{n + c}, {N}] = {pr.code(gamma[c])}")
         for j in range(n):
-            f = tables["PHI_Q"][c][j]
-            store.append(f"W[{n + c}, {j}] = {u(f) if f else '0.0'}")
+            store.append(f"W[{n + c}, {j}] = {pr.code(phi_q[c][j])}")
             store.append(f"W[{j}, {n + c}] = -W[{n + c}, {j}]")
         for d in range(m):
             store.append(f"W[{n + c}, {n + d}] = 0.0")
@@ -430,71 +463,62 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
     """Python source of the kernel module for ``equations`` (see the module docstring).
 
     ``cse=False`` prints every term in full (for checking that CSE changes nothing);
-    ``unroll`` forces straight-line (True) or table-driven (False) assembly instead of
-    choosing by size (``UNROLL_LIMIT``).
+    ``unroll`` forces the straight-line Python assembly (True) or the LLVM program
+    (False) for the hot kernels instead of choosing by size (``UNROLL_LIMIT``).
     """
     system = equations.system
     n, m = system.n_dof, system.n_constraints
+    N = n + m
     pr = _Printer(system, cse)
     value = _ValueTable(pr)
-
-    def pad3(vec):
-        return [value(c) for c in vec] + [0] * (3 - len(vec))
-
-    p_mass, p_ptr, p_col, p_jac, p_bias = [], [0], [], [], []
-    for pt in equations.particle_terms:
-        p_mass.append(value(pt.mass))
-        for j in range(n):
-            column = [pt.jacobian[c][j] for c in range(len(pt.bias))]
-            if any(e != 0 for e in column):
-                p_col.append(j)
-                p_jac.append(pad3(column))
-        p_ptr.append(len(p_col))
-        p_bias.append(pad3(pt.bias))
-    m_rest = [[value(e) for e in row] for row in equations.mass_rest_se]
-    f_rest = [value(e) for e in equations.forcing_rest_se]
-    phi_q = [[value(e) for e in row] for row in equations.constraint_jacobian_se]
-    gamma = [value(e) for e in equations.constraint_rhs_se]
-
-    N = n + m
-    n_values = len(value.exprs) + 1
-    n_products = sum((p_ptr[k + 1] - p_ptr[k]) * (p_ptr[k + 1] - p_ptr[k] + 3) // 2
-                     for k in range(len(p_mass)))
+    M, F, phi_q, gamma, definitions, n_products = _entries(equations, value)
     # straight-line code writes every entry of M: bound n too
     unrolled = (n_products <= UNROLL_LIMIT and N <= 12) if unroll is None else unroll
     # half-bandwidth of M (structurally): dense elimination becomes a banded LDLᵀ
-    band = max([abs(p_col[a] - p_col[b]) for k in range(len(p_mass))
-                for a in range(p_ptr[k], p_ptr[k + 1]) for b in range(a, p_ptr[k + 1])]
-               + [abs(i - j) for i in range(n) for j in range(n) if m_rest[i][j]] + [0])
+    band = max([j - i for i in range(n) for j in range(i, n) if M[i][j] != 0] + [0])
     if m:
         band = n - 1    # the augmented system is solved densely: write all of M
-    value_work_shape = (N + -(-n_values // (N + 1)), N + 1)     # N rows, then the values
-    work_shape = (N, N + 1) if unrolled else value_work_shape
+    # Where each entry of [[M, −Φ_qᵀ, F], [Φ_q, 0, γ]] goes: every entry a solver reads
+    # (M within the band), since the solvers overwrite W.
+    outputs, out_index, targets = [], {}, []
+
+    def target(row, col, expr):
+        if expr not in out_index:
+            out_index[expr] = len(outputs)
+            outputs.append(expr)
+        targets.append((row, col, out_index[expr]))
+
+    for i in range(n):
+        target(i, N, F[i])
+        for j in range(max(0, i - band), min(n, i + band + 1)):
+            target(i, j, M[min(i, j)][max(i, j)])
+    for c in range(m):
+        target(n + c, N, gamma[c])
+        for j in range(n):
+            target(n + c, j, phi_q[c][j])
+            target(j, n + c, -phi_q[c][j])
+        for d in range(m):
+            target(n + c, n + d, se.Integer(0))
+    # The distinct terms and the entries as a program whose LLVM IR is written directly
+    # (_ir): numba's front end would take ~3 ms per operation.  Every system's Jacobian
+    # differentiates it; large systems also evaluate it in their hot kernels.
+    program = _ir.build_program(value.exprs, outputs, n, len(system.parameters), cse,
+                                definitions)
+    tan_ptr = np.cumsum([0] + [len(d) for d in program[2]])
+    tan_j = [j for d in program[2] for j in d]
     src = [_HEADER.format(label=repr(system.name or "a system"), n=n, m=m,
                           k=len(system.parameters), n_particles=len(system.particles),
-                          n_values=n_values, work_shape=work_shape, N=N, band=band,
-                          value_work_shape=value_work_shape,
-                          coordinates=system.coordinates, parameters=system.parameters)]
-    tables = dict(P_MASS=p_mass, P_PTR=p_ptr, P_COL=p_col, P_JAC=p_jac, P_BIAS=p_bias,
-                  F_REST=f_rest, M_REST=m_rest, PHI_Q=phi_q, GAMMA=gamma)
-    src.append("".join(_table(name, rows, {"P_JAC": 3, "P_BIAS": 3, "M_REST": n,
-                                             "PHI_Q": n}.get(name))
-                       for name, rows in tables.items()))
-    # The distinct terms as a program whose LLVM IR is written directly (_ir): numba's
-    # front end would take ~3 ms per operation.  Every system's Jacobian differentiates
-    # it; large systems also evaluate their values with it.
-    program = _ir.build_program(value.exprs, n, len(system.parameters), cse)
-    src.append(f"\nPROGRAM = {program!r}\n"
-               "_evaluate = value_evaluator(PROGRAM, N0, WIDTH)\n"
-               "_evaluate_tangents = tangent_evaluator(PROGRAM, N0, WIDTH)\n")
+                          n_values=len(value.exprs), N=N, band=band,
+                          coordinates=system.coordinates, parameters=system.parameters),
+           f"\nPROGRAM = {program!r}\nTARGETS = {tuple(targets)!r}\n",
+           _table("TARGET_TABLE", targets, 3), _table("TAN_PTR", tan_ptr), _table("TAN_J", tan_j),
+           "N_TANGENTS = TAN_J.shape[0]\n"
+           "_evaluate = value_evaluator(PROGRAM, TARGETS)\n"
+           "_evaluate_tangents = tangent_evaluator(PROGRAM, TARGETS)\n"]
     if unrolled:
-        assembly, store = _unrolled_assembly(pr, value.exprs, tables, n, m)
+        assembly, store = _unrolled_assembly(pr, value.exprs, M, F, phi_q, gamma, definitions)
     else:
-        assembly = ["_check_work(W)", "_evaluate(y, t, p, W)",
-                    "assemble(W, N0, WIDTH, BAND, P_MASS, P_PTR, P_COL, P_JAC, P_BIAS, F_REST, M_REST, "
-                    "PHI_Q, GAMMA)"]
-        store = []
-        src.append(_TABLE_CHECK)
+        assembly, store = ["check_work(W, N0)", "_evaluate(y, t, p, W)"], []
     # The hot kernels are single straight-line functions: every call between numba
     # functions costs reference-count updates on its array arguments (~10-40 ns).
     from_y = pr.loads["y"] + pr.loads["p"] if unrolled else []
@@ -507,8 +531,8 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
         src.append(_function("solve_state_y", ["y", "t", "p", "W"], from_y + assembly + store
                              + solve + [f"W[{i}, {N}] = _x{i}" for i in range(n)], ret="0"))
     else:
-        # unrolled systems inline the elimination (constant N); table-driven ones share
-        # one compiled copy (W.shape[1] - 1 is N, and not a literal numba would specialise on)
+        # unrolled systems inline the elimination (constant N); the others share one
+        # compiled copy (W.shape[1] - 1 is N, and not a literal numba would specialise on)
         if unrolled:
             solve = [f"_status = solve_augmented(W, {N})"]
         elif m == 0 and band < n - 1:

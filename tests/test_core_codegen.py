@@ -130,8 +130,8 @@ def test_fresh_process_loads_from_disk_cache_without_deriving(double):
 
 @pytest.mark.parametrize("make", [lambda: problems.n_link_pendulum(4), "cartesian pendulum"],
                          ids=["4-link", "constrained"])
-def test_table_driven_and_unrolled_assembly_agree(make):
-    """Large systems assemble M and F by loops over index tables; small ones are unrolled."""
+def test_program_and_unrolled_assembly_agree(make):
+    """Large systems evaluate M and F by the LLVM program (_ir); small ones by printed code."""
     if make == "cartesian pendulum":
         (x, y), _ = lc.coordinates("x y")
         m, l, g = sp.symbols("m l g", positive=True)

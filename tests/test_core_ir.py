@@ -21,71 +21,75 @@ EXPRS = [
     + se.atanh(q1 / 2),
     q0**v1 + q0**-3 + se.pi * se.E * q1**5,
 ]
-N0, WIDTH = 2, 3       # the values go below a 2-row augmented block, 3 per row
+U = [se.Symbol(f"_u{f}") for f in range(1, len(EXPRS) + 1)]
 
 
-def _slot(f):
-    return N0 + f // WIDTH, f % WIDTH
-
-
-@pytest.fixture(scope="module")
-def evaluators():
-    program = _ir.build_program(EXPRS, 2, 1)
-    value, tangent = _ir.value_evaluator(program, N0, WIDTH), _ir.tangent_evaluator(program, N0, WIDTH)
+def _evaluators(values, outputs, n_dof=2):
+    """njit functions storing output o at W[o, 0] (and its derivatives in dA)."""
+    program = _ir.build_program(values, outputs, n_dof, 1)
+    targets = tuple((o, 0, o) for o in range(len(outputs)))
+    value, tangent = _ir.value_evaluator(program, targets), _ir.tangent_evaluator(program, targets)
 
     @njit
-    def values(y, t, p, W):
+    def values_at(y, t, p, W):
         value(y, t, p, W)
 
     @njit
-    def tangents(y, t, p, W, dV):
-        tangent(y, t, p, W, dV)
+    def tangents_at(y, t, p, W, dA):
+        tangent(y, t, p, W, dA)
 
-    return values, tangents
-
-
-def _work():
-    return np.zeros((N0 + -(-(len(EXPRS) + 1) // WIDTH), WIDTH))
+    return program, values_at, tangents_at
 
 
-def test_values_and_derivatives_against_symengine(evaluators):
-    values, tangents = evaluators
+def _dense_tangents(program, dA, n_state):
+    """dA (output by output, over each output's dependencies) as a dense (outputs, n_state)."""
+    out = np.zeros((len(program[1]), n_state))
+    k = 0
+    for o, deps in enumerate(program[2]):
+        for j in deps:
+            out[o, j] = dA[k]
+            k += 1
+    assert k == dA.shape[0]
+    return out
+
+
+def test_values_and_derivatives_against_symengine():
+    # outputs built from the terms, as the codegen's entries are: _u symbols and the state
+    outputs = U + [U[0] * U[1] - q0, se.Integer(0), -U[2]]
+    program, values_at, tangents_at = _evaluators(EXPRS, outputs)
+    n_tan = sum(len(d) for d in program[2])
+    assert program[2][len(EXPRS) + 1] == ()                # the constant has no derivative
     y, p, tt = np.array([0.7, -0.4, 1.3, 0.2]), np.array([1.7]), 0.3
     at = dict(zip(STATE, y)) | {p0: p[0], t: tt}
-    W = _work()
-    values(y, tt, p, W)
-    W2, dV = _work(), np.zeros((len(EXPRS) + 1, 4))
-    tangents(y, tt, p, W2, dV)
+    W = np.full((len(outputs), 1), np.nan)
+    values_at(y, tt, p, W)
+    W2, dA = np.zeros((len(outputs), 1)), np.zeros(n_tan)
+    tangents_at(y, tt, p, W2, dA)
     np.testing.assert_array_equal(W, W2)
-    assert dV[0].tolist() == [0.0] * 4                    # value 0 is the constant zero
-    for f, e in enumerate(EXPRS, start=1):
-        ref = float(e.subs(at))
-        assert W[_slot(f)] == pytest.approx(ref, rel=1e-14, abs=1e-15)
+    dW = _dense_tangents(program, dA, 4)
+    reference = EXPRS + [EXPRS[0] * EXPRS[1] - q0, se.Integer(0), -EXPRS[2]]
+    for o, e in enumerate(reference):
+        assert W[o, 0] == pytest.approx(float(e.subs(at)), rel=1e-14, abs=1e-15)
         for j, s in enumerate(STATE):
             d = float(e.diff(s).subs(at))
-            assert dV[f, j] == pytest.approx(d, rel=1e-13, abs=1e-14), (e, s)
+            assert dW[o, j] == pytest.approx(d, rel=1e-13, abs=1e-14), (e, s)
 
 
-def test_abs_and_sign_are_differentiated_where_the_complex_step_failed(evaluators):
-    program = _ir.build_program([se.Abs(q0) * v0 + se.sign(q1) * q0], 2, 1)
-    tangent = _ir.tangent_evaluator(program, N0, WIDTH)
-
-    @njit
-    def run(y, W, dV):
-        tangent(y, 0.0, np.ones(1), W, dV)
-
+def test_abs_and_sign_are_differentiated_where_the_complex_step_failed():
+    program, _, tangents_at = _evaluators([se.Abs(q0) * v0 + se.sign(q1) * q0], U[:1])
     for x, sign in ((-0.5, -1.0), (0.5, 1.0)):
-        dV = np.zeros((2, 4))
-        run(np.array([x, -2.0, 3.0, 0.0]), _work(), dV)
+        dA = np.zeros(sum(len(d) for d in program[2]))
+        tangents_at(np.array([x, -2.0, 3.0, 0.0]), 0.0, np.ones(1), np.zeros((1, 1)), dA)
         # d/dq0 = sign(q0) v0 + sign(q1); d/dv0 = |q0|; d/dq1 = 0 (sign is flat)
-        np.testing.assert_allclose(dV[1], [sign * 3.0 - 1.0, 0.0, abs(x), 0.0], rtol=1e-15)
+        np.testing.assert_allclose(_dense_tangents(program, dA, 4)[0],
+                                   [sign * 3.0 - 1.0, 0.0, abs(x), 0.0], rtol=1e-15)
 
 
 def test_unsupported_terms_are_named():
     with pytest.raises(ValueError, match="cannot compile 'Heaviside'.*Rewrite"):
-        _ir.build_program([se.sympify(sp.Heaviside(sp.Symbol("_q0")))], 1, 0)
+        _ir.build_program([se.sympify(sp.Heaviside(sp.Symbol("_q0")))], [], 1, 0)
     with pytest.raises(ValueError, match="cannot compile"):
-        _ir.build_program([se.I * q0], 1, 0)
+        _ir.build_program([se.I * q0], [], 1, 0)
 
 
 def test_jacobian_with_quadratic_drag_against_finite_differences():
