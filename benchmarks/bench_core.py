@@ -9,6 +9,8 @@ Run:  python benchmarks/bench_core.py [--quick]
    import time reported separately).
 3. One right-hand-side evaluation of the double pendulum (mass-matrix solve
    included) in a numba loop, against a hand-written numba right-hand side.
+4. The same for the 8- and 16-link pendulum, against a hand-written O(N²) numba
+   right-hand side (closed-form M and F, the same dense solver).
 
 Absolute times drift on a shared machine; the ratios are the result.
 """
@@ -30,6 +32,7 @@ from sympy.physics.mechanics import LagrangesMethod, dynamicsymbols
 
 import lagrange_core as lc
 from lagrange_core import problems
+from lagrange_core._linalg import solve_dense
 
 
 def lagranges_method_n_link(n):
@@ -133,7 +136,7 @@ def _make_loop(rhs, with_work):
     if with_work:
         @njit
         def loop(y, p, W, n):
-            out = np.empty(4)
+            out = np.empty(y.shape[0])
             acc = 0.0
             for i in range(n):
                 y[0] = 0.1 + 1e-7 * i    # a new state each time: no loop-invariant hoisting
@@ -143,7 +146,7 @@ def _make_loop(rhs, with_work):
     else:
         @njit
         def loop(y, p, W, n):
-            out = np.empty(4)
+            out = np.empty(y.shape[0])
             acc = 0.0
             for i in range(n):
                 y[0] = 0.1 + 1e-7 * i
@@ -163,15 +166,62 @@ def bench_rhs(n_calls):
     W = k.work_array()
     a, b = ours(y.copy(), p, W, 10), hand(y.copy(), p, W, 10)
     assert abs(a - b) < 1e-9 * abs(b), (a, b)
-    times = {}
-    for name, loop in (("lagrange_core", ours), ("hand-written", hand)):
-        best = np.inf
-        for _ in range(5):
-            t0 = time.perf_counter()
-            loop(y.copy(), p, W, n_calls)
-            best = min(best, time.perf_counter() - t0)
-        times[name] = best / n_calls * 1e9
-    return times
+    return {"lagrange_core": _ns_per_call(ours, y, p, W, n_calls),
+            "hand-written": _ns_per_call(hand, y, p, W, n_calls)}
+
+
+def _ns_per_call(loop, y, p, W, n_calls):
+    """Best of 5 timed runs of a compiled loop, in ns per right-hand side."""
+    loop(y.copy(), p, W, 10)
+    best = np.inf
+    for _ in range(5):
+        t0 = time.perf_counter()
+        loop(y.copy(), p, W, n_calls)
+        best = min(best, time.perf_counter() - t0)
+    return best / n_calls * 1e9
+
+
+@njit(cache=True)
+def _hand_rhs_chain(t, y, p, dydt, W):
+    """N-link pendulum by hand (p = g, l1..lN, m1..mN): M_ij = μ_ij l_i l_j cos(θ_i − θ_j),
+    F_i = −Σ_j μ_ij l_i l_j sin(θ_i − θ_j) ω_j² − μ_ii g l_i sin θ_i, μ_ij = Σ_{k ≥ max(i,j)} m_k."""
+    n = y.shape[0] // 2
+    g = p[0]
+    mu = np.empty(n)                   # mu[i] = Σ_{k ≥ i} m_k
+    s = 0.0
+    for i in range(n - 1, -1, -1):
+        s += p[1 + n + i]
+        mu[i] = s
+    for i in range(n):
+        li = p[1 + i]
+        f = -mu[i] * g * li * np.sin(y[i])
+        for j in range(n):
+            c = mu[max(i, j)] * li * p[1 + j]
+            W[i, j] = c * np.cos(y[i] - y[j])
+            f -= c * np.sin(y[i] - y[j]) * y[n + j] * y[n + j]
+        W[i, n] = f
+    status = solve_dense(W, n)
+    for i in range(n):
+        dydt[i] = y[n + i]
+        dydt[n + i] = W[i, n]
+    return status
+
+
+def bench_chain_rhs(n, n_calls):
+    system = problems.n_link_pendulum(n)
+    k = system.kernels
+    rng = np.random.default_rng(1)
+    values = {name: rng.uniform(0.5, 1.5) for name in system.parameters}
+    p = system.parameter_array(values)       # sorted by name: g, l1, l10, l11, ...
+    p_hand = np.array([values["g"]] + [values[f"{c}{i + 1}"] for c in "lm" for i in range(n)])
+    y = rng.uniform(-1, 1, 2 * n)
+    ours, hand = _make_loop(k.rhs, True), _make_loop(_hand_rhs_chain, True)
+    a, b = np.empty(2 * n), np.empty(2 * n)
+    k.rhs(0.0, y, p, a, k.work_array())
+    _hand_rhs_chain(0.0, y, p_hand, b, np.zeros((n, n + 1)))
+    np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-10)
+    return {"lagrange_core": _ns_per_call(ours, y, p, k.work_array(), n_calls),
+            "hand-written": _ns_per_call(hand, y, p_hand, np.zeros((n, n + 1)), n_calls)}
 
 
 def main():
@@ -204,6 +254,12 @@ def main():
     for name, ns in t.items():
         print(f"   {name:>14}: {ns:6.1f} ns")
     print(f"   ratio lagrange_core / hand-written: {t['lagrange_core'] / t['hand-written']:.2f}")
+
+    print("\n4. one right-hand side of the N-link pendulum in a numba loop (ns per call)")
+    for n in ((4,) if args.quick else (8, 16)):
+        t = bench_chain_rhs(n, 20_000 if args.quick else 200_000)
+        print(f"   N = {n:>2}: lagrange_core {t['lagrange_core']:8.0f}   hand-written "
+              f"{t['hand-written']:8.0f}   ratio {t['lagrange_core'] / t['hand-written']:.2f}")
 
 
 if __name__ == "__main__":

@@ -8,8 +8,8 @@ module defines these ``@njit(cache=True)`` functions.  Arrays are float64;
 ``y = [q, q̇]`` is the first-order state; ``W`` is a scratch array of shape
 ``WORK_SHAPE`` (a module constant; ``new_work()`` or ``Kernels.work_array()``
 make one) that the caller allocates once, so no kernel on the hot path
-allocates.  Its leading ``(n + m, n + m + 1)`` block holds the augmented
-system; the rows below hold the values of the symbolic terms.
+allocates.  It holds the augmented system, ``(n + m, n + m + 1)``; a
+scratch array with more rows also works.
 
 =========================================================  ====================================
 ``new_work() -> W``                                        a fresh scratch array
@@ -33,28 +33,31 @@ Module constants: ``N_DOF``, ``N_CONSTRAINTS``, ``N_PARAMETERS``, ``N_PARTICLES`
 What is generated, and what is fixed: the generated code evaluates each
 *distinct* symbolic term once (common subexpressions removed across all terms
 at once with symengine's ``cse``): per particle its mass, Jacobian ∂r/∂q and the
-q̈-free part of its acceleration; the rest of F (potential, forces,
-dissipation, explicit-Lagrangian terms); Φ_q and γ.  Then, by size:
+q̈-free part of its acceleration b; the rest of F (potential, forces,
+dissipation, explicit-Lagrangian terms); Φ_q and γ.  From these it forms the
+entries M = M' + Σ m JᵀJ and F = F' − Σ m Jᵀb, grouping particles that share
+Jacobian columns (``_entries``: a chain of N links costs O(N²), not O(N³)).
+Then, by size:
 
-* small systems (few particle products, n + m ≤ 12): M = Σ m JᵀJ + M' and F
-  are assembled in straight-line code, and an unconstrained M (n ≤ 6) is
-  solved by an unrolled LDLᵀ, so M and F never leave registers (a double
-  pendulum's right-hand side costs what a hand-written one does);
-* large systems: index tables say where each term goes, and loops compiled
-  once per installation (:mod:`lagrange_core._core_kernels`) assemble M and F;
-  a banded mass matrix is solved by a banded LDLᵀ (a chain of beads: O(n)).
-  The distinct terms are evaluated by a program whose LLVM IR is written
-  directly (:mod:`lagrange_core._ir`), bypassing numba's front end, which costs
-  about 3 ms per arithmetic operation of generated source.  Compile time grows
-  with the number of distinct terms rather than with n² matrix entries.
+* small systems (few particle products, n + m ≤ 12): printed straight-line
+  Python, and an unconstrained M (n ≤ 6) is solved by an unrolled LDLᵀ, so M
+  and F never leave registers (a double pendulum's right-hand side costs what
+  a hand-written one does);
+* large systems: a *program* whose LLVM IR is written directly
+  (:mod:`lagrange_core._ir`) stores the entries into W, bypassing numba's front
+  end, which costs about 3 ms per arithmetic operation of generated source;
+  solvers compiled once per installation solve it (a banded mass matrix by a
+  banded LDLᵀ: a chain of beads costs O(n)).
 
 The hot kernels (``rhs``, ``solve_state_y``, ``accelerations``) are single
 functions: each call between numba functions costs reference-count updates on
-its array arguments.  The Jacobian is exact: forward-mode derivatives of the
-distinct terms (:func:`lagrange_core._ir.tangent_evaluator`, so ``abs`` and
-``sign`` are fine), then of the assembly (``_core_kernels.jacobian_from_values``).
-Only ``rhs`` is compiled when the kernels are made; the others compile on first
-use (:meth:`Kernels.warm`).
+its array arguments.  The Jacobian is exact, for every system: forward-mode
+derivatives of the entries from the same program
+(:func:`lagrange_core._ir.tangent_evaluator`; ``abs`` and ``sign`` included),
+then two solves compiled once per installation
+(:func:`lagrange_core._core_kernels.jacobian_from_entries`).  Only ``rhs`` is
+compiled when the kernels are made; the others compile on first use
+(:meth:`Kernels.warm`).
 
 Kernel templates
 ----------------
@@ -312,10 +315,10 @@ def _table(name, rows, width=None) -> str:
     return f"{name} = np.array({arr.ravel().tolist()!r}, dtype=np.int64).reshape({arr.shape!r})\n"
 
 
-#: Up to this many particle products (Σ over particles of nnz(J)·(nnz(J)+3)/2) the assembly
-#: of M and F is unrolled into straight-line code (fastest to run; a double pendulum's
-#: right-hand side costs about as much as a hand-written one).  Beyond it, fixed loops read
-#: index tables, so compile time grows with the number of distinct terms only.
+#: Up to this many particle products (Σ over particles of nnz(J)·(nnz(J)+3)/2) the hot
+#: kernels are printed as straight-line Python (fastest to run; a double pendulum's
+#: right-hand side costs about as much as a hand-written one).  Beyond it, numba's front
+#: end would be slow to compile them: the program (_ir) is written as LLVM IR instead.
 UNROLL_LIMIT = 32
 
 _ACCELERATIONS_FROM_STATE = '''
