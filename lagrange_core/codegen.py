@@ -381,21 +381,23 @@ def _entries(equations, value):
     definitions, sums = [], {}
 
     def running_sum(members):
-        """Σ m_k b_k over members (by descending k) = that over members[:-1] + the last."""
-        key = tuple(k for k, _, _ in members)
-        if key not in sums:
-            _, mass, bias = members[-1]
-            rest = running_sum(members[:-1]) if len(members) > 1 else [0] * len(bias)
-            total = []
-            for c, b in enumerate(bias):
-                e = mass * b + rest[c]
-                if e != 0 and len(members) > 1:
-                    symbol = se.Symbol(f"_s{len(definitions)}")
-                    definitions.append((symbol, e))
-                    e = symbol
-                total.append(e)
-            sums[key] = total
-        return sums[key]
+        """Σ m_k b_k over members (by descending k), as sums over members[:1], [:2], ...,
+        each the previous one plus one term: nested groups share their running sums."""
+        total = None
+        for end in range(1, len(members) + 1):
+            key = tuple(k for k, _, _ in members[:end])
+            if key not in sums:
+                _, mass, bias = members[end - 1]
+                sums[key] = []
+                for c, b in enumerate(bias):
+                    e = mass * b + (total[c] if total else 0)
+                    if e != 0 and end > 1:
+                        symbol = se.Symbol(f"_s{len(definitions)}")
+                        definitions.append((symbol, e))
+                        e = symbol
+                    sums[key].append(e)
+            total = sums[key]
+        return total
 
     for (i, jac_i), members in column_terms.items():
         F[i] -= dot(jac_i, running_sum(sorted(members, key=lambda x: -x[0])))

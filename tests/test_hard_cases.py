@@ -46,9 +46,9 @@ STRING = dict(F=80.0, mu=0.005, l=0.65)
 
 @pytest.fixture(scope="module")
 def bead_string_200():
-    # warm: ~5 s to load the cached kernels.  Cold (a new generator or statement): derivation
-    # ~30 s, code generation and numba compile 1.5-5 min, the complex Jacobian's compile on
-    # the first normal_modes another 1-4 min (2 busy cores); see the catalogue's report.
+    # Warm: a few seconds to load the cached kernels.  Cold (a new generator or statement),
+    # idle machine: derivation 1.6 s, generation and compile of rhs 16 s, the Jacobian on the
+    # first normal_modes 11 s.
     system = problems.bead_string(N_BEADS)
     system.kernels
     return system
