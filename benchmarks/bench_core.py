@@ -6,7 +6,7 @@ Run:  python benchmarks/bench_core.py [--quick]
    same process, equal equations checked at random states.
 2. Statement -> compiled kernels in a cold process (empty disk cache) and a warm
    one, for N = 8 and N = 16 (each in a fresh subprocess; interpreter and
-   import time reported separately).
+   import time reported separately; medians of 3 runs).
 3. One right-hand-side evaluation of the double pendulum (mass-matrix solve
    included) in a numba loop, against a hand-written numba right-hand side.
 4. The same for the 8- and 16-link pendulum, against a hand-written O(N²) numba
@@ -101,16 +101,19 @@ _COMPILE_SCRIPT = textwrap.dedent("""
 """)
 
 
-def bench_compile(n):
-    """Cold (empty cache) and warm statement -> kernels times, in fresh processes."""
-    out = {}
-    with tempfile.TemporaryDirectory() as cache:
-        env = {**os.environ, "LAGRANGE_CORE_CACHE": cache}
-        for label in ("cold", "warm"):
-            res = subprocess.run([sys.executable, "-c", _COMPILE_SCRIPT.format(n=n)], env=env,
-                                 capture_output=True, text=True, check=True)
-            out[label] = json.loads(res.stdout.strip().splitlines()[-1])
-    return out
+def bench_compile(n, repeat=3):
+    """Cold (empty cache) and warm statement -> kernels times, in fresh processes; the
+    median of ``repeat`` cold/warm pairs (each a new empty cache), per column."""
+    runs = {"cold": [], "warm": []}
+    for _ in range(repeat):
+        with tempfile.TemporaryDirectory() as cache:
+            env = {**os.environ, "LAGRANGE_CORE_CACHE": cache}
+            for label in ("cold", "warm"):
+                res = subprocess.run([sys.executable, "-c", _COMPILE_SCRIPT.format(n=n)], env=env,
+                                     capture_output=True, text=True, check=True)
+                runs[label].append(json.loads(res.stdout.strip().splitlines()[-1]))
+    return {label: {key: float(np.median([r[key] for r in rs])) for key in rs[0]}
+            for label, rs in runs.items()}
 
 
 @njit(cache=True)
@@ -241,10 +244,10 @@ def main():
 
     print("\n2. statement -> compiled kernels, fresh process (s; import of the package separate)")
     print("   rhs: derive, generate, compile M, F and the solve; total = rhs + Jacobian;")
-    print("   rest: every other kernel (compiled on first use)")
+    print("   rest: every other kernel (compiled on first use); medians of 3 runs")
     print(f"{'N':>4} {'cache':>6} {'import':>7} {'rhs':>6} {'+jacobian':>10} {'total':>6} {'rest':>6}")
     for n in ((2,) if args.quick else (8, 16)):
-        res = bench_compile(n)
+        res = bench_compile(n, 1 if args.quick else 3)
         for label, r in res.items():
             print(f"{n:>4} {label:>6} {r['import']:7.2f} {r['kernels']:6.2f} {r['jacobian']:10.2f} "
                   f"{r['kernels'] + r['jacobian']:6.2f} {r['rest']:6.2f}")
