@@ -29,6 +29,12 @@ def check_work(W, N):
 
 
 @njit(cache=True)
+def work_matrix(N):
+    """A zeroed augmented matrix, (N, N + 1)."""
+    return np.zeros((N, N + 1))
+
+
+@njit(cache=True)
 def jacobian_scratch(N, n_tangents):
     """A zeroed augmented matrix (N, N + 1) and room for the tangents of its entries."""
     return np.zeros((N, N + 1)), np.zeros(n_tangents)

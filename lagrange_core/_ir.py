@@ -341,14 +341,19 @@ def _run(context, builder, instructions, load, tangents):
     return values, dvalues
 
 
-def _codegen(program, targets, tangents):
+def _codegen(program, targets, tangents, n_dof=None):
+    """The intrinsic's code: arguments (y, t, p, W[, dA]), or (q, qd, t, p, W) if n_dof."""
     instructions, registers, deps = program
 
     def codegen(context, builder, sig, args):
-        names = ("y", "t", "p", "W", "dA")
+        if n_dof is None:
+            names = ("y", "t", "p", "W", "dA")
+        else:
+            names = ("q", "qd", "t", "p", "W")
         arrays = {name: (ty, context.make_array(ty)(context, builder, val))
                   for name, ty, val in zip(names, sig.args, args) if name != "t"}
-        t_value = context.cast(builder, args[1], sig.args[1], _F8)
+        it = names.index("t")
+        t_value = context.cast(builder, args[it], sig.args[it], _F8)
         intp = context.get_value_type(types.intp)
         strides = {name: cgutils.unpack_tuple(builder, arr.strides, ty.ndim)
                    for name, (ty, arr) in arrays.items()}
@@ -364,7 +369,12 @@ def _codegen(program, targets, tangents):
             return builder.bitcast(builder.gep(base[name], [offset]), ir.DoubleType().as_pointer())
 
         def load(ins):
-            return t_value if ins[0] == "t" else builder.load(pointer(ins[0], ins[1]))
+            if ins[0] == "t":
+                return t_value
+            if ins[0] == "y" and n_dof is not None:      # y = [q, q̇]
+                i = ins[1]
+                return builder.load(pointer("q", i) if i < n_dof else pointer("qd", i - n_dof))
+            return builder.load(pointer(ins[0], ins[1]))
 
         values, dvalues = _run(context, builder, instructions, load, tangents)
         for row, col, out in targets:
@@ -386,16 +396,21 @@ def _valid(y, t, p, W):
             and _is_float_array(p, 1) and _is_float_array(W, 2))
 
 
-def value_evaluator(program, targets):
+def value_evaluator(program, targets, n_dof=None):
     """An intrinsic ``evaluate(y, t, p, W)`` that stores ``W[row, col]`` = output ``out``
-    for each ``(row, col, out)`` of ``targets``."""
-    codegen = _codegen(program, targets, tangents=False)
-
-    @intrinsic
-    def evaluate(typingctx, y, t, p, W):
-        if _valid(y, t, p, W):
-            return types.void(y, t, p, W), codegen
-
+    for each ``(row, col, out)`` of ``targets``; with ``n_dof``, ``evaluate(q, qd, t, p, W)``
+    taking the state as its two halves."""
+    codegen = _codegen(program, targets, False, n_dof)
+    if n_dof is None:
+        @intrinsic
+        def evaluate(typingctx, y, t, p, W):
+            if _valid(y, t, p, W):
+                return types.void(y, t, p, W), codegen
+    else:
+        @intrinsic
+        def evaluate(typingctx, q, qd, t, p, W):
+            if _valid(q, t, p, W) and _is_float_array(qd, 1):
+                return types.void(q, qd, t, p, W), codegen
     return evaluate
 
 
@@ -403,7 +418,7 @@ def tangent_evaluator(program, targets):
     """An intrinsic ``evaluate(y, t, p, W, dA)``: W as :func:`value_evaluator`, and in
     ``dA`` (1-D) the derivatives ∂(output o)/∂y[j] for o in order and j in the output's
     dependencies (``program[2][o]``)."""
-    codegen = _codegen(program, targets, tangents=True)
+    codegen = _codegen(program, targets, True)
 
     @intrinsic
     def evaluate(typingctx, y, t, p, W, dA):

@@ -114,7 +114,8 @@ from numba import njit
 from numpy import (sin, cos, tan, exp, log, sqrt, arcsin as asin, arccos as acos,
                    arctan as atan, arctan2 as atan2, sinh, cosh, tanh, arcsinh as asinh,
                    arccosh as acosh, arctanh as atanh, pi, e as E, sign)
-from lagrange_core._core_kernels import check_work, jacobian_from_entries, jacobian_scratch
+from lagrange_core._core_kernels import (check_work, jacobian_from_entries, jacobian_scratch,
+                                         work_matrix)
 from lagrange_core._ir import value_evaluator, tangent_evaluator
 from lagrange_core._linalg import solve_augmented, solve_dense, solve_banded_spd
 
@@ -140,53 +141,12 @@ def new_work():
     return np.zeros(WORK_SHAPE)
 
 
-# (explicit loops throughout: numba compiles slice assignments slowly)
-@njit(cache=True)
-def _state(q, qd):
-    y = np.empty(2 * N_DOF, dtype=q.dtype)
-    for i in range(N_DOF):
-        y[i] = q[i]
-        y[N_DOF + i] = qd[i]
-    return y
-
-
-@njit(cache=True)
-def augmented(q, qd, t, p, W):
-    augmented_y(_state(q, qd), t, p, W)
-
-
-@njit(cache=True)
-def solve_state(q, qd, t, p, W):
-    return solve_state_y(_state(q, qd), t, p, W)
-
-
-@njit(cache=True)
-def mass_forcing(q, qd, t, p, M, F):
-    W = new_work()
-    augmented(q, qd, t, p, W)
-    for i in range(N_DOF):
-        F[i] = W[i, N0]
-        for j in range(N_DOF):
-            M[i, j] = W[i, j]
-
-
 @njit(cache=True)
 def jacobian(t, y, p, J):
     # the augmented matrix and its forward-mode derivatives (_ir), then two solves
     W, dA = jacobian_scratch(N0, N_TANGENTS)
     _evaluate_tangents(y, t, p, W, dA)
     return jacobian_from_entries(W, dA, TARGET_TABLE, TAN_PTR, TAN_J, J)
-
-
-@njit(cache=True)
-def energy(q, qd, t, p):
-    W = new_work()
-    augmented(q, qd, t, p, W)
-    h = _energy_rest(q, qd, t, p)
-    for i in range(N_DOF):
-        for j in range(N_DOF):
-            h += 0.5 * qd[i] * W[i, j] * qd[j]
-    return h
 '''
 
 
@@ -320,18 +280,6 @@ def _table(name, rows, width=None) -> str:
 #: right-hand side costs about as much as a hand-written one).  Beyond it, numba's front
 #: end would be slow to compile them: the program (_ir) is written as LLVM IR instead.
 UNROLL_LIMIT = 32
-
-_ACCELERATIONS_FROM_STATE = '''
-
-@njit(cache=True, error_model="numpy")
-def accelerations(q, qd, t, p, qdd, lam, W):
-    status = solve_state(q, qd, t, p, W)
-    for i in range(N_DOF):
-        qdd[i] = W[i, N0]
-    for i in range(N_CONSTRAINTS):
-        lam[i] = W[N_DOF + i, N0]
-    return status
-'''
 
 def _entries(equations, value):
     """The augmented matrix as expressions in the distinct terms (symbols ``_u{f}``).
@@ -520,21 +468,24 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
            "N_TANGENTS = TAN_J.shape[0]\n"
            "_evaluate = value_evaluator(PROGRAM, TARGETS)\n"
            "_evaluate_tangents = tangent_evaluator(PROGRAM, TARGETS)\n"]
+    # Every kernel is a single function: each call between numba functions costs
+    # reference-count updates on its array arguments (~10-40 ns), and each compiled entry
+    # point re-optimises everything it calls (so wrappers of wrappers compile slowly).
+    # assemble[source]: fill W (or, unrolled, locals) from the state y or from (q, q̇).
     if unrolled:
-        assembly, store = _unrolled_assembly(pr, value.exprs, M, F, phi_q, gamma, definitions)
+        lines, store = _unrolled_assembly(pr, value.exprs, M, F, phi_q, gamma, definitions)
+        assemble = {"y": pr.loads["y"] + pr.loads["p"] + lines,
+                    "q": pr.loads["q"] + pr.loads["qd"] + pr.loads["p"] + lines}
     else:
-        assembly, store = ["check_work(W, N0)", "_evaluate(y, t, p, W)"], []
-    # The hot kernels are single straight-line functions: every call between numba
-    # functions costs reference-count updates on its array arguments (~10-40 ns).
-    from_y = pr.loads["y"] + pr.loads["p"] if unrolled else []
-    from_q = pr.loads["q"] + pr.loads["qd"] + pr.loads["p"]
-    src.append(_function("augmented_y", ["y", "t", "p", "W"], from_y + assembly + store))
+        src.append("_evaluate_q = value_evaluator(PROGRAM, TARGETS, N_DOF)\n")
+        store = []
+        assemble = {"y": ["check_work(W, N0)", "_evaluate(y, t, p, W)"],
+                    "q": ["check_work(W, N0)", "_evaluate_q(q, qd, t, p, W)"]}
     if unrolled and m == 0 and n <= CHOLESKY_UNROLL_LIMIT:
         # M and F stay in registers; W is not touched on the hot path
         solve = _unrolled_ldlt(n)
         result = [f"_x{i}" for i in range(n)]
-        src.append(_function("solve_state_y", ["y", "t", "p", "W"], from_y + assembly + store
-                             + solve + [f"W[{i}, {N}] = _x{i}" for i in range(n)], ret="0"))
+        solved = store + solve + [f"W[{i}, {N}] = _x{i}" for i in range(n)]
     else:
         # unrolled systems inline the elimination (constant N); the others share one
         # compiled copy (W.shape[1] - 1 is N, and not a literal numba would specialise on)
@@ -544,31 +495,37 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
             solve = ["_status = solve_banded_spd(W, W.shape[1] - 1, BAND)"]
         else:
             solve = ["_status = solve_dense(W, W.shape[1] - 1)"]
-        solve += ["if _status != 0:", "    return _status"]
+        solve = store + solve + ["if _status != 0:", "    return _status"]
         result = [f"W[{i}, {N}]" for i in range(n)]
-        assembly = assembly + store
-        src.append(_function("solve_state_y", ["y", "t", "p", "W"], from_y + assembly + solve,
-                             ret="0"))
+        solved = solve
     if unrolled:
         copy = [f"dydt[{i}] = y[{n + i}]" for i in range(n)]
         copy += [f"dydt[{n + i}] = {r}" for i, r in enumerate(result)]
     else:   # a loop: numba lowers each indexing statement separately (~6 ms each)
         copy = ["for _i in range(N_DOF):", "    dydt[_i] = y[N_DOF + _i]",
                 "    dydt[N_DOF + _i] = W[_i, N0]"]
-    src.append(_function("rhs", ["t", "y", "p", "dydt", "W"], from_y + assembly + solve + copy,
+    state_q = ["q", "qd", "t", "p"]
+    src.append(_function("augmented_y", ["y", "t", "p", "W"], assemble["y"] + store))
+    src.append(_function("augmented", [*state_q, "W"], assemble["q"] + store))
+    src.append(_function("solve_state_y", ["y", "t", "p", "W"], assemble["y"] + solved, ret="0"))
+    src.append(_function("solve_state", [*state_q, "W"], assemble["q"] + solved, ret="0"))
+    src.append(_function("rhs", ["t", "y", "p", "dydt", "W"], assemble["y"] + solve + copy,
                          ret="0"))
-    if unrolled:
-        lam = [f"lam[{c}] = W[{n + c}, {N}]" for c in range(m)]
-        src.append(_function("accelerations", ["q", "qd", "t", "p", "qdd", "lam", "W"],
-                             from_q + assembly + solve
-                             + [f"qdd[{i}] = {r}" for i, r in enumerate(result)] + lam, ret="0"))
-    else:
-        src.append(_ACCELERATIONS_FROM_STATE)
-    src.append(_function("_energy_rest", ["q", "qd", "t", "p"],
-                         pr.body([("_h", equations.energy_rest_se)], ["q", "qd", "p"]), ret="_h"))
+    src.append(_function("accelerations", [*state_q, "qdd", "lam", "W"],
+                         assemble["q"] + solve + [f"qdd[{i}] = {r}" for i, r in enumerate(result)]
+                         + [f"lam[{c}] = W[{n + c}, {N}]" for c in range(m)], ret="0"))
+    filled = ["W = work_matrix(N0)"] + assemble["q"] + store
+    src.append(_function("mass_forcing", [*state_q, "M", "F"], filled + [
+        "for _i in range(N_DOF):", "    F[_i] = W[_i, N0]", "    for _j in range(N_DOF):",
+        "        M[_i, _j] = W[_i, _j]"]))
+    # h = ½ q̇ᵀ M q̇ + (the rest of h); after the assembly, so CSE temporaries may be reused
+    src.append(_function("energy", state_q, filled + pr.body(
+        [("_h", equations.energy_rest_se)], ["q", "qd", "p"]) + [
+        "for _i in range(N_DOF):", "    for _j in range(N_DOF):",
+        "        _h += 0.5 * qd[_i] * W[_i, _j] * qd[_j]"], ret="_h"))
     res = [(f"out[{k}]", c) for k, c in enumerate(equations.constraints_se)]
     res += [(f"out[{m + k}]", c) for k, c in enumerate(equations.constraint_velocity_se)]
-    src.append(_function("constraint_residual", ["q", "qd", "t", "p", "out"],
+    src.append(_function("constraint_residual", [*state_q, "out"],
                          pr.body(res, ["q", "qd", "p"])))
     positions = [(f"out[{i}, {c}]", comp) for i, particle in enumerate(system.particles)
                  for c, comp in enumerate(particle.position)]
