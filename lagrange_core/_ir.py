@@ -393,7 +393,7 @@ def _codegen(program, targets, tangents, n_dof=None):
 
 def _valid(y, t, p, W):
     return (_is_float_array(y, 1) and isinstance(t, (types.Float, types.Integer))
-            and _is_float_array(p, 1) and _is_float_array(W, 2))
+            and _is_float_array(p, 1) and _is_float_array(W, 2) and W.mutable)
 
 
 def value_evaluator(program, targets, n_dof=None):
@@ -422,7 +422,7 @@ def tangent_evaluator(program, targets):
 
     @intrinsic
     def evaluate(typingctx, y, t, p, W, dA):
-        if _valid(y, t, p, W) and _is_float_array(dA, 1):
+        if _valid(y, t, p, W) and _is_float_array(dA, 1) and dA.mutable:
             return types.void(y, t, p, W, dA), codegen
 
     return evaluate

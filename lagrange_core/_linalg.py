@@ -1,7 +1,6 @@
 """Small dense linear algebra for numba kernels (no allocation, no Python objects)."""
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
 from numba.extending import register_jitable
 

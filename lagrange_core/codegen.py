@@ -232,12 +232,16 @@ class _Printer:
         ``outputs`` is a list of (target string, expression)."""
         exprs = [e if renamed else self.rename(e) for _, e in outputs]
         replacements, reduced = se.cse(exprs) if exprs and self.cse else ([], exprs)
-        lines = []
-        for a in arrays:
-            lines.extend(self.loads.get(a, []))
-        lines += [f"{s} = {self.code(e)}" for s, e in replacements]
+        lines = [f"{s} = {self.code(e)}" for s, e in replacements]
         lines += [f"{target} = {self.code(e)}" for (target, _), e in zip(outputs, reduced)]
-        return lines
+        return self.used_loads(arrays, lines) + lines
+
+    def used_loads(self, arrays, lines):
+        """The loads from the named input arrays of the locals that ``lines`` use (numba
+        spends ~6 ms compiling each indexing statement, used or not)."""
+        used = set(re.findall(r"\b_[qvp]\d+\b", "\n".join(lines)))
+        return [load for a in arrays for load in self.loads.get(a, [])
+                if load.split(" = ")[0] in used]
 
 
 def _function(name, args, lines, ret=None):
@@ -474,8 +478,9 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
     # assemble[source]: fill W (or, unrolled, locals) from the state y or from (q, q̇).
     if unrolled:
         lines, store = _unrolled_assembly(pr, value.exprs, M, F, phi_q, gamma, definitions)
-        assemble = {"y": pr.loads["y"] + pr.loads["p"] + lines,
-                    "q": pr.loads["q"] + pr.loads["qd"] + pr.loads["p"] + lines}
+        tail = lines + store + _unrolled_ldlt(n)
+        assemble = {"y": pr.used_loads(["y", "p"], tail) + lines,
+                    "q": pr.used_loads(["q", "qd", "p"], tail) + lines}
     else:
         src.append("_evaluate_q = value_evaluator(PROGRAM, TARGETS, N_DOF)\n")
         store = []
