@@ -21,7 +21,7 @@ def double():
 
 
 def test_jacobian_is_exact(double):
-    """Complex-step Jacobian against the symbolic derivative of q̈ = M⁻¹F."""
+    """Forward-mode Jacobian against the symbolic derivative of q̈ = M⁻¹F."""
     system, k = double
     e = system.equations
     qdd = e.mass_matrix.LUsolve(e.forcing)
