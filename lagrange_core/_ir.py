@@ -27,9 +27,11 @@ Program format
 Register r is the result of instruction r.  Instructions::
 
     ("y", i)  ("t",)  ("p", i)  ("c", value)          inputs and constants
-    ("add" | "sub" | "mul" | "div" | "pow" | "atan2", a, b)
-    (name, a)   name in UNARY: neg sqrt exp log sin cos tan asin acos atan
+    ("add" | "mul" | "div" | "pow" | "atan2", a, b)
+    (name, a)   name in UNARY: sqrt exp log sin cos tan asin acos atan
                 sinh cosh tanh asinh acosh atanh abs sign
+
+(a − b is a + (−1)·b: LLVM folds it into one subtraction, exactly.)
 
 A program is ``(instructions, output registers, output dependencies)``
 (:func:`build_program`).
@@ -45,9 +47,9 @@ from numba.core import cgutils
 from numba.core.typing import signature
 from numba.extending import intrinsic
 
-UNARY = ("neg", "sqrt", "exp", "log", "sin", "cos", "tan", "asin", "acos", "atan", "sinh",
+UNARY = ("sqrt", "exp", "log", "sin", "cos", "tan", "asin", "acos", "atan", "sinh",
          "cosh", "tanh", "asinh", "acosh", "atanh", "abs", "sign")
-BINARY = ("add", "sub", "mul", "div", "pow", "atan2")
+BINARY = ("add", "mul", "div", "pow", "atan2")
 #: Function names a statement may use (symengine's names), mapped to instructions.
 _FUNCTIONS = {"sin": "sin", "cos": "cos", "tan": "tan", "log": "log", "asin": "asin",
               "acos": "acos", "atan": "atan", "sinh": "sinh", "cosh": "cosh", "tanh": "tanh",
@@ -62,7 +64,7 @@ class _ProgramBuilder:
     def __init__(self, inputs):
         self.instructions = []
         self.register = {}           # instruction tuple -> register
-        self.inputs = inputs         # symbol name -> input instruction
+        self.inputs = inputs         # symbol name -> register
         self.memo = {}               # expression -> register
 
     def emit(self, instruction):
@@ -216,14 +218,10 @@ class _Emitter:
         B = self.b
         if op == "add":
             return B.fadd(a, b)
-        if op == "sub":
-            return B.fsub(a, b)
         if op == "mul":
             return B.fmul(a, b)
         if op == "div":
             return B.fdiv(a, b)
-        if op == "neg":
-            return B.fneg(a)
         if op == "pow":
             return self.math(math.pow, a, b)
         if op == "atan2":
@@ -253,8 +251,6 @@ class _Emitter:
         B, c = self.b, self.const
         if op == "add":
             return self._combine(da, None, db, None)
-        if op == "sub":
-            return self._combine(da, None, db, c(-1.0))
         if op == "mul":
             return self._combine(da, b, db, a)
         if op == "div":                    # (da − v db) / b
@@ -273,8 +269,6 @@ class _Emitter:
         """d op(a) / da for the unary instructions."""
         B, c = self.b, self.const
         one = c(1.0)
-        if op == "neg":
-            return c(-1.0)
         if op == "sqrt":
             return B.fdiv(c(0.5), v)
         if op == "exp":

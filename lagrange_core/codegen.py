@@ -496,6 +496,8 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
         store = []
         assemble = {"y": ["check_work(W, N0)", "_evaluate(y, t, p, W)"],
                     "q": ["check_work(W, N0)", "_evaluate_q(q, qd, t, p, W)"]}
+    # solve: from the assembly to the solution (in ``result``); solved: the same, leaving
+    # [q̈, λ] in W[:, N] as solve_state promises
     if unrolled and m == 0 and n <= CHOLESKY_UNROLL_LIMIT:
         # M and F stay in registers; W is not touched on the hot path
         solve = _unrolled_ldlt(n)

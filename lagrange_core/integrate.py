@@ -141,7 +141,20 @@ class Method:
     table: dict = field(default_factory=dict, repr=False, compare=False)
 
 
-def _dop853_table():
+class _LazyTable(dict):
+    """A coefficient table filled on first use (scipy.integrate costs 0.5 s to import)."""
+
+    def __init__(self, load):
+        super().__init__()
+        self._load = load
+
+    def __getitem__(self, key):
+        if not len(self):
+            self.update(self._load())
+        return super().__getitem__(key)
+
+
+def _dop853_coefficients():
     from scipy.integrate._ivp import dop853_coefficients as c
     return {"A": np.ascontiguousarray(c.A, dtype=float), "B": np.ascontiguousarray(c.B, dtype=float),
             "C": np.ascontiguousarray(c.C, dtype=float), "E3": np.ascontiguousarray(c.E3, dtype=float),
@@ -154,9 +167,10 @@ _IMPLICIT = ("LSODA", "Radau", "BDF")
 METHODS: dict[str, Method] = {
     "dop853": Method("dop853", "dop853", 8, True, "",
                      "Dormand–Prince 8(5,3), adaptive, dense output (Hairer's DOP853)",
-                     _dop853_table()),
+                     _LazyTable(_dop853_coefficients)),
     "rk8": Method("rk8", "dop853", 8, False, "",
-                  "the 8th-order DOP853 formula at a fixed step h", _dop853_table()),
+                  "the 8th-order DOP853 formula at a fixed step h",
+                  _LazyTable(_dop853_coefficients)),
 }
 def _rkn12_table():
     from .integrator_tables import rkn12_table
