@@ -535,20 +535,41 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
     src.append(_function("mass_forcing", [*state_q, "M", "F"], filled + [
         "for _i in range(N_DOF):", "    F[_i] = W[_i, N0]", "    for _j in range(N_DOF):",
         "        M[_i, _j] = W[_i, _j]"]))
-    # h = ½ q̇ᵀ M q̇ + (the rest of h); after the assembly, so CSE temporaries may be reused
-    src.append(_function("energy", state_q, filled + pr.body(
-        [("_h", equations.energy_rest_se)], ["q", "qd", "p"]) + [
-        "for _i in range(N_DOF):", "    for _j in range(N_DOF):",
-        "        _h += 0.5 * qd[_i] * W[_i, _j] * qd[_j]"], ret="_h"))
     res = [(f"out[{k}]", c) for k, c in enumerate(equations.constraints_se)]
     res += [(f"out[{m + k}]", c) for k, c in enumerate(equations.constraint_velocity_se)]
     src.append(_function("constraint_residual", [*state_q, "out"],
                          pr.body(res, ["q", "qd", "p"])))
-    positions = [(f"out[{i}, {c}]", comp) for i, particle in enumerate(system.particles)
+    positions = [((i, c), comp) for i, particle in enumerate(system.particles)
                  for c, comp in enumerate(particle.position)]
-    src.append(_function("particle_positions", ["q", "t", "p", "out"],
-                         ["for _i in range(out.shape[0]):", "    for _c in range(out.shape[1]):",
-                          "        out[_i, _c] = 0.0"] + pr.body(positions, ["q", "p"])))
+    clear = ["for _i in range(out.shape[0]):", "    for _c in range(out.shape[1]):",
+             "        out[_i, _c] = 0.0"]
+    quadratic = ["for _i in range(N_DOF):", "    for _j in range(N_DOF):",
+                 "        _h += 0.5 * qd[_i] * W[_i, _j] * qd[_j]"]
+    if unrolled:
+        # h = ½ q̇ᵀ M q̇ + (the rest of h); after the assembly, so CSE temporaries may be reused
+        rest = pr.body([("_h", equations.energy_rest_se)], ["q", "qd", "p"])
+        src.append(_function("energy", state_q, filled + rest + quadratic, ret="_h"))
+        src.append(_function("particle_positions", ["q", "t", "p", "out"], clear + pr.body(
+            [(f"out[{i}, {c}]", comp) for (i, c), comp in positions], ["q", "p"])))
+    else:
+        # the rest of h and the positions as programs too (large sums: slow for numba)
+        def program_of(exprs):
+            renamed = [pr.rename(e) for e in exprs]
+            return _ir.build_program(renamed, [se.Symbol(f"_u{f}") for f in
+                                               range(1, len(exprs) + 1)], n,
+                                     len(system.parameters), cse)
+
+        slots = [(i, c, k) for k, ((i, c), _) in enumerate(positions)]
+        src.append(f"ENERGY_PROGRAM = {program_of([equations.energy_rest_se])!r}\n"
+                   "_evaluate_energy_rest = value_evaluator(ENERGY_PROGRAM, ((0, 0, 0),), N_DOF)\n"
+                   f"POSITIONS_PROGRAM = {program_of([e for _, e in positions])!r}\n"
+                   f"_evaluate_positions = value_evaluator(POSITIONS_PROGRAM, {tuple(slots)!r}, "
+                   "N_DOF)\n")
+        src.append(_function("energy", state_q, filled + [
+            "_rest = work_matrix(1)", "_evaluate_energy_rest(q, qd, t, p, _rest)",
+            "_h = _rest[0, 0]"] + quadratic, ret="_h"))
+        src.append(_function("particle_positions", ["q", "t", "p", "out"],
+                             clear + ["_evaluate_positions(q, q, t, p, out)"]))
     src.append(_WRAPPERS)
     return "".join(src)
 

@@ -150,11 +150,14 @@ def test_program_and_unrolled_assembly_agree(make):
         out, J = np.empty(2 * n), np.empty((2 * n, 2 * n))
         assert mod.rhs(0.2, state, p, out, mod.new_work()) == 0
         assert mod.jacobian(0.2, state, p, J) == 0
-        results.append((out, J, mod.energy(state[:n], state[n:], 0.2, p)))
-    (a, Ja, ha), (b, Jb, hb) = results
+        X = np.full((mod.N_PARTICLES, 3), np.nan)
+        mod.particle_positions(state[:n], 0.2, p, X)
+        results.append((out, J, mod.energy(state[:n], state[n:], 0.2, p), X))
+    (a, Ja, ha, Xa), (b, Jb, hb, Xb) = results
     np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(Ja, Jb, rtol=1e-11, atol=1e-11)
     assert ha == pytest.approx(hb, rel=1e-13)
+    np.testing.assert_allclose(Xa, Xb, rtol=1e-14, atol=1e-15)    # zero-padded, no NaN left
 
 
 def test_fingerprint_ignores_docstrings_and_comments(tmp_path):
