@@ -127,6 +127,31 @@ def illinois_update(x, fx, a, b, fa, fb, side):
     return x, b, fx, fb, 1
 
 
+def store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, force):
+    """Record the state y (n2 entries) after an accepted step to time t: at the requested
+    times t_eval (steps are clipped to land on them exactly, so none lies inside a step),
+    or, without t_eval, every ``stride``-th step, at t_end, and whenever ``force``.
+    Inlined into the drivers (here and in :mod:`lagrange_core.integrator_fast`)."""
+    if t_eval.shape[0] > 0:
+        ie = stats[5]
+        while ie < t_eval.shape[0] and t_eval[ie] == t:
+            tout[ie] = t
+            for i in range(n2):
+                yout[ie, i] = y[i]
+            ie += 1
+        stats[5] = ie
+        stats[3] = ie
+    else:
+        stats[4] += 1
+        if stats[4] >= stride or force or t >= t_end:
+            stats[4] = 0
+            k = stats[3]
+            tout[k] = t
+            for i in range(n2):
+                yout[k, i] = y[i]
+            stats[3] += 1
+
+
 def dop853_locate(kind, idx, val, t0, h, y0, Fd, ga, gb, p, W, qdd, lam, yt):
     """Root of one event function on the dense output of a DOP853 step.
 
@@ -397,15 +422,8 @@ def dop853_chunk(y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adaptive, m
             f[i] = K[12, i]
         t = t_new if not last or fired else t_end
         tv[0] = t
-        if not use_teval:
-            stats[4] += 1
-            if stats[4] >= stride or fired or t >= t_end:
-                stats[4] = 0
-                k = stats[3]
-                tout[k] = t
-                for i in range(n2):
-                    yout[k, i] = y[i]
-                stats[3] += 1
+        if not use_teval:      # (requested times were interpolated on the dense output)
+            store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, fired)
         if fired:
             return 3
         # next step size
@@ -736,25 +754,7 @@ def second_order_chunk(family, y, f, tv, stats, p, rtol, atol, c, A, b, bp, bh, 
             f[i] = vn[i]
         t = t_new
         tv[0] = t
-        if use_teval:
-            # steps are clipped to land on the next requested time, so none lies inside
-            ie = stats[5]
-            while ie < t_eval.shape[0] and t_eval[ie] == t:
-                tout[ie] = t
-                for i in range(n2):
-                    yout[ie, i] = y[i]
-                ie += 1
-            stats[5] = ie
-            stats[3] = ie
-        else:
-            stats[4] += 1
-            if stats[4] >= stride or fired or t >= t_end:
-                stats[4] = 0
-                k = stats[3]
-                tout[k] = t
-                for i in range(n2):
-                    yout[k, i] = y[i]
-                stats[3] += 1
+        store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, fired)
         if fired:
             return 3
         if adaptive:
@@ -829,8 +829,10 @@ def rkn_initial_step(t, y, f, p, rtol, atol):
     return min(100.0 * h0, h1)
 
 KERNEL_TEMPLATES = [event_value, project_constraints, dop853_dense_eval, illinois_trial,
-                    illinois_update, dop853_locate,
+                    illinois_update, store_output, dop853_locate,
                     dop853_initial_step, dop853_chunk, dop853_dense, derivative_start,
                     project_start, initial_step, along, accel_only,
-                    second_order_step, _partial_sum, second_order_chunk, second_order_locate,
-                    rkn_initial_step]
+                    second_order_step, _partial_sum, second_order_chunk,
+                    second_order_locate, rkn_initial_step]
+#: inlined by numba (no call, so no reference-count traffic, on the per-step path)
+KERNEL_JIT_OPTIONS = {"store_output": 'inline="always"'}

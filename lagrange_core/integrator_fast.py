@@ -326,24 +326,7 @@ def fast_rkn_chunk(y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol, ato
             cv[i] = cvn[i]
         t = t_new
         tv[0] = t
-        if use_teval:
-            ie = stats[5]
-            while ie < t_eval.shape[0] and t_eval[ie] == t:
-                tout[ie] = t
-                for i in range(n2):
-                    yout[ie, i] = y[i]
-                ie += 1
-            stats[5] = ie
-            stats[3] = ie
-        else:
-            stats[4] += 1
-            if stats[4] >= stride or t >= t_end:
-                stats[4] = 0
-                k = stats[3]
-                tout[k] = t
-                for i in range(n2):
-                    yout[k, i] = y[i]
-                stats[3] += 1
+        store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, False)
         if adaptive:
             factor = 5.0 if err == 0.0 else min(5.0, 0.9 * err ** expo)
             if rejected:
@@ -455,24 +438,7 @@ def fast_symplectic_chunk(y, f, tv, stats, p, w, max_steps, t_eval, stride, tout
             f[i] = vn[i]
         t = t_new
         tv[0] = t
-        if use_teval:
-            ie = stats[5]
-            while ie < t_eval.shape[0] and t_eval[ie] == t:
-                tout[ie] = t
-                for i in range(n2):
-                    yout[ie, i] = y[i]
-                ie += 1
-            stats[5] = ie
-            stats[3] = ie
-        else:
-            stats[4] += 1
-            if stats[4] >= stride or t >= t_end:
-                stats[4] = 0
-                k = stats[3]
-                tout[k] = t
-                for i in range(n2):
-                    yout[k, i] = y[i]
-                stats[3] += 1
+        store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, False)
     return 1
 
 
@@ -508,10 +474,9 @@ from lagrange_core._linalg import solve_augmented
 
 
 @functools.cache
-@functools.cache
 def _this_source_hash() -> str:
-    from . import _linalg
-    return source_fingerprint(sys.modules[__name__], _linalg)
+    from . import _integrator_kernels, _linalg
+    return source_fingerprint(sys.modules[__name__], _linalg, _integrator_kernels)
 
 
 _LOADED: dict[str, FastModel] = {}
@@ -542,9 +507,11 @@ def _fast_model(system, cache_dir):
     if not path.exists() or not meta.exists():
         gen, nd, has_t = _generated_source(system)
         parts = [_HEADER.format(label=repr(system.name or "a system")), gen]
-        for fn in FAST_TEMPLATES:
+        from ._integrator_kernels import store_output
+        for fn in (store_output, *FAST_TEMPLATES):
             src = textwrap.dedent(inspect.getsource(fn))
-            parts.append(f"\n\n{_JIT}\n{src}")
+            jit = _JIT[:-1] + ', inline="always")' if fn is store_output else _JIT
+            parts.append(f"\n\n{jit}\n{src}")
         write_module(path, "".join(parts))
         write_module(meta, f"{nd} {int(has_t)}")
     nd, has_t = (int(x) for x in meta.read_text().split())
