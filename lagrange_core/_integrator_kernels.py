@@ -127,6 +127,29 @@ def illinois_update(x, fx, a, b, fa, fb, side):
     return x, b, fx, fb, 1
 
 
+def chunk_status(step, max_steps, t, t_end, t_eval, stats, cap, n_ev, ev_cap):
+    """Why a driver's chunk stops before its step number ``step`` (a ``STATUS_*`` code), or
+    −1 to go on: t_end reached, step budget used, output buffer (capacity ``cap``) full
+    without t_eval, event buffer (capacity ``ev_cap``) too full for ``n_ev`` more events.
+    Inlined into the drivers (here and in :mod:`lagrange_core.integrator_fast`)."""
+    if t >= t_end:
+        return 0
+    if step == max_steps:
+        return 1
+    if t_eval.shape[0] == 0 and stats[3] + 2 > cap:
+        return 2
+    if n_ev > 0 and stats[6] + n_ev > ev_cap:
+        return 6
+    return -1
+
+
+def next_stop(t_end, t_eval, stats):
+    """The time the next step must not pass: t_end, or the next requested output time."""
+    if t_eval.shape[0] > 0 and stats[5] < t_eval.shape[0]:
+        return min(t_end, t_eval[stats[5]])
+    return t_end
+
+
 def store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, force):
     """Record the state y (n2 entries) after an accepted step to time t: at the requested
     times t_eval (steps are clipped to land on them exactly, so none lies inside a step),
@@ -176,8 +199,9 @@ def dop853_locate(kind, idx, val, t0, h, y0, Fd, ga, gb, p, W, qdd, lam, yt):
     return 0.5 * (a + b)
 
 
-def dop853_initial_step(t, y, f, p, rtol, atol, W, y1, f1):
-    """Hairer's starting step size (as scipy's ``select_initial_step``, order 7)."""
+def starting_step(t, y, f, p, rtol, atol, W, y1, f1, exponent):
+    """Hairer's starting step size (as scipy's ``select_initial_step``); ``exponent`` is
+    1/(q + 1) for an error estimate of order q (DOP853: 1/8, RKN 12(10): 1/11)."""
     n2 = y.shape[0]
     d0 = 0.0
     d1 = 0.0
@@ -202,7 +226,7 @@ def dop853_initial_step(t, y, f, p, rtol, atol, W, y1, f1):
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
     else:
-        h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
+        h1 = (0.01 / max(d1, d2)) ** exponent
     return min(100.0 * h0, h1)
 
 
@@ -251,14 +275,9 @@ def dop853_chunk(y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adaptive, m
     h = tv[2]
     rejected = False
     for step in range(max_steps + 1):
-        if t >= t_end:
-            return 0
-        if step == max_steps:
-            return 1
-        if (not use_teval) and stats[3] + 2 > cap:
-            return 2
-        if stats[6] + n_ev > ev_t.shape[0]:
-            return 6
+        status = chunk_status(step, max_steps, t, t_end, t_eval, stats, cap, n_ev, ev_t.shape[0])
+        if status >= 0:
+            return status
         hmin = 16.0 * 2.220446049250313e-16 * max(abs(t), abs(t_end))
         while True:
             last = False
@@ -484,7 +503,7 @@ def initial_step(t, y, f, p, rtol, atol):
     n = N_DOF
     m = N_CONSTRAINTS
     W = np.zeros(_WORK_SHAPE)
-    return dop853_initial_step(t, y, f, p, rtol, atol, W, np.empty_like(y), np.empty_like(y))
+    return starting_step(t, y, f, p, rtol, atol, W, np.empty_like(y), np.empty_like(y), 1.0 / 8.0)
 
 
 def along(T, Y, p, E, LAM, RES):
@@ -613,7 +632,6 @@ def second_order_chunk(family, y, f, tv, stats, p, rtol, atol, c, A, b, bp, bh, 
     n_ev = ev_int.shape[0]
     g_new = np.empty(max(n_ev, 1))
     x_root = np.empty(max(n_ev, 1))
-    use_teval = t_eval.shape[0] > 0
     cap = tout.shape[0]
     evals = (ns - 1) if family == 0 else w.shape[0]
     expo = -1.0 / 11.0
@@ -626,18 +644,11 @@ def second_order_chunk(family, y, f, tv, stats, p, rtol, atol, c, A, b, bp, bh, 
     h = tv[2]
     rejected = False
     for step in range(max_steps + 1):
-        if t >= t_end:
-            return 0
-        if step == max_steps:
-            return 1
-        if (not use_teval) and stats[3] + 2 > cap:
-            return 2
-        if stats[6] + n_ev > ev_t.shape[0]:
-            return 6
+        status = chunk_status(step, max_steps, t, t_end, t_eval, stats, cap, n_ev, ev_t.shape[0])
+        if status >= 0:
+            return status
         hmin = 16.0 * 2.220446049250313e-16 * max(abs(t), abs(t_end))
-        t_target = t_end
-        if use_teval and stats[5] < t_eval.shape[0]:
-            t_target = min(t_end, t_eval[stats[5]])
+        t_target = next_stop(t_end, t_eval, stats)
         while True:
             clipped = False
             hs = h
@@ -799,40 +810,19 @@ def second_order_locate(family, e, ev_int, ev_val, t, q, v, a0, h, ga, gb, p, c,
 
 def rkn_initial_step(t, y, f, p, rtol, atol):
     """Starting step for RKN 12(10): Hairer's estimate with exponent 1/11."""
-    n = N_DOF
-    m = N_CONSTRAINTS
     W = np.zeros(_WORK_SHAPE)
-    n2 = 2 * n
-    d0 = 0.0
-    d1 = 0.0
-    for i in range(n2):
-        sc = atol + abs(y[i]) * rtol
-        d0 += (y[i] / sc) ** 2
-        d1 += (f[i] / sc) ** 2
-    d0 = math.sqrt(d0 / n2)
-    d1 = math.sqrt(d1 / n2)
-    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
-    y1 = np.empty(n2)
-    f1 = np.empty(n2)
-    for i in range(n2):
-        y1[i] = y[i] + h0 * f[i]
-    rhs(t + h0, y1, p, f1, W)
-    d2 = 0.0
-    for i in range(n2):
-        sc = atol + abs(y[i]) * rtol
-        d2 += ((f1[i] - f[i]) / sc) ** 2
-    d2 = math.sqrt(d2 / n2) / h0
-    if d1 <= 1e-15 and d2 <= 1e-15:
-        h1 = max(1e-6, h0 * 1e-3)
-    else:
-        h1 = (0.01 / max(d1, d2)) ** (1.0 / 11.0)
-    return min(100.0 * h0, h1)
+    return starting_step(t, y, f, p, rtol, atol, W, np.empty_like(y), np.empty_like(y),
+                         1.0 / 11.0)
+
 
 KERNEL_TEMPLATES = [event_value, project_constraints, dop853_dense_eval, illinois_trial,
-                    illinois_update, store_output, dop853_locate,
-                    dop853_initial_step, dop853_chunk, dop853_dense, derivative_start,
+                    illinois_update, chunk_status, next_stop, store_output, dop853_locate,
+                    starting_step, dop853_chunk, dop853_dense, derivative_start,
                     project_start, initial_step, along, accel_only,
                     second_order_step, _partial_sum, second_order_chunk,
                     second_order_locate, rkn_initial_step]
 #: inlined by numba (no call, so no reference-count traffic, on the per-step path)
-KERNEL_JIT_OPTIONS = {"store_output": 'inline="always"'}
+KERNEL_JIT_OPTIONS = {name: 'inline="always"' for name in ("chunk_status", "next_stop",
+                                                            "store_output")}
+#: the drivers' shared steps, also inlined into integrator_fast's drivers
+SHARED_STEPS = [chunk_status, next_stop, store_output]

@@ -195,7 +195,6 @@ def fast_rkn_chunk(y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol, ato
     for j in range(ns):
         db[j] = b[j] - bh[j]
         dbp[j] = bp[j] - bph[j]
-    use_teval = t_eval.shape[0] > 0
     cap = tout.shape[0]
     q = y[:n]
     v = y[n:]
@@ -207,16 +206,11 @@ def fast_rkn_chunk(y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol, ato
     rejected = False
     expo = -1.0 / 11.0
     for step in range(max_steps + 1):
-        if t >= t_end:
-            return 0
-        if step == max_steps:
-            return 1
-        if (not use_teval) and stats[3] + 2 > cap:
-            return 2
+        status = chunk_status(step, max_steps, t, t_end, t_eval, stats, cap, 0, 0)   # no events
+        if status >= 0:
+            return status
         hmin = 16.0 * 2.220446049250313e-16 * max(abs(t), abs(t_end))
-        t_target = t_end
-        if use_teval and stats[5] < t_eval.shape[0]:
-            t_target = min(t_end, t_eval[stats[5]])
+        t_target = next_stop(t_end, t_eval, stats)
         for k in range(nd):
             cs0[2 * k] = np.cos(rates[k] * t)
             cs0[2 * k + 1] = np.sin(rates[k] * t)
@@ -362,7 +356,6 @@ def fast_symplectic_chunk(y, f, tv, stats, p, w, max_steps, t_eval, stride, tout
     rot = np.empty((nw, max(nd, 1), 2))
     cs0 = np.empty(max(2 * nd, 1))
     css = np.empty(max(2 * nd, 1))
-    use_teval = t_eval.shape[0] > 0
     cap = tout.shape[0]
     q = y[:n]
     v = y[n:]
@@ -372,15 +365,10 @@ def fast_symplectic_chunk(y, f, tv, stats, p, w, max_steps, t_eval, stride, tout
     h = tv[2]
     h_rot = -1.0
     for step in range(max_steps + 1):
-        if t >= t_end:
-            return 0
-        if step == max_steps:
-            return 1
-        if (not use_teval) and stats[3] + 2 > cap:
-            return 2
-        t_target = t_end
-        if use_teval and stats[5] < t_eval.shape[0]:
-            t_target = min(t_end, t_eval[stats[5]])
+        status = chunk_status(step, max_steps, t, t_end, t_eval, stats, cap, 0, 0)   # no events
+        if status >= 0:
+            return status
+        t_target = next_stop(t_end, t_eval, stats)
         clipped = False
         hs = h
         if t + hs * (1.0 + 1e-10) >= t_target:
@@ -507,10 +495,10 @@ def _fast_model(system, cache_dir):
     if not path.exists() or not meta.exists():
         gen, nd, has_t = _generated_source(system)
         parts = [_HEADER.format(label=repr(system.name or "a system")), gen]
-        from ._integrator_kernels import store_output
-        for fn in (store_output, *FAST_TEMPLATES):
+        from ._integrator_kernels import SHARED_STEPS
+        for fn in (*SHARED_STEPS, *FAST_TEMPLATES):
             src = textwrap.dedent(inspect.getsource(fn))
-            jit = _JIT[:-1] + ', inline="always")' if fn is store_output else _JIT
+            jit = _JIT[:-1] + ', inline="always")' if fn in SHARED_STEPS else _JIT
             parts.append(f"\n\n{jit}\n{src}")
         write_module(path, "".join(parts))
         write_module(meta, f"{nd} {int(has_t)}")
