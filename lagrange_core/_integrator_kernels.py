@@ -1,12 +1,14 @@
-"""Kernel templates of the integrators (bound per system by ``system.kernels.bind``).
+"""The integrators' compiled kernels: compiled once per installation, for every system.
 
-Every function here is a *template*: plain Python that calls the generated
-kernels of one system by name (``rhs``, ``accelerations``, ``augmented``,
-``constraint_residual``, ``energy``, ``N_DOF``, ``N_CONSTRAINTS``, ...; see
-:mod:`lagrange_core.codegen`).  :meth:`Kernels.bind` compiles a copy against a
-system, so the system's right-hand side is inlined into the integrator loop and
-the machine code is cached on disk.  Method coefficient tables are passed in as
-arrays (they are data, :mod:`lagrange_core.integrate` owns them).
+Every function here is an ordinary ``@njit(cache=True)`` function.  It reaches the
+system's kernels (``rhs``, ``accelerations``, ``energy``, ``constraint_residual``,
+``augmented``; see :mod:`lagrange_core.codegen`) through their C entry points: ``ka`` is
+the system's table of kernel addresses (:meth:`lagrange_core.codegen.Kernels.addresses`,
+slots named in :mod:`lagrange_core._kernel_calls`), and ``m`` its number of constraints;
+n, the number of coordinates, is read off the state.  So numba's cache serves the same
+machine code to every system, and a new system's first ``simulate`` compiles only the
+system's own kernels.  Method coefficient tables are passed in as arrays (they are
+data; :mod:`lagrange_core.integrate` owns them).
 
 The drivers integrate in *chunks*: a call advances until ``t_end``, until a step
 budget is used up, until the output buffer is full or until a terminal event,
@@ -14,51 +16,72 @@ and returns a status, with the whole integrator state in the arrays it was given
 (``y``, ``f``, ``tv``, ``stats``) so the next call continues exactly where this
 one stopped.  Python regains control between chunks (Ctrl-C, memory).
 
-Shared state layout
--------------------
-``tv`` (float64): [t, t_end, h (next step), error sum, spare, Kahan compensation of t]
-``stats`` (int64): [steps, rejected, rhs evaluations, outputs stored, stride
-counter, next t_eval index, events stored, spare]
+Shared state layout (the named slots below)
+-------------------------------------------
+``tv`` (float64, ``TV_SIZE``): ``TV_T`` time, ``TV_END`` end time, ``TV_H`` next step,
+``TV_ERROR`` sum of local error estimates, ``TV_T_CARRY`` Kahan compensation of t.
+``stats`` (int64, ``STATS_SIZE``): ``ST_STEPS`` accepted steps, ``ST_REJECTED``,
+``ST_RHS`` right-hand-side evaluations, ``ST_STORED`` output rows used, ``ST_STRIDE``
+stride counter, ``ST_NEXT_EVAL`` next t_eval index, ``ST_EVENTS`` events stored.
 
-Status codes returned: see ``STATUS_*`` in :mod:`lagrange_core.integrate`
-(0 done, 1 chunk budget used, 2 output buffer full, 3 terminal event,
-4 singular mass matrix, 5 step size underflow / non-finite state,
-6 event buffer full).
+Status codes returned (``STATUS_*``): done, chunk budget used, output buffer full,
+terminal event, singular mass matrix, step size underflow / non-finite state,
+event buffer full.
 
-Events (``ev_int`` rows: kind, index, direction, terminal; ``ev_val`` the
-value): kind 0 coordinate q_j − value, 1 velocity q̇_j − value, 2 multiplier
-λ_j − value, 3 energy − value.  direction +1 only upward crossings, −1 only
-downward, 0 both.
+Events (``ev_int`` rows: kind, index, direction, terminal; ``ev_val`` the value):
+kind ``EV_COORDINATE`` q_j − value, ``EV_VELOCITY`` q̇_j − value, ``EV_MULTIPLIER``
+λ_j − value, ``EV_ENERGY`` energy − value.  direction +1 only upward crossings, −1
+only downward, 0 both.
 """
 import math
 
 import numpy as np
+from numba import njit
 
-KERNEL_IMPORTS = """
-from lagrange_core._linalg import solve_augmented
-try:                      # the scratch shape of the kernel contract (older kernels: the augmented block)
-    _WORK_SHAPE = WORK_SHAPE
-except NameError:
-    _WORK_SHAPE = (N_DOF + N_CONSTRAINTS, N_DOF + N_CONSTRAINTS + 1)
-"""
+from ._kernel_calls import (ACCELERATIONS, AUGMENTED, DRIVE_RATES, ENERGY, FAST_ACCEL,
+                            MAX_DRIVE_RATES, RESIDUAL, RHS, call_accelerations, call_augmented,
+                            call_drive_rates, call_energy, call_fast_accel, call_residual,
+                            call_rhs)
+from ._linalg import solve_augmented
+
+# -- named constants (module globals are compile-time constants for numba) --------------
+
+#: what a driver's chunk returns
+STATUS_DONE, STATUS_CHUNK, STATUS_FULL, STATUS_EVENT, STATUS_SINGULAR, STATUS_UNDERFLOW, \
+    STATUS_EVFULL = range(7)
+#: slots of the float state ``tv``
+TV_T, TV_END, TV_H, TV_ERROR, TV_SPARE, TV_T_CARRY = range(6)
+TV_SIZE = 6
+#: slots of the integer statistics ``stats``
+ST_STEPS, ST_REJECTED, ST_RHS, ST_STORED, ST_STRIDE, ST_NEXT_EVAL, ST_EVENTS, ST_SPARE = range(8)
+STATS_SIZE = 8
+#: event kinds (column 0 of ``ev_int``)
+EV_COORDINATE, EV_VELOCITY, EV_MULTIPLIER, EV_ENERGY = range(4)
+#: numba's error model without zero-division branches, fused multiply-adds; no
+#: reassociation (it would delete the compensated sums) and no finite-math flags, so the
+#: NaN/inf checks of the loops stay meaningful
+FAST_MATH = {"contract", "arcp", "nsz"}
+INLINE = "always"      # the per-step helpers: no call, no reference counting per step
 
 
 # -- helpers -----------------------------------------------------------------------------
 
-def event_value(kind, idx, val, t, y, p, W, qdd, lam):
+@njit(cache=True)
+def event_value(ka, kind, idx, val, t, y, p, W, qdd, lam):
     """Value of one event function g(t, y) (see the module docstring)."""
-    n = N_DOF
+    n = y.shape[0] // 2
     if kind == 0:
         return y[idx] - val
     if kind == 1:
         return y[n + idx] - val
     if kind == 2:
-        accelerations(y[:n], y[n:], t, p, qdd, lam, W)
+        call_accelerations(ka[ACCELERATIONS], y[:n], y[n:], t, p, qdd, lam, W)
         return lam[idx] - val
-    return energy(y[:n], y[n:], t, p) - val
+    return call_energy(ka[ENERGY], y[:n], y[n:], t, p) - val
 
 
-def project_constraints(y, t, p, W, P, res):
+@njit(cache=True)
+def project_constraints(ka, m, y, t, p, W, P, res):
     """Project y = [q, q̇] back onto Φ(q, t) = 0 and Φ̇ = 0 (no-op without constraints).
 
     Least-squares (Euclidean) projection with Φ_q from the augmented matrix:
@@ -67,13 +90,12 @@ def project_constraints(y, t, p, W, P, res):
     step Δq̇ = −Φ_qᵀ (Φ_q Φ_qᵀ)⁻¹ Φ̇ (Φ̇ is linear in q̇).  ``P`` is scratch (m, m + 1).
     Returns 0, or 1 if Φ_q Φ_qᵀ is singular (redundant constraints).
     """
-    n = N_DOF
-    m = N_CONSTRAINTS
+    n = y.shape[0] // 2
     if m == 0:
         return 0
     for sweep in range(4):
-        constraint_residual(y[:n], y[n:], t, p, res)
-        augmented(y[:n], y[n:], t, p, W)
+        call_residual(ka[RESIDUAL], y[:n], y[n:], t, p, res)
+        call_augmented(ka[AUGMENTED], y[:n], y[n:], t, p, W)
         for a in range(m):
             for b in range(m):
                 s = 0.0
@@ -92,6 +114,7 @@ def project_constraints(y, t, p, W, P, res):
     return 0
 
 
+@njit(cache=True)
 def dop853_dense_eval(Fd, y0, x, out):
     """DOP853 dense output at fraction x of the step (7th-order polynomial, Hairer's form)."""
     n2 = y0.shape[0]
@@ -106,6 +129,7 @@ def dop853_dense_eval(Fd, y0, x, out):
         out[i] = acc + y0[i]
 
 
+@njit(cache=True)
 def illinois_trial(a, b, fa, fb):
     """Next trial point of the Illinois (modified regula falsi) iteration on [a, b]."""
     x = (a * fb - b * fa) / (fb - fa)
@@ -114,6 +138,7 @@ def illinois_trial(a, b, fa, fb):
     return x
 
 
+@njit(cache=True)
 def illinois_update(x, fx, a, b, fa, fb, side):
     """Shrink the bracket [a, b] with the value fx at x; halve the stale end's value
     when the same end is kept twice (what makes regula falsi converge superlinearly).
@@ -127,55 +152,59 @@ def illinois_update(x, fx, a, b, fa, fb, side):
     return x, b, fx, fb, 1
 
 
+@njit(cache=True, inline=INLINE)
 def chunk_status(step, max_steps, t, t_end, t_eval, stats, cap, n_ev, ev_cap):
     """Why a driver's chunk stops before its step number ``step`` (a ``STATUS_*`` code), or
     −1 to go on: t_end reached, step budget used, output buffer (capacity ``cap``) full
     without t_eval, event buffer (capacity ``ev_cap``) too full for ``n_ev`` more events.
     Inlined into the drivers (here and in :mod:`lagrange_core.integrator_fast`)."""
     if t >= t_end:
-        return 0
+        return STATUS_DONE
     if step == max_steps:
-        return 1
-    if t_eval.shape[0] == 0 and stats[3] + 2 > cap:
-        return 2
-    if n_ev > 0 and stats[6] + n_ev > ev_cap:
-        return 6
+        return STATUS_CHUNK
+    if t_eval.shape[0] == 0 and stats[ST_STORED] + 2 > cap:
+        return STATUS_FULL
+    if n_ev > 0 and stats[ST_EVENTS] + n_ev > ev_cap:
+        return STATUS_EVFULL
     return -1
 
 
+@njit(cache=True, inline=INLINE)
 def next_stop(t_end, t_eval, stats):
     """The time the next step must not pass: t_end, or the next requested output time."""
-    if t_eval.shape[0] > 0 and stats[5] < t_eval.shape[0]:
-        return min(t_end, t_eval[stats[5]])
+    if t_eval.shape[0] > 0 and stats[ST_NEXT_EVAL] < t_eval.shape[0]:
+        return min(t_end, t_eval[stats[ST_NEXT_EVAL]])
     return t_end
 
 
+@njit(cache=True, inline=INLINE)
 def store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, force):
     """Record the state y (n2 entries) after an accepted step to time t: at the requested
     times t_eval (steps are clipped to land on them exactly, so none lies inside a step),
     or, without t_eval, every ``stride``-th step, at t_end, and whenever ``force``.
     Inlined into the drivers (here and in :mod:`lagrange_core.integrator_fast`)."""
     if t_eval.shape[0] > 0:
-        ie = stats[5]
+        ie = stats[ST_NEXT_EVAL]
         while ie < t_eval.shape[0] and t_eval[ie] == t:
             tout[ie] = t
             for i in range(n2):
                 yout[ie, i] = y[i]
             ie += 1
-        stats[5] = ie
-        stats[3] = ie
+        stats[ST_NEXT_EVAL] = ie
+        stats[ST_STORED] = ie
     else:
-        stats[4] += 1
-        if stats[4] >= stride or force or t >= t_end:
-            stats[4] = 0
-            k = stats[3]
+        stats[ST_STRIDE] += 1
+        if stats[ST_STRIDE] >= stride or force or t >= t_end:
+            stats[ST_STRIDE] = 0
+            k = stats[ST_STORED]
             tout[k] = t
             for i in range(n2):
                 yout[k, i] = y[i]
-            stats[3] += 1
+            stats[ST_STORED] += 1
 
 
-def dop853_locate(kind, idx, val, t0, h, y0, Fd, ga, gb, p, W, qdd, lam, yt):
+@njit(cache=True)
+def dop853_locate(ka, kind, idx, val, t0, h, y0, Fd, ga, gb, p, W, qdd, lam, yt):
     """Root of one event function on the dense output of a DOP853 step.
 
     Illinois (modified regula falsi) on x ∈ [0, 1], bracket shrunk until it is a
@@ -192,14 +221,15 @@ def dop853_locate(kind, idx, val, t0, h, y0, Fd, ga, gb, p, W, qdd, lam, yt):
             break
         x = illinois_trial(a, b, fa, fb)
         dop853_dense_eval(Fd, y0, x, yt)
-        fx = event_value(kind, idx, val, t0 + x * h, yt, p, W, qdd, lam)
+        fx = event_value(ka, kind, idx, val, t0 + x * h, yt, p, W, qdd, lam)
         if fx == 0.0:
             return x
         a, b, fa, fb, side = illinois_update(x, fx, a, b, fa, fb, side)
     return 0.5 * (a + b)
 
 
-def starting_step(t, y, f, p, rtol, atol, W, y1, f1, exponent):
+@njit(cache=True)
+def starting_step(ka, t, y, f, p, rtol, atol, W, y1, f1, exponent):
     """Hairer's starting step size (as scipy's ``select_initial_step``); ``exponent`` is
     1/(q + 1) for an error estimate of order q (DOP853: 1/8, RKN 12(10): 1/11)."""
     n2 = y.shape[0]
@@ -217,7 +247,7 @@ def starting_step(t, y, f, p, rtol, atol, W, y1, f1, exponent):
         h0 = 0.01 * d0 / d1
     for i in range(n2):
         y1[i] = y[i] + h0 * f[i]
-    rhs(t + h0, y1, p, f1, W)
+    call_rhs(ka[RHS], t + h0, y1, p, f1, W)
     d2 = 0.0
     for i in range(n2):
         sc = atol + abs(y[i]) * rtol
@@ -232,30 +262,30 @@ def starting_step(t, y, f, p, rtol, atol, W, y1, f1, exponent):
 
 # -- DOP853 (adaptive, or fixed step) --------------------------------------------------
 
-def dop853_chunk(y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adaptive, max_steps,
+@njit(cache=True)
+def dop853_chunk(ka, m, y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adaptive, max_steps,
                  t_eval, stride, tout, yout, ev_int, ev_val, ev_g, ev_t, ev_k, ev_y):
     """Advance the DOP853 pair (Dormand & Prince 8(5,3)) by one chunk.
 
     Parameters (arrays are updated in place; see the module docstring)
     ----------
-    y, f : (2n,) state [q, q̇] at tv[0] and its derivative (FSAL).
+    y, f : (2n,) state [q, q̇] at tv[TV_T] and its derivative (FSAL).
     A, B, C, E3, E5, D : the coefficient table (scipy's ``dop853_coefficients``).
     adaptive : bool
-        False: fixed steps of tv[2] (the 8th-order solution, no rejection; the
+        False: fixed steps of tv[TV_H] (the 8th-order solution, no rejection; the
         error estimate is still accumulated).
     max_steps : steps allowed in this chunk.
     t_eval : output times (empty: store every ``stride``-th accepted step).
-    tout, yout : output buffers; stats[3] rows used.
+    tout, yout : output buffers; stats[ST_STORED] rows used.
     ev_* : event specification, last values g, and the event buffers.
 
     Step-size control is Hairer's (scipy's): the error norm is the RMS of the
     combined 5th/3rd-order estimate scaled by atol + rtol·max(|y|, |y_new|),
     new h = h·min(10, max(0.2, 0.9·err^(−1/8))), no growth right after a rejection.
     """
-    n = N_DOF
+    n = y.shape[0] // 2
     n2 = 2 * n
-    m = N_CONSTRAINTS
-    W = np.zeros(_WORK_SHAPE)
+    W = np.zeros((n + m, n + m + 1))
     P = np.zeros((max(m, 1), max(m, 1) + 1))
     res = np.zeros(max(2 * m, 1))
     K = np.empty((16, n2))
@@ -270,9 +300,9 @@ def dop853_chunk(y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adaptive, m
     use_teval = t_eval.shape[0] > 0
     cap = tout.shape[0]
 
-    t = tv[0]
-    t_end = tv[1]
-    h = tv[2]
+    t = tv[TV_T]
+    t_end = tv[TV_END]
+    h = tv[TV_H]
     rejected = False
     for step in range(max_steps + 1):
         status = chunk_status(step, max_steps, t, t_end, t_eval, stats, cap, n_ev, ev_t.shape[0])
@@ -295,22 +325,22 @@ def dop853_chunk(y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adaptive, m
                     for j in range(s):
                         acc += A[s, j] * K[j, i]
                     ytmp[i] = y[i] + hs * acc
-                status = rhs(t + C[s] * hs, ytmp, p, K[s], W)
+                status = call_rhs(ka[RHS], t + C[s] * hs, ytmp, p, K[s], W)
                 if status != 0:
                     break
             if status != 0:
-                tv[0] = t
-                return 4
+                tv[TV_T] = t
+                return STATUS_SINGULAR
             for i in range(n2):
                 acc = 0.0
                 for j in range(12):
                     acc += B[j] * K[j, i]
                 ynew[i] = y[i] + hs * acc
-            status = rhs(t + hs, ynew, p, K[12], W)
-            stats[2] += 12
+            status = call_rhs(ka[RHS], t + hs, ynew, p, K[12], W)
+            stats[ST_RHS] += 12
             if status != 0:
-                tv[0] = t
-                return 4
+                tv[TV_T] = t
+                return STATUS_SINGULAR
             # error estimate (Hairer's combination of the 5th- and 3rd-order estimates)
             e5n = 0.0
             e3n = 0.0
@@ -338,29 +368,29 @@ def dop853_chunk(y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adaptive, m
             finite = math.isfinite(err)
             if (not adaptive) or (finite and err < 1.0):
                 break
-            stats[1] += 1
+            stats[ST_REJECTED] += 1
             if finite:
                 h = hs * max(0.2, 0.9 * err ** (-1.0 / 8.0))
             else:
                 h = 0.2 * hs
             rejected = True
             if h < hmin:
-                tv[0] = t
-                tv[2] = h
-                return 5
+                tv[TV_T] = t
+                tv[TV_H] = h
+                return STATUS_UNDERFLOW
         if not math.isfinite(err):
-            tv[0] = t
-            return 5
+            tv[TV_T] = t
+            return STATUS_UNDERFLOW
         # accepted: FSAL derivative is K[12]
-        stats[0] += 1
-        tv[3] += est
+        stats[ST_STEPS] += 1
+        tv[TV_ERROR] += est
         have_dense = False
         # events
         t_stop = t + hs
         x_stop = 1.0
         fired = False
         for e in range(n_ev):
-            g_new[e] = event_value(ev_int[e, 0], ev_int[e, 1], ev_val[e], t + hs, ynew, p, W,
+            g_new[e] = event_value(ka, ev_int[e, 0], ev_int[e, 1], ev_val[e], t + hs, ynew, p, W,
                                    qdd, lam)
             x_root[e] = -1.0
             go = ev_g[e]
@@ -371,35 +401,35 @@ def dop853_chunk(y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adaptive, m
                 up = gn > go
                 if d == 0 or (d > 0 and up) or (d < 0 and not up):
                     if not have_dense:
-                        dop853_dense(t, hs, y, ynew, K, A, C, D, p, W, ytmp, Fd)
-                        stats[2] += 3
+                        dop853_dense(ka, t, hs, y, ynew, K, A, C, D, p, W, ytmp, Fd)
+                        stats[ST_RHS] += 3
                         have_dense = True
-                    x_root[e] = dop853_locate(ev_int[e, 0], ev_int[e, 1], ev_val[e], t, hs, y,
+                    x_root[e] = dop853_locate(ka, ev_int[e, 0], ev_int[e, 1], ev_val[e], t, hs, y,
                                               Fd, go, gn, p, W, qdd, lam, ytmp)
                     if ev_int[e, 3] != 0 and x_root[e] <= x_stop:
                         x_stop = x_root[e]
                         fired = True
         for e in range(n_ev):
             if x_root[e] >= 0.0 and x_root[e] <= x_stop:
-                k = stats[6]
+                k = stats[ST_EVENTS]
                 ev_t[k] = t + x_root[e] * hs
                 ev_k[k] = e
                 dop853_dense_eval(Fd, y, x_root[e], ytmp)
                 if m > 0:
-                    project_constraints(ytmp, ev_t[k], p, W, P, res)
+                    project_constraints(ka, m, ytmp, ev_t[k], p, W, P, res)
                 for i in range(n2):
                     ev_y[k, i] = ytmp[i]
-                stats[6] += 1
+                stats[ST_EVENTS] += 1
             ev_g[e] = g_new[e]
         if fired:
             t_stop = t + x_stop * hs
         # dense output at the requested times
         if use_teval:
-            ie = stats[5]
+            ie = stats[ST_NEXT_EVAL]
             while ie < t_eval.shape[0] and t_eval[ie] <= t_stop:
                 if not have_dense:
-                    dop853_dense(t, hs, y, ynew, K, A, C, D, p, W, ytmp, Fd)
-                    stats[2] += 3
+                    dop853_dense(ka, t, hs, y, ynew, K, A, C, D, p, W, ytmp, Fd)
+                    stats[ST_RHS] += 3
                     have_dense = True
                 if t_eval[ie] == t + hs and not fired:
                     for i in range(n2):
@@ -407,44 +437,44 @@ def dop853_chunk(y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adaptive, m
                 else:
                     dop853_dense_eval(Fd, y, (t_eval[ie] - t) / hs, ytmp)
                 if m > 0:   # the step and its interpolant drift off Φ = 0 by ~ the tolerance
-                    project_constraints(ytmp, t_eval[ie], p, W, P, res)
+                    project_constraints(ka, m, ytmp, t_eval[ie], p, W, P, res)
                 for i in range(n2):
                     yout[ie, i] = ytmp[i]
                 tout[ie] = t_eval[ie]
                 ie += 1
-            stats[5] = ie
-            stats[3] = ie
+            stats[ST_NEXT_EVAL] = ie
+            stats[ST_STORED] = ie
         if fired:
             dop853_dense_eval(Fd, y, x_stop, ynew)
             t_new = t_stop
-            tv[5] = 0.0
+            tv[TV_T_CARRY] = 0.0
         else:
             # compensated (Kahan) sum of the steps: over 10⁵–10⁶ steps plain t += h loses
             # ~1e-12 s, a drive-phase error ω δt that shows at the 1e-10 level
-            yk = hs - tv[5]
+            yk = hs - tv[TV_T_CARRY]
             t_new = t + yk
-            tv[5] = (t_new - t) - yk
+            tv[TV_T_CARRY] = (t_new - t) - yk
         if m > 0:
-            if project_constraints(ynew, t_new, p, W, P, res) != 0:
-                tv[0] = t
-                return 4
+            if project_constraints(ka, m, ynew, t_new, p, W, P, res) != 0:
+                tv[TV_T] = t
+                return STATUS_SINGULAR
         if fired or m > 0:
-            status = rhs(t_new, ynew, p, K[12], W)
-            stats[2] += 1
+            status = call_rhs(ka[RHS], t_new, ynew, p, K[12], W)
+            stats[ST_RHS] += 1
             # a terminal event may sit exactly on a singular state (the swinging Atwood
             # machine stopped at r = 0): the run ends there, so that is not an error
             if status != 0 and not fired:
-                tv[0] = t
-                return 4
+                tv[TV_T] = t
+                return STATUS_SINGULAR
         for i in range(n2):
             y[i] = ynew[i]
             f[i] = K[12, i]
         t = t_new if not last or fired else t_end
-        tv[0] = t
+        tv[TV_T] = t
         if not use_teval:      # (requested times were interpolated on the dense output)
             store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, fired)
         if fired:
-            return 3
+            return STATUS_EVENT
         # next step size
         if adaptive:
             if err == 0.0:
@@ -455,11 +485,12 @@ def dop853_chunk(y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adaptive, m
                 factor = min(1.0, factor)
             h = hs * factor if not last else max(h, hs)
             rejected = False
-        tv[2] = h
-    return 1
+        tv[TV_H] = h
+    return STATUS_CHUNK
 
 
-def dop853_dense(t, h, y, ynew, K, A, C, D, p, W, ytmp, Fd):
+@njit(cache=True)
+def dop853_dense(ka, t, h, y, ynew, K, A, C, D, p, W, ytmp, Fd):
     """The three extra stages and the coefficients Fd of DOP853's dense output."""
     n2 = y.shape[0]
     for s in range(13, 16):
@@ -468,7 +499,7 @@ def dop853_dense(t, h, y, ynew, K, A, C, D, p, W, ytmp, Fd):
             for j in range(s):
                 acc += A[s, j] * K[j, i]
             ytmp[i] = y[i] + h * acc
-        rhs(t + C[s] * h, ytmp, p, K[s], W)
+        call_rhs(ka[RHS], t + C[s] * h, ytmp, p, K[s], W)
     for i in range(n2):
         dy = ynew[i] - y[i]
         Fd[0, i] = dy
@@ -481,46 +512,48 @@ def dop853_dense(t, h, y, ynew, K, A, C, D, p, W, ytmp, Fd):
             Fd[3 + r, i] = h * acc
 
 
-def derivative_start(t, y, p, f):
+@njit(cache=True)
+def derivative_start(ka, m, t, y, p, f):
     """f = dy/dt at (t, y); returns the kernel status."""
-    n = N_DOF
-    m = N_CONSTRAINTS
-    W = np.zeros(_WORK_SHAPE)
-    return rhs(t, y, p, f, W)
+    n = y.shape[0] // 2
+    W = np.zeros((n + m, n + m + 1))
+    return call_rhs(ka[RHS], t, y, p, f, W)
 
 
-def project_start(t, y, p):
+@njit(cache=True)
+def project_start(ka, m, t, y, p):
     """Project an initial state onto the constraints (returns the status)."""
-    n = N_DOF
-    m = N_CONSTRAINTS
-    W = np.zeros(_WORK_SHAPE)
+    n = y.shape[0] // 2
+    W = np.zeros((n + m, n + m + 1))
     P = np.zeros((max(m, 1), max(m, 1) + 1))
     res = np.zeros(max(2 * m, 1))
-    return project_constraints(y, t, p, W, P, res)
+    return project_constraints(ka, m, y, t, p, W, P, res)
 
 
-def initial_step(t, y, f, p, rtol, atol):
-    n = N_DOF
-    m = N_CONSTRAINTS
-    W = np.zeros(_WORK_SHAPE)
-    return starting_step(t, y, f, p, rtol, atol, W, np.empty_like(y), np.empty_like(y), 1.0 / 8.0)
+@njit(cache=True)
+def initial_step(ka, m, t, y, f, p, rtol, atol, exponent):
+    """:func:`starting_step` with its own scratch (DOP853: exponent 1/8; RKN 12(10): 1/11)."""
+    n = y.shape[0] // 2
+    W = np.zeros((n + m, n + m + 1))
+    return starting_step(ka, t, y, f, p, rtol, atol, W, np.empty_like(y), np.empty_like(y),
+                         exponent)
 
 
-def along(T, Y, p, E, LAM, RES):
+@njit(cache=True)
+def along(ka, m, T, Y, p, E, LAM, RES):
     """Energy, multipliers and constraint residual max(|Φ|, |Φ̇|) along a trajectory."""
-    n = N_DOF
-    m = N_CONSTRAINTS
-    W = np.zeros(_WORK_SHAPE)
+    n = Y.shape[1] // 2
+    W = np.zeros((n + m, n + m + 1))
     qdd = np.empty(n)
     lam = np.empty(max(m, 1))
     res = np.empty(max(2 * m, 1))
     for k in range(T.shape[0]):
         q = Y[k, :n]
         qd = Y[k, n:]
-        E[k] = energy(q, qd, T[k], p)
+        E[k] = call_energy(ka[ENERGY], q, qd, T[k], p)
         if m > 0:
-            accelerations(q, qd, T[k], p, qdd, lam, W)
-            constraint_residual(q, qd, T[k], p, res)
+            call_accelerations(ka[ACCELERATIONS], q, qd, T[k], p, qdd, lam, W)
+            call_residual(ka[RESIDUAL], q, qd, T[k], p, res)
             r = 0.0
             for a in range(m):
                 LAM[k, a] = lam[a]
@@ -531,16 +564,19 @@ def along(T, Y, p, E, LAM, RES):
 
 # -- q̈ = f(q, t): RKN 12(10) and the symplectic composition ------------------------------
 
-def accel_only(q, t, p, out, zero, qdd, lam, W):
-    """q̈ = f(q, t) into ``out`` (velocities passed as zeros: F does not depend on them)."""
-    status = accelerations(q, zero, t, p, qdd, lam, W)
-    for i in range(q.shape[0]):
-        out[i] = qdd[i]
-    return status
+@njit(cache=True)
+def accel_only(ka, q, t, p, out, rates, cs, Wn):
+    """q̈ = f(q, t) into ``out`` from the drive kernel (:mod:`lagrange_core.drive_kernel`):
+    the drive's cos/sin (``rates`` from ``drive_rates``) are evaluated at t here."""
+    for d in range(rates.shape[0]):
+        cs[2 * d] = math.cos(rates[d] * t)
+        cs[2 * d + 1] = math.sin(rates[d] * t)
+    return call_fast_accel(ka[FAST_ACCEL], q, t, cs, p, out, Wn)
 
 
-def second_order_step(family, t, q, v, a0, h, p, c, A, b, bp, w, K, qn, vn, qs, zero, qdd,
-                      lam, W):
+@njit(cache=True)
+def second_order_step(ka, family, t, q, v, a0, h, p, c, A, b, bp, w, K, qn, vn, qs, rates, cs,
+                      Wn):
     """One step of a method for q̈ = f(q, t) from (t, q, v) with q̈(t) = a0.
 
     family 0: RKN (c, A, b, bp; stages K[s]); family 1: the symmetric composition
@@ -562,7 +598,7 @@ def second_order_step(family, t, q, v, a0, h, p, c, A, b, bp, w, K, qn, vn, qs, 
                 for j in range(s):
                     acc += A[s, j] * K[j, i]
                 qs[i] = q[i] + ch * v[i] + h * h * acc
-            status = accel_only(qs, t + ch, p, K[s], zero, qdd, lam, W)
+            status = accel_only(ka, qs, t + ch, p, K[s], rates, cs, Wn)
             if status != 0:
                 return status
         for i in range(n):
@@ -585,7 +621,7 @@ def second_order_step(family, t, q, v, a0, h, p, c, A, b, bp, w, K, qn, vn, qs, 
             vn[i] += 0.5 * hk * K[0, i]
             qn[i] += hk * vn[i]
         tt = t + h * _partial_sum(w, k)
-        status = accel_only(qn, tt, p, K[0], zero, qdd, lam, W)
+        status = accel_only(ka, qn, tt, p, K[0], rates, cs, Wn)
         if status != 0:
             return status
         for i in range(n):
@@ -593,6 +629,7 @@ def second_order_step(family, t, q, v, a0, h, p, c, A, b, bp, w, K, qn, vn, qs, 
     return 0
 
 
+@njit(cache=True)
 def _partial_sum(w, k):
     s = 0.0
     for j in range(k + 1):
@@ -600,7 +637,8 @@ def _partial_sum(w, k):
     return s
 
 
-def second_order_chunk(family, y, f, tv, stats, p, rtol, atol, c, A, b, bp, bh, bph, w,
+@njit(cache=True)
+def second_order_chunk(ka, m, family, y, f, tv, stats, p, rtol, atol, c, A, b, bp, bh, bph, w,
                        adaptive, max_steps, t_eval, stride, tout, yout, ev_int, ev_val, ev_g,
                        ev_t, ev_k, ev_y):
     """Advance an RKN (family 0) or symplectic (family 1) method by one chunk.
@@ -615,18 +653,19 @@ def second_order_chunk(family, y, f, tv, stats, p, rtol, atol, c, A, b, bp, bh, 
     10th-order solutions [Δq, Δv] scaled by atol + rtol·max(|y|, |y_new|);
     new h = h·min(5, max(0.2, 0.9·err^(−1/11))), no growth right after a rejection.
     """
-    n = N_DOF
+    n = y.shape[0] // 2
     n2 = 2 * n
-    m = N_CONSTRAINTS
-    W = np.zeros(_WORK_SHAPE)
     ns = max(c.shape[0], 1)
     K = np.empty((ns, n))
     qn = np.empty(n)
     vn = np.empty(n)
     qs = np.empty(n)
-    zero = np.zeros(n)
+    W = np.zeros((n + m, n + m + 1))      # event_value's scratch
     qdd = np.empty(n)
     lam = np.empty(max(m, 1))
+    rates = drive_rates(ka, p)            # the drive kernel's harmonic rates α_k
+    cs = np.empty(max(2 * rates.shape[0], 1))
+    Wn = np.zeros((n, n + 1))
     ytmp = np.empty(n2)
     anew = np.empty(n)
     n_ev = ev_int.shape[0]
@@ -639,9 +678,9 @@ def second_order_chunk(family, y, f, tv, stats, p, rtol, atol, c, A, b, bp, bh, 
     q = y[:n]
     v = y[n:]
     a0 = f[n:]
-    t = tv[0]
-    t_end = tv[1]
-    h = tv[2]
+    t = tv[TV_T]
+    t_end = tv[TV_END]
+    h = tv[TV_H]
     rejected = False
     for step in range(max_steps + 1):
         status = chunk_status(step, max_steps, t, t_end, t_eval, stats, cap, n_ev, ev_t.shape[0])
@@ -655,12 +694,12 @@ def second_order_chunk(family, y, f, tv, stats, p, rtol, atol, c, A, b, bp, bh, 
             if t + hs >= t_target or (not adaptive and t + hs * (1.0 + 1e-10) >= t_target):
                 hs = t_target - t
                 clipped = True
-            status = second_order_step(family, t, q, v, a0, hs, p, c, A, b, bp, w, K, qn, vn,
-                                       qs, zero, qdd, lam, W)
-            stats[2] += evals
+            status = second_order_step(ka, family, t, q, v, a0, hs, p, c, A, b, bp, w, K, qn, vn,
+                                       qs, rates, cs, Wn)
+            stats[ST_RHS] += evals
             if status != 0:
-                tv[0] = t
-                return 4
+                tv[TV_T] = t
+                return STATUS_SINGULAR
             err = 0.0
             est = 0.0
             if family == 0:
@@ -684,35 +723,35 @@ def second_order_chunk(family, y, f, tv, stats, p, rtol, atol, c, A, b, bp, bh, 
                     finite = False
             if (not adaptive) or (finite and err < 1.0):
                 if not finite:
-                    tv[0] = t
-                    return 5
+                    tv[TV_T] = t
+                    return STATUS_UNDERFLOW
                 break
-            stats[1] += 1
+            stats[ST_REJECTED] += 1
             if finite:
                 h = hs * max(0.2, 0.9 * err ** expo)
             else:
                 h = 0.2 * hs
             rejected = True
             if h < hmin:
-                tv[0] = t
-                tv[2] = h
-                return 5
+                tv[TV_T] = t
+                tv[TV_H] = h
+                return STATUS_UNDERFLOW
         # accepted
-        stats[0] += 1
-        tv[3] += est
+        stats[ST_STEPS] += 1
+        tv[TV_ERROR] += est
         if clipped:
             t_new = t_target
-            tv[5] = 0.0
+            tv[TV_T_CARRY] = 0.0
         else:       # compensated (Kahan) sum of the steps, see dop853_chunk
-            yk = hs - tv[5]
+            yk = hs - tv[TV_T_CARRY]
             t_new = t + yk
-            tv[5] = (t_new - t) - yk
+            tv[TV_T_CARRY] = (t_new - t) - yk
         if family == 0:
-            status = accel_only(qn, t_new, p, anew, zero, qdd, lam, W)
-            stats[2] += 1
+            status = accel_only(ka, qn, t_new, p, anew, rates, cs, Wn)
+            stats[ST_RHS] += 1
             if status != 0:
-                tv[0] = t
-                return 4
+                tv[TV_T] = t
+                return STATUS_SINGULAR
         else:
             for i in range(n):
                 anew[i] = K[0, i]
@@ -723,7 +762,7 @@ def second_order_chunk(family, y, f, tv, stats, p, rtol, atol, c, A, b, bp, bh, 
             ytmp[i] = qn[i]
             ytmp[n + i] = vn[i]
         for e in range(n_ev):
-            g_new[e] = event_value(ev_int[e, 0], ev_int[e, 1], ev_val[e], t_new, ytmp, p, W,
+            g_new[e] = event_value(ka, ev_int[e, 0], ev_int[e, 1], ev_val[e], t_new, ytmp, p, W,
                                    qdd, lam)
         for e in range(n_ev):
             x_root[e] = -1.0
@@ -734,40 +773,40 @@ def second_order_chunk(family, y, f, tv, stats, p, rtol, atol, c, A, b, bp, bh, 
                 d = ev_int[e, 2]
                 up = gn > go
                 if d == 0 or (d > 0 and up) or (d < 0 and not up):
-                    x_root[e] = second_order_locate(family, e, ev_int, ev_val, t, q, v, a0, hs,
+                    x_root[e] = second_order_locate(ka, family, e, ev_int, ev_val, t, q, v, a0, hs,
                                                     go, gn, p, c, A, b, bp, w, K, ytmp, qs,
-                                                    zero, qdd, lam, W, stats, evals)
+                                                    rates, cs, Wn, W, qdd, lam, stats, evals)
                     if ev_int[e, 3] != 0 and x_root[e] <= x_stop:
                         x_stop = x_root[e]
                         fired = True
         for e in range(n_ev):
             if x_root[e] >= 0.0 and x_root[e] <= x_stop:
-                k = stats[6]
+                k = stats[ST_EVENTS]
                 ev_t[k] = t + x_root[e] * hs
                 ev_k[k] = e
-                second_order_step(family, t, q, v, a0, x_root[e] * hs, p, c, A, b, bp, w, K,
-                                  ytmp[:n], ytmp[n:], qs, zero, qdd, lam, W)
-                stats[2] += evals
+                second_order_step(ka, family, t, q, v, a0, x_root[e] * hs, p, c, A, b, bp, w, K,
+                                  ytmp[:n], ytmp[n:], qs, rates, cs, Wn)
+                stats[ST_RHS] += evals
                 for i in range(n2):
                     ev_y[k, i] = ytmp[i]
-                stats[6] += 1
+                stats[ST_EVENTS] += 1
             ev_g[e] = g_new[e]
         if fired:
             t_new = t + x_stop * hs
-            second_order_step(family, t, q, v, a0, x_stop * hs, p, c, A, b, bp, w, K, qn, vn,
-                              qs, zero, qdd, lam, W)
-            accel_only(qn, t_new, p, anew, zero, qdd, lam, W)
-            stats[2] += evals + 1
+            second_order_step(ka, family, t, q, v, a0, x_stop * hs, p, c, A, b, bp, w, K, qn, vn,
+                              qs, rates, cs, Wn)
+            accel_only(ka, qn, t_new, p, anew, rates, cs, Wn)
+            stats[ST_RHS] += evals + 1
         for i in range(n):
             q[i] = qn[i]
             v[i] = vn[i]
             a0[i] = anew[i]
             f[i] = vn[i]
         t = t_new
-        tv[0] = t
+        tv[TV_T] = t
         store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, fired)
         if fired:
-            return 3
+            return STATUS_EVENT
         if adaptive:
             if err == 0.0:
                 factor = 5.0
@@ -780,12 +819,13 @@ def second_order_chunk(family, y, f, tv, stats, p, rtol, atol, c, A, b, bp, bh, 
             else:
                 h = hs * factor
             rejected = False
-        tv[2] = h
-    return 1
+        tv[TV_H] = h
+    return STATUS_CHUNK
 
 
-def second_order_locate(family, e, ev_int, ev_val, t, q, v, a0, h, ga, gb, p, c, A, b, bp, w,
-                        K, ytmp, qs, zero, qdd, lam, W, stats, evals):
+@njit(cache=True)
+def second_order_locate(ka, family, e, ev_int, ev_val, t, q, v, a0, h, ga, gb, p, c, A, b, bp, w,
+                        K, ytmp, qs, rates, cs, Wn, W, qdd, lam, stats, evals):
     """Step fraction x of an event crossing: Illinois iteration, each trial a step of x·h."""
     n = q.shape[0]
     a = 0.0
@@ -798,31 +838,307 @@ def second_order_locate(family, e, ev_int, ev_val, t, q, v, a0, h, ga, gb, p, c,
         if bb - a <= tol:
             break
         x = illinois_trial(a, bb, fa, fb)
-        second_order_step(family, t, q, v, a0, x * h, p, c, A, b, bp, w, K, ytmp[:n], ytmp[n:],
-                          qs, zero, qdd, lam, W)
-        stats[2] += evals
-        fx = event_value(ev_int[e, 0], ev_int[e, 1], ev_val[e], t + x * h, ytmp, p, W, qdd, lam)
+        second_order_step(ka, family, t, q, v, a0, x * h, p, c, A, b, bp, w, K, ytmp[:n], ytmp[n:],
+                          qs, rates, cs, Wn)
+        stats[ST_RHS] += evals
+        fx = event_value(ka, ev_int[e, 0], ev_int[e, 1], ev_val[e], t + x * h, ytmp, p, W, qdd, lam)
         if fx == 0.0:
             return x
         a, bb, fa, fb, side = illinois_update(x, fx, a, bb, fa, fb, side)
     return 0.5 * (a + bb)
 
 
-def rkn_initial_step(t, y, f, p, rtol, atol):
-    """Starting step for RKN 12(10): Hairer's estimate with exponent 1/11."""
-    W = np.zeros(_WORK_SHAPE)
-    return starting_step(t, y, f, p, rtol, atol, W, np.empty_like(y), np.empty_like(y),
-                         1.0 / 11.0)
+# -- q̈ = f(q, t) on the drive kernel, without events: rotations for the drive ----------
+
+@njit(cache=True)
+def drive_rates(ka, p):
+    """The rates α_k of the drive harmonics cos(α_k t + β) of the drive kernel."""
+    rates = np.empty(MAX_DRIVE_RATES)
+    nd = call_drive_rates(ka[DRIVE_RATES], p, rates)
+    return rates[:nd]
 
 
-KERNEL_TEMPLATES = [event_value, project_constraints, dop853_dense_eval, illinois_trial,
-                    illinois_update, chunk_status, next_stop, store_output, dop853_locate,
-                    starting_step, dop853_chunk, dop853_dense, derivative_start,
-                    project_start, initial_step, along, accel_only,
-                    second_order_step, _partial_sum, second_order_chunk,
-                    second_order_locate, rkn_initial_step]
-#: inlined by numba (no call, so no reference-count traffic, on the per-step path)
-KERNEL_JIT_OPTIONS = {name: 'inline="always"' for name in ("chunk_status", "next_stop",
-                                                            "store_output")}
-#: the drivers' shared steps, also inlined into integrator_fast's drivers
-SHARED_STEPS = [chunk_status, next_stop, store_output]
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol, atol, max_steps,
+                   t_eval, stride, tout, yout):
+    """RKN 12(10) on the specialised kernel; fixed step tv[TV_H] or adaptive.
+
+    Same state layout and statuses as the generic drivers in
+    :mod:`lagrange_core._integrator_kernels` (no events here: the caller uses the
+    generic driver when events are requested).  Output at ``t_eval`` by landing
+    steps on the requested times.
+    """
+    n = y.shape[0] // 2
+    rates = drive_rates(ka, p)
+    nd = rates.shape[0]
+    n2 = 2 * n
+    ns = c.shape[0]
+    K = np.empty((ns, n))
+    qs = np.empty(n)
+    qn = np.empty(n)
+    vn = np.empty(n)
+    Wn = np.zeros((n, n + 1))
+    cq = np.zeros(n)
+    cv = np.zeros(n)
+    cqn = np.zeros(n)
+    cvn = np.zeros(n)
+    rot = np.empty((ns, max(nd, 1), 2))
+    cs0 = np.empty(max(2 * nd, 1))
+    css = np.empty(max(2 * nd, 1))
+    db = np.empty(ns)
+    dbp = np.empty(ns)
+    for j in range(ns):
+        db[j] = b[j] - bh[j]
+        dbp[j] = bp[j] - bph[j]
+    cap = tout.shape[0]
+    q = y[:n]
+    v = y[n:]
+    a0 = f[n:]
+    t = tv[TV_T]
+    t_end = tv[TV_END]
+    h = tv[TV_H]
+    h_rot = -1.0
+    rejected = False
+    expo = -1.0 / 11.0
+    for step in range(max_steps + 1):
+        status = chunk_status(step, max_steps, t, t_end, t_eval, stats, cap, 0, 0)   # no events
+        if status >= 0:
+            return status
+        hmin = 16.0 * 2.220446049250313e-16 * max(abs(t), abs(t_end))
+        t_target = next_stop(t_end, t_eval, stats)
+        for k in range(nd):
+            cs0[2 * k] = np.cos(rates[k] * t)
+            cs0[2 * k + 1] = np.sin(rates[k] * t)
+        while True:
+            clipped = False
+            hs = h
+            if t + hs >= t_target or (not adaptive and t + hs * (1.0 + 1e-10) >= t_target):
+                hs = t_target - t
+                clipped = True
+            if hs != h_rot:
+                for s in range(ns):
+                    for k in range(nd):
+                        rot[s, k, 0] = np.cos(rates[k] * c[s] * hs)
+                        rot[s, k, 1] = np.sin(rates[k] * c[s] * hs)
+                h_rot = hs
+            for i in range(n):
+                K[0, i] = a0[i]
+            status = 0
+            for s in range(1, ns):
+                ch = c[s] * hs
+                for i in range(n):
+                    acc = 0.0
+                    for j in range(s):
+                        acc += A[s, j] * K[j, i]
+                    qs[i] = q[i] + ch * v[i] + hs * hs * acc
+                for k in range(nd):
+                    cr = rot[s, k, 0]
+                    sr = rot[s, k, 1]
+                    css[2 * k] = cs0[2 * k] * cr - cs0[2 * k + 1] * sr
+                    css[2 * k + 1] = cs0[2 * k + 1] * cr + cs0[2 * k] * sr
+                status = call_fast_accel(ka[FAST_ACCEL], qs, t + ch, css, p, K[s], Wn)
+                if status != 0:
+                    break
+            stats[ST_RHS] += ns - 1
+            if status != 0:
+                tv[TV_T] = t
+                return STATUS_SINGULAR
+            e2 = 0.0
+            est = 0.0
+            finite = True
+            for i in range(n):
+                accq = 0.0
+                accv = 0.0
+                dq = 0.0
+                dv = 0.0
+                for j in range(ns):
+                    kj = K[j, i]
+                    accq += b[j] * kj
+                    accv += bp[j] * kj
+                    dq += db[j] * kj
+                    dv += dbp[j] * kj
+                # compensated (Kahan) update: over 10⁵ fixed steps plain q += Δq loses
+                # ~1e-11 to rounding, more than the method's error at tight tolerances
+                yq = hs * v[i] + hs * hs * accq - cq[i]
+                qn[i] = q[i] + yq
+                cqn[i] = (qn[i] - q[i]) - yq
+                yv = hs * accv - cv[i]
+                vn[i] = v[i] + yv
+                cvn[i] = (vn[i] - v[i]) - yv
+                dq *= hs * hs
+                dv *= hs
+                if not (np.isfinite(qn[i]) and np.isfinite(vn[i])):
+                    finite = False
+                if adaptive:
+                    sq = atol + rtol * max(abs(q[i]), abs(qn[i]))
+                    sv = atol + rtol * max(abs(v[i]), abs(vn[i]))
+                    e2 += (dq / sq) ** 2 + (dv / sv) ** 2
+                est = max(est, abs(dq), abs(dv))
+            err = np.sqrt(e2 / n2)
+            if (not adaptive) or (finite and err < 1.0):
+                if not finite:
+                    tv[TV_T] = t
+                    return STATUS_UNDERFLOW
+                break
+            stats[ST_REJECTED] += 1
+            h = hs * max(0.2, 0.9 * err ** expo) if finite else 0.2 * hs
+            rejected = True
+            if h < hmin:
+                tv[TV_T] = t
+                tv[TV_H] = h
+                return STATUS_UNDERFLOW
+        stats[ST_STEPS] += 1
+        tv[TV_ERROR] += est
+        if clipped:
+            t_new = t_target
+            tv[TV_T_CARRY] = 0.0
+        else:       # compensated (Kahan) sum of the steps, see _integrator_kernels.dop853_chunk
+            yk = hs - tv[TV_T_CARRY]
+            t_new = t + yk
+            tv[TV_T_CARRY] = (t_new - t) - yk
+        # FSAL: f at the new state; the drive at t + hs is the rotation of stage c = 1
+        for k in range(nd):
+            cr = rot[ns - 1, k, 0]
+            sr = rot[ns - 1, k, 1]
+            css[2 * k] = cs0[2 * k] * cr - cs0[2 * k + 1] * sr
+            css[2 * k + 1] = cs0[2 * k + 1] * cr + cs0[2 * k] * sr
+        status = call_fast_accel(ka[FAST_ACCEL], qn, t_new, css, p, a0, Wn)
+        stats[ST_RHS] += 1
+        if status != 0:
+            tv[TV_T] = t
+            return STATUS_SINGULAR
+        for i in range(n):
+            q[i] = qn[i]
+            v[i] = vn[i]
+            f[i] = vn[i]
+            cq[i] = cqn[i]
+            cv[i] = cvn[i]
+        t = t_new
+        tv[TV_T] = t
+        store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, False)
+        if adaptive:
+            factor = 5.0 if err == 0.0 else min(5.0, 0.9 * err ** expo)
+            if rejected:
+                factor = min(1.0, factor)
+            h = max(h, hs * factor) if clipped else hs * factor
+            rejected = False
+        tv[TV_H] = h
+    return STATUS_CHUNK
+
+
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+def fast_symplectic_chunk(ka, y, f, tv, stats, p, w, max_steps, t_eval, stride, tout, yout):
+    """Symmetric composition of velocity Verlet (weights w) at a fixed step, on the
+    specialised kernel.  Time advances with the drifts (kick at the current time,
+    drift q and t together), which keeps every substep symmetric for a
+    time-dependent f; the drive at each drift end is a fixed rotation of its value
+    at the step start.  Same state layout and outputs as :func:`fast_rkn_chunk`.
+    """
+    n = y.shape[0] // 2
+    rates = drive_rates(ka, p)
+    nd = rates.shape[0]
+    n2 = 2 * n
+    nw = w.shape[0]
+    Wn = np.zeros((n, n + 1))
+    qn = np.empty(n)
+    vn = np.empty(n)
+    a = np.empty(n)
+    S = np.empty(nw)
+    acc = 0.0
+    for k in range(nw):
+        acc += w[k]
+        S[k] = acc
+    rot = np.empty((nw, max(nd, 1), 2))
+    cs0 = np.empty(max(2 * nd, 1))
+    css = np.empty(max(2 * nd, 1))
+    cap = tout.shape[0]
+    q = y[:n]
+    v = y[n:]
+    a0 = f[n:]
+    t = tv[TV_T]
+    t_end = tv[TV_END]
+    h = tv[TV_H]
+    h_rot = -1.0
+    for step in range(max_steps + 1):
+        status = chunk_status(step, max_steps, t, t_end, t_eval, stats, cap, 0, 0)   # no events
+        if status >= 0:
+            return status
+        t_target = next_stop(t_end, t_eval, stats)
+        clipped = False
+        hs = h
+        if t + hs * (1.0 + 1e-10) >= t_target:
+            hs = t_target - t
+            clipped = True
+        if hs != h_rot:
+            for k in range(nw):
+                for d in range(nd):
+                    rot[k, d, 0] = np.cos(rates[d] * S[k] * hs)
+                    rot[k, d, 1] = np.sin(rates[d] * S[k] * hs)
+            h_rot = hs
+        for d in range(nd):
+            cs0[2 * d] = np.cos(rates[d] * t)
+            cs0[2 * d + 1] = np.sin(rates[d] * t)
+        for i in range(n):
+            qn[i] = q[i]
+            vn[i] = v[i]
+            a[i] = a0[i]
+        status = 0
+        for k in range(nw):
+            hk = w[k] * hs
+            for i in range(n):
+                vn[i] += 0.5 * hk * a[i]
+                qn[i] += hk * vn[i]
+            for d in range(nd):
+                cr = rot[k, d, 0]
+                sr = rot[k, d, 1]
+                css[2 * d] = cs0[2 * d] * cr - cs0[2 * d + 1] * sr
+                css[2 * d + 1] = cs0[2 * d + 1] * cr + cs0[2 * d] * sr
+            status = call_fast_accel(ka[FAST_ACCEL], qn, t + S[k] * hs, css, p, a, Wn)
+            if status != 0:
+                break
+            for i in range(n):
+                vn[i] += 0.5 * hk * a[i]
+        stats[ST_RHS] += nw
+        if status != 0:
+            tv[TV_T] = t
+            return STATUS_SINGULAR
+        for i in range(n):
+            if not (np.isfinite(qn[i]) and np.isfinite(vn[i])):
+                tv[TV_T] = t
+                return STATUS_UNDERFLOW
+        stats[ST_STEPS] += 1
+        if clipped:
+            t_new = t_target
+            tv[TV_T_CARRY] = 0.0
+        else:
+            yk = hs - tv[TV_T_CARRY]
+            t_new = t + yk
+            tv[TV_T_CARRY] = (t_new - t) - yk
+        for i in range(n):
+            q[i] = qn[i]
+            v[i] = vn[i]
+            a0[i] = a[i]
+            f[i] = vn[i]
+        t = t_new
+        tv[TV_T] = t
+        store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, False)
+    return STATUS_CHUNK
+
+
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+def fast_start(ka, y, f, t, p):
+    """f = [q̇, q̈] at (t, y) with the specialised kernel; returns the status."""
+    n = y.shape[0] // 2
+    rates = drive_rates(ka, p)
+    nd = rates.shape[0]
+    cs = np.empty(max(2 * nd, 1))
+    for k in range(nd):
+        cs[2 * k] = np.cos(rates[k] * t)
+        cs[2 * k + 1] = np.sin(rates[k] * t)
+    Wn = np.zeros((n, n + 1))
+    a = np.empty(n)
+    status = call_fast_accel(ka[FAST_ACCEL], y[:n], t, cs, p, a, Wn)
+    for i in range(n):
+        f[i] = y[n + i]
+        f[n + i] = a[i]
+    return status

@@ -28,7 +28,13 @@ scratch array with more rows also works.
 
 Integer returns are a status: 0 success, 1 singular (augmented) mass matrix.
 Module constants: ``N_DOF``, ``N_CONSTRAINTS``, ``N_PARAMETERS``, ``N_PARTICLES``,
-``WORK_SHAPE``, ``BAND`` (half-bandwidth of M).
+``WORK_SHAPE``, ``BAND`` (half-bandwidth of M), ``RKN_FORM`` and ``RKN_REASON``
+(whether q̈ = f(q, t), :func:`lagrange_core.forms.rkn_form`).
+
+Code compiled once for every system (the integrators, Floquet's sampler) reaches the
+kernels through their C entry points ``c_<kernel>`` (plain functions of raw pointers;
+:meth:`Kernels.addresses` compiles them with ``numba.cfunc`` on first use and returns
+their addresses; the contract is in :mod:`lagrange_core._kernel_calls`).
 
 What is generated, and what is fixed: the generated code evaluates each
 *distinct* symbolic term once (common subexpressions removed across all terms
@@ -59,46 +65,31 @@ then two solves compiled once per installation
 compiled when the kernels are made; the others compile on first use
 (:meth:`Kernels.warm`).
 
-Kernel templates
-----------------
-Generic numerical algorithms (integrators, Floquet monodromy, ...) are written
-once as plain Python functions that call the kernels above by name.
-:meth:`Kernels.bind` compiles a copy of such a template module against one
-system, so the system's kernels are inlined into the algorithm's loop and the
-result is cached on disk like the kernels themselves (numba cannot cache a
-function that receives another jitted function as an argument).  A template
-module lists its templates in ``KERNEL_TEMPLATES`` and the import lines they
-need in ``KERNEL_IMPORTS``; optionally ``KERNEL_JIT_OPTIONS`` maps a template's
-name to extra njit options (e.g. ``"parallel=True"`` for a grid loop over ``prange``).
-
 The disk cache
 --------------
-Generated sources go to ``$LAGRANGE_CORE_CACHE`` (default
-``~/.cache/lagrange_core``), one file per system statement, named by a hash of
-the statement and of this generator's own source; numba caches the machine
-code next to them in ``__pycache__``.  A fresh process with a warm cache loads
-both instead of deriving and compiling.
+Generated modules live in the one store of :mod:`lagrange_core.module_store`, one file
+per system statement, keyed by a hash of the statement and of this generator's own
+code; numba caches the machine code next to them in ``__pycache__``.  A fresh process
+with a warm cache loads both instead of deriving and compiling.
 """
 from __future__ import annotations
 
-import ast
 import functools
-import hashlib
-import importlib.util
-import inspect
-import os
 import re
 import sys
-import tempfile
 import textwrap
 import types
-from pathlib import Path
 
 import numba
 import numpy as np
 import symengine as se
 
 from . import _ir
+from ._kernel_calls import SIGNATURES, SLOTS
+from .derive import Equations
+from .forms import rkn_form
+from .module_store import (cache_dir, content_key, load_generated, load_module,  # noqa: F401
+                           source_fingerprint, write_module)
 
 __all__ = ["Kernels", "compile_kernels", "cache_dir"]
 
@@ -110,7 +101,7 @@ _HEADER = '''\
 # the statement or the generator changes.  Kernel contract: lagrange_core/codegen.py.
 import math
 import numpy as np
-from numba import njit
+from numba import carray, njit
 from numpy import (sin, cos, tan, exp, log, sqrt, arcsin as asin, arccos as acos,
                    arctan as atan, arctan2 as atan2, sinh, cosh, tanh, arcsinh as asinh,
                    arccosh as acosh, arctanh as atanh, pi, e as E, sign)
@@ -129,6 +120,8 @@ BAND = {band}                   # half-bandwidth of the mass matrix (structural)
 WORK_SHAPE = ({N}, {N} + 1)
 COORDINATES = {coordinates!r}
 PARAMETERS = {parameters!r}
+RKN_FORM = {rkn_form!r}                 # q̈ = f(q, t): lagrange_core.forms.rkn_form
+RKN_REASON = {rkn_reason!r}
 '''
 
 
@@ -147,53 +140,49 @@ def jacobian(t, y, p, J):
     W, dA = jacobian_scratch(N0, N_TANGENTS)
     _evaluate_tangents(y, t, p, W, dA)
     return jacobian_from_entries(W, dA, TARGET_TABLE, TAN_PTR, TAN_J, J)
+
+
+# -- C entry points (lagrange_core._kernel_calls): compiled by Kernels.addresses ------------
+
+_NQ = (N_DOF,)
+_NY = (2 * N_DOF,)
+_NP = (N_PARAMETERS,)
+
+
+def c_rhs(t, y, p, dydt, W):
+    return rhs(t, carray(y, _NY), carray(p, _NP), carray(dydt, _NY), carray(W, WORK_SHAPE))
+
+
+def c_accelerations(q, qd, t, p, qdd, lam, W):
+    return accelerations(carray(q, _NQ), carray(qd, _NQ), t, carray(p, _NP), carray(qdd, _NQ),
+                         carray(lam, (N_CONSTRAINTS,)), carray(W, WORK_SHAPE))
+
+
+def c_energy(q, qd, t, p):
+    return energy(carray(q, _NQ), carray(qd, _NQ), t, carray(p, _NP))
+
+
+def c_constraint_residual(q, qd, t, p, out):
+    constraint_residual(carray(q, _NQ), carray(qd, _NQ), t, carray(p, _NP),
+                        carray(out, (2 * N_CONSTRAINTS,)))
+    return 0
+
+
+def c_augmented(q, qd, t, p, W):
+    augmented(carray(q, _NQ), carray(qd, _NQ), t, carray(p, _NP), carray(W, WORK_SHAPE))
+    return 0
+
+
+def c_jacobian(t, y, p, J):
+    return jacobian(t, carray(y, _NY), carray(p, _NP), carray(J, (2 * N_DOF, 2 * N_DOF)))
 '''
-
-
-def cache_dir() -> Path:
-    """Directory of generated kernel modules (``$LAGRANGE_CORE_CACHE`` or ``~/.cache/lagrange_core``)."""
-    root = os.environ.get("LAGRANGE_CORE_CACHE") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "lagrange_core")
-    path = Path(root) / f"py{sys.version_info.major}{sys.version_info.minor}-numba{numba.__version__}"
-    path.mkdir(parents=True, exist_ok=True)
-    return path
-
-
-def source_fingerprint(*modules) -> str:
-    """Hash of the code of ``modules``, docstrings and comments excluded.
-
-    Generated modules are cached under a key that includes this hash of the code
-    that generates them *and* of the numba functions they call (numba's own cache
-    does not notice a change in a callee from another module).  Editing prose
-    keeps the cache.  Parsing costs ~0.25 s, so the result is memoised on disk
-    under a hash of the raw sources.
-    """
-    sources = [inspect.getsource(module) for module in modules]
-    memo = cache_dir() / "fingerprints" / hashlib.sha256("\0".join(sources).encode()).hexdigest()
-    if memo.exists():
-        return memo.read_text()
-    h = hashlib.sha256()
-    for source in sources:
-        tree = ast.parse(source)
-        for node in ast.walk(tree):
-            body = getattr(node, "body", None)
-            if (isinstance(node, (ast.Module, ast.FunctionDef, ast.ClassDef)) and body
-                    and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant)
-                    and isinstance(body[0].value.value, str)):
-                node.body = body[1:] or [ast.Pass()]
-        h.update(ast.dump(tree).encode())
-    memo.parent.mkdir(exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=memo.parent, prefix=".tmp-")
-    with os.fdopen(fd, "w") as fh:
-        fh.write(h.hexdigest())
-    os.replace(tmp, memo)            # atomic: concurrent processes never read half a hash
-    return h.hexdigest()
 
 
 @functools.cache
 def _generator_fingerprint() -> str:
-    from . import _core_kernels, _linalg, derive
-    return source_fingerprint(sys.modules[__name__], derive, _ir, _linalg, _core_kernels)
+    from . import _core_kernels, _kernel_calls, _linalg, derive, forms
+    return source_fingerprint(sys.modules[__name__], derive, forms, _ir, _linalg, _core_kernels,
+                              _kernel_calls)
 
 
 # -- printing -------------------------------------------------------------------------
@@ -217,7 +206,7 @@ class _Printer:
         n = len(system.q)
         self.loads["y"] = ([f"_q{i} = y[{i}]" for i in range(n)]
                            + [f"_v{i} = y[{n + i}]" for i in range(n)])
-        from .systems import t
+        from .symbols import t
         self.subs[se.sympify(t)] = se.Symbol("t")
 
     def rename(self, expr):
@@ -473,10 +462,12 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
                                 definitions)
     tan_ptr = np.cumsum([0] + [len(d) for d in program[2]])
     tan_j = [j for d in program[2] for j in d]
+    rkn = rkn_form(equations)
     src = [_HEADER.format(label=repr(system.name or "a system"), n=n, m=m,
                           k=len(system.parameters), n_particles=len(system.particles),
                           n_values=len(value.exprs), N=N, band=band,
-                          coordinates=system.coordinates, parameters=system.parameters),
+                          coordinates=system.coordinates, parameters=system.parameters,
+                          rkn_form=rkn[0], rkn_reason=rkn[1]),
            f"\nPROGRAM = {program!r}\nTARGETS = {tuple(targets)!r}\n",
            _table("TARGET_TABLE", targets, 3), _table("TAN_PTR", tan_ptr), _table("TAN_J", tan_j),
            "N_TANGENTS = TAN_J.shape[0]\n"
@@ -576,29 +567,6 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
 
 # -- loading --------------------------------------------------------------------------
 
-def write_module(path: Path, text: str) -> None:
-    """Write a generated module atomically (concurrent processes never see half a file)."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".py")
-    with os.fdopen(fd, "w") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
-
-
-def load_module(path: Path, name: str) -> types.ModuleType:
-    """Import a generated module file under ``name`` (once per process)."""
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    try:
-        spec.loader.exec_module(module)
-    except BaseException:
-        del sys.modules[name]
-        raise
-    return module
-
-
 _KERNEL_NAMES = ("new_work", "mass_forcing", "augmented", "solve_state", "accelerations", "rhs", "jacobian",
                  "energy", "constraint_residual", "particle_positions")
 
@@ -609,20 +577,38 @@ class Kernels:
     Attributes are numba dispatchers, callable from Python and from other
     numba code: ``mass_forcing``, ``augmented``, ``solve_state``,
     ``accelerations``, ``rhs``, ``jacobian``, ``energy``,
-    ``constraint_residual``, ``particle_positions``.
+    ``constraint_residual``, ``particle_positions``; and the statement's facts:
+    ``n_dof``, ``n_constraints``, ``n_particles``, ``coordinates``, ``parameters``,
+    ``rkn_form`` (q̈ = f(q, t)) with ``rkn_reason`` (why not), ``label`` (for messages),
+    ``statement_key`` (keys other generators' modules in the store) and ``equations()``
+    (the derived equations, derived on the first call: generators of further kernels
+    need them only when the store lacks their module).
     """
 
-    def __init__(self, module: types.ModuleType, path: Path):
+    def __init__(self, module: types.ModuleType, label: str = "the system",
+                 statement_key: str = "", equations=None):
         self.module = module
-        self.path = path
+        self.label = label
+        self.statement_key = statement_key
+        self._equations = equations
         self.n_dof = module.N_DOF
         self.n_constraints = module.N_CONSTRAINTS
         self.n_particles = module.N_PARTICLES
         self.parameters = module.PARAMETERS
         self.coordinates = module.COORDINATES
+        self.rkn_form = module.RKN_FORM
+        self.rkn_reason = module.RKN_REASON
         for name in _KERNEL_NAMES:
             setattr(self, name, getattr(module, name))
-        self._bound = {}
+        self._addresses = np.zeros(len(SLOTS), dtype=np.int64)
+        self._cfuncs = {}
+
+    def equations(self):
+        """The derived :class:`~lagrange_core.derive.Equations` (derived on first use)."""
+        if self._equations is None:
+            raise ValueError(f"the kernels of {self.label} were loaded without their statement, "
+                             "so nothing more can be generated for them.")
+        return self._equations()
 
     def work_array(self) -> np.ndarray:
         """A fresh scratch array ``W`` of the shape the kernels expect."""
@@ -651,46 +637,37 @@ class Kernels:
             self.particle_positions(q, 0.0, p, np.zeros((self.n_particles, 3)))
         return self
 
-    def bind(self, template_module: types.ModuleType) -> types.ModuleType:
-        """Compile the kernel templates of ``template_module`` against this system.
+    def addresses(self, *slots: str) -> np.ndarray:
+        """The table of C entry-point addresses for compiled-once code.
 
-        Returns a module whose functions are the templates as ``@njit(cache=True)``
-        kernels that call this system's kernels; the generated file is cached on
-        disk next to the system's own.
+        Parameters
+        ----------
+        *slots : str
+            Kernel names from :data:`lagrange_core._kernel_calls.SLOTS` that the caller
+            will call; their ``c_<name>`` entry points are compiled (or loaded from
+            numba's cache) on first request.  Slots not requested hold 0.
+
+        Returns
+        -------
+        ndarray of int64, shape (len(SLOTS),)
+            The same array object on every call (slots only ever get filled).
         """
-        key = template_module.__name__
-        if key not in self._bound:
-            self._bound[key] = _bind(self, template_module)
-        return self._bound[key]
+        for name in slots:
+            if name not in self._cfuncs:
+                if not hasattr(self.module, f"c_{name}"):
+                    raise ValueError(f"{self.label} has no kernel {name!r} with a C entry point; "
+                                     f"those of the kernel module are "
+                                     f"{[n for n in SLOTS if hasattr(self.module, 'c_' + n)]}.")
+                self._cfuncs[name] = numba.cfunc(SIGNATURES[name], cache=True)(
+                    getattr(self.module, f"c_{name}"))
+                self._addresses[SLOTS.index(name)] = self._cfuncs[name].address
+        return self._addresses
 
-
-def _template_source(template_module) -> str:
-    parts = [f"# templates from {template_module.__name__}\n",
-             textwrap.dedent(getattr(template_module, "KERNEL_IMPORTS", "")), "\n"]
-    # optional extra njit options per template, e.g. {"grid_kernel": "parallel=True"}
-    options = getattr(template_module, "KERNEL_JIT_OPTIONS", {})
-    for fn in template_module.KERNEL_TEMPLATES:
-        src = textwrap.dedent(inspect.getsource(fn))
-        src = "\n".join(line for line in src.splitlines() if not line.startswith("@"))
-        extra = options.get(fn.__name__, "")
-        parts.append(f"\n\n@njit(cache=True{', ' + extra if extra else ''})\n{src}\n")
-    return "".join(parts)
-
-
-def _bind(kernels: Kernels, template_module) -> types.ModuleType:
-    core_name = kernels.module.__name__
-    body = _template_source(template_module)
-    header = (f"# Generated by lagrange_core.codegen: {template_module.__name__} bound to "
-              f"{core_name}. Do not edit.\nimport math\nimport numpy as np\n"
-              f"from numba import njit\nfrom {core_name} import *\n"
-              f"")
-    text = header + body
-    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    name = f"{core_name}__{template_module.__name__.replace('.', '_')}_{digest}"
-    path = kernels.path.parent / f"{name}.py"
-    if not path.exists():
-        write_module(path, text)
-    return load_module(path, name)
+    def set_address(self, name: str, cfunc) -> None:
+        """Put the C entry point of a kernel generated elsewhere (the drive kernel of
+        :mod:`lagrange_core.drive_kernel`) into this system's address table."""
+        self._cfuncs[name] = cfunc
+        self._addresses[SLOTS.index(name)] = cfunc.address
 
 
 def compile_kernels(system) -> Kernels:
@@ -709,15 +686,15 @@ def compile_kernels(system) -> Kernels:
         With ``rhs`` compiled for float64 arrays; the other kernels compile on
         first use (:meth:`Kernels.warm`).
     """
-    from .derive import Equations
-    if isinstance(system, Equations):
+    if isinstance(system, Equations):     # derived already: use them, do not re-derive
         equations, system = system, system.system
     else:
         equations = None
-    key = hashlib.sha256((_generator_fingerprint() + system.statement_key()).encode()).hexdigest()
-    name = f"_lc_{key[:20]}"
-    path = cache_dir() / f"{name}.py"
-    if not path.exists():
-        equations = equations if equations is not None else system.equations
-        write_module(path, generate_source(equations))
-    return Kernels(load_module(path, name), path).warm()
+    statement = system.statement_key()
+
+    def derived():
+        return equations if equations is not None else system.equations
+
+    module = load_generated("_lc", content_key(_generator_fingerprint(), statement),
+                            lambda: generate_source(derived()))
+    return Kernels(module, system._label(), statement, derived).warm()

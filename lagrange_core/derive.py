@@ -31,11 +31,15 @@ from __future__ import annotations
 import functools
 import random
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import sympy as sp
 import symengine as se
 
-from .systems import System, t as t_symbol
+from .symbols import t as t_symbol
+
+if TYPE_CHECKING:     # typing only: the statement sits above its derivation
+    from .systems import System
 
 __all__ = ["Equations", "ParticleTerms", "derive"]
 

@@ -86,19 +86,19 @@ class Field1D:
     @property
     def function(self) -> sp.Expr:
         """The field as a function u(x, t)."""
-        from .systems import t
+        from .symbols import t
         return sp.Function(self.name, real=True)(x, t)
 
     @property
     def parameters(self) -> tuple[str, ...]:
         """Names of the density's parameters, sorted."""
-        from .systems import t
+        from .symbols import t
         known = set(self.symbols) | {x, t}
         return tuple(sorted(s.name for s in self.density.free_symbols - known))
 
     # -- the field equation ----------------------------------------------------------------
     def _on_function(self, expr):
-        from .systems import t
+        from .symbols import t
         u, u_t, u_x = self.symbols
         U = self.function
         return expr.xreplace({u_t: U.diff(t), u_x: U.diff(x)}).xreplace({u: U})
@@ -109,7 +109,7 @@ class Field1D:
 
         E = ∂_t (∂ℒ/∂u_t) + ∂_x (∂ℒ/∂u_x) − ∂ℒ/∂u, with total derivatives.
         """
-        from .systems import t
+        from .symbols import t
         u, u_t, u_x = self.symbols
         L = self.density
         E = (sp.diff(self._on_function(sp.diff(L, u_t)), t)

@@ -99,15 +99,15 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-__all__ = ["Method", "METHODS", "Event", "turning_point", "crossing", "multiplier_zero",
-           "Trajectory", "SimulationInterrupted", "simulate", "rkn_eligibility"]
+from . import _integrator_kernels as _kern
+from .drive_kernel import load_drive_kernel
 
-STATUS_DONE, STATUS_CHUNK, STATUS_FULL, STATUS_EVENT, STATUS_SINGULAR, STATUS_UNDERFLOW, \
-    STATUS_EVFULL = range(7)
+__all__ = ["Method", "METHODS", "Event", "turning_point", "crossing", "multiplier_zero",
+           "Trajectory", "SimulationInterrupted", "simulate", "check_options", "rkn_eligibility"]
 
 
 # -- methods -------------------------------------------------------------------------------
@@ -130,6 +130,14 @@ class Method:
         ``""`` (any system) or ``"rkn"`` (q̈ = f(q, t): no velocity dependence,
         no constraints).
     description : str
+    table : dict
+        The coefficient arrays the driver takes.
+    driver : str
+        The compiled driver that runs it (a key of ``_DRIVERS``; "" for scipy's).
+    event_driver : str
+        The driver used when events are asked for, if ``driver`` locates none.
+    error_order : int
+        Order q of the embedded error estimate (the starting step uses 1/(q + 1)).
     """
 
     name: str
@@ -139,6 +147,9 @@ class Method:
     requires: str = ""
     description: str = ""
     table: dict = field(default_factory=dict, repr=False, compare=False)
+    driver: str = ""
+    event_driver: str = ""
+    error_order: int = 0
 
 
 class _LazyTable(dict):
@@ -164,14 +175,6 @@ def _dop853_coefficients():
 _SCIPY_METHODS = ("RK23", "RK45", "DOP853", "LSODA", "Radau", "BDF")
 _IMPLICIT = ("LSODA", "Radau", "BDF")
 
-METHODS: dict[str, Method] = {
-    "dop853": Method("dop853", "dop853", 8, True, "",
-                     "Dormand–Prince 8(5,3), adaptive, dense output (Hairer's DOP853)",
-                     _LazyTable(_dop853_coefficients)),
-    "rk8": Method("rk8", "dop853", 8, False, "",
-                  "the 8th-order DOP853 formula at a fixed step h",
-                  _LazyTable(_dop853_coefficients)),
-}
 def _rkn12_table():
     from .integrator_tables import rkn12_table
     t = rkn12_table()
@@ -186,14 +189,25 @@ def _yoshida6_table():
             "w": yoshida6_weights()}
 
 
-METHODS["rkn12"] = Method("rkn12", "rkn", 12, True, "rkn",
-                          "Dormand–El-Mikkawy–Prince RKN 12(10), adaptive, for q̈ = f(q, t)",
-                          _rkn12_table())
-METHODS["rkn12-fixed"] = Method("rkn12-fixed", "rkn", 12, False, "rkn",
-                                "the 12th-order RKN formula at a fixed step h", _rkn12_table())
-METHODS["yoshida6"] = Method("yoshida6", "symplectic", 6, False, "rkn",
-                             "Yoshida's symmetric 6th-order composition of velocity Verlet "
-                             "(symplectic for constant M), fixed step h", _yoshida6_table())
+METHODS: dict[str, Method] = {
+    "dop853": Method("dop853", "dop853", 8, True, "",
+                     "Dormand–Prince 8(5,3), adaptive, dense output (Hairer's DOP853)",
+                     _LazyTable(_dop853_coefficients), driver="dop853", error_order=7),
+    "rk8": Method("rk8", "dop853", 8, False, "",
+                  "the 8th-order DOP853 formula at a fixed step h",
+                  _LazyTable(_dop853_coefficients), driver="dop853", error_order=7),
+    "rkn12": Method("rkn12", "rkn", 12, True, "rkn",
+                    "Dormand–El-Mikkawy–Prince RKN 12(10), adaptive, for q̈ = f(q, t)",
+                    _rkn12_table(), driver="fast_rkn", event_driver="second_order",
+                    error_order=10),
+    "rkn12-fixed": Method("rkn12-fixed", "rkn", 12, False, "rkn",
+                          "the 12th-order RKN formula at a fixed step h", _rkn12_table(),
+                          driver="fast_rkn", event_driver="second_order", error_order=10),
+    "yoshida6": Method("yoshida6", "symplectic", 6, False, "rkn",
+                       "Yoshida's symmetric 6th-order composition of velocity Verlet "
+                       "(symplectic for constant M), fixed step h", _yoshida6_table(),
+                       driver="fast_symplectic", event_driver="second_order"),
+}
 for _name in _SCIPY_METHODS:
     METHODS[f"scipy:{_name}"] = Method(f"scipy:{_name}", "scipy", 0, True, "",
                                        f"scipy.integrate.solve_ivp(method={_name!r})")
@@ -361,64 +375,46 @@ class SimulationInterrupted(KeyboardInterrupt):
 
 # -- eligibility ------------------------------------------------------------------------
 
-def rkn_eligibility(system) -> tuple[bool, str]:
-    """Whether ``system`` has the form q̈ = f(q, t) that RKN and symplectic methods need.
+def rkn_eligibility(kernels) -> tuple[bool, str]:
+    """Whether a system has the form q̈ = f(q, t) that RKN and symplectic methods need.
 
-    Returns (eligible, reason).  F is checked after expansion, so velocity terms
-    that cancel (the driven pendulum's θ̇² terms do) do not count.
+    ``kernels`` is a :class:`~lagrange_core.codegen.Kernels` (or anything with a
+    ``kernels`` attribute, such as a System).  Returns (eligible, reason): the form is
+    decided once per statement when its kernels are generated
+    (:func:`lagrange_core.forms.rkn_form`) and read here from the kernel module.
     """
-    cached = getattr(system, "_rkn_eligibility", None)
-    if cached is not None:
-        return cached
-    import symengine as se
-    eq = system.equations
-    result = (True, "")
-    if system.n_constraints:
-        result = (False, f"{system._label()} has {system.n_constraints} constraint(s); the "
-                  "multipliers depend on the velocities (γ contains q̇²)")
-    else:
-        rng = np.random.default_rng(12345)
-        velocities = {se.sympify(qd): qd for qd in system.qdot}
-        for i, Fi in enumerate(eq.forcing_se):
-            # only the velocities that occur in F_i (cheap for large sparse systems)
-            for v_se in Fi.free_symbols & set(velocities):
-                qd = velocities[v_se]
-                d = se.expand(se.diff(Fi, v_se))
-                if d != 0:
-                    import sympy as sp
-                    # a numeric probe first (simplify of a large expression is slow):
-                    # clearly nonzero at a random point means it truly depends on q̇
-                    pt = {s: float(rng.uniform(0.3, 1.7)) for s in d.free_symbols}
-                    try:
-                        probe = abs(complex(d.subs(pt)))
-                    except (TypeError, ValueError, RuntimeError):
-                        probe = float("nan")
-                    if probe > 1e-9 or sp.simplify(sp.sympify(d)) != 0:
-                        result = (False, f"the generalized force F[{i}] of {system._label()} "
-                                  f"depends on the velocity {qd.name} (∂F/∂{qd.name} = "
-                                  f"{sp.sympify(d)}); RKN methods need q̈ = f(q, t)")
-                        break
-            if not result[0]:
-                break
-    try:
-        system._rkn_eligibility = result
-    except AttributeError:
-        pass
-    return result
+    kernels = getattr(kernels, "kernels", kernels)
+    if kernels.rkn_form:
+        return True, ""
+    return False, f"for {kernels.label}, {kernels.rkn_reason}"
 
 
-# -- driver ------------------------------------------------------------------------------
+# -- checking the arguments ----------------------------------------------------------------
 
-def _bound(system):
-    from . import _integrator_kernels
-    return system.kernels.bind(_integrator_kernels)
+@dataclass(frozen=True)
+class _Options:
+    """The checked options of one :func:`simulate` call."""
+
+    t0: float
+    t1: float
+    rtol: float
+    atol: float
+    t_eval: np.ndarray | None
+    h: float | None
+    stride: int
+    max_steps: int | None
+    max_points: int
+    chunk_steps: int
 
 
-def _check_inputs(system, q0, qdot0, t_span, params, method, rtol, atol, t_eval, h, stride,
-                  max_steps):
-    q0 = system.coordinate_array(q0, "q0")
-    qd0 = system.coordinate_array(qdot0, "qdot0")
-    p = system.parameter_array(params)
+def check_options(t_span, *, rtol=1e-9, atol=None, t_eval=None, events=(), max_steps=None,
+                  h=None, stride=1, error_check=False, chunk_steps=20000,
+                  max_points=1_000_000) -> _Options:
+    """Check the options of :func:`simulate` (everything but the state and the kernels).
+
+    :meth:`System.simulate` calls it before compiling anything, so a bad argument costs
+    no compile time.  Raises ValueError naming the argument, the value and the fix.
+    """
     try:
         t0, t1 = (float(v) for v in t_span)
     except (TypeError, ValueError):
@@ -455,27 +451,30 @@ def _check_inputs(system, q0, qdot0, t_span, params, method, rtol, atol, t_eval,
         h = float(h)
         if not (h > 0 and math.isfinite(h)):
             raise ValueError(f"h must be a positive step size (s), got {h!r}.")
-    return q0, qd0, p, t0, t1, rtol, atol, t_eval, h
+    if int(max_points) != max_points or max_points < 2:
+        raise ValueError(f"max_points must be a whole number ≥ 2, got {max_points!r}.")
+    if int(chunk_steps) != chunk_steps or chunk_steps < 1:
+        raise ValueError(f"chunk_steps must be a positive whole number, got {chunk_steps!r}.")
+    return _Options(t0, t1, rtol, atol, t_eval, h, int(stride),
+                    None if max_steps is None else int(max_steps), int(max_points),
+                    int(chunk_steps))
 
 
-def _choose_method(system, method):
+def _choose_method(kernels, method):
     if method is None:
-        ok, _ = rkn_eligibility(system)
-        method = "rkn12" if ok and "rkn12" in METHODS else "dop853"
+        method = "rkn12" if kernels.rkn_form and "rkn12" in METHODS else "dop853"
     if isinstance(method, Method):
         method = method.name
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; valid names: {sorted(METHODS)}.")
     meth = METHODS[method]
-    if meth.requires == "rkn":
-        ok, why = rkn_eligibility(system)
-        if not ok:
-            raise ValueError(f"method {method!r} needs equations of the form q̈ = f(q, t), but "
-                             f"{why}. Use method='dop853' instead.")
+    if meth.requires == "rkn" and not kernels.rkn_form:
+        raise ValueError(f"method {method!r} needs equations of the form q̈ = f(q, t), but "
+                         f"{rkn_eligibility(kernels)[1]}. Use method='dop853' instead.")
     return meth
 
 
-def _event_arrays(system, events):
+def _event_arrays(kernels, events):
     events = tuple(events or ())
     ev_int = np.zeros((len(events), 4), dtype=np.int64)
     ev_val = np.zeros(len(events))
@@ -486,16 +485,16 @@ def _event_arrays(system, events):
         idx = ev.target
         if ev.kind in ("coordinate", "velocity"):
             if isinstance(idx, str):
-                if idx not in system.coordinates:
+                if idx not in kernels.coordinates:
                     raise ValueError(f"event {ev.name!r}: {idx!r} is not a coordinate of "
-                                     f"{system._label()} ({list(system.coordinates)}).")
-                idx = system.coordinates.index(idx)
-            elif not (0 <= int(idx) < system.n_dof):
+                                     f"{kernels.label} ({list(kernels.coordinates)}).")
+                idx = kernels.coordinates.index(idx)
+            elif not (0 <= int(idx) < kernels.n_dof):
                 raise ValueError(f"event {ev.name!r}: coordinate index {idx} out of range.")
         elif ev.kind == "multiplier":
-            if not (0 <= int(idx) < system.n_constraints):
-                raise ValueError(f"event {ev.name!r}: {system._label()} has "
-                                 f"{system.n_constraints} multiplier(s); index {idx} is invalid.")
+            if not (0 <= int(idx) < kernels.n_constraints):
+                raise ValueError(f"event {ev.name!r}: {kernels.label} has "
+                                 f"{kernels.n_constraints} multiplier(s); index {idx} is invalid.")
         else:
             idx = 0
         ev_int[k] = (_EVENT_KINDS[ev.kind], int(idx), ev.direction, int(ev.terminal))
@@ -503,139 +502,212 @@ def _event_arrays(system, events):
     return events, ev_int, ev_val
 
 
-def simulate(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1e-9, atol=None,
+# -- the compiled drivers, one entry per Method.driver --------------------------------------
+
+@dataclass
+class _Run:
+    """Everything one compiled run keeps between chunks (the drivers' arrays)."""
+
+    ka: np.ndarray          # the system's kernel addresses (lagrange_core._kernel_calls)
+    m: int                  # constraints
+    meth: Method
+    opts: _Options
+    y: np.ndarray           # [q, q̇] at tv[TV_T]
+    f: np.ndarray           # dy/dt there (FSAL)
+    p: np.ndarray
+    tv: np.ndarray
+    stats: np.ndarray
+    t_eval: np.ndarray      # empty: store every stride-th step
+    tout: np.ndarray
+    yout: np.ndarray
+    ev_int: np.ndarray
+    ev_val: np.ndarray
+    ev_g: np.ndarray
+    ev_t: np.ndarray
+    ev_k: np.ndarray
+    ev_y: np.ndarray
+    stride: int = 1
+
+
+def _chunk_dop853(run, budget):
+    tab, o = run.meth.table, run.opts
+    return _kern.dop853_chunk(run.ka, run.m, run.y, run.f, run.tv, run.stats, run.p, o.rtol,
+                              o.atol, tab["A"], tab["B"], tab["C"], tab["E3"], tab["E5"],
+                              tab["D"], run.meth.adaptive, budget, run.t_eval, run.stride,
+                              run.tout, run.yout, run.ev_int, run.ev_val, run.ev_g, run.ev_t,
+                              run.ev_k, run.ev_y)
+
+
+def _chunk_second_order(run, budget):
+    tab, o = run.meth.table, run.opts
+    family = 0 if run.meth.family == "rkn" else 1
+    return _kern.second_order_chunk(run.ka, run.m, family, run.y, run.f, run.tv, run.stats,
+                                    run.p, o.rtol, o.atol, tab["c"], tab["A"], tab["b"],
+                                    tab["bp"], tab["bh"], tab["bph"], tab["w"],
+                                    run.meth.adaptive, budget, run.t_eval, run.stride, run.tout,
+                                    run.yout, run.ev_int, run.ev_val, run.ev_g, run.ev_t,
+                                    run.ev_k, run.ev_y)
+
+
+def _chunk_fast_rkn(run, budget):
+    tab, o = run.meth.table, run.opts
+    return _kern.fast_rkn_chunk(run.ka, run.y, run.f, run.tv, run.stats, run.p, tab["c"],
+                                tab["A"], tab["b"], tab["bp"], tab["bh"], tab["bph"],
+                                run.meth.adaptive, o.rtol, o.atol, budget, run.t_eval,
+                                run.stride, run.tout, run.yout)
+
+
+def _chunk_fast_symplectic(run, budget):
+    return _kern.fast_symplectic_chunk(run.ka, run.y, run.f, run.tv, run.stats, run.p,
+                                       run.meth.table["w"], budget, run.t_eval, run.stride,
+                                       run.tout, run.yout)
+
+
+@dataclass(frozen=True)
+class _Driver:
+    """How to run one family of methods: the kernels it calls, how it starts, a chunk."""
+
+    kernels: tuple            # address-table slots it calls (rhs: the starting step)
+    drive_kernel: bool        # stages on the drive kernel (lagrange_core.drive_kernel)
+    events: bool              # locates events itself
+    chunk: object             # (run, budget) -> STATUS_*
+
+
+_DRIVERS = {
+    "dop853": _Driver(("rhs",), False, True, _chunk_dop853),
+    "second_order": _Driver(("rhs",), True, True, _chunk_second_order),
+    "fast_rkn": _Driver(("rhs",), True, False, _chunk_fast_rkn),
+    "fast_symplectic": _Driver(("rhs",), True, False, _chunk_fast_symplectic),
+}
+
+
+def _driver(meth, events):
+    """The Method's driver; its event driver when events are asked for and it has one."""
+    name = meth.event_driver if events and meth.event_driver else meth.driver
+    return _DRIVERS[name]
+
+
+def _addresses(kernels, driver, ev_int):
+    """Compile (or load) the C entry points this run calls; the system's address table."""
+    slots = {"energy", *driver.kernels}      # energy: Trajectory.energy (along)
+    if kernels.n_constraints:
+        slots |= {"augmented", "constraint_residual", "accelerations"}
+    if np.any(ev_int[:, 0] == _kern.EV_MULTIPLIER):
+        slots.add("accelerations")
+    if driver.drive_kernel:
+        load_drive_kernel(kernels)
+    return kernels.addresses(*sorted(slots))
+
+
+# -- simulate ----------------------------------------------------------------------------
+
+def simulate(kernels, q0, qdot0, t_span, p, *, method=None, rtol=1e-9, atol=None,
              t_eval=None, events=(), max_steps=None, h=None, stride=1, error_check=False,
-             chunk_steps=20000, max_points=1_000_000) -> Trajectory:
-    """Integrate ``system`` from (q0, q̇0) over ``t_span``.  See :meth:`System.simulate`."""
-    q0, qd0, p, t0, t1, rtol, atol, t_eval, h = _check_inputs(
-        system, q0, qdot0, t_span, params, method, rtol, atol, t_eval, h, stride, max_steps)
-    meth = _choose_method(system, method)
-    if not meth.adaptive and meth.family != "scipy" and h is None and meth.name != "rkn12-fixed":
-        raise ValueError(f"method {meth.name!r} has a fixed step: pass h (s), e.g. "
-                         f"h={(t1 - t0) / 1000:.3g}.")
-    events, ev_int, ev_val = _event_arrays(system, events)
+             chunk_steps=20000, max_points=1_000_000, label=None) -> Trajectory:
+    """Integrate a system, given by its compiled ``kernels``, from (q0, q̇0) over ``t_span``.
+
+    ``q0``, ``qdot0`` and ``p`` are float arrays (the coordinates and the parameter values
+    in the kernels' order); :meth:`System.simulate` makes them from names and documents
+    the options.  ``label`` names the system in messages (default ``kernels.label``).
+    """
     start = time.perf_counter()
-    if h is None and meth.name == "rkn12-fixed":
-        h = _step_from_tolerance(system, q0, qd0, p, t0, t1, rtol, atol)
+    o = check_options(t_span, rtol=rtol, atol=atol, t_eval=t_eval, max_steps=max_steps, h=h,
+                      stride=stride, chunk_steps=chunk_steps, max_points=max_points)
+    label = kernels.label if label is None else label
+    q0 = np.asarray(q0, dtype=float)
+    qd0 = np.asarray(qdot0, dtype=float)
+    p = np.ascontiguousarray(p, dtype=float)
+    meth = _choose_method(kernels, method)
+    if not meth.adaptive and meth.family != "scipy" and o.h is None and meth.name != "rkn12-fixed":
+        raise ValueError(f"method {meth.name!r} has a fixed step: pass h (s), e.g. "
+                         f"h={(o.t1 - o.t0) / 1000:.3g}.")
+    events, ev_int, ev_val = _event_arrays(kernels, events)
     if meth.family == "scipy":
-        traj = _run_scipy(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, ev_int,
-                          ev_val, max_steps, stride)
+        traj = _run_scipy(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, start)
     else:
-        if int(max_points) != max_points or max_points < 2:
-            raise ValueError(f"max_points must be a whole number ≥ 2, got {max_points!r}.")
-        traj = _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events,
-                             ev_int, ev_val, max_steps, h, stride, chunk_steps, start,
-                             int(max_points))
+        if o.h is None and meth.name == "rkn12-fixed":
+            o = replace(o, h=_step_from_tolerance(kernels, label, q0, qd0, p, o))
+        traj = _run_compiled(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val,
+                             start)
     if error_check and traj.status in ("success", "event"):
-        ref = simulate(system, q0, qd0, (t0, traj.t[-1]), _param_dict(system, p), method=meth.name,
-                       rtol=max(rtol / 1000, 1e-15), atol=atol / 1000, t_eval=traj.t,
-                       h=None if h is None else h / 4, max_steps=None)
+        ref = simulate(kernels, q0, qd0, (o.t0, traj.t[-1]), p, method=meth.name,
+                       rtol=max(o.rtol / 1000, 1e-15), atol=o.atol / 1000, t_eval=traj.t,
+                       h=None if o.h is None else o.h / 4, max_steps=None, label=label)
         n = min(len(ref.t), len(traj.t))
         diff = max(np.max(np.abs(ref.q[:n] - traj.q[:n])), np.max(np.abs(ref.qdot[:n] - traj.qdot[:n])))
-        traj = _replace(traj, error_estimate=float(diff),
-                        error_estimate_kind="difference from a rerun at rtol/1000"
-                        + (" and h/4" if h is not None else ""))
+        traj = replace(traj, error_estimate=float(diff),
+                       error_estimate_kind="difference from a rerun at rtol/1000"
+                       + (" and h/4" if o.h is not None else ""))
     return traj
 
 
-def _step_from_tolerance(system, q0, qd0, p, t0, t1, rtol, atol):
+def _step_from_tolerance(kernels, label, q0, qd0, p, o):
     """Fixed step for "rkn12-fixed" without ``h``: a pilot run of the adaptive RKN 12(10)
     over the first 1/50 of t_span at the same tolerances; h is the 20th percentile of
     its accepted steps (the last, clipped one excluded), rounded down so that a whole
     number of steps spans t_span.  The pilot costs about 1/50 of an adaptive run.
     """
-    span = t1 - t0
-    from .integrator_fast import fast_model
-    fast = fast_model(system)
-    if fast is not None:     # straight to the kernel: this runs before every such simulate
-        tab = METHODS["rkn12"].table
-        y = np.concatenate([q0, qd0])
-        f = np.empty_like(y)
-        if fast.module.fast_start(y, f, t0, p) != 0:
-            raise _singular_error(system, t0, y)
-        h0 = _bound(system).rkn_initial_step(t0, y, f, p, rtol, atol)
-        tv = np.array([t0, t0 + span / 50, h0, 0.0, 0.0, 0.0])
-        stats = np.zeros(8, dtype=np.int64)
-        tout = np.empty(4096)
-        yout = np.empty((4096, y.size))
-        fast.module.fast_rkn_chunk(y, f, tv, stats, p, tab["c"], tab["A"], tab["b"], tab["bp"],
-                                   tab["bh"], tab["bph"], True, rtol, atol, 4000, np.empty(0), 1,
-                                   tout, yout)
-        t_pilot = np.r_[t0, tout[:stats[3]]]
-    else:
-        t_pilot = simulate(system, q0, qd0, (t0, t0 + span / 50), _param_dict(system, p),
-                           method="rkn12", rtol=rtol, atol=atol).t
-    if len(t_pilot) < 2:     # the pilot failed at once: let the full run report why
-        t_pilot = simulate(system, q0, qd0, (t0, t0 + span / 50), _param_dict(system, p),
-                           method="rkn12", rtol=rtol, atol=atol).t
+    span = o.t1 - o.t0
+    pilot = replace(o, t1=o.t0 + span / 50, t_eval=None, h=None, stride=1, max_steps=None)
+    t_pilot = _run_compiled(kernels, label, METHODS["rkn12"], q0, qd0, p, pilot, (),
+                            np.zeros((0, 4), dtype=np.int64), np.zeros(0), time.perf_counter(),
+                            along=False).t
     steps = np.sort(np.diff(t_pilot)[:-1] if len(t_pilot) > 2 else np.diff(t_pilot))
     h = float(steps[int(0.2 * (len(steps) - 1))])
     return span / math.ceil(span / h)
 
 
-def _param_dict(system, p):
-    return dict(zip(system.parameters, p.tolist()))
-
-
-def _replace(traj, **kw):
-    from dataclasses import replace
-    return replace(traj, **kw)
-
-
-def _finish(system, meth, T, Y, p, err, err_kind, counts, status, message, ev_list, rtol, atol,
-            start):
-    n = system.n_dof
-    m = system.n_constraints
-    b = _bound(system)
+def _finish(kernels, ka, meth, o, p, T, Y, err, err_kind, counts, status, message, ev_list,
+            start, along=True):
+    """The Trajectory, with energy, multipliers and constraint residual along it
+    (``along=False``: energy NaN, for internal pilot runs)."""
+    n, m = kernels.n_dof, kernels.n_constraints
     T = np.ascontiguousarray(T)
     Y = np.ascontiguousarray(Y)
-    E = np.empty(T.shape[0])
+    E = np.full(T.shape[0], np.nan)
     LAM = np.zeros((T.shape[0], max(m, 1)))
     RES = np.zeros(T.shape[0])
-    b.along(T, Y, p, E, LAM, RES)
+    if along:
+        _kern.along(ka, m, T, Y, p, E, LAM, RES)
     return Trajectory(
-        coordinates=system.coordinates, t=T, q=Y[:, :n].copy(), qdot=Y[:, n:].copy(), energy=E,
+        coordinates=kernels.coordinates, t=T, q=Y[:, :n].copy(), qdot=Y[:, n:].copy(), energy=E,
         multipliers=LAM[:, :m].copy() if m else None, constraint_residual=RES if m else None,
         error_estimate=float(err), error_estimate_kind=err_kind, n_steps=int(counts[0]),
         n_rejected=int(counts[1]), n_rhs=int(counts[2]), status=status, message=message,
-        events=tuple(sorted(ev_list, key=lambda e: e.t)), method=meth.name, rtol=rtol, atol=atol,
-        wall_time=time.perf_counter() - start)
+        events=tuple(sorted(ev_list, key=lambda e: e.t)), method=meth.name, rtol=o.rtol,
+        atol=o.atol, wall_time=time.perf_counter() - start)
 
 
-def _singular_error(system, t, y):
-    n = system.n_dof
+def _singular_error(label, m, t, y):
+    n = y.shape[0] // 2
     return ValueError(
-        f"integration of {system._label()} stopped at t = {t!r} s: the mass matrix"
-        f"{' augmented by the constraint Jacobian' if system.n_constraints else ''} is singular "
+        f"integration of {label} stopped at t = {t!r} s: the mass matrix"
+        f"{' augmented by the constraint Jacobian' if m else ''} is singular "
         f"(q = {y[:n].tolist()}, q̇ = {y[n:].tolist()}). The coordinates are degenerate there "
         "(e.g. a pole of spherical coordinates) or the constraints became redundant; restate the "
         "system in coordinates that are regular along the motion.")
 
 
-def _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, ev_int, ev_val,
-                  max_steps, h, stride, chunk_steps, start, max_points):
-    b = _bound(system)
-    n = system.n_dof
-    fast = None
-    if meth.family in ("rkn", "symplectic") and not events:
-        from .integrator_fast import fast_model
-        fast = fast_model(system)
+def _run_compiled(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, start,
+                  along=True):
+    n, m = kernels.n_dof, kernels.n_constraints
+    driver = _driver(meth, len(events) > 0)
+    ka = _addresses(kernels, driver, ev_int)
+    t0, t1, t_eval = o.t0, o.t1, o.t_eval
     y = np.concatenate([q0, qd0])
-    if system.n_constraints:
-        if b.project_start(t0, y, p) != 0:
-            raise _singular_error(system, t0, y)
+    if m and _kern.project_start(ka, m, t0, y, p) != 0:
+        raise _singular_error(label, m, t0, y)
     f = np.empty(2 * n)
-    if (b.derivative_start(t0, y, p, f) if fast is None else fast.module.fast_start(y, f, t0, p)) != 0:
-        raise _singular_error(system, t0, y)
-    if meth.adaptive and meth.family == "rkn":
-        h0 = b.rkn_initial_step(t0, y, f, p, rtol, atol)
-    elif meth.adaptive:
-        h0 = b.initial_step(t0, y, f, p, rtol, atol)
-    else:
-        h0 = h
-    tv = np.array([t0, t1, h0, 0.0, 0.0, 0.0])
-    stats = np.zeros(8, dtype=np.int64)
-    stats[2] = 1 + (2 if meth.adaptive else 0)
+    status = (_kern.fast_start(ka, y, f, t0, p) if driver.drive_kernel
+              else _kern.derivative_start(ka, m, t0, y, p, f))
+    if status != 0:
+        raise _singular_error(label, m, t0, y)
+    h0 = (_kern.initial_step(ka, m, t0, y, f, p, o.rtol, o.atol, 1.0 / (meth.error_order + 1))
+          if meth.adaptive else o.h)
+    tv = np.zeros(_kern.TV_SIZE)
+    tv[[_kern.TV_T, _kern.TV_END, _kern.TV_H]] = t0, t1, h0
+    stats = np.zeros(_kern.STATS_SIZE, dtype=np.int64)
+    stats[_kern.ST_RHS] = 1 + (2 if meth.adaptive else 0)
     if t_eval is not None:
         cap = t_eval.shape[0]
         tout = np.empty(cap)
@@ -643,41 +715,38 @@ def _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, 
         k0 = int(np.searchsorted(t_eval, t0, side="right"))
         tout[:k0] = t_eval[:k0]
         yout[:k0] = y
-        stats[3] = stats[5] = k0
-        t_eval_arr = t_eval
+        stats[_kern.ST_STORED] = stats[_kern.ST_NEXT_EVAL] = k0
         pieces_t, pieces_y = [], []
     else:
-        cap = 4096
-        tout = np.empty(cap)
-        yout = np.empty((cap, 2 * n))
-        t_eval_arr = np.empty(0)
+        tout = np.empty(4096)
+        yout = np.empty((4096, 2 * n))
+        t_eval = np.empty(0)
         pieces_t, pieces_y = [np.array([t0])], [y[None, :].copy()]
-    ev_g = np.empty(len(events))
-    for k in range(len(events)):
-        ev_g[k] = _event_value_py(system, ev_int[k], ev_val[k], t0, y, p)
+    ev_g = np.array([_event_value_py(kernels, ev_int[k], ev_val[k], t0, y, p)
+                     for k in range(len(events))], dtype=float)
     ev_cap = max(64, 4 * len(events))
-    ev_t = np.empty(ev_cap)
-    ev_k = np.empty(ev_cap, dtype=np.int64)
-    ev_y = np.empty((ev_cap, 2 * n))
+    run = _Run(ka, m, meth, o, y, f, p, tv, stats, t_eval, tout, yout, ev_int, ev_val, ev_g,
+               np.empty(ev_cap), np.empty(ev_cap, dtype=np.int64), np.empty((ev_cap, 2 * n)),
+               o.stride)
     ev_list = []
-    total_limit = max_steps if max_steps is not None else np.iinfo(np.int64).max
+    total_limit = o.max_steps if o.max_steps is not None else np.iinfo(np.int64).max
     status_name, message = "success", "reached the end of t_span"
-    tab = meth.table
+    stored = [1]
 
     def drain():
-        k = int(stats[6])
+        k = int(stats[_kern.ST_EVENTS])
         for i in range(k):
-            ev_list.append(EventRecord(events[ev_k[i]].name, float(ev_t[i]), ev_y[i, :n].copy(),
-                                       ev_y[i, n:].copy()))
-        stats[6] = 0
-        if t_eval is None:
-            k = int(stats[3])
+            ev_list.append(EventRecord(events[run.ev_k[i]].name, float(run.ev_t[i]),
+                                       run.ev_y[i, :n].copy(), run.ev_y[i, n:].copy()))
+        stats[_kern.ST_EVENTS] = 0
+        if o.t_eval is None:
+            k = int(stats[_kern.ST_STORED])
             if k:
                 pieces_t.append(tout[:k].copy())
                 pieces_y.append(yout[:k].copy())
                 stored[0] += k
-            stats[3] = 0
-            if stored[0] > max_points:
+            stats[_kern.ST_STORED] = 0
+            if stored[0] > o.max_points:
                 # memory bound: keep every other stored row (and the last), store half as often
                 T_ = np.concatenate(pieces_t)
                 Y_ = np.concatenate(pieces_y)
@@ -685,114 +754,84 @@ def _run_compiled(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, 
                 pieces_t[:] = [T_[keep]]
                 pieces_y[:] = [Y_[keep]]
                 stored[0] = len(keep)
-                stride_now[0] *= 2
+                run.stride *= 2
 
-    stored = [1]
-    stride_now = [int(stride)]
     interrupted = False
     try:
         while True:
-            budget = int(min(chunk_steps, total_limit - stats[0]))
-            if t_eval is None and budget > 0:   # a chunk stores ≤ budget/stride rows
-                budget = min(budget, stride_now[0] * max(max_points // 4, 1))
+            budget = int(min(o.chunk_steps, total_limit - stats[_kern.ST_STEPS]))
+            if o.t_eval is None and budget > 0:   # a chunk stores ≤ budget/stride rows
+                budget = min(budget, run.stride * max(o.max_points // 4, 1))
             if budget <= 0:
                 status_name = "max_steps"
-                message = f"stopped after max_steps = {max_steps} steps at t = {tv[0]:.6g} s"
+                message = (f"stopped after max_steps = {o.max_steps} steps at "
+                           f"t = {tv[_kern.TV_T]:.6g} s")
                 break
-            if meth.family == "dop853":
-                code = b.dop853_chunk(y, f, tv, stats, p, rtol, atol, tab["A"], tab["B"], tab["C"],
-                                      tab["E3"], tab["E5"], tab["D"], meth.adaptive, budget,
-                                      t_eval_arr, stride_now[0], tout, yout, ev_int, ev_val, ev_g,
-                                      ev_t, ev_k, ev_y)
-            elif fast is not None and meth.family == "symplectic":
-                code = fast.module.fast_symplectic_chunk(y, f, tv, stats, p, meth.table["w"],
-                                                         budget, t_eval_arr, stride_now[0], tout,
-                                                         yout)
-            elif fast is not None:
-                tab = meth.table
-                code = fast.module.fast_rkn_chunk(
-                    y, f, tv, stats, p, tab["c"], tab["A"], tab["b"], tab["bp"], tab["bh"],
-                    tab["bph"], meth.adaptive, rtol, atol, budget, t_eval_arr, stride_now[0], tout,
-                    yout)
-            else:
-                code = _run_family(b, meth, y, f, tv, stats, p, rtol, atol, budget, t_eval_arr,
-                                   stride_now[0], tout, yout, ev_int, ev_val, ev_g, ev_t, ev_k, ev_y)
+            code = driver.chunk(run, budget)
             drain()
-            if code == STATUS_DONE:
+            if code == _kern.STATUS_DONE:
                 break
-            if code == STATUS_EVENT:
-                status_name, message = "event", f"terminal event at t = {tv[0]:.17g} s"
+            if code == _kern.STATUS_EVENT:
+                status_name, message = "event", f"terminal event at t = {tv[_kern.TV_T]:.17g} s"
                 break
-            if code == STATUS_SINGULAR:
-                raise _singular_error(system, float(tv[0]), y)
-            if code == STATUS_UNDERFLOW:
+            if code == _kern.STATUS_SINGULAR:
+                raise _singular_error(label, m, float(tv[_kern.TV_T]), y)
+            if code == _kern.STATUS_UNDERFLOW:
                 raise FloatingPointError(
-                    f"integration of {system._label()} failed at t = {tv[0]!r} s: the step size "
+                    f"integration of {label} failed at t = {tv[_kern.TV_T]!r} s: the step size "
                     f"fell below the resolution of t (state q = {y[:n].tolist()}, q̇ = "
                     f"{y[n:].tolist()}). The solution may blow up or become non-finite there; "
                     "check parameters and initial conditions.")
     except KeyboardInterrupt:
         drain()
         interrupted = True
-        status_name, message = "interrupted", f"interrupted (Ctrl-C) at t = {tv[0]:.6g} s"
-    if t_eval is not None:
-        k = int(stats[3])
+        status_name = "interrupted"
+        message = f"interrupted (Ctrl-C) at t = {tv[_kern.TV_T]:.6g} s"
+    if o.t_eval is not None:
+        k = int(stats[_kern.ST_STORED])
         T, Y = tout[:k], yout[:k]
     else:
         T, Y = np.concatenate(pieces_t), np.concatenate(pieces_y)
-    kind = "sum of local error estimates" if np.isfinite(tv[3]) and meth.family != "symplectic" \
-        else "none"
-    err = tv[3] if meth.family != "symplectic" else float("nan")
-    traj = _finish(system, meth, T, Y, p, err, kind, stats, status_name, message, ev_list, rtol,
-                   atol, start)
+    symplectic = meth.family == "symplectic"
+    err = tv[_kern.TV_ERROR] if not symplectic else float("nan")
+    kind = "sum of local error estimates" if np.isfinite(err) else "none"
+    counts = stats[[_kern.ST_STEPS, _kern.ST_REJECTED, _kern.ST_RHS]]
+    traj = _finish(kernels, ka, meth, o, p, T, Y, err, kind, counts, status_name, message,
+                   ev_list, start, along)
     if interrupted:
         raise SimulationInterrupted(traj)
     return traj
 
 
-def _run_family(b, meth, y, f, tv, stats, p, rtol, atol, budget, t_eval_arr, stride, tout, yout,
-                ev_int, ev_val, ev_g, ev_t, ev_k, ev_y):
-    tab = meth.table
-    family = 0 if meth.family == "rkn" else 1
-    return b.second_order_chunk(family, y, f, tv, stats, p, rtol, atol, tab["c"], tab["A"],
-                                tab["b"], tab["bp"], tab["bh"], tab["bph"], tab["w"],
-                                meth.adaptive, budget, t_eval_arr, stride, tout, yout, ev_int,
-                                ev_val, ev_g, ev_t, ev_k, ev_y)
-
-
-def _event_value_py(system, row, val, t, y, p):
-    n = system.n_dof
+def _event_value_py(kernels, row, val, t, y, p):
+    n = kernels.n_dof
     kind, idx = int(row[0]), int(row[1])
-    if kind == 0:
+    if kind == _kern.EV_COORDINATE:
         return y[idx] - val
-    if kind == 1:
+    if kind == _kern.EV_VELOCITY:
         return y[n + idx] - val
-    k = system.kernels
-    if kind == 2:
+    if kind == _kern.EV_MULTIPLIER:
         qdd = np.empty(n)
-        lam = np.empty(system.n_constraints)
-        k.accelerations(y[:n], y[n:], t, p, qdd, lam, k.work_array())
+        lam = np.empty(kernels.n_constraints)
+        kernels.accelerations(y[:n], y[n:], t, p, qdd, lam, kernels.work_array())
         return lam[idx] - val
-    return k.energy(y[:n], y[n:], t, p) - val
+    return kernels.energy(y[:n], y[n:], t, p) - val
 
 
 # -- scipy ------------------------------------------------------------------------------
 
-def _run_scipy(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, ev_int, ev_val,
-               max_steps, stride):
+def _run_scipy(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, start):
     from scipy.integrate import solve_ivp
-    start = time.perf_counter()
-    k = system.kernels
-    n = system.n_dof
+    k = kernels
+    n, m = kernels.n_dof, kernels.n_constraints
+    t0, t1, t_eval = o.t0, o.t1, o.t_eval
     W = k.work_array()
     name = meth.name.split(":", 1)[1]
-    state = {"status": 0, "t": t0, "y": None}
 
     def fun(t, y):
         out = np.empty(2 * n)
         if k.rhs(t, y, p, out, W) != 0:
-            state.update(status=1, t=t, y=y.copy())
-            raise _singular_error(system, t, y)
+            raise _singular_error(label, m, t, y)
         return out
 
     def jac(t, y):
@@ -803,23 +842,23 @@ def _run_scipy(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, ev_
     ev_funcs = []
     for e in range(len(events)):
         def g(t, y, _e=e):
-            return _event_value_py(system, ev_int[_e], ev_val[_e], t, y, p)
+            return _event_value_py(kernels, ev_int[_e], ev_val[_e], t, y, p)
         g.terminal = bool(ev_int[e, 3])
         g.direction = float(ev_int[e, 2])
         ev_funcs.append(g)
     kw = {"jac": jac} if name in _IMPLICIT else {}
     y0 = np.concatenate([q0, qd0])
-    sol = solve_ivp(fun, (t0, t1), y0, method=name, rtol=rtol, atol=atol,
+    sol = solve_ivp(fun, (t0, t1), y0, method=name, rtol=o.rtol, atol=o.atol,
                     dense_output=t_eval is not None, events=ev_funcs or None, **kw)
     if not sol.success and sol.status != 1:
-        raise FloatingPointError(f"scipy {name} failed on {system._label()}: {sol.message}")
+        raise FloatingPointError(f"scipy {name} failed on {label}: {sol.message}")
     n_steps = max(len(sol.t) - 1, 0)
     T, Y = sol.t, sol.y.T
     if t_eval is not None:     # scipy's own t_eval also evaluates the dense output
         T = t_eval[t_eval <= sol.t[-1]]
         Y = sol.sol(T).T if len(T) else np.empty((0, 2 * n))
-    elif stride > 1:
-        keep = np.r_[np.arange(0, len(T) - 1, stride), len(T) - 1]
+    elif o.stride > 1:
+        keep = np.r_[np.arange(0, len(T) - 1, o.stride), len(T) - 1]
         T, Y = T[keep], Y[keep]
     ev_list = []
     for e in range(len(events)):
@@ -828,5 +867,6 @@ def _run_scipy(system, meth, q0, qd0, p, t0, t1, rtol, atol, t_eval, events, ev_
                 ev_list.append(EventRecord(events[e].name, float(te), ye[:n].copy(), ye[n:].copy()))
     counts = (n_steps, 0, sol.nfev)
     status = "event" if sol.status == 1 else "success"
-    return _finish(system, meth, T, Y, p, float("nan"), "none (scipy)", counts, status,
-                   sol.message, ev_list, rtol, atol, start)
+    slots = ("energy", "accelerations", "constraint_residual") if m else ("energy",)
+    return _finish(kernels, kernels.addresses(*slots), meth, o, p, T, Y, float("nan"),
+                   "none (scipy)", counts, status, sol.message, ev_list, start)

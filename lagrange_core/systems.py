@@ -23,46 +23,15 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 import sympy as sp
 
+from .symbols import coordinates, t, velocity_symbol
+
 __all__ = ["t", "coordinates", "Particle", "System"]
-
-#: The time symbol shared by every system.
-t = sp.Symbol("t", real=True)
-
-
-def coordinates(names: str | Sequence[str]) -> tuple[tuple[sp.Symbol, ...], tuple[sp.Symbol, ...]]:
-    """Make generalized coordinates and their velocity symbols.
-
-    Parameters
-    ----------
-    names : str or sequence of str
-        Space- or comma-separated names, e.g. ``"theta phi"``.
-
-    Returns
-    -------
-    q, qdot : tuple of sympy.Symbol
-        The coordinates and the matching velocities (``theta_dot``, ...),
-        needed only when a Lagrangian or force is written by hand.
-
-    Examples
-    --------
-    >>> (r, phi), (r_dot, phi_dot) = coordinates("r phi")
-    """
-    if isinstance(names, str):
-        names = names.replace(",", " ").split()
-    q = tuple(sp.Symbol(n, real=True) for n in names)
-    return q, tuple(velocity_symbol(s) for s in q)
-
-
-def velocity_symbol(coordinate: sp.Symbol) -> sp.Symbol:
-    """The velocity symbol ``<name>_dot`` that belongs to ``coordinate``."""
-    return sp.Symbol(f"{coordinate.name}_dot", real=True)
-
 
 @dataclass(frozen=True)
 class Particle:
@@ -394,9 +363,14 @@ class System:
         lagrange_core.integrate.SimulationInterrupted
             On Ctrl-C, carrying the part computed in ``.trajectory``.
         """
-        from .integrate import simulate
-        return simulate(self, q0, qdot0, t_span, params, method=method, rtol=rtol,
-                        t_eval=t_eval, **options)
+        from . import integrate
+        q0 = self.coordinate_array(q0, "q0")
+        qdot0 = self.coordinate_array(qdot0, "qdot0")
+        p = self.parameter_array(params)
+        # every argument is checked before the kernels compile (seconds, cold)
+        integrate.check_options(t_span, rtol=rtol, t_eval=t_eval, **options)
+        return integrate.simulate(self.kernels, q0, qdot0, t_span, p, method=method, rtol=rtol,
+                                  t_eval=t_eval, label=self._label(), **options)
 
     def linearize(self, params=None, about=None, t=0.0):
         """Linearise about an equilibrium: M δq̈ + C δq̇ + K δq = 0.
