@@ -17,8 +17,8 @@ and, for an undamped system, when all lie on the unit circle.
 How M is computed (and how accurate it is)
 ------------------------------------------
 1. J is sampled at equally spaced times of one period with the system's kernel
-   (a kernel template bound per system, looping over the parameter grid in
-   numba) and expanded in a trigonometric series.  The harmonic content is
+   (reached by address from a loop over the parameter grid compiled once for
+   every system) and expanded in a trigonometric series.  The harmonic content is
    probed at a few grid points with 16, 32, ... samples until the upper half
    of the spectrum is at rounding level; every point is then sampled with the
    fewest samples that carry it (4 for a pivot drive A cos ωt, where J is
@@ -50,38 +50,34 @@ rounding floor ≈ 1e-13·max|λ|/min|λ|) is flagged in ``FloquetResult.flags``
 from __future__ import annotations
 
 import math
-import sys
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit, prange
 
+from lagrange_core._kernel_calls import JACOBIAN, call_jacobian
+
 __all__ = ["FloquetResult", "StabilityMap", "FloquetWindow", "floquet", "floquet_grid",
            "stability_map", "monodromy_data"]
 
-# -- kernel template: J(t) samples over a parameter grid -------------------------------
+# -- J(t) samples over a parameter grid (compiled once, for every system) ------------------
 
-KERNEL_IMPORTS = "from numba import prange\n"
-KERNEL_JIT_OPTIONS = {"floquet_sample_jacobian": "parallel=True"}
-
-
-def floquet_sample_jacobian(P, ystar, T, n_samples, out, status):
-    """out[i, k] = J(k T[i] / n_samples, ystar, P[i]) for every grid point i."""
+@njit(cache=True, parallel=True)
+def floquet_sample_jacobian(ka, P, ystar, T, n_samples, out, status):
+    """out[i, k] = J(k T[i] / n_samples, ystar, P[i]) for every grid point i; ``ka`` is the
+    system's kernel-address table (:mod:`lagrange_core._kernel_calls`, slot JACOBIAN)."""
     npts = P.shape[0]
     d = ystar.size
     for i in prange(npts):
         J = np.empty((d, d))
         st = 0
         for k in range(n_samples):
-            st = max(st, jacobian(k * T[i] / n_samples, ystar, P[i], J))
+            st = max(st, call_jacobian(ka[JACOBIAN], k * T[i] / n_samples, ystar, P[i], J))
             for r in range(d):
                 for c in range(d):
                     out[i, k, r, c] = J[r, c]
         status[i] = st
-
-
-KERNEL_TEMPLATES = [floquet_sample_jacobian]
 
 
 # -- monodromy from the Fourier series of the lower block L(t) = [J_q, J_v] ------------
@@ -479,14 +475,14 @@ def _check_persists(system, kernels, P, ystar, T, idx):
                     "vertical drive).")
 
 
-def _sample(bound, P, ystar, T, M):
+def _sample(ka, P, ystar, T, M):
     """FFT over one period of M samples of J's lower block, its scale, and its tail."""
     npts = P.shape[0]
     d = ystar.size
     n = d // 2
     out = np.empty((npts, M, d, d))
     status = np.zeros(npts, dtype=np.int64)
-    bound.floquet_sample_jacobian(P, ystar, T, M, out, status)
+    floquet_sample_jacobian(ka, P, ystar, T, M, out, status)
     if np.any(status != 0):
         bad = int(np.argmax(status != 0))
         raise ValueError(f"the mass matrix is singular at the equilibrium for parameters "
@@ -502,14 +498,14 @@ def _sample(bound, P, ystar, T, M):
     return F, scale, tail
 
 
-def _sample_fourier(bound, P, ystar, T, tol, max_samples=256):
+def _sample_fourier(ka, P, ystar, T, tol, max_samples=256):
     """Fourier coefficients (C, S) of J's lower block L(t) for every grid point."""
     npts = P.shape[0]
     thr = max(tol, 1e-13) * 1e-2
     probe = np.array(sorted({0, npts // 3, npts // 2, (2 * npts) // 3, npts - 1}))
     M = 16
     while True:
-        F, scale, tail = _sample(bound, P[probe], ystar, T[probe], M)
+        F, scale, tail = _sample(ka, P[probe], ystar, T[probe], M)
         if np.all(tail <= thr) or M >= max_samples:
             break
         M *= 2
@@ -518,7 +514,7 @@ def _sample_fourier(bound, P, ystar, T, tol, max_samples=256):
     K = int(keep[-1]) + 1 if keep.size else 0
     M = max(4, 1 << int(math.ceil(math.log2(2 * K + 2))))
     while True:
-        F, scale, tail = _sample(bound, P, ystar, T, M)
+        F, scale, tail = _sample(ka, P, ystar, T, M)
         if np.all(tail <= thr) or M >= max_samples:
             break
         M *= 2
@@ -560,8 +556,7 @@ def _prepare(system, params, about, frequency, tol):
     kernels = system.kernels
     npts = P.shape[0]
     _check_persists(system, kernels, P, ystar, T, sorted({0, npts // 2, npts - 1}))
-    bound = kernels.bind(sys.modules[__name__])
-    C, S, K, samples, alias = _sample_fourier(bound, P, ystar, T, tol)
+    C, S, K, samples, alias = _sample_fourier(kernels.addresses("jacobian"), P, ystar, T, tol)
     n = system.n_dof
     # reversible: J even in t (no sine terms) and no velocity block, to rounding of the FFT
     big = np.max(np.abs(C), axis=(1, 2, 3))[:, None, None, None]
