@@ -15,6 +15,8 @@ Trajectory, METHODS, Event, turning_point, crossing, multiplier_zero, Simulation
     Integration (``System.simulate``; :mod:`lagrange_core.integrate`).
 problems, fields
     The catalogue of the lecture's problems; 1-D fields (:class:`fields.Field1D`).
+warmup
+    Compile the integrators once per installation (:mod:`lagrange_core.warmup`).
 """
 from . import fields, problems
 from .codegen import Kernels, compile_kernels
@@ -22,9 +24,11 @@ from .derive import Equations, derive
 from .integrate import (METHODS, Event, SimulationInterrupted, Trajectory, crossing,
                         multiplier_zero, turning_point)
 from .linearize import Linearization
-from .systems import Particle, System, coordinates, t
+from .symbols import coordinates, t
+from .systems import Particle, System
+from .warmup import warmup
 
 __all__ = ["System", "Particle", "coordinates", "t", "derive", "Equations", "compile_kernels",
            "Kernels", "Linearization", "problems", "fields", "Trajectory", "METHODS", "Event",
-           "turning_point", "crossing", "multiplier_zero", "SimulationInterrupted"]
+           "turning_point", "crossing", "multiplier_zero", "SimulationInterrupted", "warmup"]
 __version__ = "0.1.0"

@@ -1,0 +1,212 @@
+"""What a new system's first simulation costs, and what every step and call cost after it.
+
+Run:  python benchmarks/bench_cold_start.py [--quick] [--baseline REV]
+
+1. Cold start (issue 9): each case in a fresh process with an *empty* kernel store
+   (``LAGRANGE_CORE_CACHE`` a new directory: the system was never seen) while the
+   installation's integrators are compiled (numba's cache in the package, warmed by
+   ``lagrange_core.warmup()`` first).  Printed per phase: statement, kernels (derive,
+   generate, compile ``rhs``), first ``simulate`` (the C entry points it needs and the
+   run), and the total from statement to trajectory; medians of 3 processes.
+2. Running cost: per step and fixed per ``simulate`` call, from two run lengths in one
+   process (fixed = time of the short run − its steps × the per-step cost; minima of
+   5 repetitions).  With ``--baseline REV`` the same measurement runs on the source
+   tree of git revision REV (a temporary worktree), alternating old and new processes,
+   and the ratios new/old are printed.
+
+Absolute times drift on a shared machine; compare ratios and medians.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+
+
+# -- the cases (public API only, so the baseline tree runs them too) -----------------------
+
+def make_case(name):
+    import math
+
+    import sympy as sp
+
+    import lagrange_core as lc
+    from lagrange_core import problems
+    if name == "pendulum (README)":
+        system = problems.pendulum()
+        params = {p: v for p, v in dict(m=1.0, l=1.0, g=9.81).items() if p in system.parameters}
+        return system, [2.0], [0.0], params, 2 * math.pi / 3.13, {"rtol": 1e-10}
+    if name == "pendulum, dop853":
+        system = problems.pendulum()
+        params = {p: v for p, v in dict(m=1.0, l=1.0, g=9.81).items() if p in system.parameters}
+        return system, [2.0], [0.0], params, 2.0, {"rtol": 1e-10, "method": "dop853"}
+    if name == "driven pendulum, rkn12 + event":
+        system = problems.driven_pendulum()
+        params = dict(l=1.0, g=9.81, A=0.05, omega=2 * math.pi * 60)
+        params = {k: v for k, v in params.items() if k in system.parameters}
+        params.update({k: 1.0 for k in system.parameters if k not in params})
+        ev = lc.crossing(system.coordinates[0], 10.0)        # never fires: forces the event driver
+        return system, [math.pi - 0.1], [0.0], params, 1 / 60, {"rtol": 1e-10, "events": [ev]}
+    if name == "double pendulum":
+        system = problems.double_pendulum()
+        return (system, [1.0, -0.5], [0.0, 0.3], dict(m1=1.0, m2=0.5, l1=1.0, l2=0.7, g=9.81),
+                2.0, {"rtol": 1e-10})
+    if name == "8-link pendulum":
+        system = problems.n_link_pendulum(8)
+        params = {p: 1.0 for p in system.parameters}
+        params["g"] = 9.81
+        return system, [0.3] * 8, [0.0] * 8, params, 5.0, {"rtol": 1e-8}
+    if name == "rigid triangle (9 coordinates, 3 constraints)":
+        # three point masses in space, rigidly joined (3 distance constraints), one vertex
+        # held near the origin by a spring, in gravity
+        q, _ = lc.coordinates("x1 y1 z1 x2 y2 z2 x3 y3 z3")
+        m, g, k, a = sp.symbols("m g k a", positive=True)
+        r = [q[0:3], q[3:6], q[6:9]]
+        parts = [lc.Particle(m, tuple(ri)) for ri in r]
+        d2 = lambda u, v: sum((ui - vi) ** 2 for ui, vi in zip(u, v))     # noqa: E731
+        system = lc.System(q, particles=parts,
+                           potential=sum(m * g * ri[2] for ri in r) + k * d2(r[0], (0, 0, 0)) / 2,
+                           constraints=[d2(r[0], r[1]) - a**2, d2(r[1], r[2]) - a**2,
+                                        d2(r[2], r[0]) - a**2], name="rigid triangle")
+        h = math.sqrt(3) / 2
+        q0 = [0, 0, 0, 1, 0, 0, 0.5, h, 0]
+        qd0 = [0, 0, 0, 0, 0, 0.3, 0, 0, -0.3]
+        return system, q0, qd0, dict(m=1.0, g=9.81, k=50.0, a=1.0), 2.0, {"rtol": 1e-9}
+    raise KeyError(name)
+
+
+COLD_CASES = ["pendulum (README)", "double pendulum", "8-link pendulum",
+              "rigid triangle (9 coordinates, 3 constraints)"]
+TARGETS = {"double pendulum": 1.5, "8-link pendulum": 3.0,
+           "rigid triangle (9 coordinates, 3 constraints)": 5.0}
+STEP_CASES = ["pendulum, dop853", "pendulum (README)", "driven pendulum, rkn12 + event",
+              "double pendulum", "8-link pendulum", "rigid triangle (9 coordinates, 3 constraints)"]
+
+
+# -- workers (run in subprocesses) ------------------------------------------------------------
+
+def worker_cold(name):
+    t0 = time.perf_counter()
+    import lagrange_core   # noqa: F401
+    t1 = time.perf_counter()
+    system, q0, qd0, params, span, kw = make_case(name)
+    t2 = time.perf_counter()
+    system.kernels
+    t3 = time.perf_counter()
+    system.simulate(q0, qd0, (0.0, span), params, **kw)
+    t4 = time.perf_counter()
+    return dict(imp=t1 - t0, statement=t2 - t1, kernels=t3 - t2, simulate=t4 - t3, total=t4 - t1)
+
+
+def worker_steps(name, quick):
+    system, q0, qd0, params, span, kw = make_case(name)
+    spans = (span, span * (5 if quick else 20))
+    system.simulate(q0, qd0, (0.0, spans[0]), params, **kw)       # compile / load
+    best, steps = [], []
+    for s in spans:
+        times = []
+        for _ in range(3 if quick else 5):
+            t0 = time.perf_counter()
+            tr = system.simulate(q0, qd0, (0.0, s), params, **kw)
+            times.append(time.perf_counter() - t0)
+        best.append(min(times))
+        steps.append(tr.n_steps)
+    per_step = (best[1] - best[0]) / (steps[1] - steps[0])
+    return dict(per_step=per_step, fixed=best[0] - steps[0] * per_step, steps=steps[0])
+
+
+def run_worker(kind, name, *, env=None, quick=False):
+    cmd = [sys.executable, os.path.abspath(__file__), "--worker", kind, name]
+    if quick:
+        cmd.append("--quick")
+    out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False)
+    if out.returncode != 0:
+        raise RuntimeError(f"worker {kind} {name!r} failed:\n{out.stderr[-3000:]}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+# -- main -------------------------------------------------------------------------------------
+
+def cold_table(repeats):
+    print("1. Cold start: a system never seen, integrators compiled once per installation "
+          f"(medians of {repeats} fresh processes), s")
+    subprocess.run([sys.executable, "-c", "import lagrange_core; lagrange_core.warmup()"],
+                   check=True)
+    print(f"{'case':>48} {'import':>7} {'statement':>9} {'kernels':>8} {'simulate':>9} "
+          f"{'total':>7} {'target':>7}")
+    for name in COLD_CASES:
+        runs = []
+        for _ in range(repeats):
+            with tempfile.TemporaryDirectory() as store:
+                runs.append(run_worker("cold", name,
+                                       env={**os.environ, "LAGRANGE_CORE_CACHE": store}))
+        med = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+        target = TARGETS.get(name)
+        print(f"{name:>48} {med['imp']:7.2f} {med['statement']:9.3f} {med['kernels']:8.2f} "
+              f"{med['simulate']:9.2f} {med['total']:7.2f} "
+              f"{'< ' + str(target) if target else '':>7}")
+
+
+def steps_table(quick, baseline):
+    print("\n2. Running cost: per step and fixed per simulate call (minima of repeated runs)")
+    env_new = dict(os.environ)
+    envs = [("new", env_new)]
+    tmp = None
+    if baseline:
+        tmp = tempfile.mkdtemp(prefix="kapitza-baseline-")
+        subprocess.run(["git", "-C", ROOT, "worktree", "add", "--detach", tmp, baseline],
+                       check=True, capture_output=True)
+        envs.append(("old", {**os.environ, "PYTHONPATH": tmp}))
+    try:
+        head = f"{'case':>48} {'ns/step':>9} {'fixed ms':>9}"
+        if baseline:
+            head += f" {'old ns/step':>11} {'old fixed':>9} {'step ratio':>10} {'fixed ratio':>11}"
+        print(head)
+        for name in STEP_CASES:
+            res = {k: [] for k, _ in envs}
+            for _ in range(1 if quick else 3):        # alternate old and new processes
+                for label, env in envs:
+                    res[label].append(run_worker("steps", name, env=env, quick=quick))
+            med = {k: {f: statistics.median(r[f] for r in v) for f in v[0]} for k, v in res.items()}
+            row = f"{name:>48} {med['new']['per_step'] * 1e9:9.0f} {med['new']['fixed'] * 1e3:9.3f}"
+            if baseline:
+                o = med["old"]
+                row += (f" {o['per_step'] * 1e9:11.0f} {o['fixed'] * 1e3:9.3f} "
+                        f"{med['new']['per_step'] / o['per_step']:10.2f} "
+                        f"{med['new']['fixed'] / o['fixed']:11.2f}")
+            print(row)
+    finally:
+        if tmp:
+            subprocess.run(["git", "-C", ROOT, "worktree", "remove", "--force", tmp],
+                           check=False, capture_output=True)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="fewer repetitions (a smoke run)")
+    ap.add_argument("--baseline", metavar="REV", help="also measure git revision REV")
+    ap.add_argument("--worker", nargs=2, metavar=("KIND", "CASE"), help=argparse.SUPPRESS)
+    ap.add_argument("--only", choices=["cold", "steps"], help="run one of the two parts")
+    args = ap.parse_args()
+    if args.worker:
+        kind, name = args.worker
+        out = worker_cold(name) if kind == "cold" else worker_steps(name, args.quick)
+        print(json.dumps(out))
+        return
+    if args.only in (None, "cold"):
+        cold_table(1 if args.quick else 3)
+    if args.only in (None, "steps"):
+        steps_table(args.quick, args.baseline)
+
+
+if __name__ == "__main__":
+    main()
