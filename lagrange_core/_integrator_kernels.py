@@ -157,7 +157,7 @@ def chunk_status(step, max_steps, t, t_end, t_eval, stats, cap, n_ev, ev_cap):
     """Why a driver's chunk stops before its step number ``step`` (a ``STATUS_*`` code), or
     −1 to go on: t_end reached, step budget used, output buffer (capacity ``cap``) full
     without t_eval, event buffer (capacity ``ev_cap``) too full for ``n_ev`` more events.
-    Inlined into the drivers (here and in :mod:`lagrange_core.integrator_fast`)."""
+    Inlined into every driver."""
     if t >= t_end:
         return STATUS_DONE
     if step == max_steps:
@@ -182,7 +182,7 @@ def store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, force):
     """Record the state y (n2 entries) after an accepted step to time t: at the requested
     times t_eval (steps are clipped to land on them exactly, so none lies inside a step),
     or, without t_eval, every ``stride``-th step, at t_end, and whenever ``force``.
-    Inlined into the drivers (here and in :mod:`lagrange_core.integrator_fast`)."""
+    Inlined into every driver."""
     if t_eval.shape[0] > 0:
         ie = stats[ST_NEXT_EVAL]
         while ie < t_eval.shape[0] and t_eval[ie] == t:

@@ -2,8 +2,7 @@
 
 numba's front end (bytecode analysis, type inference, lowering) costs about
 3 ms per arithmetic operation of generated Python source: the ~300 operations
-of the 8-link pendulum's terms took 1 s to compile, and their complex-step
-variant for the Jacobian 1.5 s more.  Here the terms become a flat *program*
+of the 8-link pendulum's terms took 1 s to compile.  Here the terms become a flat *program*
 (a tuple of instructions, plain Python data that a generated module stores as a
 literal), and a numba ``@intrinsic`` writes its LLVM IR instruction by
 instruction, bypassing the front end: the same 300 operations cost a few
@@ -20,7 +19,7 @@ Two evaluators are made from it:
   two coordinates costs two tangent operations, not 2n.  The rules are the
   textbook derivatives (``_Emitter.tangent`` and ``_Emitter.derivative``);
   ``abs`` and ``sign`` have derivatives ``sign(x)`` and 0 (0 at the kink
-  x = 0), where the complex step used before gave wrong results.
+  x = 0).
 
 Program format
 --------------

@@ -32,11 +32,11 @@ name -> :class:`Method`).  ``list(METHODS)`` gives the valid names:
     Python boundary, and constrained systems get no projection (their
     ``constraint_residual`` shows the drift).
 
-Without events, the RKN and symplectic methods run on a kernel generated specially for
-q̈ = f(q, t) (:mod:`lagrange_core.integrator_fast`): a harmonic drive cos(αt + β)
-is advanced by rotations instead of new trig calls, and time and state are
-summed with compensation (Kahan) so 10⁵–10⁶ fixed steps do not accumulate
-rounding.  With events they use the generic kernels.
+The RKN and symplectic methods evaluate q̈ = f(q, t) with the system's *drive kernel*
+(:mod:`lagrange_core.drive_kernel`), generated specially for that form.  Without events
+their drivers advance a harmonic drive cos(αt + β) by rotations instead of new trig
+calls, and sum time and state with compensation (Kahan), so 10⁵–10⁶ fixed steps do not
+accumulate rounding; with events a driver that locates them runs the same formulas.
 
 Output at ``t_eval`` and events: DOP853 interpolates with its 7th-order dense
 output and locates event roots on it to a few ulps of t (Illinois iteration);
@@ -53,15 +53,17 @@ forcing F does not depend on the velocities and there are no constraints) and
 Rules for adding a method (the base-class contract)
 ---------------------------------------------------
 1. A method is a :class:`Method` entry in :data:`METHODS`: its name, its
-   family (which driver runs it), its order, whether it is adaptive, its
-   coefficient table, and a one-line description.  The class carries data only.
-2. The step itself is a plain function in :mod:`lagrange_core._integrator_kernels`
-   listed in ``KERNEL_TEMPLATES``; it calls the system's kernels by name and is
-   compiled per system with ``system.kernels.bind``.  No Python objects, no
-   allocation inside the step loop, coefficients passed as arrays.
+   family, its order, whether it is adaptive, its coefficient table, a one-line
+   description, and the names of the drivers that run it (``driver``, and
+   ``event_driver`` if that one locates no events).  The class carries data only.
+2. A driver is a ``@njit(cache=True)`` function in :mod:`lagrange_core._integrator_kernels`,
+   compiled once per installation for every system: it reaches the system's kernels
+   through the address table ``ka`` (:mod:`lagrange_core._kernel_calls`), never by name.
+   No Python objects, no allocation inside the step loop, coefficients passed as
+   arrays.  Its entry in ``_DRIVERS`` says which kernels it calls and runs one chunk.
 3. A driver advances in chunks and keeps its whole state in the arrays it is
-   given (see the kernel module docstring), returning one of the ``STATUS_*``
-   codes, so that Python can stop, store output and continue.
+   given (the named slots ``TV_*`` and ``ST_*`` of the kernel module), returning
+   one of the ``STATUS_*`` codes, so that Python can stop, store output and continue.
 4. A method that only applies to some systems declares it (``requires``) and
    :func:`simulate` raises a ValueError saying why a system is not eligible.
 5. Every method reports the counts (steps, rejected steps, right-hand-side

@@ -2,7 +2,7 @@
 
 Every generator of numba code in the project (the system kernels of
 :mod:`lagrange_core.codegen`, the specialised drive kernel of
-:mod:`lagrange_core.integrator_fast`, the averaging kernels of :mod:`kapitza`) writes a
+:mod:`lagrange_core.drive_kernel`, the averaging kernels of :mod:`kapitza`) writes a
 Python module and lets numba cache its machine code beside it.  They all go through
 :func:`load_generated`:
 
