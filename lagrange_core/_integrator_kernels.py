@@ -38,8 +38,8 @@ import math
 import numpy as np
 from numba import njit
 
-from ._kernel_calls import (ACCELERATIONS, AUGMENTED, DRIVE_RATES, ENERGY, FAST_ACCEL,
-                            MAX_DRIVE_RATES, RESIDUAL, RHS, call_accelerations, call_augmented,
+from ._kernel_calls import (DRIVE_RATES, ENERGY, FAST_ACCEL, MAX_DRIVE_RATES, PHI_Q, RESIDUAL,
+                            RHS, call_constraint_jacobian,
                             call_drive_rates, call_energy, call_fast_accel, call_residual,
                             call_rhs)
 from ._linalg import solve_augmented
@@ -67,24 +67,25 @@ INLINE = "always"      # the per-step helpers: no call, no reference counting pe
 # -- helpers -----------------------------------------------------------------------------
 
 @njit(cache=True)
-def event_value(ka, kind, idx, val, t, y, p, W, qdd, lam):
-    """Value of one event function g(t, y) (see the module docstring)."""
+def event_value(ka, kind, idx, val, t, y, p, W, dydt):
+    """Value of one event function g(t, y) (see the module docstring); ``W`` and ``dydt``
+    (2n) are scratch for a multiplier, which the right-hand side leaves in W."""
     n = y.shape[0] // 2
-    if kind == 0:
+    if kind == EV_COORDINATE:
         return y[idx] - val
-    if kind == 1:
+    if kind == EV_VELOCITY:
         return y[n + idx] - val
-    if kind == 2:
-        call_accelerations(ka[ACCELERATIONS], y[:n], y[n:], t, p, qdd, lam, W)
-        return lam[idx] - val
+    if kind == EV_MULTIPLIER:
+        call_rhs(ka[RHS], t, y, p, dydt, W)
+        return W[n + idx, W.shape[1] - 1] - val
     return call_energy(ka[ENERGY], y[:n], y[n:], t, p) - val
 
 
 @njit(cache=True)
-def project_constraints(ka, m, y, t, p, W, P, res):
+def project_constraints(ka, m, y, t, p, G, P, res):
     """Project y = [q, q̇] back onto Φ(q, t) = 0 and Φ̇ = 0 (no-op without constraints).
 
-    Least-squares (Euclidean) projection with Φ_q from the augmented matrix:
+    Least-squares (Euclidean) projection with Φ_q (into ``G``, (m, n)):
     Δq = −Φ_qᵀ (Φ_q Φ_qᵀ)⁻¹ Φ, three Gauss–Newton iterations for q (quadratic
     convergence from a drift of the size of the tolerance), then one exact linear
     step Δq̇ = −Φ_qᵀ (Φ_q Φ_qᵀ)⁻¹ Φ̇ (Φ̇ is linear in q̇).  ``P`` is scratch (m, m + 1).
@@ -95,12 +96,12 @@ def project_constraints(ka, m, y, t, p, W, P, res):
         return 0
     for sweep in range(4):
         call_residual(ka[RESIDUAL], y[:n], y[n:], t, p, res)
-        call_augmented(ka[AUGMENTED], y[:n], y[n:], t, p, W)
+        call_constraint_jacobian(ka[PHI_Q], y[:n], t, p, G)
         for a in range(m):
             for b in range(m):
                 s = 0.0
                 for j in range(n):
-                    s += W[n + a, j] * W[n + b, j]
+                    s += G[a, j] * G[b, j]
                 P[a, b] = s
             P[a, m] = res[a] if sweep < 3 else res[m + a]
         if solve_augmented(P, m) != 0:
@@ -109,7 +110,7 @@ def project_constraints(ka, m, y, t, p, W, P, res):
         for j in range(n):
             s = 0.0
             for a in range(m):
-                s += W[n + a, j] * P[a, m]
+                s += G[a, j] * P[a, m]
             y[off + j] -= s
     return 0
 
@@ -204,7 +205,7 @@ def store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, force):
 
 
 @njit(cache=True)
-def dop853_locate(ka, kind, idx, val, t0, h, y0, Fd, ga, gb, p, W, qdd, lam, yt):
+def dop853_locate(ka, kind, idx, val, t0, h, y0, Fd, ga, gb, p, W, dydt, yt):
     """Root of one event function on the dense output of a DOP853 step.
 
     Illinois (modified regula falsi) on x ∈ [0, 1], bracket shrunk until it is a
@@ -221,7 +222,7 @@ def dop853_locate(ka, kind, idx, val, t0, h, y0, Fd, ga, gb, p, W, qdd, lam, yt)
             break
         x = illinois_trial(a, b, fa, fb)
         dop853_dense_eval(Fd, y0, x, yt)
-        fx = event_value(ka, kind, idx, val, t0 + x * h, yt, p, W, qdd, lam)
+        fx = event_value(ka, kind, idx, val, t0 + x * h, yt, p, W, dydt)
         if fx == 0.0:
             return x
         a, b, fa, fb, side = illinois_update(x, fx, a, b, fa, fb, side)
@@ -286,14 +287,14 @@ def dop853_chunk(ka, m, y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adap
     n = y.shape[0] // 2
     n2 = 2 * n
     W = np.zeros((n + m, n + m + 1))
+    G = np.zeros((m, n))                  # Φ_q, for the projection
     P = np.zeros((max(m, 1), max(m, 1) + 1))
     res = np.zeros(max(2 * m, 1))
     K = np.empty((16, n2))
     ynew = np.empty(n2)
     ytmp = np.empty(n2)
     Fd = np.empty((7, n2))
-    qdd = np.empty(n)
-    lam = np.empty(max(m, 1))
+    dydt = np.empty(n2)                   # event_value's scratch
     n_ev = ev_int.shape[0]
     g_new = np.empty(max(n_ev, 1))
     x_root = np.empty(max(n_ev, 1))
@@ -391,7 +392,7 @@ def dop853_chunk(ka, m, y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adap
         fired = False
         for e in range(n_ev):
             g_new[e] = event_value(ka, ev_int[e, 0], ev_int[e, 1], ev_val[e], t + hs, ynew, p, W,
-                                   qdd, lam)
+                                   dydt)
             x_root[e] = -1.0
             go = ev_g[e]
             gn = g_new[e]
@@ -405,7 +406,7 @@ def dop853_chunk(ka, m, y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adap
                         stats[ST_RHS] += 3
                         have_dense = True
                     x_root[e] = dop853_locate(ka, ev_int[e, 0], ev_int[e, 1], ev_val[e], t, hs, y,
-                                              Fd, go, gn, p, W, qdd, lam, ytmp)
+                                              Fd, go, gn, p, W, dydt, ytmp)
                     if ev_int[e, 3] != 0 and x_root[e] <= x_stop:
                         x_stop = x_root[e]
                         fired = True
@@ -416,7 +417,7 @@ def dop853_chunk(ka, m, y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adap
                 ev_k[k] = e
                 dop853_dense_eval(Fd, y, x_root[e], ytmp)
                 if m > 0:
-                    project_constraints(ka, m, ytmp, ev_t[k], p, W, P, res)
+                    project_constraints(ka, m, ytmp, ev_t[k], p, G, P, res)
                 for i in range(n2):
                     ev_y[k, i] = ytmp[i]
                 stats[ST_EVENTS] += 1
@@ -437,7 +438,7 @@ def dop853_chunk(ka, m, y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adap
                 else:
                     dop853_dense_eval(Fd, y, (t_eval[ie] - t) / hs, ytmp)
                 if m > 0:   # the step and its interpolant drift off Φ = 0 by ~ the tolerance
-                    project_constraints(ka, m, ytmp, t_eval[ie], p, W, P, res)
+                    project_constraints(ka, m, ytmp, t_eval[ie], p, G, P, res)
                 for i in range(n2):
                     yout[ie, i] = ytmp[i]
                 tout[ie] = t_eval[ie]
@@ -455,7 +456,7 @@ def dop853_chunk(ka, m, y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adap
             t_new = t + yk
             tv[TV_T_CARRY] = (t_new - t) - yk
         if m > 0:
-            if project_constraints(ka, m, ynew, t_new, p, W, P, res) != 0:
+            if project_constraints(ka, m, ynew, t_new, p, G, P, res) != 0:
                 tv[TV_T] = t
                 return STATUS_SINGULAR
         if fired or m > 0:
@@ -524,10 +525,9 @@ def derivative_start(ka, m, t, y, p, f):
 def project_start(ka, m, t, y, p):
     """Project an initial state onto the constraints (returns the status)."""
     n = y.shape[0] // 2
-    W = np.zeros((n + m, n + m + 1))
     P = np.zeros((max(m, 1), max(m, 1) + 1))
     res = np.zeros(max(2 * m, 1))
-    return project_constraints(ka, m, y, t, p, W, P, res)
+    return project_constraints(ka, m, y, t, p, np.zeros((m, n)), P, res)
 
 
 @njit(cache=True)
@@ -544,19 +544,19 @@ def along(ka, m, T, Y, p, E, LAM, RES):
     """Energy, multipliers and constraint residual max(|Φ|, |Φ̇|) along a trajectory."""
     n = Y.shape[1] // 2
     W = np.zeros((n + m, n + m + 1))
-    qdd = np.empty(n)
-    lam = np.empty(max(m, 1))
+    dydt = np.empty(2 * n)
     res = np.empty(max(2 * m, 1))
     for k in range(T.shape[0]):
         q = Y[k, :n]
         qd = Y[k, n:]
         E[k] = call_energy(ka[ENERGY], q, qd, T[k], p)
         if m > 0:
-            call_accelerations(ka[ACCELERATIONS], q, qd, T[k], p, qdd, lam, W)
+            # the right-hand side of a constrained system leaves [q̈, λ] in W[:, n + m]
+            call_rhs(ka[RHS], T[k], Y[k], p, dydt, W)
             call_residual(ka[RESIDUAL], q, qd, T[k], p, res)
             r = 0.0
             for a in range(m):
-                LAM[k, a] = lam[a]
+                LAM[k, a] = W[n + a, n + m]
                 r = max(r, abs(res[a]), abs(res[m + a]))
             RES[k] = r
 
@@ -661,8 +661,7 @@ def second_order_chunk(ka, m, family, y, f, tv, stats, p, rtol, atol, c, A, b, b
     vn = np.empty(n)
     qs = np.empty(n)
     W = np.zeros((n + m, n + m + 1))      # event_value's scratch
-    qdd = np.empty(n)
-    lam = np.empty(max(m, 1))
+    dydt = np.empty(n2)
     rates = drive_rates(ka, p)            # the drive kernel's harmonic rates α_k
     cs = np.empty(max(2 * rates.shape[0], 1))
     Wn = np.zeros((n, n + 1))
@@ -763,7 +762,7 @@ def second_order_chunk(ka, m, family, y, f, tv, stats, p, rtol, atol, c, A, b, b
             ytmp[n + i] = vn[i]
         for e in range(n_ev):
             g_new[e] = event_value(ka, ev_int[e, 0], ev_int[e, 1], ev_val[e], t_new, ytmp, p, W,
-                                   qdd, lam)
+                                   dydt)
         for e in range(n_ev):
             x_root[e] = -1.0
             go = ev_g[e]
@@ -775,7 +774,7 @@ def second_order_chunk(ka, m, family, y, f, tv, stats, p, rtol, atol, c, A, b, b
                 if d == 0 or (d > 0 and up) or (d < 0 and not up):
                     x_root[e] = second_order_locate(ka, family, e, ev_int, ev_val, t, q, v, a0, hs,
                                                     go, gn, p, c, A, b, bp, w, K, ytmp, qs,
-                                                    rates, cs, Wn, W, qdd, lam, stats, evals)
+                                                    rates, cs, Wn, W, dydt, stats, evals)
                     if ev_int[e, 3] != 0 and x_root[e] <= x_stop:
                         x_stop = x_root[e]
                         fired = True
@@ -825,7 +824,7 @@ def second_order_chunk(ka, m, family, y, f, tv, stats, p, rtol, atol, c, A, b, b
 
 @njit(cache=True)
 def second_order_locate(ka, family, e, ev_int, ev_val, t, q, v, a0, h, ga, gb, p, c, A, b, bp, w,
-                        K, ytmp, qs, rates, cs, Wn, W, qdd, lam, stats, evals):
+                        K, ytmp, qs, rates, cs, Wn, W, dydt, stats, evals):
     """Step fraction x of an event crossing: Illinois iteration, each trial a step of x·h."""
     n = q.shape[0]
     a = 0.0
@@ -841,7 +840,8 @@ def second_order_locate(ka, family, e, ev_int, ev_val, t, q, v, a0, h, ga, gb, p
         second_order_step(ka, family, t, q, v, a0, x * h, p, c, A, b, bp, w, K, ytmp[:n], ytmp[n:],
                           qs, rates, cs, Wn)
         stats[ST_RHS] += evals
-        fx = event_value(ka, ev_int[e, 0], ev_int[e, 1], ev_val[e], t + x * h, ytmp, p, W, qdd, lam)
+        fx = event_value(ka, ev_int[e, 0], ev_int[e, 1], ev_val[e], t + x * h, ytmp, p, W,
+                         dydt)
         if fx == 0.0:
             return x
         a, bb, fa, fb, side = illinois_update(x, fx, a, bb, fa, fb, side)

@@ -20,10 +20,9 @@ data pointers; shapes are those of the kernel contract in :mod:`lagrange_core.co
 slot               C signature                                                 returns
 =================  =========================================================  ==========
 ``RHS``            ``rhs(t, y*, p*, dydt*, W*)``                               status
-``ACCELERATIONS``  ``accelerations(q*, qd*, t, p*, qdd*, lam*, W*)``           status
 ``ENERGY``         ``energy(q*, qd*, t, p*)``                                  h (J)
 ``RESIDUAL``       ``constraint_residual(q*, qd*, t, p*, out*)``               0
-``AUGMENTED``      ``augmented(q*, qd*, t, p*, W*)``                           0
+``PHI_Q``          ``constraint_jacobian(q*, t, p*, out*)``                    0
 ``JACOBIAN``       ``jacobian(t, y*, p*, J*)``                                 status
 ``FAST_ACCEL``     ``fast_accel(q*, t, cs*, p*, out*, Wn*)`` (drive kernel)     status
 ``DRIVE_RATES``    ``drive_rates(p*, out*)`` (drive kernel)                     count
@@ -39,15 +38,15 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-__all__ = ["SLOTS", "SIGNATURES", "RHS", "ACCELERATIONS", "ENERGY", "RESIDUAL", "AUGMENTED",
-           "JACOBIAN", "FAST_ACCEL", "DRIVE_RATES", "N_SLOTS", "MAX_DRIVE_RATES", "call_rhs", "call_accelerations",
-           "call_energy", "call_residual", "call_augmented", "call_jacobian", "call_fast_accel",
+__all__ = ["SLOTS", "SIGNATURES", "RHS", "ENERGY", "RESIDUAL", "PHI_Q", "JACOBIAN",
+           "FAST_ACCEL", "DRIVE_RATES", "N_SLOTS", "MAX_DRIVE_RATES", "call_rhs", "call_energy",
+           "call_residual", "call_constraint_jacobian", "call_jacobian", "call_fast_accel",
            "call_drive_rates"]
 
 #: Kernel slots of the address table, in order.
-SLOTS = ("rhs", "accelerations", "energy", "constraint_residual", "augmented", "jacobian",
+SLOTS = ("rhs", "energy", "constraint_residual", "constraint_jacobian", "jacobian",
          "fast_accel", "drive_rates")
-RHS, ACCELERATIONS, ENERGY, RESIDUAL, AUGMENTED, JACOBIAN, FAST_ACCEL, DRIVE_RATES = range(8)
+RHS, ENERGY, RESIDUAL, PHI_Q, JACOBIAN, FAST_ACCEL, DRIVE_RATES = range(7)
 N_SLOTS = len(SLOTS)
 #: how many harmonic rates a drive kernel may have (``drive_rates`` writes that many at most)
 MAX_DRIVE_RATES = 64
@@ -57,10 +56,9 @@ _F = types.float64
 #: numba signatures of the C entry points, by slot name (the table in the docstring).
 SIGNATURES = {
     "rhs": types.int64(_F, _P, _P, _P, _P),
-    "accelerations": types.int64(_P, _P, _F, _P, _P, _P, _P),
     "energy": types.float64(_P, _P, _F, _P),
     "constraint_residual": types.int64(_P, _P, _F, _P, _P),
-    "augmented": types.int64(_P, _P, _F, _P, _P),
+    "constraint_jacobian": types.int64(_P, _F, _P, _P),
     "jacobian": types.int64(_F, _P, _P, _P),
     "fast_accel": types.int64(_P, _F, _P, _P, _P, _P),
     "drive_rates": types.int64(_P, _P),
@@ -108,10 +106,9 @@ def _caller(slot_name):
 
 
 call_rhs = _caller("rhs")
-call_accelerations = _caller("accelerations")
 call_energy = _caller("energy")
 call_residual = _caller("constraint_residual")
-call_augmented = _caller("augmented")
+call_constraint_jacobian = _caller("constraint_jacobian")
 call_jacobian = _caller("jacobian")
 call_fast_accel = _caller("fast_accel")
 call_drive_rates = _caller("drive_rates")

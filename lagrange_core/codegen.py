@@ -23,10 +23,13 @@ scratch array with more rows also works.
 ``jacobian(t, y, p, J) -> int``                            ∂(dy/dt)/∂y, (2n, 2n), exact
 ``energy(q, qd, t, p) -> float``                           the energy function h
 ``constraint_residual(q, qd, t, p, out)``                  out = [Φ, Φ̇] (2m)
+``constraint_jacobian(q, t, p, out)``                      out = Φ_q (m, n)
 ``particle_positions(q, t, p, out)``                       out (n_particles, 3), zero-padded
 =========================================================  ====================================
 
-Integer returns are a status: 0 success, 1 singular (augmented) mass matrix.
+Integer returns are a status: 0 success, 1 singular (augmented) mass matrix.  The
+``rhs`` of a constrained system leaves the solution [q̈, λ] in ``W[:n + m, n + m]``
+(so the multipliers come with every right-hand side).
 Module constants: ``N_DOF``, ``N_CONSTRAINTS``, ``N_PARAMETERS``, ``N_PARTICLES``,
 ``WORK_SHAPE``, ``BAND`` (half-bandwidth of M), ``RKN_FORM`` and ``RKN_REASON``
 (whether q̈ = f(q, t), :func:`lagrange_core.forms.rkn_form`).
@@ -45,8 +48,9 @@ entries M = M' + Σ m JᵀJ and F = F' − Σ m Jᵀb, grouping particles that s
 Jacobian columns (``_entries``: a chain of N links costs O(N²), not O(N³)).
 Then, by size:
 
-* small systems (few particle products, n + m ≤ 12): printed straight-line
-  Python, and an unconstrained M (n ≤ 6) is solved by an unrolled LDLᵀ, so M
+* small systems (few particle products, n ≤ 12 unconstrained, n + m ≤ 6
+  constrained): printed straight-line Python, and an unconstrained M (n ≤ 6) is
+  solved by an unrolled LDLᵀ, so M
   and F never leave registers (a double pendulum's right-hand side costs what
   a hand-written one does);
 * large systems: a *program* whose LLVM IR is written directly
@@ -153,11 +157,6 @@ def c_rhs(t, y, p, dydt, W):
     return rhs(t, carray(y, _NY), carray(p, _NP), carray(dydt, _NY), carray(W, WORK_SHAPE))
 
 
-def c_accelerations(q, qd, t, p, qdd, lam, W):
-    return accelerations(carray(q, _NQ), carray(qd, _NQ), t, carray(p, _NP), carray(qdd, _NQ),
-                         carray(lam, (N_CONSTRAINTS,)), carray(W, WORK_SHAPE))
-
-
 def c_energy(q, qd, t, p):
     return energy(carray(q, _NQ), carray(qd, _NQ), t, carray(p, _NP))
 
@@ -168,8 +167,8 @@ def c_constraint_residual(q, qd, t, p, out):
     return 0
 
 
-def c_augmented(q, qd, t, p, W):
-    augmented(carray(q, _NQ), carray(qd, _NQ), t, carray(p, _NP), carray(W, WORK_SHAPE))
+def c_constraint_jacobian(q, t, p, out):
+    constraint_jacobian(carray(q, _NQ), t, carray(p, _NP), carray(out, (N_CONSTRAINTS, N_DOF)))
     return 0
 
 
@@ -428,8 +427,12 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
     pr = _Printer(system, cse)
     value = _ValueTable(pr)
     M, F, phi_q, gamma, definitions, n_products = _entries(equations, value)
-    # straight-line code writes every entry of M: bound n too
-    unrolled = (n_products <= UNROLL_LIMIT and N <= 12) if unroll is None else unroll
+    # straight-line code writes every entry of M: bound n too.  A constrained system
+    # writes the whole augmented matrix into W (numba: ~6 ms per indexing statement), so
+    # beyond N = 6 the program compiles faster (rigid triangle, N = 12: 0.7 s, not 2.5 s)
+    if unroll is None:
+        unroll = n_products <= UNROLL_LIMIT and N <= (12 if m == 0 else CHOLESKY_UNROLL_LIMIT)
+    unrolled = unroll
     # half-bandwidth of M (structurally): dense elimination becomes a banded LDLᵀ
     band = max([j - i for i in range(n) for j in range(i, n) if M[i][j] != 0] + [0])
     if m:
@@ -530,6 +533,12 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
     res += [(f"out[{m + k}]", c) for k, c in enumerate(equations.constraint_velocity_se)]
     src.append(_function("constraint_residual", [*state_q, "out"],
                          pr.body(res, ["q", "qd", "p"])))
+    # Φ_q alone (the constraint projection needs nothing else of the augmented matrix)
+    phi_q = [(f"out[{c}, {j}]", e) for c, row in enumerate(equations.constraint_jacobian_se)
+             for j, e in enumerate(row) if e != 0]
+    src.append(_function("constraint_jacobian", ["q", "t", "p", "out"], [
+        "for _c in range(out.shape[0]):", "    for _j in range(out.shape[1]):",
+        "        out[_c, _j] = 0.0"] + pr.body(phi_q, ["q", "p"])))
     positions = [((i, c), comp) for i, particle in enumerate(system.particles)
                  for c, comp in enumerate(particle.position)]
     clear = ["for _i in range(out.shape[0]):", "    for _c in range(out.shape[1]):",
@@ -537,9 +546,10 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
     quadratic = ["for _i in range(N_DOF):", "    for _j in range(N_DOF):",
                  "        _h += 0.5 * qd[_i] * W[_i, _j] * qd[_j]"]
     if unrolled:
-        # h = ½ q̇ᵀ M q̇ + (the rest of h); after the assembly, so CSE temporaries may be reused
-        rest = pr.body([("_h", equations.energy_rest_se)], ["q", "qd", "p"])
-        src.append(_function("energy", state_q, filled + rest + quadratic, ret="_h"))
+        # small systems: h printed whole (CSE'd), not through the assembly of M and F,
+        # which would cost the energy kernel the whole assembly's compile time again
+        src.append(_function("energy", state_q,
+                             pr.body([("_h", equations.energy_se)], ["q", "qd", "p"]), ret="_h"))
         src.append(_function("particle_positions", ["q", "t", "p", "out"], clear + pr.body(
             [(f"out[{i}, {c}]", comp) for (i, c), comp in positions], ["q", "p"])))
     else:
@@ -568,7 +578,7 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
 # -- loading --------------------------------------------------------------------------
 
 _KERNEL_NAMES = ("new_work", "mass_forcing", "augmented", "solve_state", "accelerations", "rhs", "jacobian",
-                 "energy", "constraint_residual", "particle_positions")
+                 "energy", "constraint_residual", "constraint_jacobian", "particle_positions")
 
 
 class Kernels:
@@ -577,7 +587,8 @@ class Kernels:
     Attributes are numba dispatchers, callable from Python and from other
     numba code: ``mass_forcing``, ``augmented``, ``solve_state``,
     ``accelerations``, ``rhs``, ``jacobian``, ``energy``,
-    ``constraint_residual``, ``particle_positions``; and the statement's facts:
+    ``constraint_residual``, ``constraint_jacobian``, ``particle_positions``; and the
+    statement's facts:
     ``n_dof``, ``n_constraints``, ``n_particles``, ``coordinates``, ``parameters``,
     ``rkn_form`` (q̈ = f(q, t)) with ``rkn_reason`` (why not), ``label`` (for messages),
     ``statement_key`` (keys other generators' modules in the store) and ``equations()``
@@ -634,6 +645,7 @@ class Kernels:
             self.accelerations(q, q, 0.0, p, np.zeros(n), np.zeros(m), W)
             self.energy(q, q, 0.0, p)
             self.constraint_residual(q, q, 0.0, p, np.zeros(2 * m))
+            self.constraint_jacobian(q, 0.0, p, np.zeros((m, n)))
             self.particle_positions(q, 0.0, p, np.zeros((self.n_particles, 3)))
         return self
 

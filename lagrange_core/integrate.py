@@ -592,10 +592,8 @@ def _driver(meth, events):
 def _addresses(kernels, driver, ev_int):
     """Compile (or load) the C entry points this run calls; the system's address table."""
     slots = {"energy", *driver.kernels}      # energy: Trajectory.energy (along)
-    if kernels.n_constraints:
-        slots |= {"augmented", "constraint_residual", "accelerations"}
-    if np.any(ev_int[:, 0] == _kern.EV_MULTIPLIER):
-        slots.add("accelerations")
+    if kernels.n_constraints:                # projection; multipliers come with the rhs
+        slots |= {"rhs", "constraint_residual", "constraint_jacobian"}
     if driver.drive_kernel:
         load_drive_kernel(kernels)
     return kernels.addresses(*sorted(slots))
@@ -869,6 +867,6 @@ def _run_scipy(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, star
                 ev_list.append(EventRecord(events[e].name, float(te), ye[:n].copy(), ye[n:].copy()))
     counts = (n_steps, 0, sol.nfev)
     status = "event" if sol.status == 1 else "success"
-    slots = ("energy", "accelerations", "constraint_residual") if m else ("energy",)
+    slots = ("energy", "rhs", "constraint_residual") if m else ("energy",)
     return _finish(kernels, kernels.addresses(*slots), meth, o, p, T, Y, float("nan"),
                    "none (scipy)", counts, status, sol.message, ev_list, start)

@@ -1,0 +1,93 @@
+"""The integrators are compiled once per installation and serve every system (issue 9).
+
+A new system's first ``simulate`` compiles only the system's own kernels: the drivers in
+``lagrange_core._integrator_kernels`` reach them by address, so numba's cache serves the
+same machine code to every system, and a process that finds a system's kernels in the
+store neither derives nor compiles.
+"""
+import json
+import math
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+
+from lagrange_core import _integrator_kernels as kern
+from lagrange_core import problems
+
+
+def _run(code, env=None):
+    out = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True,
+                         text=True, check=True, env=env)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_one_compiled_driver_serves_different_systems():
+    """Two systems of different sizes run through the same compiled DOP853 driver."""
+    single, double = problems.pendulum(), problems.double_pendulum()
+    single.simulate([0.3], [0.0], (0, 0.5), {p: 1.0 for p in single.parameters}, method="dop853")
+    n_before = len(kern.dop853_chunk.signatures)
+    double.simulate([0.3, 0.1], [0.0, 0.0], (0, 0.5), {p: 1.0 for p in double.parameters})
+    assert len(kern.dop853_chunk.signatures) == n_before == 1
+
+
+def test_a_new_system_loads_the_drivers_from_numba_cache(tmp_path):
+    """In a fresh process with an empty kernel store (a system never seen), every driver
+    the run needs comes from numba's cache: no driver is compiled."""
+    import lagrange_core
+    lagrange_core.warmup()
+    info = _run("""
+        import json, math
+        import sympy as sp
+        import lagrange_core as lc
+        from lagrange_core import _integrator_kernels as kern
+        (x,), _ = lc.coordinates("x")
+        k, m = sp.symbols("k m", positive=True)
+        s = lc.System([x], particles=[lc.Particle(m, (x,))], potential=k * x**4 / 4)
+        s.simulate([1.0], [0.0], (0, 1), dict(k=1.0, m=1.0))                # rkn12
+        s.simulate([1.0], [0.0], (0, 1), dict(k=1.0, m=1.0), method="dop853")
+        misses = {f: sum(getattr(kern, f).stats.cache_misses.values())
+                  for f in ("dop853_chunk", "fast_rkn_chunk", "along", "initial_step")}
+        print(json.dumps(misses))
+    """, env={**__import__("os").environ, "LAGRANGE_CORE_CACHE": str(tmp_path)})
+    assert info == {"dop853_chunk": 0, "fast_rkn_chunk": 0, "along": 0, "initial_step": 0}
+
+
+def test_warm_store_never_derives():
+    """A process that finds the kernels and the drive kernel in the store integrates with
+    the default (RKN) method without deriving the equations."""
+    code = """
+        import json, math
+        from lagrange_core import problems
+        s = problems.driven_pendulum()
+        p = {k: 1.0 for k in s.parameters}
+        tr = s.simulate([math.pi - 0.1], [0.0], (0, 0.2), p)
+        print(json.dumps({"derived": "equations" in s.__dict__, "method": tr.method}))
+    """
+    _run(code)                                  # fills the store
+    assert _run(code) == {"derived": False, "method": "rkn12"}
+
+
+def test_rigid_triangle_keeps_its_constraints():
+    """A constrained system of 9 coordinates and 3 constraints (three masses rigidly joined,
+    one held by a spring, in gravity): the projected DOP853 run keeps Φ = 0 and Φ̇ = 0 to
+    the tolerance and conserves the energy (all forces conservative)."""
+    import sympy as sp
+
+    import lagrange_core as lc
+    q, _ = lc.coordinates("x1 y1 z1 x2 y2 z2 x3 y3 z3")
+    m, g, k, a = sp.symbols("m g k a", positive=True)
+    r = [q[0:3], q[3:6], q[6:9]]
+    d2 = lambda u, v: sum((ui - vi) ** 2 for ui, vi in zip(u, v))     # noqa: E731
+    system = lc.System(q, particles=[lc.Particle(m, tuple(ri)) for ri in r],
+                       potential=sum(m * g * ri[2] for ri in r) + k * d2(r[0], (0, 0, 0)) / 2,
+                       constraints=[d2(r[0], r[1]) - a**2, d2(r[1], r[2]) - a**2,
+                                    d2(r[2], r[0]) - a**2])
+    h = math.sqrt(3) / 2
+    tr = system.simulate([0, 0, 0, 1, 0, 0, 0.5, h, 0], [0, 0, 0, 0, 0, 0.3, 0, 0, -0.3],
+                         (0.0, 5.0), dict(m=1.0, g=9.81, k=50.0, a=1.0), rtol=1e-10)
+    assert tr.status == "success"
+    assert np.max(tr.constraint_residual) < 1e-9
+    assert np.max(np.abs(tr.energy - tr.energy[0])) < 1e-7 * np.max(np.abs(tr.energy))
+    assert tr.multipliers.shape == (len(tr.t), 3) and np.all(np.isfinite(tr.multipliers))
