@@ -562,7 +562,7 @@ def along(ka, m, T, Y, p, E, LAM, RES):
 
 
 
-# -- q̈ = f(q, t): RKN 12(10) and the symplectic composition ------------------------------
+# -- q̈ = f(q, t): one step of RKN 12(10) or the symplectic composition, and events -----
 
 @njit(cache=True)
 def accel_only(ka, q, t, p, out, rates, cs, Wn):
@@ -638,191 +638,6 @@ def _partial_sum(w, k):
 
 
 @njit(cache=True)
-def second_order_chunk(ka, m, family, y, f, tv, stats, p, rtol, atol, c, A, b, bp, bh, bph, w,
-                       adaptive, max_steps, t_eval, stride, tout, yout, ev_int, ev_val, ev_g,
-                       ev_t, ev_k, ev_y):
-    """Advance an RKN (family 0) or symplectic (family 1) method by one chunk.
-
-    Same state layout, statuses and outputs as :func:`dop853_chunk`.  Output at
-    ``t_eval`` is exact: steps are shortened to land on each requested time (so
-    many closely spaced outputs cost extra steps).  Events are located by
-    Illinois iteration on x where every trial evaluates g after a step of x·h from
-    the step start (the method's own accuracy, no interpolant).
-
-    Step-size control (adaptive RKN): err = RMS of the difference of the 12th- and
-    10th-order solutions [Δq, Δv] scaled by atol + rtol·max(|y|, |y_new|);
-    new h = h·min(5, max(0.2, 0.9·err^(−1/11))), no growth right after a rejection.
-    """
-    n = y.shape[0] // 2
-    n2 = 2 * n
-    ns = max(c.shape[0], 1)
-    K = np.empty((ns, n))
-    qn = np.empty(n)
-    vn = np.empty(n)
-    qs = np.empty(n)
-    W = np.zeros((n + m, n + m + 1))      # event_value's scratch
-    dydt = np.empty(n2)
-    rates = drive_rates(ka, p)            # the drive kernel's harmonic rates α_k
-    cs = np.empty(max(2 * rates.shape[0], 1))
-    Wn = np.zeros((n, n + 1))
-    ytmp = np.empty(n2)
-    anew = np.empty(n)
-    n_ev = ev_int.shape[0]
-    g_new = np.empty(max(n_ev, 1))
-    x_root = np.empty(max(n_ev, 1))
-    cap = tout.shape[0]
-    evals = (ns - 1) if family == 0 else w.shape[0]
-    expo = -1.0 / 11.0
-
-    q = y[:n]
-    v = y[n:]
-    a0 = f[n:]
-    t = tv[TV_T]
-    t_end = tv[TV_END]
-    h = tv[TV_H]
-    rejected = False
-    for step in range(max_steps + 1):
-        status = chunk_status(step, max_steps, t, t_end, t_eval, stats, cap, n_ev, ev_t.shape[0])
-        if status >= 0:
-            return status
-        hmin = 16.0 * 2.220446049250313e-16 * max(abs(t), abs(t_end))
-        t_target = next_stop(t_end, t_eval, stats)
-        while True:
-            clipped = False
-            hs = h
-            if t + hs >= t_target or (not adaptive and t + hs * (1.0 + 1e-10) >= t_target):
-                hs = t_target - t
-                clipped = True
-            status = second_order_step(ka, family, t, q, v, a0, hs, p, c, A, b, bp, w, K, qn, vn,
-                                       qs, rates, cs, Wn)
-            stats[ST_RHS] += evals
-            if status != 0:
-                tv[TV_T] = t
-                return STATUS_SINGULAR
-            err = 0.0
-            est = 0.0
-            if family == 0:
-                e2 = 0.0
-                for i in range(n):
-                    dq = 0.0
-                    dv = 0.0
-                    for j in range(ns):
-                        dq += (b[j] - bh[j]) * K[j, i]
-                        dv += (bp[j] - bph[j]) * K[j, i]
-                    dq *= hs * hs
-                    dv *= hs
-                    sq = atol + rtol * max(abs(q[i]), abs(qn[i]))
-                    sv = atol + rtol * max(abs(v[i]), abs(vn[i]))
-                    e2 += (dq / sq) ** 2 + (dv / sv) ** 2
-                    est = max(est, abs(dq), abs(dv))
-                err = math.sqrt(e2 / n2)
-            finite = math.isfinite(err)
-            for i in range(n):
-                if not (math.isfinite(qn[i]) and math.isfinite(vn[i])):
-                    finite = False
-            if (not adaptive) or (finite and err < 1.0):
-                if not finite:
-                    tv[TV_T] = t
-                    return STATUS_UNDERFLOW
-                break
-            stats[ST_REJECTED] += 1
-            if finite:
-                h = hs * max(0.2, 0.9 * err ** expo)
-            else:
-                h = 0.2 * hs
-            rejected = True
-            if h < hmin:
-                tv[TV_T] = t
-                tv[TV_H] = h
-                return STATUS_UNDERFLOW
-        # accepted
-        stats[ST_STEPS] += 1
-        tv[TV_ERROR] += est
-        if clipped:
-            t_new = t_target
-            tv[TV_T_CARRY] = 0.0
-        else:       # compensated (Kahan) sum of the steps, see dop853_chunk
-            yk = hs - tv[TV_T_CARRY]
-            t_new = t + yk
-            tv[TV_T_CARRY] = (t_new - t) - yk
-        if family == 0:
-            status = accel_only(ka, qn, t_new, p, anew, rates, cs, Wn)
-            stats[ST_RHS] += 1
-            if status != 0:
-                tv[TV_T] = t
-                return STATUS_SINGULAR
-        else:
-            for i in range(n):
-                anew[i] = K[0, i]
-        # events: Illinois on the step fraction, each trial a fresh step from t
-        x_stop = 1.0
-        fired = False
-        for i in range(n):
-            ytmp[i] = qn[i]
-            ytmp[n + i] = vn[i]
-        for e in range(n_ev):
-            g_new[e] = event_value(ka, ev_int[e, 0], ev_int[e, 1], ev_val[e], t_new, ytmp, p, W,
-                                   dydt)
-        for e in range(n_ev):
-            x_root[e] = -1.0
-            go = ev_g[e]
-            gn = g_new[e]
-            cross = (go < 0.0 and gn >= 0.0) or (go > 0.0 and gn <= 0.0)
-            if cross and gn != go:
-                d = ev_int[e, 2]
-                up = gn > go
-                if d == 0 or (d > 0 and up) or (d < 0 and not up):
-                    x_root[e] = second_order_locate(ka, family, e, ev_int, ev_val, t, q, v, a0, hs,
-                                                    go, gn, p, c, A, b, bp, w, K, ytmp, qs,
-                                                    rates, cs, Wn, W, dydt, stats, evals)
-                    if ev_int[e, 3] != 0 and x_root[e] <= x_stop:
-                        x_stop = x_root[e]
-                        fired = True
-        for e in range(n_ev):
-            if x_root[e] >= 0.0 and x_root[e] <= x_stop:
-                k = stats[ST_EVENTS]
-                ev_t[k] = t + x_root[e] * hs
-                ev_k[k] = e
-                second_order_step(ka, family, t, q, v, a0, x_root[e] * hs, p, c, A, b, bp, w, K,
-                                  ytmp[:n], ytmp[n:], qs, rates, cs, Wn)
-                stats[ST_RHS] += evals
-                for i in range(n2):
-                    ev_y[k, i] = ytmp[i]
-                stats[ST_EVENTS] += 1
-            ev_g[e] = g_new[e]
-        if fired:
-            t_new = t + x_stop * hs
-            second_order_step(ka, family, t, q, v, a0, x_stop * hs, p, c, A, b, bp, w, K, qn, vn,
-                              qs, rates, cs, Wn)
-            accel_only(ka, qn, t_new, p, anew, rates, cs, Wn)
-            stats[ST_RHS] += evals + 1
-        for i in range(n):
-            q[i] = qn[i]
-            v[i] = vn[i]
-            a0[i] = anew[i]
-            f[i] = vn[i]
-        t = t_new
-        tv[TV_T] = t
-        store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, fired)
-        if fired:
-            return STATUS_EVENT
-        if adaptive:
-            if err == 0.0:
-                factor = 5.0
-            else:
-                factor = min(5.0, 0.9 * err ** expo)
-            if rejected:
-                factor = min(1.0, factor)
-            if clipped:
-                h = max(h, hs * factor)
-            else:
-                h = hs * factor
-            rejected = False
-        tv[TV_H] = h
-    return STATUS_CHUNK
-
-
-@njit(cache=True)
 def second_order_locate(ka, family, e, ev_int, ev_val, t, q, v, a0, h, ga, gb, p, c, A, b, bp, w,
                         K, ytmp, qs, rates, cs, Wn, W, dydt, stats, evals):
     """Step fraction x of an event crossing: Illinois iteration, each trial a step of x·h."""
@@ -848,7 +663,77 @@ def second_order_locate(ka, family, e, ev_int, ev_val, t, q, v, a0, h, ga, gb, p
     return 0.5 * (a + bb)
 
 
-# -- q̈ = f(q, t) on the drive kernel, without events: rotations for the drive ----------
+@njit(cache=True)
+def second_order_events(ka, family, t, hs, q, v, a0, qn, vn, p, c, A, b, bp, w, K, qs, rates,
+                        cs, Wn, W, dydt, ytmp, ev_int, ev_val, ev_g, g_new, x_root, ev_t, ev_k,
+                        ev_y, stats):
+    """Events of an accepted step of a q̈ = f(q, t) driver from (t, q, v) to (t + hs, qn, vn).
+
+    Every event function is evaluated at the step's end; each crossing in the asked
+    direction is located by :func:`second_order_locate` (Illinois iteration, each trial
+    a fresh step of x·hs from the step start, the method's own accuracy) and recorded
+    with its state.  Returns the step fraction at which a terminal event stops the run,
+    or 2.0 when none does.
+    """
+    n = q.shape[0]
+    n_ev = ev_int.shape[0]
+    evals = (c.shape[0] - 1) if family == 0 else w.shape[0]
+    for i in range(n):
+        ytmp[i] = qn[i]
+        ytmp[n + i] = vn[i]
+    for e in range(n_ev):
+        g_new[e] = event_value(ka, ev_int[e, 0], ev_int[e, 1], ev_val[e], t + hs, ytmp, p, W,
+                               dydt)
+    x_stop = 2.0
+    for e in range(n_ev):
+        x_root[e] = -1.0
+        go = ev_g[e]
+        gn = g_new[e]
+        cross = (go < 0.0 and gn >= 0.0) or (go > 0.0 and gn <= 0.0)
+        if cross and gn != go:
+            d = ev_int[e, 2]
+            up = gn > go
+            if d == 0 or (d > 0 and up) or (d < 0 and not up):
+                x_root[e] = second_order_locate(ka, family, e, ev_int, ev_val, t, q, v, a0, hs,
+                                                go, gn, p, c, A, b, bp, w, K, ytmp, qs, rates,
+                                                cs, Wn, W, dydt, stats, evals)
+                if ev_int[e, 3] != 0 and x_root[e] < x_stop:
+                    x_stop = x_root[e]
+    for e in range(n_ev):
+        if x_root[e] >= 0.0 and x_root[e] <= x_stop:
+            k = stats[ST_EVENTS]
+            ev_t[k] = t + x_root[e] * hs
+            ev_k[k] = e
+            second_order_step(ka, family, t, q, v, a0, x_root[e] * hs, p, c, A, b, bp, w, K,
+                              ytmp[:n], ytmp[n:], qs, rates, cs, Wn)
+            stats[ST_RHS] += evals
+            for i in range(2 * n):
+                ev_y[k, i] = ytmp[i]
+            stats[ST_EVENTS] += 1
+        ev_g[e] = g_new[e]
+    return x_stop
+
+
+@njit(cache=True)
+def second_order_stop(ka, family, t, x, hs, q, v, a0, qn, vn, anew, p, c, A, b, bp, w, K, qs,
+                      rates, cs, Wn, stats):
+    """The state at a terminal event: a fresh step of x·hs from the step start into
+    (qn, vn), its acceleration into ``anew``; returns the kernel status."""
+    second_order_step(ka, family, t, q, v, a0, x * hs, p, c, A, b, bp, w, K, qn, vn, qs, rates,
+                      cs, Wn)
+    stats[ST_RHS] += ((c.shape[0] - 1) if family == 0 else w.shape[0]) + 1
+    return accel_only(ka, qn, t + x * hs, p, anew, rates, cs, Wn)
+
+
+# -- the drivers for q̈ = f(q, t): rotations for the drive ------------------------------
+
+@njit(cache=True, inline=INLINE)
+def _event_scratch(n, n_ev):
+    """Scratch of the events of a q̈ = f(q, t) driver: W, dydt, a state, g values, roots,
+    and an unused weight array (the RKN's stand-in for the symplectic weights)."""
+    return (np.zeros((n, n + 1)), np.empty(2 * n), np.empty(2 * n), np.empty(max(n_ev, 1)),
+            np.empty(max(n_ev, 1)), np.zeros(1))
+
 
 @njit(cache=True)
 def drive_rates(ka, p):
@@ -860,13 +745,16 @@ def drive_rates(ka, p):
 
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol, atol, max_steps,
-                   t_eval, stride, tout, yout):
-    """RKN 12(10) on the specialised kernel; fixed step tv[TV_H] or adaptive.
+                   t_eval, stride, tout, yout, ev_int, ev_val, ev_g, ev_t, ev_k, ev_y):
+    """RKN 12(10) on the drive kernel; fixed step tv[TV_H] or adaptive.
 
-    Same state layout and statuses as the generic drivers in
-    :mod:`lagrange_core._integrator_kernels` (no events here: the caller uses the
-    generic driver when events are requested).  Output at ``t_eval`` by landing
-    steps on the requested times.
+    Same state layout, statuses and outputs as :func:`dop853_chunk`.  Output at
+    ``t_eval`` is exact: steps are shortened to land on each requested time (so many
+    closely spaced outputs cost extra steps).  Events: :func:`second_order_events`.
+
+    Step-size control (adaptive): err = RMS of the difference of the 12th- and
+    10th-order solutions [Δq, Δv] scaled by atol + rtol·max(|y|, |y_new|);
+    new h = h·min(5, max(0.2, 0.9·err^(−1/11))), no growth right after a rejection.
     """
     n = y.shape[0] // 2
     rates = drive_rates(ka, p)
@@ -890,6 +778,8 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
     for j in range(ns):
         db[j] = b[j] - bh[j]
         dbp[j] = bp[j] - bph[j]
+    n_ev = ev_int.shape[0]
+    W, dydt, ytmp, g_new, x_root, w0 = _event_scratch(n, n_ev)
     cap = tout.shape[0]
     q = y[:n]
     v = y[n:]
@@ -901,7 +791,8 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
     rejected = False
     expo = -1.0 / 11.0
     for step in range(max_steps + 1):
-        status = chunk_status(step, max_steps, t, t_end, t_eval, stats, cap, 0, 0)   # no events
+        status = chunk_status(step, max_steps, t, t_end, t_eval, stats, cap, n_ev,
+                              ev_t.shape[0])
         if status >= 0:
             return status
         hmin = 16.0 * 2.220446049250313e-16 * max(abs(t), abs(t_end))
@@ -992,19 +883,35 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
         if clipped:
             t_new = t_target
             tv[TV_T_CARRY] = 0.0
-        else:       # compensated (Kahan) sum of the steps, see _integrator_kernels.dop853_chunk
+        else:       # compensated (Kahan) sum of the steps, see dop853_chunk
             yk = hs - tv[TV_T_CARRY]
             t_new = t + yk
             tv[TV_T_CARRY] = (t_new - t) - yk
-        # FSAL: f at the new state; the drive at t + hs is the rotation of stage c = 1
-        for k in range(nd):
-            cr = rot[ns - 1, k, 0]
-            sr = rot[ns - 1, k, 1]
-            css[2 * k] = cs0[2 * k] * cr - cs0[2 * k + 1] * sr
-            css[2 * k + 1] = cs0[2 * k + 1] * cr + cs0[2 * k] * sr
-        status = call_fast_accel(ka[FAST_ACCEL], qn, t_new, css, p, a0, Wn)
-        stats[ST_RHS] += 1
-        if status != 0:
+        fired = False
+        if n_ev > 0:
+            x_stop = second_order_events(ka, 0, t, hs, q, v, a0, qn, vn, p, c, A, b, bp, w0, K,
+                                         qs, rates, css, Wn, W, dydt, ytmp, ev_int, ev_val,
+                                         ev_g, g_new, x_root, ev_t, ev_k, ev_y, stats)
+            fired = x_stop <= 1.0
+        if fired:   # stop at the event: a fresh step there (its accelerations into a0)
+            status = second_order_stop(ka, 0, t, x_stop, hs, q, v, a0, qn, vn, a0, p, c, A, b,
+                                       bp, w0, K, qs, rates, css, Wn, stats)
+            t_new = t + x_stop * hs
+            tv[TV_T_CARRY] = 0.0
+            for i in range(n):
+                cqn[i] = 0.0
+                cvn[i] = 0.0
+        else:
+            # FSAL: f at the new state; the drive at t + hs is the rotation of stage c = 1
+            for k in range(nd):
+                cr = rot[ns - 1, k, 0]
+                sr = rot[ns - 1, k, 1]
+                css[2 * k] = cs0[2 * k] * cr - cs0[2 * k + 1] * sr
+                css[2 * k + 1] = cs0[2 * k + 1] * cr + cs0[2 * k] * sr
+            status = call_fast_accel(ka[FAST_ACCEL], qn, t_new, css, p, a0, Wn)
+            stats[ST_RHS] += 1
+        # a terminal event may sit exactly on a singular state: the run ends there
+        if status != 0 and not fired:
             tv[TV_T] = t
             return STATUS_SINGULAR
         for i in range(n):
@@ -1015,7 +922,9 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
             cv[i] = cvn[i]
         t = t_new
         tv[TV_T] = t
-        store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, False)
+        store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, fired)
+        if fired:
+            return STATUS_EVENT
         if adaptive:
             factor = 5.0 if err == 0.0 else min(5.0, 0.9 * err ** expo)
             if rejected:
@@ -1027,12 +936,13 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
 
 
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
-def fast_symplectic_chunk(ka, y, f, tv, stats, p, w, max_steps, t_eval, stride, tout, yout):
+def fast_symplectic_chunk(ka, y, f, tv, stats, p, w, max_steps, t_eval, stride, tout, yout,
+                          ev_int, ev_val, ev_g, ev_t, ev_k, ev_y):
     """Symmetric composition of velocity Verlet (weights w) at a fixed step, on the
-    specialised kernel.  Time advances with the drifts (kick at the current time,
+    drive kernel.  Time advances with the drifts (kick at the current time,
     drift q and t together), which keeps every substep symmetric for a
     time-dependent f; the drive at each drift end is a fixed rotation of its value
-    at the step start.  Same state layout and outputs as :func:`fast_rkn_chunk`.
+    at the step start.  Same state layout, outputs and events as :func:`fast_rkn_chunk`.
     """
     n = y.shape[0] // 2
     rates = drive_rates(ka, p)
@@ -1051,6 +961,11 @@ def fast_symplectic_chunk(ka, y, f, tv, stats, p, w, max_steps, t_eval, stride, 
     rot = np.empty((nw, max(nd, 1), 2))
     cs0 = np.empty(max(2 * nd, 1))
     css = np.empty(max(2 * nd, 1))
+    n_ev = ev_int.shape[0]
+    W, dydt, ytmp, g_new, x_root, z = _event_scratch(n, n_ev)
+    K = np.empty((1, n))             # the trial steps' scratch (family 1 uses row 0)
+    qs = np.empty(n)
+    z2 = np.zeros((1, 1))
     cap = tout.shape[0]
     q = y[:n]
     v = y[n:]
@@ -1060,7 +975,8 @@ def fast_symplectic_chunk(ka, y, f, tv, stats, p, w, max_steps, t_eval, stride, 
     h = tv[TV_H]
     h_rot = -1.0
     for step in range(max_steps + 1):
-        status = chunk_status(step, max_steps, t, t_end, t_eval, stats, cap, 0, 0)   # no events
+        status = chunk_status(step, max_steps, t, t_end, t_eval, stats, cap, n_ev,
+                              ev_t.shape[0])
         if status >= 0:
             return status
         t_target = next_stop(t_end, t_eval, stats)
@@ -1114,6 +1030,17 @@ def fast_symplectic_chunk(ka, y, f, tv, stats, p, w, max_steps, t_eval, stride, 
             yk = hs - tv[TV_T_CARRY]
             t_new = t + yk
             tv[TV_T_CARRY] = (t_new - t) - yk
+        fired = False
+        if n_ev > 0:
+            x_stop = second_order_events(ka, 1, t, hs, q, v, a0, qn, vn, p, z, z2, z, z, w, K,
+                                         qs, rates, css, Wn, W, dydt, ytmp, ev_int, ev_val,
+                                         ev_g, g_new, x_root, ev_t, ev_k, ev_y, stats)
+            fired = x_stop <= 1.0
+        if fired:   # stop at the event: a fresh step there
+            second_order_stop(ka, 1, t, x_stop, hs, q, v, a0, qn, vn, a, p, z, z2, z, z, w, K,
+                              qs, rates, css, Wn, stats)
+            t_new = t + x_stop * hs
+            tv[TV_T_CARRY] = 0.0
         for i in range(n):
             q[i] = qn[i]
             v[i] = vn[i]
@@ -1121,7 +1048,9 @@ def fast_symplectic_chunk(ka, y, f, tv, stats, p, w, max_steps, t_eval, stride, 
             f[i] = vn[i]
         t = t_new
         tv[TV_T] = t
-        store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, False)
+        store_output(t, y, n2, t_end, t_eval, tout, yout, stats, stride, fired)
+        if fired:
+            return STATUS_EVENT
     return STATUS_CHUNK
 
 

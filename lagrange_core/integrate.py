@@ -33,10 +33,10 @@ name -> :class:`Method`).  ``list(METHODS)`` gives the valid names:
     ``constraint_residual`` shows the drift).
 
 The RKN and symplectic methods evaluate q̈ = f(q, t) with the system's *drive kernel*
-(:mod:`lagrange_core.drive_kernel`), generated specially for that form.  Without events
-their drivers advance a harmonic drive cos(αt + β) by rotations instead of new trig
-calls, and sum time and state with compensation (Kahan), so 10⁵–10⁶ fixed steps do not
-accumulate rounding; with events a driver that locates them runs the same formulas.
+(:mod:`lagrange_core.drive_kernel`), generated specially for that form.  Their drivers
+advance a harmonic drive cos(αt + β) by rotations instead of new trig calls, and sum
+time and state with compensation (Kahan), so 10⁵–10⁶ fixed steps do not accumulate
+rounding.
 
 Output at ``t_eval`` and events: DOP853 interpolates with its 7th-order dense
 output and locates event roots on it to a few ulps of t (Illinois iteration);
@@ -54,8 +54,7 @@ Rules for adding a method (the base-class contract)
 ---------------------------------------------------
 1. A method is a :class:`Method` entry in :data:`METHODS`: its name, its
    family, its order, whether it is adaptive, its coefficient table, a one-line
-   description, and the names of the drivers that run it (``driver``, and
-   ``event_driver`` if that one locates no events).  The class carries data only.
+   description, and the name of the driver that runs it.  The class carries data only.
 2. A driver is a ``@njit(cache=True)`` function in :mod:`lagrange_core._integrator_kernels`,
    compiled once per installation for every system: it reaches the system's kernels
    through the address table ``ka`` (:mod:`lagrange_core._kernel_calls`), never by name.
@@ -136,8 +135,6 @@ class Method:
         The coefficient arrays the driver takes.
     driver : str
         The compiled driver that runs it (a key of ``_DRIVERS``; "" for scipy's).
-    event_driver : str
-        The driver used when events are asked for, if ``driver`` locates none.
     error_order : int
         Order q of the embedded error estimate (the starting step uses 1/(q + 1)).
     """
@@ -150,7 +147,6 @@ class Method:
     description: str = ""
     table: dict = field(default_factory=dict, repr=False, compare=False)
     driver: str = ""
-    event_driver: str = ""
     error_order: int = 0
 
 
@@ -200,15 +196,14 @@ METHODS: dict[str, Method] = {
                   _LazyTable(_dop853_coefficients), driver="dop853", error_order=7),
     "rkn12": Method("rkn12", "rkn", 12, True, "rkn",
                     "Dormand–El-Mikkawy–Prince RKN 12(10), adaptive, for q̈ = f(q, t)",
-                    _rkn12_table(), driver="fast_rkn", event_driver="second_order",
-                    error_order=10),
+                    _rkn12_table(), driver="rkn", error_order=10),
     "rkn12-fixed": Method("rkn12-fixed", "rkn", 12, False, "rkn",
                           "the 12th-order RKN formula at a fixed step h", _rkn12_table(),
-                          driver="fast_rkn", event_driver="second_order", error_order=10),
+                          driver="rkn", error_order=10),
     "yoshida6": Method("yoshida6", "symplectic", 6, False, "rkn",
                        "Yoshida's symmetric 6th-order composition of velocity Verlet "
                        "(symplectic for constant M), fixed step h", _yoshida6_table(),
-                       driver="fast_symplectic", event_driver="second_order"),
+                       driver="symplectic"),
 }
 for _name in _SCIPY_METHODS:
     METHODS[f"scipy:{_name}"] = Method(f"scipy:{_name}", "scipy", 0, True, "",
@@ -540,53 +535,36 @@ def _chunk_dop853(run, budget):
                               run.ev_k, run.ev_y)
 
 
-def _chunk_second_order(run, budget):
-    tab, o = run.meth.table, run.opts
-    family = 0 if run.meth.family == "rkn" else 1
-    return _kern.second_order_chunk(run.ka, run.m, family, run.y, run.f, run.tv, run.stats,
-                                    run.p, o.rtol, o.atol, tab["c"], tab["A"], tab["b"],
-                                    tab["bp"], tab["bh"], tab["bph"], tab["w"],
-                                    run.meth.adaptive, budget, run.t_eval, run.stride, run.tout,
-                                    run.yout, run.ev_int, run.ev_val, run.ev_g, run.ev_t,
-                                    run.ev_k, run.ev_y)
-
-
 def _chunk_fast_rkn(run, budget):
     tab, o = run.meth.table, run.opts
     return _kern.fast_rkn_chunk(run.ka, run.y, run.f, run.tv, run.stats, run.p, tab["c"],
                                 tab["A"], tab["b"], tab["bp"], tab["bh"], tab["bph"],
                                 run.meth.adaptive, o.rtol, o.atol, budget, run.t_eval,
-                                run.stride, run.tout, run.yout)
+                                run.stride, run.tout, run.yout, run.ev_int, run.ev_val, run.ev_g,
+                                run.ev_t, run.ev_k, run.ev_y)
 
 
 def _chunk_fast_symplectic(run, budget):
     return _kern.fast_symplectic_chunk(run.ka, run.y, run.f, run.tv, run.stats, run.p,
                                        run.meth.table["w"], budget, run.t_eval, run.stride,
-                                       run.tout, run.yout)
+                                       run.tout, run.yout, run.ev_int, run.ev_val, run.ev_g,
+                                       run.ev_t, run.ev_k, run.ev_y)
 
 
 @dataclass(frozen=True)
 class _Driver:
-    """How to run one family of methods: the kernels it calls, how it starts, a chunk."""
+    """How to run one family of methods: the kernels it calls, and one chunk."""
 
     kernels: tuple            # address-table slots it calls (rhs: the starting step)
     drive_kernel: bool        # stages on the drive kernel (lagrange_core.drive_kernel)
-    events: bool              # locates events itself
     chunk: object             # (run, budget) -> STATUS_*
 
 
 _DRIVERS = {
-    "dop853": _Driver(("rhs",), False, True, _chunk_dop853),
-    "second_order": _Driver(("rhs",), True, True, _chunk_second_order),
-    "fast_rkn": _Driver(("rhs",), True, False, _chunk_fast_rkn),
-    "fast_symplectic": _Driver(("rhs",), True, False, _chunk_fast_symplectic),
+    "dop853": _Driver(("rhs",), False, _chunk_dop853),
+    "rkn": _Driver(("rhs",), True, _chunk_fast_rkn),
+    "symplectic": _Driver(("rhs",), True, _chunk_fast_symplectic),
 }
-
-
-def _driver(meth, events):
-    """The Method's driver; its event driver when events are asked for and it has one."""
-    name = meth.event_driver if events and meth.event_driver else meth.driver
-    return _DRIVERS[name]
 
 
 def _addresses(kernels, driver, ev_int):
@@ -691,7 +669,7 @@ def _singular_error(label, m, t, y):
 def _run_compiled(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, start,
                   along=True):
     n, m = kernels.n_dof, kernels.n_constraints
-    driver = _driver(meth, len(events) > 0)
+    driver = _DRIVERS[meth.driver]
     ka = _addresses(kernels, driver, ev_int)
     t0, t1, t_eval = o.t0, o.t1, o.t_eval
     y = np.concatenate([q0, qd0])
