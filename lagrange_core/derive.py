@@ -72,6 +72,41 @@ def _symbol_map(system):
     return {sp.Symbol(s.name): s for s in symbols}
 
 
+#: Functions whose symengine derivative is left unevaluated (Derivative(abs(x), x)) or
+#: is not a function symengine knows: expressions with them are differentiated by sympy.
+_NONSMOOTH = (sp.Abs, sp.sign, sp.Heaviside, sp.Max, sp.Min, sp.Piecewise)
+
+
+def _differentiator(system):
+    """``diff(expr, symbol)`` for the statement's symengine expressions.
+
+    symengine differentiates everything smooth, fast, but leaves the derivatives of
+    ``abs``, ``sign``, ``Max`` and ``Min`` unevaluated.  Where it does, in a statement
+    that uses such functions, sympy differentiates instead, on the statement's real
+    symbols, with the derivatives of the kinks taken almost everywhere: d|u| = sign(u) du,
+    d sign(u) = dH(u) = 0 (sympy's DiracDelta is dropped: the kernels evaluate functions
+    pointwise).  sympy's Heaviside, which symengine only wraps, differentiates to 0 there
+    too.
+    """
+    exprs = [system.lagrangian_term, system.potential, system.dissipation,
+             *system.constraints, *system.forces]
+    for p in system.particles:
+        exprs += [p.mass, *p.position]
+    if not any(e.has(*_NONSMOOTH) for e in exprs):
+        return se.diff
+    symbols = _symbol_map(system)
+
+    def diff(expr, s):
+        d = se.diff(expr, s)
+        if not d.atoms(se.Derivative, se.Subs):
+            return d
+        e = sp.sympify(expr).xreplace(symbols)
+        d = sp.diff(e, sp.sympify(s).xreplace(symbols))
+        return _se(d.replace(sp.DiracDelta, lambda *args: sp.S.Zero))
+
+    return diff
+
+
 @dataclass(frozen=True)
 class ParticleTerms:
     """One particle's share of the equations (symengine expressions).
@@ -183,15 +218,16 @@ class Equations:
         """
         s = self.system
         L = self.lagrangian_se
+        diff = _differentiator(s)
         out = {}
         for j, (qj, vj) in enumerate(zip(s.q, s.qdot)):
-            if not _is_zero(se.diff(L, _se(qj))):
+            if not _is_zero(diff(L, _se(qj))):
                 continue
             if s.forces[j] != 0 or sp.diff(s.dissipation, vj) != 0:
                 continue
             if any(c.has(qj) for c in s.constraints):
                 continue
-            out[qj.name] = sp.simplify(self._to_sympy(se.diff(L, _se(vj))))
+            out[qj.name] = sp.simplify(self._to_sympy(diff(L, _se(vj))))
         return out
 
 
@@ -213,6 +249,8 @@ def derive(system: System) -> Equations:
     n = len(q)
 
     zero = se.Integer(0)
+    diff = _differentiator(system)
+    mass_rate = []      # (ṁ, J, v, moving columns) of the particles whose mass depends on t
 
     # Particle terms: each particle's mass, Jacobian J = ∂r/∂q, the q̈-free part of its
     # acceleration ("bias" (∂v/∂q) q̇ + ∂v/∂t) and ∂r/∂t.  The compiled kernels assemble
@@ -223,25 +261,32 @@ def derive(system: System) -> Equations:
         r = [_se(c) for c in particle.position]
         # only the coordinates the particle moves with: O(Σ nnz²) work, not O(n_particles n²)
         moves = [j for j, qj in enumerate(q) if any(rk.has(qj) for rk in r)]
-        J = [[se.diff(rk, qj) if j in moves else zero for j, qj in enumerate(q)] for rk in r]
-        r_t = [se.diff(rk, t) for rk in r]
+        J = [[diff(rk, qj) if j in moves else zero for j, qj in enumerate(q)] for rk in r]
+        r_t = [diff(rk, t) for rk in r]
         vel = [sum((J[k][j] * v[j] for j in moves), zero) + r_t[k] for k in range(len(r))]
-        bias = [sum((se.diff(vel[k], q[j]) * v[j] for j in moves), zero) + se.diff(vel[k], t)
+        bias = [sum((diff(vel[k], q[j]) * v[j] for j in moves), zero) + diff(vel[k], t)
                 for k in range(len(r))]
         particle_terms.append(ParticleTerms(m, tuple(map(tuple, J)), tuple(bias), tuple(r_t)))
+        # a mass that changes with time: d/dt ∂T/∂q̇ = d/dt (m Jᵀv) also contains ṁ Jᵀv
+        m_t = diff(m, t)
+        if m_t != 0:
+            mass_rate.append((m_t, J, vel, moves))
 
     # Explicit Lagrangian term L'(q, q̇, t), potential V(q, t), forces and dissipation.
     L_extra = _se(system.lagrangian_term)
     V = _se(system.potential)
     D = _se(system.dissipation)
-    dL_dv = [se.diff(L_extra, vj) for vj in v]
-    M_rest = [[se.diff(dL_dv[i], v[j]) if dL_dv[i] != 0 else zero for j in range(n)]
+    dL_dv = [diff(L_extra, vj) for vj in v]
+    M_rest = [[diff(dL_dv[i], v[j]) if dL_dv[i] != 0 else zero for j in range(n)]
               for i in range(n)]
-    F_rest = [- se.diff(V, q[i]) + _se(system.forces[i]) - se.diff(D, v[i]) for i in range(n)]
+    F_rest = [- diff(V, q[i]) + _se(system.forces[i]) - diff(D, v[i]) for i in range(n)]
     if L_extra != 0:
-        F_rest = [F_rest[i] + se.diff(L_extra, q[i])
-                  - sum((se.diff(dL_dv[i], q[j]) * v[j] for j in range(n)), zero)
-                  - se.diff(dL_dv[i], t) for i in range(n)]
+        F_rest = [F_rest[i] + diff(L_extra, q[i])
+                  - sum((diff(dL_dv[i], q[j]) * v[j] for j in range(n)), zero)
+                  - diff(dL_dv[i], t) for i in range(n)]
+    for m_t, J, vel, moves in mass_rate:
+        for j in moves:
+            F_rest[j] = F_rest[j] - m_t * sum((J[k][j] * vel[k] for k in range(len(vel))), zero)
 
     # Assembled: M = M' + Σ m JᵀJ,  F = F' − Σ m Jᵀ bias.
     M = [row[:] for row in M_rest]
@@ -265,7 +310,7 @@ def derive(system: System) -> Equations:
             M[i][j] = M[j][i]
 
     L = T - V + L_extra
-    energy = sum((vj * se.diff(L, vj) for vj in v), zero) - L
+    energy = sum((vj * diff(L, vj) for vj in v), zero) - L
     # h = ½ q̇ᵀ M q̇ + [V − Σ ½ m |∂r/∂t|² + h(L') − ½ q̇ᵀ M' q̇]: the kernels evaluate the
     # quadratic form from the assembled M and this bracket symbolically
     energy_rest = (V - sum((pt.mass * sum((c * c for c in pt.r_t), zero) / 2
@@ -276,13 +321,13 @@ def derive(system: System) -> Equations:
 
     # Constraints: Φ_q q̈ = γ with γ = -(∂Φ̇/∂q) q̇ - ∂Φ̇/∂t.
     Phi = [_se(c) for c in system.constraints]
-    Phi_q = [[se.diff(c, qj) for qj in q] for c in Phi]
-    Phi_dot = [sum((row[j] * v[j] for j in range(n)), se.Integer(0)) + se.diff(c, t)
+    Phi_q = [[diff(c, qj) for qj in q] for c in Phi]
+    Phi_dot = [sum((row[j] * v[j] for j in range(n)), se.Integer(0)) + diff(c, t)
                for c, row in zip(Phi, Phi_q)]
-    gamma = [-(sum((se.diff(pd, q[j]) * v[j] for j in range(n)), se.Integer(0)) + se.diff(pd, t))
+    gamma = [-(sum((diff(pd, q[j]) * v[j] for j in range(n)), se.Integer(0)) + diff(pd, t))
              for pd in Phi_dot]
 
-    explicit_time = not _is_zero(se.diff(L, t)) or not all(_is_zero(se.diff(c, t)) for c in Phi)
+    explicit_time = not _is_zero(diff(L, t)) or not all(_is_zero(diff(c, t)) for c in Phi)
     return Equations(
         system=system,
         particle_terms=tuple(particle_terms),
