@@ -7,7 +7,9 @@ displacement δq,
 
 evaluated from the exact compiled Jacobian (no finite differences).  With
 constraints the displacements are restricted to the null space N of Φ_q
-(δq = N δu), giving the reduced matrices Nᵀ M N, Nᵀ C N, Nᵀ K N.  The
+(δq = N δu), giving the reduced matrices Nᵀ M N, Nᵀ C N, Nᵀ K N; ``about`` must lie on the
+constraint surface (a point with Φ(q*, t) ≠ 0 is refused with the residual: the
+matrices there would describe another system, e.g. a pendulum of another length).  The
 normal-mode angular frequencies are the square roots of the generalized
 eigenvalues of K v = ω² M v.
 """
@@ -76,13 +78,16 @@ def linearize(system, params=None, about=None, t=0.0) -> Linearization:
     Raises
     ------
     ValueError
-        If ``about`` is not an equilibrium (|q̈| > 1e-8 relative to the
-        stiffness scale) or the mass matrix is singular there.
+        If ``about`` violates a constraint (|Φ_i|/|∂Φ_i/∂q| > 1e-8 max(1, |q|)), is
+        not an equilibrium (|q̈| > 1e-8 relative to the stiffness scale) or the
+        mass matrix is singular there.
     """
     n, m = system.n_dof, system.n_constraints
     q0 = np.zeros(n) if about is None else system.coordinate_array(about, "about")
     p = system.parameter_array(params)
     k = system.kernels
+    if m:
+        _check_constraints(system, q0, float(t), p)
     y = np.concatenate([q0, np.zeros(n)])
     J = np.empty((2 * n, 2 * n))
     if k.jacobian(float(t), y, p, J) != 0:
@@ -115,3 +120,54 @@ def linearize(system, params=None, about=None, t=0.0) -> Linearization:
                          f"forces?): ω² = {w2}; inspect Linearization matrices instead.")
     return Linearization(about=q0, mass=Mr, damping=Cr, stiffness=Kr, residual=residual,
                          omega_squared=np.sort(w2.real), basis=basis)
+
+
+#: A constraint residual |Φ_i| / |∇Φ_i| (≈ the distance to the constraint surface in
+#: coordinate units) above this, relative to max(1, |q|), is a violation.
+CONSTRAINT_TOLERANCE = 1e-8
+
+
+def _constraint_violation(system, q, t, p) -> tuple[np.ndarray, np.ndarray]:
+    """The constraint residuals Φ(q, t) and the distances they stand for.
+
+    Parameters
+    ----------
+    system : System
+    q : ndarray
+        Coordinates.
+    t : float
+        Time (s).
+    p : ndarray
+        Parameter values (``System.parameter_array``).
+
+    Returns
+    -------
+    residual, distance : ndarray, shape (m,)
+        Φ_i (in the constraint's own units) and the first-order distance of q from
+        the surface Φ_i = 0, |Φ_i| / |∂Φ_i/∂q| (units of the coordinates; |Φ_i| where
+        the gradient vanishes).
+    """
+    n, m = system.n_dof, system.n_constraints
+    k = system.kernels
+    out = np.empty(2 * m)
+    k.constraint_residual(q, np.zeros(n), t, p, out)
+    W = k.work_array()
+    k.augmented(q, np.zeros(n), t, p, W)
+    grad = W[n:n + m, :n]                               # Φ_q
+    norm = np.linalg.norm(grad, axis=1)
+    residual = out[:m]
+    distance = np.abs(residual) / np.where(norm > 0, norm, 1.0)
+    return residual, distance
+
+
+def _check_constraints(system, q0, t, p):
+    residual, distance = _constraint_violation(system, q0, t, p)
+    bad = np.flatnonzero(~(distance <= CONSTRAINT_TOLERANCE * max(1.0, np.max(np.abs(q0)))))
+    if bad.size:
+        lines = "; ".join(f"constraint {i} ({system.constraints[i]} = 0): Φ = {residual[i]:.6g}, "
+                          f"about {distance[i]:.3g} away" for i in bad)
+        raise ValueError(
+            f"about={q0.tolist()} violates the constraints of {system._label()} at t={t}: "
+            f"{lines}. An equilibrium of a constrained system lies on its constraint surface; "
+            "pass coordinates that satisfy every constraint (the linearisation would otherwise "
+            "describe a different system).")

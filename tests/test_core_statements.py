@@ -4,6 +4,7 @@ Each physics test checks against something independent of lagrange_core's deriva
 a closed form, sympy.physics.mechanics.LagrangesMethod, or finite differences.
 
 1. a particle whose mass depends on t;
+2. linearising about a point off the constraint surface is refused;
 11. Abs and sign in a statement are differentiated.
 """
 import numpy as np
@@ -133,6 +134,36 @@ def test_time_dependent_mass_energy_function(rng):
             h.append(k_.energy(qs, qds, t + s, p))
         # the O(s²) error of the states cancels in the central difference's leading term
         assert (h[1] - h[0]) / (2 * eps) == pytest.approx(-dL_dt(*q, *qd, t, *p), rel=1e-5)
+
+
+# -- item 2: linearising off the constraint surface --------------------------------------------
+
+def _cartesian_pendulum():
+    (x, y), _ = lc.coordinates("x y")
+    return lc.System([x, y], particles=[lc.Particle(m, (x, y))], potential=m * g * y,
+                     constraints=[x**2 + y**2 - l**2])
+
+
+@pytest.mark.parametrize("about", [[0.0, -1.0], [1.0, 0.0]])
+def test_linearize_about_a_point_that_violates_the_constraints(about):
+    """Length 1.1: Φ = x² + y² − l² = 1 − 1.21 = −0.21 at both points."""
+    system = _cartesian_pendulum()
+    params = dict(m=1.0, l=1.1, g=9.81)
+    for method in (system.linearize, system.normal_modes):
+        with pytest.raises(ValueError, match=r"violates the constraints.*constraint 0.*"
+                                             r"Φ = -0\.21.*satisfy every constraint"):
+            method(params, about=about)
+    # on the surface it is the pendulum of length 1.1 (closed form √(g/l))
+    np.testing.assert_allclose(system.normal_modes(params, about=[0.0, -1.1]),
+                               [np.sqrt(9.81 / 1.1)], rtol=1e-12)
+
+
+def test_linearize_accepts_a_point_on_the_surface_to_rounding():
+    system = _cartesian_pendulum()
+    theta = 1e-3
+    about = [1.1 * np.sin(theta), -1.1 * np.cos(theta)]     # Φ ~ 1e-16, not an equilibrium
+    with pytest.raises(ValueError, match="not an equilibrium"):
+        system.linearize(dict(m=1.0, l=1.1, g=9.81), about=about)
 
 
 # -- item 11: statements ---------------------------------------------------------------------
