@@ -2,8 +2,9 @@
 
 Public API
 ----------
-System, Particle, coordinates, t
-    State a system (:mod:`lagrange_core.systems`).
+System, Particle, RigidBody, rotation_matrix, coordinates, t
+    State a system (:mod:`lagrange_core.systems`); rigid bodies, planar or 3-D
+    (:mod:`lagrange_core.bodies`).
 derive, Equations
     The Euler–Lagrange equations in the canonical form M q̈ = F + Φ_qᵀ λ
     (:mod:`lagrange_core.derive`).
@@ -24,11 +25,12 @@ from .derive import Equations, derive
 from .integrate import (METHODS, Event, SimulationInterrupted, Trajectory, crossing,
                         multiplier_zero, turning_point)
 from .linearize import Linearization
+from .bodies import RigidBody, rotation_matrix
 from .symbols import coordinates, t
 from .systems import Particle, System
 from .warmup import warmup
 
-__all__ = ["System", "Particle", "coordinates", "t", "derive", "Equations", "compile_kernels",
-           "Kernels", "Linearization", "problems", "fields", "Trajectory", "METHODS", "Event",
+__all__ = ["System", "Particle", "RigidBody", "rotation_matrix", "coordinates", "t", "derive",
+           "Equations", "compile_kernels", "Kernels", "Linearization", "problems", "fields", "Trajectory", "METHODS", "Event",
            "turning_point", "crossing", "multiplier_zero", "SimulationInterrupted", "warmup"]
 __version__ = "0.1.0"

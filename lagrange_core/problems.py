@@ -7,11 +7,12 @@ from __future__ import annotations
 
 import sympy as sp
 
-from .systems import Particle, System, coordinates, t
+from .systems import Particle, RigidBody, System, coordinates, t
 
 __all__ = ["pendulum", "n_link_pendulum", "double_pendulum", "driven_pendulum", "central_force",
            "spherical_pendulum", "guitar_string", "bead_string", "block_on_wedge",
-           "swinging_atwood", "swinging_atwood_stop"]
+           "swinging_atwood", "swinging_atwood_stop", "physical_pendulum", "rolling_disc",
+           "atwood_machine"]
 
 
 def pendulum() -> System:
@@ -90,6 +91,89 @@ def driven_pendulum(direction: str = "vertical", damping: bool = False) -> Syste
     D = m * l**2 * gamma * theta_dot**2 / 2 if damping else 0
     return System([theta], particles=[bob], potential=m * g * bob.position[1], dissipation=D,
                   name=f"{direction}ly driven pendulum" + (" (damped)" if damping else ""))
+
+
+def physical_pendulum(driven: bool = False) -> System:
+    """A rigid body swinging in a plane about a pivot (a :class:`RigidBody`, no point masses).
+
+    Coordinate ``theta`` (rad, the line pivot → centre of mass from the downward
+    vertical; the body turns with it).  Parameters ``I_c`` (kg m², moment of inertia
+    about the centre of mass), ``d`` (m, pivot to centre of mass), ``g``, ``m``; with
+    ``driven=True`` the pivot moves as y_p = A cos ωt (``A``, ``omega``), as in
+    ``shared/PHYSICS.md``.
+
+    Closed forms, with I = I_c + m d² the moment of inertia about the pivot:
+
+    * I θ̈ = −m d (g + ÿ_p) sin θ (ÿ_p = −A ω² cos ωt when driven);
+    * small oscillations: ω² = m g d / I, the point pendulum of length l_eq = I/(m d)
+      (a uniform rod of length L: I_c = m L²/12, d = L/2, l_eq = 2L/3).
+    """
+    (theta,), _ = coordinates("theta")
+    m, I_c, d, g, A, omega = sp.symbols("m I_c d g A omega", positive=True)
+    y_p = A * sp.cos(omega * t) if driven else 0
+    body = RigidBody(m, I_c, (d * sp.sin(theta), y_p - d * sp.cos(theta)), theta, "body")
+    return System([theta], bodies=[body], potential=m * g * body.position[1],
+                  name="driven physical pendulum" if driven else "physical pendulum")
+
+
+def rolling_disc(constrained: bool = False) -> System:
+    """A round body rolling without slipping down an incline (a planar :class:`RigidBody`).
+
+    Mass ``m``, radius ``R``, moment of inertia ``I`` about its centre (kg m²; a
+    uniform disc has I = m R²/2, a ring m R², a ball 2 m R²/5), incline angle ``alpha``
+    (rad), gravity ``g``.  Coordinate ``s`` (m): the distance the centre has travelled
+    down the incline, which descends towards +x; rolling turns the body by φ = s/R.
+
+    Parameters
+    ----------
+    constrained : bool
+        True: a second coordinate ``phi`` (rad, the body's rotation) held to the
+        rolling condition by the constraint ``Eq(s, R*phi)`` (the lecture's y = Rθ).
+        The multiplier λ is then the friction force along +s (N): the generalized
+        constraint force is Φ_qᵀλ = (λ, −R λ).
+
+    Closed forms
+    ------------
+    * s̈ = g sin α / (1 + I/(m R²))   (uniform disc: 2 g sin α / 3);
+    * the friction force acts up the incline, λ = −I s̈ / R²;
+    * energy m ṡ² (1 + I/(m R²))/2 − m g s sin α is conserved.
+    """
+    m, R, I, alpha, g = sp.symbols("m R I alpha g", positive=True)
+    if constrained:
+        (s, phi), _ = coordinates("s phi")
+        angle, constraints = phi, [sp.Eq(s, R * phi)]
+    else:
+        (s,), _ = coordinates("s")
+        angle, constraints = s / R, []
+    q = [s, phi] if constrained else [s]
+    disc = RigidBody(m, I, (s * sp.cos(alpha), -s * sp.sin(alpha)), -angle, "disc")
+    return System(q, bodies=[disc], potential=m * g * disc.position[1], constraints=constraints,
+                  name="rolling disc" + (" (rolling constraint)" if constrained else ""))
+
+
+def atwood_machine() -> System:
+    """The Atwood machine with a massive pulley: masses ``m1`` and ``m2`` hang from a
+    string over a uniform disc of mass ``M`` (radius R, I = M R²/2) on a fixed axle; the
+    string does not slip.
+
+    Coordinate ``y`` (m): how far m1 has descended (m2 rises by y, the pulley turns
+    by y/R).  Parameters ``M``, ``R`` (m; it cancels from the equations), ``g``, ``m1``,
+    ``m2``.
+
+    Closed forms
+    ------------
+    * ÿ = (m1 − m2) g / (m1 + m2 + I/R²) = (m1 − m2) g / (m1 + m2 + M/2);
+    * the string's tensions T1 = m1 (g − ÿ) and T2 = m2 (g + ÿ) differ by the torque
+      that turns the pulley: (T1 − T2) R = I ÿ / R.
+    """
+    (y,), _ = coordinates("y")
+    m1, m2, M, R, g = sp.symbols("m1 m2 M R g", positive=True)
+    left = Particle(m1, (-R, -y), "m1")
+    right = Particle(m2, (R, y), "m2")
+    pulley = RigidBody(M, M * R**2 / 2, (0, 0), y / R, "pulley")
+    return System([y], particles=[left, right], bodies=[pulley],
+                  potential=g * (m1 * left.position[1] + m2 * right.position[1]),
+                  name="Atwood machine (massive pulley)")
 
 
 # -- central force (Kepler) ---------------------------------------------------------------------

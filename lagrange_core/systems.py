@@ -29,9 +29,10 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
+from .bodies import RigidBody
 from .symbols import coordinates, t, velocity_symbol
 
-__all__ = ["t", "coordinates", "Particle", "System"]
+__all__ = ["t", "coordinates", "Particle", "RigidBody", "System"]
 
 @dataclass(frozen=True)
 class Particle:
@@ -74,6 +75,177 @@ def _as_dynamic_free(expr, subs):
     return expr.xreplace(subs) if subs else expr
 
 
+def _particle(p, conv, default_name):
+    return Particle(conv(p.mass), tuple(conv(c) for c in p.position), p.name or default_name)
+
+
+def _sequence(value, what):
+    """``value`` as a list; one expression (or number) alone is a list of one."""
+    if value is None:
+        return []
+    if isinstance(value, (sp.Basic, str, int, float)) and not isinstance(value, sp.MatrixBase):
+        if isinstance(value, str):
+            raise TypeError(f"{what}: expected a sequence of expressions, got the string "
+                            f"{value!r}; write sympy expressions (sp.Symbol, sp.sympify).")
+        return [value]
+    if not isinstance(value, Iterable):
+        raise TypeError(f"{what}: expected a sequence, got {value!r}.")
+    return list(value)
+
+
+def _items(values, kind, what):
+    """The entries of ``particles`` or ``bodies``, each checked to be a ``kind``."""
+    values = _sequence(values, what)
+    for i, v in enumerate(values):
+        if isinstance(v, kind):
+            continue
+        if isinstance(v, RigidBody):
+            fix = "pass rigid bodies as bodies=[...]"
+        elif isinstance(v, Particle):
+            fix = "pass point masses as particles=[...]"
+        else:
+            fix = f"make it with lagrange_core.{kind.__name__}(...)"
+        raise TypeError(f"{what}[{i}] is {v!r}, not a {kind.__name__}; {fix}.")
+    return values
+
+
+def _entries(x):
+    """The entries of a matrix, or [x]."""
+    return list(x) if isinstance(x, sp.MatrixBase) else [x]
+
+
+def _scalar(expr, where):
+    """Check that ``expr`` is a scalar expression (not a relation, matrix or tuple)."""
+    if isinstance(expr, sp.Expr):
+        return expr
+    if isinstance(expr, (sp.core.relational.Relational, sp.logic.boolalg.Boolean)):
+        raise ValueError(f"{where} is the relation {expr}, not an expression; write the expression "
+                         "itself (only a constraint may be given as sp.Eq(lhs, rhs)).")
+    raise TypeError(f"{where} must be one scalar expression, got {expr!r}.")
+
+
+def _constraint(c, i):
+    """A constraint as f with f(q, t) = 0; sp.Eq(lhs, rhs) becomes lhs − rhs."""
+    if isinstance(c, sp.Equality):
+        return _scalar(c.lhs - c.rhs, f"constraint {i}")
+    if isinstance(c, sp.logic.boolalg.BooleanAtom):
+        raise ValueError(f"constraint {i} is {c}: sympy decided the equation before the system saw "
+                         "it (e.g. Eq(x, x) or Eq(1, 2)). Write the constraint as an expression "
+                         "f(q, t) that vanishes, or sp.Eq(lhs, rhs) in the coordinates.")
+    if isinstance(c, sp.core.relational.Relational):
+        raise ValueError(f"constraint {i} ({c}) is an inequality; only holonomic constraints "
+                         "f(q, t) = 0 are supported, written f or sp.Eq(lhs, rhs).")
+    return _scalar(c, f"constraint {i}")
+
+
+def _by_name(mapping, what):
+    """A mapping keyed by names, Symbols or dynamicsymbols, as {name: value}."""
+    out = {}
+    for key, value in mapping.items():
+        if isinstance(key, str):
+            name = key
+        elif isinstance(key, sp.Symbol):
+            name = key.name
+        elif isinstance(key, sp.core.function.AppliedUndef):
+            name = type(key).__name__
+        else:
+            raise TypeError(f"{what}: a key must be a name or a sympy Symbol, got {key!r} "
+                            f"({type(key).__name__}).")
+        if name in out:
+            raise ValueError(f"{what}: {name!r} is given twice (as a name and as a Symbol?); give "
+                             "each value once.")
+        out[name] = value
+    return out
+
+
+#: Functions handed to the code generator even though it may not compile them yet: it
+#: names them itself ("cannot compile ...") until it does (issue 10, item 11).
+_LEFT_TO_THE_GENERATOR = frozenset({"Heaviside", "Max", "Min", "Piecewise"})
+#: Rewrites to suggest for common functions the kernels lack.
+_REWRITES = {"sec": "1/cos(x)", "csc": "1/sin(x)", "cot": "cos(x)/sin(x)", "sech": "1/cosh(x)",
+             "csch": "1/sinh(x)", "coth": "cosh(x)/sinh(x)", "acot": "atan(1/x)",
+             "asec": "acos(1/x)", "acsc": "asin(1/x)"}
+
+
+def _compiled_functions() -> frozenset:
+    """The names (lower case) of the functions the kernels compute (lagrange_core._ir)."""
+    from ._ir import SUPPORTED
+    return frozenset(SUPPORTED)
+
+
+def _check_expression(where, expr):
+    """Refuse, naming ``where`` and the fix, what derivation or the kernels cannot handle.
+
+    That is: an undefined function F(t) or a derivative (velocities are symbols), a
+    symbol named t that is not :data:`t`, a function the generated kernels cannot
+    compute, complex or infinite numbers, and anything that is not an expression.
+    """
+    compiled = _compiled_functions()
+    supported = ", ".join(sorted(compiled - {"pi", "E"}))
+    stack = [(expr, False)]
+    while stack:
+        node, in_piecewise = stack.pop()
+        if isinstance(node, sp.Symbol):
+            if node.name == "t" and node != t:
+                given = getattr(node, "_assumptions_orig", None) or node.assumptions0
+                flags = ", ".join(f"{k}={v}" for k, v in sorted(given.items()))
+                raise ValueError(
+                    f"{where}: the symbol t in {expr} is not the time symbol: it was made with "
+                    f"other assumptions ({flags}). Time is lagrange_core.t (`from lagrange_core "
+                    "import t`; sympy's plain Symbol('t') is taken as time too). If this t is a "
+                    "parameter, give it another name.")
+            continue
+        if isinstance(node, sp.core.function.AppliedUndef):
+            if node.args == (t,):
+                raise ValueError(
+                    f"{where}: {node} in {expr} is an undefined function of time, which the engine "
+                    "can neither differentiate nor evaluate. Write it as an explicit expression "
+                    f"of t (lagrange_core.t), e.g. A*cos(omega*t) for a drive, or as a parameter "
+                    f"symbol if it is constant. (If {type(node).__name__} is meant to be a "
+                    "coordinate, list it in `coordinates`.)")
+            raise ValueError(
+                f"{where}: {node} in {expr} is an undefined function, which the engine can neither "
+                "differentiate nor evaluate. Write it as an explicit expression of its arguments "
+                f"{list(node.args)}, or as a parameter symbol if it is constant.")
+        if isinstance(node, sp.Derivative):
+            raise ValueError(
+                f"{where}: {node} in {expr} is a derivative, which a statement cannot contain: "
+                "write velocities as the symbols <name>_dot (lagrange_core.coordinates returns "
+                "them) and prescribed motions as explicit expressions of t.")
+        if isinstance(node, sp.Number):
+            if not node.is_finite:
+                raise ValueError(f"{where}: {expr} contains {node}, which is not a finite number.")
+            continue
+        if node is sp.I:
+            raise ValueError(f"{where}: {expr} contains the imaginary unit I; the kernels compute "
+                             "in real arithmetic. State the system with real expressions.")
+        if isinstance(node, sp.NumberSymbol):
+            if node in (sp.pi, sp.E):
+                continue
+            raise ValueError(f"{where}: the kernels know the constants pi and E only; write "
+                             f"{node} by its value, {float(node)!r}.")
+        if isinstance(node, (sp.Add, sp.Mul, sp.Pow)):
+            stack.extend((a, in_piecewise) for a in node.args)
+            continue
+        if in_piecewise and isinstance(node, (sp.core.relational.Relational,
+                                              sp.logic.boolalg.Boolean, sp.Tuple)):
+            stack.extend((a, True) for a in node.args)
+            continue
+        if getattr(node, "is_Function", False):
+            name = type(node).__name__
+            if name.lower() in compiled or name in _LEFT_TO_THE_GENERATOR:
+                stack.extend((a, in_piecewise or name == "Piecewise") for a in node.args)
+                continue
+            hint = f" (e.g. {name}(x) = {_REWRITES[name]})" if name in _REWRITES else ""
+            raise ValueError(
+                f"{where}: the kernels cannot compute {name} in {expr}. They compute + - * / **, "
+                f"the numbers pi and E and the functions {supported}; rewrite it with these"
+                f"{hint}, or replace it by a parameter if it is constant.")
+        raise ValueError(f"{where}: {node} ({type(node).__name__}) in {expr} is not an expression "
+                         "the kernels can compute; write it with + - * / **, numbers and the "
+                         f"functions {supported}.")
+
+
 class System:
     """A mechanical system stated by its Lagrangian ingredients.
 
@@ -92,26 +264,49 @@ class System:
     coordinates : sequence of sympy.Symbol
         Generalized coordinates q, in order (see :func:`coordinates`).
     particles : sequence of Particle, optional
-        Point masses; their kinetic energy ½ m |ṙ|² enters L.
+        Point masses; their kinetic energy ½ m |ṙ|² enters L.  A mass may depend
+        on t (then d/dt ∂T/∂q̇ contains ṁ: the mass gained or lost is at rest).
+    bodies : sequence of RigidBody, optional
+        Rigid bodies, planar or 3-D (:class:`lagrange_core.RigidBody`).  Each
+        becomes a particle at its centre of mass plus its rotational kinetic
+        energy, a term of L.
     lagrangian : sympy expression, optional
         An extra term of L(q, q̇, t) (the whole L when there are no particles).
         Velocities are the symbols ``<name>_dot``.
     potential : sympy expression, optional
         Potential energy V(q, t) (J); L gets −V.
-    constraints : sequence of sympy expressions, optional
-        Holonomic constraints f(q, t) = 0.
-    forces : mapping coordinate -> expression, or sequence, optional
-        Generalized (non-conservative) forces Q_j(q, q̇, t).
+    constraints : sequence of sympy expressions or equations, optional
+        Holonomic constraints f(q, t) = 0, written as f or as ``sp.Eq(lhs, rhs)``.
+    forces : mapping, or sequence, optional
+        Non-conservative forces, as
+
+        * generalized forces Q_j(q, q̇, t): a mapping coordinate (symbol or name)
+          -> Q_j, or a sequence of one Q_j per coordinate;
+        * Cartesian forces on points: ``[(particle, (F_x, F_y)), ...]`` or
+          mapping entries ``particle: (F_x, F_y)`` (N), the components in the
+          axes of the particle's position.  A RigidBody as the point means its
+          centre of mass.  They enter through virtual work,
+          Q_j = Σ F · ∂r/∂q_j.
+
+        Both kinds may be mixed in one mapping.
     dissipation : sympy expression, optional
         Rayleigh dissipation function D(q, q̇); adds −∂D/∂q̇_j to Q_j.
     name : str, optional
         A label for tables and messages.
 
+    Every expression may use + − × / **, the numbers π and e and the functions
+    the kernels compile (sin, cos, tan, exp, log, sqrt, their inverses, the
+    hyperbolic functions, atan2, Abs and sign); time is :data:`t` (sympy's
+    plain ``Symbol('t')`` is taken as time too).
+
     Raises
     ------
     ValueError
         With the problem and its fix, e.g. a particle whose position depends on
-        no coordinate, or a constraint that involves no coordinate.
+        no coordinate, a constraint that involves no coordinate, a function the
+        kernels cannot compute or an undefined function F(t).
+    TypeError
+        If an argument has the wrong kind (a body among the particles, ...).
 
     Examples
     --------
@@ -128,7 +323,7 @@ class System:
     ('g', 'l', 'm')
     """
 
-    def __init__(self, coordinates, *, particles=(), lagrangian=0, potential=0,
+    def __init__(self, coordinates, *, particles=(), bodies=(), lagrangian=0, potential=0,
                  constraints=(), forces=None, dissipation=0, name: str = ""):
         self.name = name
         q, subs = self._normalise_coordinates(coordinates)
@@ -136,14 +331,53 @@ class System:
         self._qdot = tuple(velocity_symbol(s) for s in q)
         conv = functools.partial(_as_dynamic_free, subs=subs)
 
-        self._particles = tuple(
-            Particle(conv(p.mass), tuple(conv(c) for c in p.position), p.name or f"particle {i}")
-            for i, p in enumerate(particles))
-        self._lagrangian = conv(lagrangian)
-        self._potential = conv(potential)
-        self._constraints = tuple(conv(c) for c in constraints)
-        self._dissipation = conv(dissipation)
-        self._forces = self._normalise_forces(forces, conv)
+        particles = [_particle(p, conv, f"particle {i}")
+                     for i, p in enumerate(_items(particles, Particle, "particles"))]
+        bodies = [b.map(conv) for b in _items(bodies, RigidBody, "bodies")]
+        lagrangian, potential, dissipation = (
+            _scalar(conv(x), what) for x, what in ((lagrangian, "the lagrangian"),
+                                                   (potential, "the potential"),
+                                                   (dissipation, "the dissipation function")))
+        constraints = [_constraint(conv(c), i) for i, c in enumerate(_sequence(constraints,
+                                                                                "constraints"))]
+        generalized, point_forces = self._split_forces(forces, conv)
+
+        # what the user wrote, each with the words that name it in a message
+        stated = [("the lagrangian", lagrangian), ("the potential", potential),
+                  ("the dissipation function", dissipation)]
+        stated += [(f"constraint {i}", c) for i, c in enumerate(constraints)]
+        stated += [(f"the force on {qj.name}", f) for qj, f in zip(self._q, generalized)]
+        stated += [(f"the force on {label}", c) for label, _, vector in point_forces
+                   for c in vector]
+        for p in particles:
+            stated += [(f"the {what} of {p.name}", e) for what, e in (
+                ("mass", p.mass), *(("position", c) for c in p.position))]
+        for i, b in enumerate(bodies):
+            label = f"body {b.name!r}" if b.name else f"body {i}"
+            stated += [(f"the {what} of {label}", e) for what, e in (
+                ("mass", b.mass), *(("position", c) for c in b.position),
+                *(("inertia", e) for e in _entries(b.inertia)),
+                *(("orientation", e) for e in _entries(b.orientation)))]
+        for where, expr in stated:
+            _check_expression(where, expr)
+
+        # bodies: a particle at the centre of mass and ½ I φ̇² (½ ωᵀ I ω) in L
+        for i, b in enumerate(bodies):
+            label = b.name or f"body {i}"
+            self._check_body_moves(b, label)
+            T_rot = b.rotational_energy(self._q, self._qdot)
+            if set().union(*(c.free_symbols for c in b.position)) & set(self._q):
+                particles.append(Particle(b.mass, b.position, label))
+            else:       # a fixed (or driven) centre of mass: only its ½ m |∂r/∂t|² remains
+                T_rot += b.mass * sp.Add(*[sp.diff(c, t) ** 2 for c in b.position]) / 2
+            lagrangian = lagrangian + T_rot
+        self._particles = tuple(particles)
+        self._bodies = tuple(bodies)
+        self._lagrangian = lagrangian
+        self._potential = potential
+        self._constraints = tuple(constraints)
+        self._dissipation = dissipation
+        self._forces = self._project_forces(generalized, point_forces)
         self._validate()
         self._parameters = self._collect_parameters()
 
@@ -177,12 +411,19 @@ class System:
         return self._particles
 
     @property
+    def bodies(self) -> tuple[RigidBody, ...]:
+        """The rigid bodies as stated (each is also a centre-of-mass particle, unless that
+        point is fixed, and a rotational term of :attr:`lagrangian_term`)."""
+        return self._bodies
+
+    @property
     def potential(self) -> sp.Expr:
         return self._potential
 
     @property
     def lagrangian_term(self) -> sp.Expr:
-        """The explicitly given part of L (zero when L comes from particles only)."""
+        """The part of L not from particles: the given ``lagrangian`` plus the bodies'
+        rotational kinetic energies (zero when L comes from particles only)."""
         return self._lagrangian
 
     @property
@@ -191,7 +432,8 @@ class System:
 
     @property
     def forces(self) -> tuple[sp.Expr, ...]:
-        """Generalized forces Q_j, one per coordinate (zeros where none given)."""
+        """Generalized forces Q_j, one per coordinate (zeros where none given); Cartesian
+        forces on points are included, projected as Q_j = Σ F · ∂r/∂q_j."""
         return self._forces
 
     @property
@@ -242,12 +484,19 @@ class System:
     def parameter_array(self, params: Mapping[str, float] | None) -> np.ndarray:
         """Validate a dict of parameter values and return them as a float array.
 
+        Parameters
+        ----------
+        params : mapping
+            Values by parameter name or by the parameter's sympy Symbol.
+
         Raises
         ------
         ValueError
-            If a parameter is missing, unknown or not a finite real number.
+            If a parameter is missing, unknown, given twice or not a finite real number.
+        TypeError
+            If a key is neither a name nor a sympy Symbol.
         """
-        params = {} if params is None else dict(params)
+        params = {} if params is None else _by_name(params, "params")
         names = self.parameters
         unknown = sorted(set(params) - set(names))
         if unknown:
@@ -271,9 +520,11 @@ class System:
         return values
 
     def coordinate_array(self, values, what: str = "q") -> np.ndarray:
-        """Coordinates (or velocities) given as a sequence or a name -> value dict, as an array."""
+        """Coordinates (or velocities) given as a sequence or a dict keyed by coordinate
+        name or symbol (missing coordinates are 0), as an array."""
         n = self.n_dof
         if isinstance(values, Mapping):
+            values = _by_name(values, what)
             unknown = sorted(set(values) - set(self.coordinates))
             if unknown:
                 raise ValueError(f"{what}: unknown coordinate(s) {unknown}; the coordinates of "
@@ -287,6 +538,30 @@ class System:
             raise ValueError(f"{what} must be finite, got {arr}.")
         return arr
 
+    def mass_forcing(self, q, qdot, t=0.0, params=None) -> tuple[np.ndarray, np.ndarray]:
+        """The mass matrix M and the forcing F of M q̈ = F + Φ_qᵀλ at one state, as numbers.
+
+        Parameters
+        ----------
+        q, qdot, t, params
+            The state, time (s) and parameter values, as for :meth:`accelerations`.
+
+        Returns
+        -------
+        M : ndarray, shape (n, n)
+            The mass matrix M(q, t) (symmetric; kg, kg m, kg m² by the coordinates' units).
+        F : ndarray, shape (n,)
+            F(q, q̇, t): velocity terms, −∂V/∂q, the generalized forces and −∂D/∂q̇.
+            Constraint forces are not included (see :meth:`accelerations`).
+        """
+        q = self.coordinate_array(q, "q")
+        qd = self.coordinate_array(qdot, "qdot")
+        p = self.parameter_array(params)
+        n = self.n_dof
+        M, F = np.empty((n, n)), np.empty(n)
+        self.kernels.mass_forcing(q, qd, float(t), p, M, F)
+        return M, F
+
     def accelerations(self, q, qdot, t=0.0, params=None):
         """Generalized accelerations q̈ at one state.
 
@@ -297,7 +572,7 @@ class System:
         t : float
             Time (s).
         params : dict
-            Parameter values by name.
+            Parameter values by name or by Symbol.
 
         Returns
         -------
@@ -439,31 +714,93 @@ class System:
         if not q:
             raise ValueError("a system needs at least one generalized coordinate.")
         if sp.Symbol("t") in q or t in q:
-            raise ValueError("'t' is the time symbol and cannot be a coordinate.")
-        # sympy's plain Symbol('t') (no assumptions) means time too
+            raise ValueError("'t' is the time symbol (lagrange_core.t) and cannot be a coordinate; "
+                             "give the coordinate another name.")
+        # sympy's plain Symbol('t') (no assumptions; sympy.physics.mechanics' time) means time
         subs.setdefault(sp.Symbol("t"), t)
         return tuple(q), subs
 
-    def _normalise_forces(self, forces, conv):
+    def _split_forces(self, forces, conv):
+        """The ``forces`` argument as (Q_j per coordinate, [(label, point, F vector)])."""
         n = len(self._q)
+        generalized = [sp.S.Zero] * n
+        points = []
         if forces is None:
-            return (sp.S.Zero,) * n
+            return generalized, points
+
+        def point_force(point, vector):
+            label = point.name or f"the point at {tuple(point.position)}"
+            if isinstance(point, RigidBody):
+                label = f"the centre of mass of {point.name or 'a body'}"
+            position = tuple(conv(c) for c in point.position)
+            if isinstance(vector, sp.MatrixBase):
+                vector = tuple(vector)
+            if not isinstance(vector, Iterable) or isinstance(vector, (str, sp.Basic)):
+                vector = (vector,)
+            vector = tuple(_scalar(conv(c), f"the force on {label}") for c in vector)
+            if len(vector) != len(position):
+                raise ValueError(
+                    f"forces: the force on {label} has {len(vector)} component(s) {vector} but its "
+                    f"position {position} has {len(position)}; give one Cartesian component per "
+                    "axis of the position.")
+            points.append((label, position, vector))
+
         if isinstance(forces, Mapping):
-            out = [sp.S.Zero] * n
             index = {s: i for i, s in enumerate(self._q)}
             index.update({s.name: i for i, s in enumerate(self._q)})
             for key, value in forces.items():
+                if isinstance(key, (Particle, RigidBody)):
+                    point_force(key, value)
+                    continue
                 key = conv(key) if not isinstance(key, str) else key
                 if key not in index:
                     raise ValueError(f"forces: {key!r} is not a coordinate; the coordinates are "
-                                     f"{list(self.coordinates)}.")
-                out[index[key]] = conv(value)
-            return tuple(out)
-        forces = [conv(f) for f in forces]
+                                     f"{list(self.coordinates)} (a Cartesian force is keyed by "
+                                     "its Particle or RigidBody).")
+                generalized[index[key]] = _scalar(conv(value), f"the force on {key}")
+            return generalized, points
+        if isinstance(forces, tuple) and len(forces) == 2 and isinstance(
+                forces[0], (Particle, RigidBody)):
+            forces = [forces]                      # one (particle, force) pair
+        forces = _sequence(forces, "forces")
+        is_point = [isinstance(f, tuple) and len(f) == 2 and isinstance(f[0], (Particle, RigidBody))
+                    for f in forces]
+        if forces and all(is_point):
+            for point, vector in forces:
+                point_force(point, vector)
+            return generalized, points
+        if any(is_point):
+            raise ValueError("forces: a sequence is either one generalized force per coordinate or "
+                             "(particle, (F_x, F_y, ...)) pairs, not both; mix them in a dict "
+                             "{coordinate: Q, particle: (F_x, F_y)}.")
         if len(forces) != n:
             raise ValueError(f"forces: give one generalized force per coordinate ({n}), "
-                             f"got {len(forces)}; or pass a dict coordinate -> force.")
-        return tuple(forces)
+                             f"got {len(forces)}; or pass a dict coordinate -> force, or "
+                             "(particle, (F_x, F_y)) pairs.")
+        return [_scalar(conv(f), f"the force on {q.name}") for f, q in zip(forces, self._q)], points
+
+    def _project_forces(self, generalized, points):
+        """Q_j plus the virtual work of the Cartesian forces, Σ F · ∂r/∂q_j."""
+        Q = list(generalized)
+        for _, position, vector in points:
+            for j, qj in enumerate(self._q):
+                Q[j] += sp.Add(*[F * sp.diff(r, qj) for F, r in zip(vector, position)])
+        return tuple(Q)
+
+    def _check_body_moves(self, body, label):
+        qset = set(self._q)
+        moves = set().union(*(e.free_symbols for e in (*body.position, *_entries(body.orientation))))
+        if not moves & qset:
+            raise ValueError(
+                f"{label}: neither its centre of mass {body.position} nor its orientation depends "
+                f"on a coordinate of {list(self.coordinates)}, so it cannot move with the system. "
+                "Write them in terms of the coordinates, or drop the body.")
+        for what, exprs in (("mass", [body.mass]), ("inertia", _entries(body.inertia))):
+            if set().union(*(e.free_symbols for e in exprs)) & (qset | set(self._qdot)):
+                raise ValueError(f"{label}: the {what} must not depend on coordinates or "
+                                 "velocities (it may depend on t).")
+        if moves & set(self._qdot):
+            raise ValueError(f"{label}: its position and orientation cannot depend on velocities.")
 
     def _validate(self):
         qset, vset = set(self._q), set(self._qdot)
@@ -499,13 +836,6 @@ class System:
         if self._dissipation.free_symbols & vset == set() and self._dissipation != 0:
             raise ValueError("the dissipation function D must depend on the velocities "
                              f"{[s.name for s in self._qdot]} (e.g. D = gamma*theta_dot**2/2).")
-        all_exprs = self._all_expressions()
-        bad = [e for e in all_exprs if e.has(sp.Derivative) or any(
-            isinstance(f, sp.core.function.AppliedUndef) for f in e.atoms(sp.Function))]
-        if bad:
-            raise ValueError(f"expression {bad[0]} contains an undefined function or derivative; "
-                             "declare every coordinate in `coordinates` (q(t) is accepted) and write "
-                             "velocities as <name>_dot symbols.")
 
     def _all_expressions(self):
         exprs = [self._lagrangian, self._potential, self._dissipation, *self._constraints, *self._forces]
@@ -519,7 +849,7 @@ class System:
         free = set().union(*(e.free_symbols for e in self._all_expressions())) - known
         clash = sorted(s.name for s in free if s.name in {x.name for x in known})
         if clash:
-            raise ValueError(f"symbol(s) {clash} share a name with a coordinate, velocity or t but are "
+            raise ValueError(f"symbol(s) {clash} share a name with a coordinate or velocity but are "
                              "different symbols (different assumptions?); use the symbols returned "
                              "by lagrange_core.coordinates().")
         names = [s.name for s in free]
