@@ -8,9 +8,9 @@ Run:  python benchmarks/bench_cold_start.py [--quick] [--baseline REV]
    ``lagrange_core.warmup()`` first).  Printed per phase: statement, kernels (derive,
    generate, compile ``rhs``), first ``simulate`` (the C entry points it needs and the
    run), and the total from statement to trajectory; medians of 3 processes.
-2. Running cost: per step and fixed per ``simulate`` call, from two run lengths in one
-   process (fixed = time of the short run − its steps × the per-step cost; minima of
-   5 repetitions).  With ``--baseline REV`` the same measurement runs on the source
+2. Running cost: per step and fixed per ``simulate`` call, from three run lengths in one
+   process (per step: the slope between the two longer runs; fixed: the time of a run
+   of a few steps less its steps × the per-step cost; minima of 7 repetitions).  With ``--baseline REV`` the same measurement runs on the source
    tree of git revision REV (a temporary worktree), alternating old and new processes,
    and the ratios new/old are printed.
 
@@ -107,20 +107,22 @@ def worker_cold(name):
 
 
 def worker_steps(name, quick):
+    """Per step: the slope between a run and one 10x (quick 5x) longer; fixed: a run of a
+    few steps less its steps at that cost.  Minima over repetitions."""
     system, q0, qd0, params, span, kw = make_case(name)
-    spans = (span, span * (5 if quick else 20))
+    spans = (span / 200, span, span * (5 if quick else 10))
     system.simulate(q0, qd0, (0.0, spans[0]), params, **kw)       # compile / load
     best, steps = [], []
     for s in spans:
         times = []
-        for _ in range(3 if quick else 5):
+        for _ in range(3 if quick else 7):
             t0 = time.perf_counter()
             tr = system.simulate(q0, qd0, (0.0, s), params, **kw)
             times.append(time.perf_counter() - t0)
         best.append(min(times))
         steps.append(tr.n_steps)
-    per_step = (best[1] - best[0]) / (steps[1] - steps[0])
-    return dict(per_step=per_step, fixed=best[0] - steps[0] * per_step, steps=steps[0])
+    per_step = (best[2] - best[1]) / (steps[2] - steps[1])
+    return dict(per_step=per_step, fixed=best[0] - steps[0] * per_step, steps=steps[1])
 
 
 def run_worker(kind, name, *, env=None, quick=False):
