@@ -31,12 +31,11 @@ import sympy as sp
 from numba import njit, prange
 from scipy.integrate import solve_ivp
 
+from kapitza import floquet as fqm
 from kapitza import mathieu as mm
 from kapitza.pendulum import KapitzaPendulum
 from lagrange_core import problems
 from lagrange_core import t as t_sym
-
-import kapitza.floquet as fqm  # noqa: E402  (the module; kapitza.floquet.floquet is a function)
 
 G, L = 9.81, 1.0
 W0 = math.sqrt(G / L)

@@ -1,39 +1,105 @@
 """kapitza: fast periodic driving on top of lagrange_core.
 
+Conventions (shared/PHYSICS.md): SI units; θ from the downward vertical (θ = π upright);
+pivot A cos ωt; damping γ (1/s); Mathieu form τ = ωt/2, a = ±4ω0²/ω², q = 2A/l.
+
 Public API
 ----------
-KapitzaPendulum
-    The driven pendulum: averaging, Floquet stability and direct integration in one
-    object (:mod:`kapitza.pendulum`).
-average, AveragedSystem, pendulum_averaged, stability_window, multiple_pendulum_upright, ...
-    Averaging over a fast periodic drive (:mod:`kapitza.averaging`).
-floquet_grid, stability_map, FloquetResult, StabilityMap, FloquetWindow (and floquet.floquet)
-    Floquet analysis of any lagrange_core system about a driven equilibrium
-    (:mod:`kapitza.floquet`).
-characteristic_value, mathieu_parameters, pendulum_stability_map, ...
-    The Mathieu equation of the single pendulum (:mod:`kapitza.mathieu`).
-stability_map_figure, ince_strutt_figure
-    Figures (:mod:`kapitza.plots`).
+The pendulum
+    KapitzaPendulum
+        The driven pendulum: averaging, Floquet stability and direct integration in
+        one object (:mod:`kapitza.pendulum`).
+
+Averaging (:mod:`kapitza.averaging`)
+    average
+        Average a lagrange_core System over its fast periodic drive (Landau–Lifshitz §30).
+    AveragedSystem
+        The slow description: U_eff (sympy and compiled), equilibria, slow modes, sweeps.
+    AveragingValidityWarning
+        Warns when a scalar prediction lies outside the regime where averaging holds.
+    pendulum_effective_potential
+        U_eff(θ)/m of the vertically or horizontally driven pendulum (J/kg).
+    pendulum_averaged
+        Equilibria, stability and slow frequencies by averaging, order 1 or 2, over arrays.
+    stability_window
+        The averaging prediction of the amplitudes that hold the pendulum upright, per ω.
+    multiple_pendulum_upright
+        Minimum drive and slow modes of the upright N-link chain (Acheson's theorem).
+
+Floquet analysis (:mod:`kapitza.floquet`)
+    floquet_point
+        Monodromy, multipliers and stability about a driven equilibrium of any system.
+    floquet_grid
+        The same over a broadcast grid of parameter sets.
+    monodromy_data
+        Only the monodromy matrices over a grid.
+    stability_map
+        Stability of any system's driven equilibrium over an (A, ω) grid.
+
+The Mathieu equation of the single pendulum (:mod:`kapitza.mathieu`)
+    mathieu_parameters
+        The mapping (A, ω, l, g, γ, about) → (a, q, c), written once.
+    characteristic_value
+        a_r(q), b_r(q) to rounding (where scipy.special is wrong too).
+    mathieu_monodromy_trace
+        tr M of the (damped) Mathieu equation by integration, with error estimate.
+    pendulum_stability_window
+        The exact window A_min < A < A_max per ω, certified.
+    pendulum_stability_map
+        The exact stability map over A × ω (characteristic values: milliseconds).
+    ince_strutt_chart
+        The Mathieu equation's stability chart and characteristic curves.
+
+Results (:mod:`kapitza.results`; frozen dataclasses with ``to_dataframe()``)
+    FloquetResult
+        One point's Floquet analysis: multipliers, trace, stability, slow frequency, guards.
+    FloquetGrid, MonodromyData
+        Floquet analysis / monodromies over a parameter grid.
+    StabilityMap
+        Stability labels over (A, ω) with the pendulum's l, g, damping, about, method.
+    StabilityWindow
+        A_min, A_max per ω, exact (``method="floquet"``) or by averaging
+        (``method="averaging"``); ``FloquetWindow`` is its old name.
+    InceStruttChart
+        Stability grid and characteristic curves in the (q, a) plane.
+
+Figures (:mod:`kapitza.plots`; they draw results and compute nothing)
+    stability_map_figure
+        A stability map with stability windows (e.g. the averaging limit) drawn over it.
+    ince_strutt_figure
+        The Ince–Strutt chart.
+
+Examples
+--------
+>>> import math
+>>> import kapitza
+>>> pend = kapitza.KapitzaPendulum(l=1.0, g=9.81)
+>>> pend.averaged(A=0.05, omega=2 * math.pi * 60).inverted.stable     # first-order averaging
+True
+>>> pend.floquet(A=0.05, omega=2 * math.pi * 60, about="inverted").stable   # exact, linear
+True
 """
-from .pendulum import KapitzaPendulum
-
-__all__: list[str] = ["KapitzaPendulum"]
-
-from .averaging import (AveragedSystem, AveragingValidityWarning, average,  # noqa: E402
-                        multiple_pendulum_upright, pendulum_averaged,
-                        pendulum_effective_potential, stability_window)
-
-__all__ += ["average", "AveragedSystem", "AveragingValidityWarning", "pendulum_averaged",
-            "pendulum_effective_potential", "stability_window", "multiple_pendulum_upright"]
-# (the function kapitza.floquet.floquet is not re-exported: it would hide the module)
-from .floquet import (FloquetResult, FloquetWindow, StabilityMap,  # noqa: E402
-                      floquet_grid, stability_map)
-from .mathieu import (characteristic_value, mathieu_monodromy_trace,  # noqa: E402
+from .averaging import (AveragedSystem, AveragingValidityWarning, average,
+                        multiple_pendulum_upright, pendulum_averaged, pendulum_effective_potential,
+                        stability_window)
+from .floquet import floquet_grid, floquet_point, monodromy_data, stability_map
+from .mathieu import (characteristic_value, ince_strutt_chart, mathieu_monodromy_trace,
                       mathieu_parameters, pendulum_stability_map, pendulum_stability_window)
-from .plots import ince_strutt_figure, stability_map_figure  # noqa: E402
+from .pendulum import KapitzaPendulum
+from .plots import ince_strutt_figure, stability_map_figure
+from .results import (FloquetGrid, FloquetResult, FloquetWindow, InceStruttChart, MonodromyData,
+                      StabilityMap, StabilityWindow)
 
-__all__ += ["floquet_grid", "stability_map", "FloquetResult", "FloquetWindow",
-            "StabilityMap", "characteristic_value", "mathieu_parameters",
-            "mathieu_monodromy_trace", "pendulum_stability_map", "pendulum_stability_window",
-            "stability_map_figure", "ince_strutt_figure"]
+__all__ = [
+    "KapitzaPendulum",
+    "average", "AveragedSystem", "AveragingValidityWarning",
+    "pendulum_effective_potential", "pendulum_averaged", "stability_window",
+    "multiple_pendulum_upright",
+    "floquet_point", "floquet_grid", "monodromy_data", "stability_map",
+    "mathieu_parameters", "characteristic_value", "mathieu_monodromy_trace",
+    "pendulum_stability_window", "pendulum_stability_map", "ince_strutt_chart",
+    "FloquetResult", "FloquetGrid", "MonodromyData", "StabilityMap", "StabilityWindow",
+    "FloquetWindow", "InceStruttChart",
+    "stability_map_figure", "ince_strutt_figure",
+]
 __version__ = "0.1.0"

@@ -77,12 +77,14 @@ import symengine as se
 from lagrange_core import codegen
 from lagrange_core.systems import System, t as t_symbol
 
+from .results import StabilityWindow
+
 __all__ = [
     "MIN_FREQUENCY_RATIO", "MAX_AMPLITUDE_RATIO", "MAX_CORRECTION", "AveragingValidityWarning",
     "fourier_split", "average", "AveragedSystem", "SlowModes", "SlowModeSweep",
     "AveragingPrediction",
     "pendulum_effective_potential", "pendulum_averaged", "PendulumAveraging",
-    "EquilibriumPrediction", "StabilityWindow", "stability_window",
+    "EquilibriumPrediction", "stability_window",
     "exponent_squared", "mathieu_a0", "mathieu_b1",
     "multiple_pendulum_upright", "MultiplePendulumPrediction",
 ]
@@ -1310,45 +1312,28 @@ def pendulum_averaged(A, omega, *, l=1.0, g=9.81, damping=0.0, drive="vertical",
     return out
 
 
-@dataclass(frozen=True)
-class StabilityWindow:
-    """Range of drive amplitudes A_min < A < A_max holding the vertically driven pendulum upright.
-
-    Attributes
-    ----------
-    omega : array
-        Drive frequency (rad/s).
-    A_min : array
-        Lower (Kapitza) limit (m).  Order 1: √(2 g l)/ω.  Order 2: from
-        ν²(a′, q) = −γ²/ω², i.e. (undamped) A²ω²(1 − 7A²/(16 l²)) ≈ 2 g l;
-        relative error O(ε⁴).
-    A_max : array
-        Upper (parametric-resonance) limit (m) from a′ = b₁(2A/l) (order 2);
-        +inf at order 1, which cannot see it.  → 0.4540 l as ω → ∞.
-    order : int
-    """
-
-    omega: object
-    A_min: object
-    A_max: object
-    order: int
-
-    def to_dataframe(self) -> pd.DataFrame:
-        w, lo, hi = (np.ravel(x) for x in np.broadcast_arrays(self.omega, self.A_min, self.A_max))
-        return pd.DataFrame({"omega": w, "A_min": lo, "A_max": hi, "order": self.order})
-
-
 def stability_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2) -> StabilityWindow:
     """The drive amplitudes that keep the vertically driven pendulum upright, at each ω.
 
-    See :class:`StabilityWindow` for the formulas and their accuracy.
+    Order 1: A_min = √(2 g l)/ω, A_max = +inf (first order cannot see the upper
+    limit).  Order 2: A_min from ν²(a′, q) = −γ²/ω², i.e. (undamped)
+    A²ω²(1 − 7A²/(16 l²)) ≈ 2 g l, relative error O(ε⁴); A_max from the parametric
+    resonance a′ = b₁(2A/l), → 0.4540 l as ω → ∞.  The exact window is
+    :func:`kapitza.mathieu.pendulum_stability_window`.
+
+    Returns
+    -------
+    kapitza.results.StabilityWindow
+        ``method="averaging"``, fields of ``omega``'s shape (floats for a scalar).
     """
     _, omega = _as_drive(0.0, omega)
     if order not in (1, 2):
         raise ValueError(f"order must be 1 or 2, got {order!r}.")
+    window = functools.partial(StabilityWindow, method="averaging", about="inverted", order=order,
+                               l=float(l), g=float(g), damping=float(damping), omega=_item(omega))
     if order == 1:
-        return StabilityWindow(omega=_item(omega), A_min=_item(np.sqrt(2 * g * l) / omega),
-                               A_max=_item(np.full_like(omega, np.inf)), order=1)
+        return window(A_min=_item(np.sqrt(2 * g * l) / omega),
+                      A_max=_item(np.full_like(omega, np.inf)))
     a = -4 * g / (l * omega**2)
     s = (damping / omega) ** 2
     ap = a - s
@@ -1357,7 +1342,7 @@ def stability_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2) -> Stability
     x = (-c1 + np.sqrt(c1 * c1 - 4 * c2 * c0)) / (2 * c2)
     A_min = l * np.sqrt(x) / 2
     A_max = l * _b1_root(ap) / 2
-    return StabilityWindow(omega=_item(omega), A_min=_item(A_min), A_max=_item(A_max), order=2)
+    return window(A_min=_item(A_min), A_max=_item(A_max))
 
 
 # ======================================================================================

@@ -50,55 +50,71 @@ row that carries the eigenvector.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 from numba import njit, prange
+from scipy.optimize import brentq
 
-__all__ = ["mathieu_parameters", "characteristic_value", "mathieu_trace", "mathieu_monodromy_trace",
-           "ince_strutt_boundaries", "stability_counts", "pendulum_stability_window",
-           "pendulum_stability_map"]
+from . import arguments
+from .results import InceStruttChart, StabilityMap, StabilityWindow
 
-_ABOUT_SIGN = {"hanging": 1.0, "inverted": -1.0}
+__all__ = ["mathieu_parameters", "amplitude_from_q", "characteristic_value", "mathieu_trace",
+           "mathieu_monodromy_trace", "ince_strutt_boundaries", "ince_strutt_chart",
+           "stability_counts", "pendulum_stability_window", "pendulum_stability_map"]
 
 # families of the tridiagonal problems (see the module docstring)
 _A_EVEN, _B_EVEN, _A_ODD, _B_ODD = 0, 1, 2, 3
 
 
-def mathieu_parameters(A, omega, l, g, gamma=0.0, about="inverted"):
+def mathieu_parameters(A, omega, l, g, damping=0.0, about="inverted"):
     """Map pendulum parameters to the Mathieu form y″ + c y′ + (a − 2q cos 2τ) y = 0.
+
+    The one place where the mapping is written (shared/PHYSICS.md); its inverse for
+    the amplitude is :func:`amplitude_from_q`.
 
     Parameters
     ----------
     A : float or array
-        Drive amplitude (m) of the vertical pivot motion A cos ωt.
+        Drive amplitude (m, ≥ 0) of the vertical pivot motion A cos ωt.
     omega : float or array
         Drive angular frequency ω (rad/s), > 0.
     l, g : float
         Rod length (m) and gravitational acceleration (m/s²).
-    gamma : float
+    damping : float
         Viscous damping rate γ (1/s).
     about : {"inverted", "hanging"}
         Equilibrium θ* = π or θ* = 0.
 
     Returns
     -------
-    a, q, c : float or array (broadcast)
+    a, q, c : float or array
         a = ±4 g/(l ω²), q = 2A/l, c = 2γ/ω; τ = ωt/2 (exact; no approximation).
+        a and c have the shape of ``omega``, q that of ``A`` (they broadcast where
+        they meet; a grid of 1-d axes costs no more than its axes).
+
+    Examples
+    --------
+    The upright pendulum of length 1 m shaken at ω = 10 ω0 with A = 5 cm:
+
+    >>> import math
+    >>> a, q, c = mathieu_parameters(0.05, 10 * math.sqrt(9.81), l=1.0, g=9.81)
+    >>> print(f"a = {a:.3f}, q = {q:.3f}, c = {c:.1f}")
+    a = -0.040, q = 0.100, c = 0.0
     """
-    sign = _about_sign(about)
-    omega = np.asarray(omega, dtype=float)
+    sign = arguments.about_sign(about)
+    l, g, damping = arguments.pendulum_constants(l, g, damping)
+    A, omega = arguments.amplitude(A), arguments.frequency(omega)
     a = sign * 4.0 * g / (l * omega**2)
-    q = 2.0 * np.asarray(A, dtype=float) / l
-    c = 2.0 * gamma / omega
+    q = 2.0 * A / l
+    c = 2.0 * damping / omega
     return a, q, c
 
 
-def _about_sign(about):
-    try:
-        return _ABOUT_SIGN[about]
-    except (KeyError, TypeError):
-        raise ValueError("about must be 'inverted' (θ = π) or 'hanging' (θ = 0), got "
-                         f"{about!r}.") from None
+def amplitude_from_q(q, l):
+    """The drive amplitude A = q l / 2 (m) of the Mathieu parameter q: the inverse of
+    :func:`mathieu_parameters` for q."""
+    return np.asarray(q, dtype=float) * l / 2
 
 
 # -- tridiagonal eigenvalues -----------------------------------------------------------
@@ -473,6 +489,30 @@ def ince_strutt_boundaries(q, r_max=4):
     return out
 
 
+def ince_strutt_chart(q_max=20.0, a_range=(-20.0, 30.0), r_max=5, n=400) -> InceStruttChart:
+    """The Ince–Strutt chart on an n × n grid q ∈ [0, q_max], a ∈ a_range.
+
+    Stability at every point from characteristic values (:func:`stability_counts`) and
+    the curves a_0..a_rmax, b_1..b_rmax (:func:`ince_strutt_boundaries`); draw it with
+    :func:`kapitza.plots.ince_strutt_figure`.
+
+    Examples
+    --------
+    >>> chart = ince_strutt_chart(q_max=10, a_range=(-10, 20), r_max=3, n=50)
+    >>> sorted(chart.curves)
+    ['a0', 'a1', 'a2', 'a3', 'b1', 'b2', 'b3']
+    >>> bool(chart.stable[0, -1]), bool(chart.stable[0, 0])   # q = 0: stable iff a ≥ 0
+    (True, False)
+    """
+    if not (q_max > 0 and len(a_range) == 2 and a_range[0] < a_range[1] and n >= 2):
+        raise ValueError(f"need q_max > 0, a_range = (low, high) with low < high and n ≥ 2; got "
+                         f"q_max={q_max!r}, a_range={a_range!r}, n={n!r}.")
+    q = np.linspace(0.0, q_max, n)
+    a = np.linspace(a_range[0], a_range[1], n)
+    stable, _ = stability_counts(q, a)
+    return InceStruttChart(q=q, a=a, stable=stable, curves=ince_strutt_boundaries(q, r_max))
+
+
 # -- monodromy trace by integration ------------------------------------------------------
 
 @njit(cache=True)
@@ -629,28 +669,12 @@ def mathieu_trace(a, q, c=0.0, tol=1e-12):
 
 # -- the single pendulum: windows and maps ----------------------------------------------
 
-def _check_pendulum_args(l, g, gamma):
-    for name, v in (("l", l), ("g", g), ("gamma", gamma)):
-        if not np.isfinite(v):
-            raise ValueError(f"{name} must be finite, got {v!r}.")
-    if l <= 0 or g < 0 or gamma < 0:
-        raise ValueError(f"need l > 0, g ≥ 0, gamma ≥ 0; got l={l}, g={g}, gamma={gamma}.")
-
-
-def _omega_array(omega):
-    w = np.atleast_1d(np.asarray(omega, dtype=float))
-    if w.ndim != 1 or not np.all(np.isfinite(w)) or np.any(w <= 0):
-        raise ValueError("omega must be a positive finite number or 1-d array (rad/s).")
-    return w
-
-
 def _bracket_root(f, lo, hi, tol):
     """Root of f in [lo, hi] (sign change) to relative ``tol``; returns (root, verified accuracy).
 
     Brent's method, then a certificate: f changes sign across root·(1 ± δ); the
     smallest such δ tried (tol/4, tol, 4 tol, ...) is the reported accuracy.
     """
-    from scipy.optimize import brentq
     r = brentq(f, lo, hi, xtol=1e-300, rtol=max(tol / 8, 4.5e-16), maxiter=500)
     delta = max(tol / 4, 1e-15)
     for _ in range(40):
@@ -676,7 +700,8 @@ def _first_root(f, hi, tol, n=400):
     return np.inf, np.nan
 
 
-def pendulum_stability_window(omega, *, l=1.0, g=9.81, gamma=0.0, about="inverted", tol=1e-10):
+def pendulum_stability_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inverted",
+                              tol=1e-10) -> StabilityWindow:
     """The first window of drive amplitudes A_min < A < A_max that stabilises the pendulum.
 
     Root-finding on the Floquet condition at each ω:
@@ -693,31 +718,43 @@ def pendulum_stability_window(omega, *, l=1.0, g=9.81, gamma=0.0, about="inverte
     ----------
     omega : float or 1-d array
         Drive angular frequency (rad/s).
-    l, g, gamma : float
-        Length (m), gravity (m/s²), damping rate (1/s).
+    l, g, damping : float
+        Length (m), gravity (m/s²), damping rate γ (1/s).
     about : {"inverted", "hanging"}
     tol : float
         Requested relative accuracy of A_min and A_max.
 
     Returns
     -------
-    A_min, A_max, accuracy : ndarrays
-        Amplitudes (m); NaN where there is no window (e.g. ω too low to hold
-        the pendulum upright).  ``accuracy`` is the certified relative accuracy
-        (the Floquet condition changes sign across A·(1 ± accuracy)).
+    kapitza.results.StabilityWindow
+        ``method="floquet"``: A_min, A_max (m) per ω, NaN where there is no window
+        (e.g. ω too low to hold the pendulum upright); ``accuracy`` is the
+        certified relative accuracy (the Floquet condition changes sign across
+        A·(1 ± accuracy)).
+
+    Examples
+    --------
+    At ω = 10⁴ ω0 the upper edge is the first parametric resonance, A_max → 0.4540 l:
+
+    >>> import math
+    >>> win = pendulum_stability_window(1e4 * math.sqrt(9.81), l=1.0, g=9.81)
+    >>> print(f"{win.A_max[0]:.4f} m")
+    0.4540 m
+    >>> bool(win.accuracy[0] <= 1e-10)          # certified to the requested tol
+    True
     """
-    _check_pendulum_args(l, g, gamma)
-    sign = _about_sign(about)
+    l, g, damping = arguments.pendulum_constants(l, g, damping)
+    sign = arguments.about_sign(about)
     if not (1e-15 <= tol < 1e-1):
         raise ValueError(f"tol must lie in [1e-15, 0.1), got {tol!r}.")
-    w = _omega_array(omega)
+    w = arguments.grid_axis("omega", omega, "rad/s", positive=True)
     Amin = np.full(w.size, np.nan)
     Amax = np.full(w.size, np.nan)
     acc = np.full(w.size, np.nan)
     for i, om in enumerate(w):
-        a, _, c = mathieu_parameters(0.0, om, l, g, gamma, about)
+        a, _, c = mathieu_parameters(0.0, om, l, g, damping, about)
         a, c = float(a), float(c)
-        if gamma == 0.0:
+        if damping == 0.0:
             if sign < 0:
                 f0 = lambda q: _char_value(False, 0, q, np.nan) - a      # noqa: E731
                 f1 = lambda q: _char_value(True, 1, q, np.nan) - a       # noqa: E731
@@ -725,7 +762,7 @@ def pendulum_stability_window(omega, *, l=1.0, g=9.81, gamma=0.0, about="inverte
                 q0, e0 = _first_root(f0, max(2.0, 4 * math.sqrt(-a) + 4), tol)
                 q1, e1 = _first_root(f1, max(4.0, 2 * (1 - a) + 4), tol)
                 if q0 < q1:
-                    Amin[i], Amax[i], acc[i] = q0 * l / 2, q1 * l / 2, max(e0, e1)
+                    Amin[i], Amax[i], acc[i] = q0, q1, max(e0, e1)
             else:
                 r = int(math.floor(math.sqrt(a)))
                 if r * r == a:
@@ -737,9 +774,9 @@ def pendulum_stability_window(omega, *, l=1.0, g=9.81, gamma=0.0, about="inverte
                     roots.append(_first_root(lambda q: _char_value(False, r, q, np.nan) - a,
                                              hi, tol))
                 q1, e1 = min(roots)
-                Amin[i], Amax[i], acc[i] = 0.0, q1 * l / 2, e1
+                Amin[i], Amax[i], acc[i] = 0.0, q1, e1
         else:
-            thr = 1.0 + math.exp(-2 * math.pi * gamma / om)
+            thr = 1.0 + math.exp(-2 * math.pi * damping / om)
             ap = a - c * c / 4
 
             def margin(q):          # > 0 unstable, < 0 stable
@@ -760,7 +797,7 @@ def pendulum_stability_window(omega, *, l=1.0, g=9.81, gamma=0.0, about="inverte
                     continue
                 q0, e0 = _bracket_root(margin, qs[j0 - 1], qs[j0], tol)
                 q1, e1 = _bracket_root(margin, qs[j1 - 1], qs[j1], tol)
-                Amin[i], Amax[i], acc[i] = q0 * l / 2, q1 * l / 2, max(e0, e1)
+                Amin[i], Amax[i], acc[i] = q0, q1, max(e0, e1)
             else:
                 if not st[0]:
                     continue
@@ -768,12 +805,15 @@ def pendulum_stability_window(omega, *, l=1.0, g=9.81, gamma=0.0, about="inverte
                 if j1 is None:
                     continue
                 q1, e1 = _bracket_root(margin, qs[j1 - 1], qs[j1], tol)
-                Amin[i], Amax[i], acc[i] = 0.0, q1 * l / 2, e1
-    return Amin, Amax, acc
+                Amin[i], Amax[i], acc[i] = 0.0, q1, e1
+    # the roots above are in q (A_min of the hanging pendulum is 0 in either unit)
+    return StabilityWindow(omega=w, A_min=amplitude_from_q(Amin, l),
+                           A_max=amplitude_from_q(Amax, l), method="floquet", about=about,
+                           accuracy=acc, tol=tol, l=l, g=g, damping=damping)
 
 
-def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, gamma=0.0, about="inverted",
-                           trace=False, tol=1e-10):
+def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, damping=0.0, about="inverted",
+                           trace=False, tol=1e-10) -> StabilityMap:
     """Stability of the driven pendulum's equilibrium on the grid A × ω.
 
     Undamped: from characteristic values computed once per A (q = 2A/l) and
@@ -785,27 +825,30 @@ def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, gamma=0.0, about="inverte
 
     Returns
     -------
-    kapitza.floquet.StabilityMap
-    """
-    import time
+    kapitza.results.StabilityMap
+        With the pendulum's ``l``, ``g``, ``damping`` and ``about``.
 
-    from .floquet import StabilityMap
-    _check_pendulum_args(l, g, gamma)
-    sign = _about_sign(about)
-    A = np.atleast_1d(np.asarray(A, dtype=float))
-    w = _omega_array(omega)
-    if A.ndim != 1 or not np.all(np.isfinite(A)) or np.any(A < 0):
-        raise ValueError("A must be a non-negative finite number or 1-d array (m).")
+    Examples
+    --------
+    At ω = 60 rad/s the upright pendulum (l = 1 m) is held between A ≈ 7.4 cm and
+    A ≈ 43 cm (compare :func:`pendulum_stability_window`):
+
+    >>> m = pendulum_stability_map([0.05, 0.1, 0.3, 0.5], [60.0])
+    >>> m.boundary[:, 0].tolist()
+    ['T', 'stable', 'stable', '2T']
+    """
+    l, g, damping = arguments.pendulum_constants(l, g, damping)
+    arguments.about_sign(about)
+    A = arguments.grid_axis("A", A, "m", positive=False)
+    w = arguments.grid_axis("omega", omega, "rad/s", positive=True)
     t0 = time.perf_counter()
-    q = 2.0 * A / l
-    a = sign * 4.0 * g / (l * w**2)
-    c = 2.0 * gamma / w
+    a, q, c = mathieu_parameters(A, w, l, g, damping, about)        # a, c per ω; q per A
     tr = lg = None
     err = 1e-15
-    if gamma == 0.0:
+    if damping == 0.0:
         stable, label = stability_counts(q, a)
         method = "characteristic values"
-    if gamma > 0.0 or trace:
+    if damping > 0.0 or trace:
         ap = np.ascontiguousarray(a - c * c / 4)
         out = np.empty((q.size, w.size, 5))
         _trace_grid(ap, np.ascontiguousarray(q), float(tol), 1 << 22, out)
@@ -820,12 +863,12 @@ def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, gamma=0.0, about="inverte
             ach = np.where(big, lg_u, np.arccosh(np.maximum(trm, 1.0)))
         lg = ach - (np.pi * c / 2)[None, :]
         err = float(np.max(out[:, :, 3]))
-        if gamma > 0.0:
-            thr = 1.0 + np.exp(-2 * np.pi * gamma / w)
+        if damping > 0.0:
+            thr = 1.0 + np.exp(-2 * np.pi * damping / w)
             stable = np.where(log_tr > 700, False, np.abs(tr) < thr[None, :])
             label = np.where(stable, 0, np.where(out[:, :, 1] > 0, 1, 2)).astype(np.int8)
             method = "monodromy (Mathieu, damping removed)"
     return StabilityMap(A=A, omega=w, stable=stable, label=label, trace=tr, log_growth=lg,
-                        error_estimate=err, about=about, method=method,
-                        meta={"l": l, "g": g, "gamma": gamma,
-                              "seconds": time.perf_counter() - t0})
+                        error_estimate=err, about=about, method=method, l=l, g=g,
+                        damping=damping, seconds=time.perf_counter() - t0)
+

@@ -13,7 +13,7 @@ import scipy.special
 import sympy as sp
 from scipy.integrate import solve_ivp
 
-import kapitza.floquet as fq  # the module (kapitza.floquet.floquet is the function)
+from kapitza import floquet as fq
 from kapitza import mathieu as mm
 from kapitza import plots
 from kapitza.pendulum import KapitzaPendulum
@@ -128,7 +128,7 @@ def test_mapping_to_mathieu(pendulum, damped):
 
 def test_ince_strutt_chart_renders():
     from matplotlib.figure import Figure
-    fig = plots.ince_strutt_figure(q_max=10, a_range=(-10, 20), n=60)
+    fig = plots.ince_strutt_figure(mm.ince_strutt_chart(q_max=10, a_range=(-10, 20), n=60))
     assert isinstance(fig, Figure) and len(fig.axes[0].lines) == 11      # a0..a5, b1..b5
 
 
@@ -254,7 +254,8 @@ def test_map_dataframe_and_figure(pendulum, tmp_path):
     m = pendulum.stability_map(np.linspace(0, 0.6, 40), np.linspace(3, 200, 50))
     df = m.to_dataframe()
     assert len(df) == 2000 and set(df.boundary) <= {"stable", "T", "2T"}
-    fig = m.figure()
+    averaging = pendulum.stability_window(np.linspace(3, 200, 400), method="averaging", order=1)
+    fig = plots.stability_map_figure(m, overlays=[averaging])
     assert isinstance(fig, Figure)
     assert any("averaging" in (ln.get_label() or "") for ln in fig.axes[0].lines)
     fig.savefig(tmp_path / "map.png")
@@ -324,7 +325,7 @@ def double_ivp_monodromy(system, params, T):
 def test_double_pendulum_monodromy_against_solve_ivp(double_pendulum):
     for A, w in ((0.05, 150.0), (0.15, 60.0), (0.3, 40.0)):
         p = dict(DP, A=A, omega=w)
-        r = fq.floquet(double_pendulum, p, [np.pi, np.pi], tol=1e-10)
+        r = fq.floquet_point(double_pendulum, p, [np.pi, np.pi], tol=1e-10)
         M = double_ivp_monodromy(double_pendulum, p, 2 * np.pi / w)
         assert np.allclose(r.monodromy, M, rtol=1e-7, atol=1e-7 * np.max(np.abs(M)))
         lam = np.linalg.eigvals(M)
@@ -336,7 +337,7 @@ def test_double_pendulum_map(double_pendulum):
     A = np.linspace(0.0, 0.3, 10)
     w = np.linspace(20.0, 150.0, 8)
     m = fq.stability_map(double_pendulum, DP, [np.pi, np.pi], A, w, tol=1e-9)
-    assert m.stable.shape == (10, 8) and m.meta["flagged_points"] == 0
+    assert m.stable.shape == (10, 8) and m.flagged_points == 0
     assert not m.stable[0].any()                  # no drive: the upright state falls
     assert m.stable.any()                         # Acheson: a window exists
     # classification against solve_ivp at a few points, stable and unstable
@@ -355,13 +356,13 @@ def test_bad_input_is_explained(pendulum, double_pendulum):
     with pytest.raises(ValueError, match="horizontal"):
         KapitzaPendulum(drive="horizontal").floquet(0.1, 50.0)
     with pytest.raises(ValueError, match="does not persist"):
-        fq.floquet(pendulum.system, pendulum.params(0.1, 50.0), [1.0])
+        fq.floquet_point(pendulum.system, pendulum.params(0.1, 50.0), [1.0])
     with pytest.raises(ValueError, match="tol"):
         pendulum.floquet(0.1, 50.0, tol=0.0)
     with pytest.raises(ValueError, match="omega"):
         pendulum.stability_map([0.1], [-3.0])
     with pytest.raises(ValueError, match="missing"):
-        fq.floquet(double_pendulum, {"A": 0.1, "omega": 50.0}, [np.pi, np.pi])
+        fq.floquet_point(double_pendulum, {"A": 0.1, "omega": 50.0}, [np.pi, np.pi])
     with pytest.raises(ValueError, match="kind"):
         mm.characteristic_value("c", 0, 1.0)
 

@@ -1,0 +1,482 @@
+"""kapitza's value types: every result the analyses return, in one place.
+
+All are frozen dataclasses with named fields and a ``to_dataframe()`` (pandas, long
+format).  They hold numbers, not behaviour: the analyses that fill them live in
+:mod:`kapitza.floquet`, :mod:`kapitza.mathieu` and :mod:`kapitza.averaging`; the figures that draw them in :mod:`kapitza.plots`.
+This module imports nothing else from kapitza, so data flows one way:
+results ← analyses ← figures.
+
+Conventions (shared/PHYSICS.md): SI units; θ from the downward vertical (θ = π upright);
+pivot A cos ωt; A in m, ω in rad/s, damping γ in 1/s; T = 2π/ω.
+
+Contents
+--------
+Floquet analysis
+    :class:`FloquetResult` (one parameter point), :class:`MonodromyData` and
+    :class:`FloquetGrid` (a broadcast grid of points), :class:`StabilityMap` (an (A, ω)
+    grid), :class:`StabilityWindow` (the stabilising amplitudes per ω, exact or by
+    averaging), :class:`InceStruttChart` (the Mathieu equation's stability chart).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["BOUNDARIES", "FloquetResult", "MonodromyData", "FloquetGrid", "StabilityMap",
+           "StabilityWindow", "FloquetWindow", "InceStruttChart"]
+
+#: Names of the stability labels 0, 1, 2, 3: stable; unstable in a region bounded by
+#: period-T solutions (multiplier +1); by period-2T solutions (multiplier −1); complex
+#: multipliers leaving the unit circle (combination resonance).
+BOUNDARIES = ("stable", "T", "2T", "complex")
+
+
+def _boundary_names(label) -> np.ndarray:
+    return np.asarray(BOUNDARIES, dtype=object)[np.asarray(label)]
+
+
+def _unscale(scaled, log_scale):
+    """M = scaled · e^log_scale; entries ±inf (NaN for zeros) where e^log_scale overflows."""
+    ls = np.asarray(log_scale, dtype=float)[..., None, None]
+    with np.errstate(over="ignore", invalid="ignore"):
+        return np.where(ls > 700, scaled * np.inf, scaled * np.exp(np.minimum(ls, 700)))
+
+
+# ======================================================================================
+# Floquet analysis
+# ======================================================================================
+
+@dataclass(frozen=True)
+class FloquetResult:
+    """Floquet analysis of one linear time-periodic system x′ = J(t) x.
+
+    Built by :func:`kapitza.floquet.floquet_point` (and
+    :meth:`kapitza.KapitzaPendulum.floquet`).
+
+    Attributes
+    ----------
+    period : float
+        Drive period T = 2π/ω (s).
+    monodromy_scaled : ndarray (2n, 2n)
+        M e^(−log_scale); M itself is :attr:`monodromy` (inf where it overflows).
+    log_scale : float
+        log of the factor divided out of M (0 unless M would exceed 1e150).
+    multipliers : ndarray, complex (2n)
+        Floquet multipliers λ (eigenvalues of M) by decreasing modulus; ±inf if
+        |λ| overflows a float (see :attr:`log_abs_multipliers`).
+    log_abs_multipliers : ndarray (2n)
+        log|λ|, finite even for astronomically large growth.
+    trace : float
+        tr M (±inf if beyond float range).
+    stable : bool
+        Linear stability, decided on the best estimate of M: 2 × 2: Jury's test
+        |tr M| ≤ 1 + det M with the exact det = exp(∮ tr J); 4 × 4 undamped: both
+        λ + 1/λ real in [−2, 2]; otherwise all |λ| < 1 (damped) or |λ| = 1 within
+        the error estimate (undamped).  Points whose test is within 10× the
+        error estimate of its threshold are counted as uncertified by maps.
+    omega_slow : ndarray
+        Slow angular frequencies (rad/s) of the stable solutions, arg(λ)/T ∈
+        [0, ω/2], one per pair of multipliers (NaN if unstable).  For the
+        pendulum cos(πβ) = tr M e^(γT/2)/2 and Ω = βω/2: the exact linear value
+        that first-order averaging approximates.
+    exponents : ndarray, complex (2n)
+        Floquet exponents μ = log λ / T (1/s); the real part is the growth rate.
+    boundary : str
+        "stable", or the kind of instability (:data:`BOUNDARIES`): "T" (real
+        multiplier > 1: the region is bounded by period-T solutions), "2T" (real
+        < −1: period 2T), "complex" (a complex quadruplet leaves the unit circle).
+    error_estimate : float
+        Estimated error of M relative to max(1, ‖M‖).
+    steps, samples : int
+        Taylor steps per period; samples of J per period.
+    liouville_residual : float
+        |det M / exp(∮ tr J dt) − 1|.
+    pairing_residual : float
+        max |c_k − c_{2n−k}| of the characteristic polynomial (relative); NaN
+        for damped systems (no λ, 1/λ symmetry) or huge growth.
+    flags : tuple of str
+        Accuracy warnings; empty when every guard passed.
+    """
+
+    period: float
+    monodromy_scaled: np.ndarray
+    log_scale: float
+    multipliers: np.ndarray
+    log_abs_multipliers: np.ndarray
+    trace: float
+    stable: bool
+    omega_slow: np.ndarray
+    exponents: np.ndarray
+    boundary: str
+    error_estimate: float
+    steps: int
+    samples: int
+    liouville_residual: float
+    pairing_residual: float
+    flags: tuple = field(default=())
+
+    @property
+    def monodromy(self) -> np.ndarray:
+        """M (entries ±inf if beyond float range; use monodromy_scaled and log_scale)."""
+        return _unscale(self.monodromy_scaled, self.log_scale)
+
+    @property
+    def log_growth(self) -> float:
+        """max log|λ| per period (> 0 unstable); the growth rate is log_growth / period."""
+        return float(self.log_abs_multipliers[0])
+
+    def to_dataframe(self):
+        """One row per multiplier: λ, |λ|, log|λ|, exponent, stable, boundary."""
+        import pandas as pd
+        return pd.DataFrame({"multiplier": self.multipliers,
+                             "abs": np.abs(self.multipliers),
+                             "log_abs": self.log_abs_multipliers,
+                             "exponent": self.exponents,
+                             "stable": self.stable, "boundary": self.boundary})
+
+
+@dataclass(frozen=True)
+class MonodromyData:
+    """Monodromy matrices over a broadcast grid of parameter sets.
+
+    Built by :func:`kapitza.floquet.monodromy_data`; every array field has the grid's
+    shape (:attr:`shape`), followed by the matrix or vector axes where stated.
+
+    Attributes
+    ----------
+    params : dict of str to ndarray
+        Every parameter of the system by name, broadcast to the grid's shape.
+    monodromy_scaled : ndarray (..., 2n, 2n)
+        M e^(−log_scale) per point; M itself is :attr:`monodromy`.
+    log_scale : ndarray
+        log of the factor divided out of M (0 unless M would exceed 1e150).
+    error_estimate : ndarray
+        Estimated error of M relative to max(1, ‖M‖) (balanced variables, see
+        :mod:`kapitza.floquet`).
+    steps : int ndarray
+        Taylor steps per period.
+    samples : int
+        Samples of J per period (the same at every point).
+    period : ndarray
+        Drive period T = 2π/ω (s).
+    liouville_exponent : ndarray
+        ∮ tr J dt over one period (det M = its exponential; −γT for the damped pendulum).
+    """
+
+    params: dict
+    monodromy_scaled: np.ndarray
+    log_scale: np.ndarray
+    error_estimate: np.ndarray
+    steps: np.ndarray
+    samples: int
+    period: np.ndarray
+    liouville_exponent: np.ndarray
+
+    @property
+    def shape(self) -> tuple:
+        """The grid's shape (that of the broadcast parameters)."""
+        return np.shape(self.log_scale)
+
+    @property
+    def monodromy(self) -> np.ndarray:
+        """M per point (entries ±inf where beyond float range)."""
+        return _unscale(self.monodromy_scaled, self.log_scale)
+
+    def _columns(self) -> dict:
+        cols = {k: np.ravel(np.broadcast_to(v, self.shape)) for k, v in self.params.items()}
+        cols.update(period=np.ravel(self.period), log_scale=np.ravel(self.log_scale),
+                    error_estimate=np.ravel(self.error_estimate), steps=np.ravel(self.steps))
+        return cols
+
+    def to_dataframe(self):
+        """One row per grid point: the parameters, period, log_scale, error_estimate, steps."""
+        import pandas as pd
+        return pd.DataFrame(self._columns())
+
+
+# the keys of the dict floquet_grid used to return, for code written against it
+_GRID_KEYS = {"M": "monodromy_scaled", "logabs": "log_abs_multipliers", "slow": "omega_slow",
+              "error": "error_estimate", "liouville": "liouville_residual",
+              "pairing": "pairing_residual", "refined": "refined_points"}
+
+
+@dataclass(frozen=True)
+class FloquetGrid(MonodromyData):
+    """Floquet analysis at every point of a broadcast parameter grid.
+
+    Built by :func:`kapitza.floquet.floquet_grid`.  The monodromy fields are those of
+    :class:`MonodromyData`; the analysis adds, per point (grid shape, then the axes
+    stated), the fields of :class:`FloquetResult` — :meth:`point` returns one of them.
+
+    Attributes
+    ----------
+    multipliers, log_abs_multipliers, exponents : ndarray (..., 2n)
+        λ by decreasing modulus, log|λ|, log λ / T (1/s).
+    trace : ndarray
+        tr M (±inf beyond float range).
+    stable : bool ndarray
+    label : int8 ndarray
+        Index into :data:`BOUNDARIES` (0 stable, 1 T, 2 2T, 3 complex); names in
+        :attr:`boundary`.
+    omega_slow : ndarray (..., n)
+        Slow angular frequencies of stable points (rad/s), NaN where unstable.
+    liouville_residual, pairing_residual : ndarray
+        The accuracy guards (see :class:`FloquetResult`).
+    margin : ndarray
+        Distance of the stability test from its threshold in units of its error
+        bound; > 1 certifies the classification.
+    flags : tuple of tuple of str
+        Accuracy warnings per point, in flat (C) order of the grid.
+    refined_points : int
+        Points integrated again to the fine tolerance (``certify=True``).
+    """
+
+    multipliers: np.ndarray
+    log_abs_multipliers: np.ndarray
+    exponents: np.ndarray
+    trace: np.ndarray
+    stable: np.ndarray
+    label: np.ndarray
+    omega_slow: np.ndarray
+    liouville_residual: np.ndarray
+    pairing_residual: np.ndarray
+    margin: np.ndarray
+    flags: tuple
+    refined_points: int
+
+    @property
+    def log_growth(self) -> np.ndarray:
+        """max log|λ| per period and point (> 0 unstable)."""
+        return self.log_abs_multipliers[..., 0]
+
+    @property
+    def boundary(self) -> np.ndarray:
+        """Label names per point: "stable", "T", "2T" or "complex"."""
+        return _boundary_names(self.label)
+
+    def point(self, index=()) -> FloquetResult:
+        """The :class:`FloquetResult` of one grid point (``index`` into the grid's shape)."""
+        index = tuple(np.ravel(index).astype(int).tolist())
+        flat = int(np.ravel_multi_index(index, self.shape)) if index else 0
+        return FloquetResult(
+            period=float(self.period[index]), monodromy_scaled=self.monodromy_scaled[index],
+            log_scale=float(self.log_scale[index]), multipliers=self.multipliers[index],
+            log_abs_multipliers=self.log_abs_multipliers[index],
+            trace=float(self.trace[index]), stable=bool(self.stable[index]),
+            omega_slow=self.omega_slow[index], exponents=self.exponents[index],
+            boundary=BOUNDARIES[int(self.label[index])],
+            error_estimate=float(self.error_estimate[index]), steps=int(self.steps[index]),
+            samples=int(self.samples), liouville_residual=float(self.liouville_residual[index]),
+            pairing_residual=float(self.pairing_residual[index]), flags=self.flags[flat])
+
+    def __getitem__(self, key: str):
+        """Old dict access (``grid["trace"]``, ``grid["error"]``, ...): use the attributes."""
+        if not isinstance(key, str):
+            raise TypeError(f"FloquetGrid[{key!r}]: index a point with grid.point({key!r}).")
+        return getattr(self, _GRID_KEYS.get(key, key))
+
+    def to_dataframe(self):
+        """One row per grid point: the parameters, stable, boundary, trace, log_growth,
+        margin, error_estimate, steps, ..."""
+        import pandas as pd
+        cols = self._columns()
+        cols.update(stable=np.ravel(self.stable), boundary=np.ravel(self.boundary),
+                    trace=np.ravel(self.trace), log_growth=np.ravel(self.log_growth),
+                    margin=np.ravel(self.margin))
+        return pd.DataFrame(cols)
+
+
+@dataclass(frozen=True)
+class StabilityMap:
+    """Stability of a driven equilibrium over an (A, ω) grid.
+
+    Built by :func:`kapitza.mathieu.pendulum_stability_map` (the single pendulum;
+    :meth:`kapitza.KapitzaPendulum.stability_map`) and by
+    :func:`kapitza.floquet.stability_map` (any system); drawn by
+    :func:`kapitza.plots.stability_map_figure`.
+
+    Attributes
+    ----------
+    A, omega : ndarray
+        Grid axes: drive amplitude (m) and angular frequency (rad/s).
+    stable : bool ndarray (len(A), len(omega))
+    label : int8 ndarray (len(A), len(omega))
+        Index into :data:`BOUNDARIES`: 0 stable; 1 unstable in a region bounded by
+        period-T solutions (multiplier +1); 2 bounded by period-2T solutions
+        (multiplier −1); 3 complex multipliers (combination resonance).
+    trace : ndarray or None
+        tr M per point (None when computed from characteristic values only).
+    log_growth : ndarray or None
+        max log|λ| per period (None as above).
+    error_estimate : float
+        Largest error estimate over the grid: of M (relative) for integration,
+        of the boundaries (relative, in a) for characteristic values.
+    about : str
+        The equilibrium: "inverted" or "hanging" for the pendulum, the coordinates
+        for any other system.
+    method : str
+        "characteristic values", "monodromy (Mathieu, damping removed)" or "monodromy".
+    l, g, damping : float or None
+        The pendulum's length (m), gravity (m/s²) and damping rate γ (1/s); None for
+        a map of another system (its constants are in ``params``).
+    params : dict
+        The fixed parameters of a general system's map (empty for the pendulum).
+    seconds : float
+        Wall time of the computation (s).
+    refined_points, uncertified_points, flagged_points : int
+        Monodromy maps: points integrated again to the fine tolerance, points whose
+        stability test lies within 10× its error estimate of the threshold, points
+        whose accuracy guards failed (0 for the other methods).
+    flags_example : tuple of str
+        The flags of the first flagged point (empty if none).
+    max_steps_per_period, samples : int
+        Monodromy maps: the most Taylor steps per period over the grid, and the
+        samples of J per period (0 for the other methods).
+    """
+
+    A: np.ndarray
+    omega: np.ndarray
+    stable: np.ndarray
+    label: np.ndarray
+    trace: np.ndarray | None
+    log_growth: np.ndarray | None
+    error_estimate: float
+    about: str
+    method: str
+    l: float | None = None
+    g: float | None = None
+    damping: float | None = None
+    params: dict = field(default_factory=dict)
+    seconds: float = math.nan
+    refined_points: int = 0
+    uncertified_points: int = 0
+    flagged_points: int = 0
+    flags_example: tuple = ()
+    max_steps_per_period: int = 0
+    samples: int = 0
+
+    @property
+    def boundary(self) -> np.ndarray:
+        """Label names per point: "stable", "T", "2T" or "complex"."""
+        return _boundary_names(self.label)
+
+    @property
+    def meta(self) -> dict:
+        """The fields after ``method`` as a dict (read-only view for code written
+        against the old free ``meta`` dict; use the attributes)."""
+        names = ("l", "g", "damping", "params", "seconds", "refined_points",
+                 "uncertified_points", "flagged_points", "flags_example",
+                 "max_steps_per_period", "samples")
+        return {k: getattr(self, k) for k in names}
+
+    def to_dataframe(self):
+        """Long format: one row per grid point (A, omega, stable, boundary, trace, log_growth)."""
+        import pandas as pd
+        AA, WW = np.meshgrid(self.A, self.omega, indexing="ij")
+        data = {"A": AA.ravel(), "omega": WW.ravel(), "stable": self.stable.ravel(),
+                "boundary": self.boundary.ravel()}
+        if self.trace is not None:
+            data["trace"] = self.trace.ravel()
+        if self.log_growth is not None:
+            data["log_growth"] = self.log_growth.ravel()
+        return pd.DataFrame(data)
+
+
+_WINDOW_METHODS = ("floquet", "averaging")
+
+
+@dataclass(frozen=True)
+class StabilityWindow:
+    """Drive amplitudes A_min < A < A_max that stabilise the vertically driven pendulum, per ω.
+
+    One type for the exact window (``method="floquet"``:
+    :func:`kapitza.mathieu.pendulum_stability_window`) and the averaging prediction
+    (``method="averaging"``: :func:`kapitza.averaging.stability_window`);
+    both from :meth:`kapitza.KapitzaPendulum.stability_window`.
+
+    Attributes
+    ----------
+    omega : float or ndarray
+        Drive angular frequencies (rad/s).
+    A_min, A_max : float or ndarray
+        Window edges (m).  Exact: NaN where there is no window (e.g. ω too low to
+        hold the pendulum upright).  Averaging, order 1: A_min = √(2 g l)/ω and
+        A_max = +inf (first order cannot see the upper limit); order 2: the next
+        order, relative error O(ε⁴), with A_max from the parametric resonance
+        a′ = b₁(2A/l) (→ 0.4540 l as ω → ∞).
+    method : {"floquet", "averaging"}
+    about : str
+        "inverted" (θ = π) or "hanging" (θ = 0; exact windows only, A_min = 0).
+    order : int or None
+        Averaging order (1 or 2); None for exact windows.
+    accuracy : ndarray or None
+        Exact windows: certified relative accuracy of the edges (the Floquet
+        condition changes sign across A·(1 ± accuracy)); None for averaging.
+    tol : float or None
+        Exact windows: the requested relative accuracy; None for averaging.
+    l, g, damping : float or None
+        Length (m), gravity (m/s²), damping rate γ (1/s) of the pendulum.
+    """
+
+    omega: object
+    A_min: object
+    A_max: object
+    method: str
+    about: str = "inverted"
+    order: int | None = None
+    accuracy: np.ndarray | None = None
+    tol: float | None = None
+    l: float | None = None
+    g: float | None = None
+    damping: float | None = None
+
+    def __post_init__(self):
+        if self.method not in _WINDOW_METHODS:
+            raise ValueError(f"StabilityWindow: method must be one of {_WINDOW_METHODS}, got "
+                             f"{self.method!r}.")
+
+    def to_dataframe(self):
+        """One row per ω: omega, A_min, A_max, then accuracy (exact) or order (averaging)."""
+        import pandas as pd
+        w, lo, hi = (np.ravel(x) for x in np.broadcast_arrays(self.omega, self.A_min, self.A_max))
+        data = {"omega": w, "A_min": lo, "A_max": hi}
+        if self.accuracy is not None:
+            data["accuracy"] = np.ravel(self.accuracy)
+        if self.order is not None:
+            data["order"] = self.order
+        return pd.DataFrame(data)
+
+
+#: The exact window's old name (one type serves exact and averaging windows).
+FloquetWindow = StabilityWindow
+
+
+@dataclass(frozen=True)
+class InceStruttChart:
+    """The stability chart of the undamped Mathieu equation y″ + (a − 2q cos 2τ) y = 0.
+
+    Built by :func:`kapitza.mathieu.ince_strutt_chart`; drawn by
+    :func:`kapitza.plots.ince_strutt_figure`.
+
+    Attributes
+    ----------
+    q, a : ndarray
+        Grid axes.
+    stable : bool ndarray (len(q), len(a))
+        Stability at every grid point (from characteristic values, exact to rounding).
+    curves : dict of str to ndarray (len(q),)
+        The characteristic curves "a0", "b1", "a1", ... on the q axis (the
+        boundaries: stable between a_r and b_(r+1)).
+    """
+
+    q: np.ndarray
+    a: np.ndarray
+    stable: np.ndarray
+    curves: dict
+
+    def to_dataframe(self):
+        """One row per q: q and every characteristic curve."""
+        import pandas as pd
+        return pd.DataFrame({"q": self.q, **self.curves})
