@@ -10,13 +10,15 @@ The pendulum
         The driven pendulum: averaging, Floquet stability and direct integration in
         one object (:mod:`kapitza.pendulum`).
 
-Averaging (:mod:`kapitza.averaging`)
+Averaging of any system (:mod:`kapitza.averaging`)
     average
         Average a lagrange_core System over its fast periodic drive (Landau–Lifshitz §30).
     AveragedSystem
         The slow description: U_eff (sympy and compiled), equilibria, slow modes, sweeps.
     AveragingValidityWarning
         Warns when a scalar prediction lies outside the regime where averaging holds.
+
+The pendulum and Acheson's chain in closed form (:mod:`kapitza.pendulum_closed_forms`)
     pendulum_effective_potential
         U_eff(θ)/m of the vertically or horizontally driven pendulum (J/kg).
     pendulum_averaged
@@ -62,6 +64,10 @@ Results (:mod:`kapitza.results`; frozen dataclasses with ``to_dataframe()``)
         (``method="averaging"``); ``FloquetWindow`` is its old name.
     InceStruttChart
         Stability grid and characteristic curves in the (q, a) plane.
+    SlowModes, AveragingPrediction, SlowModeSweep
+        Results of the general averaging.
+    PendulumAveraging, EquilibriumPrediction, MultiplePendulumPrediction
+        Results of the pendulum's closed forms.
 
 Figures (:mod:`kapitza.plots`; they draw results and compute nothing)
     stability_map_figure
@@ -79,16 +85,17 @@ True
 >>> pend.floquet(A=0.05, omega=2 * math.pi * 60, about="inverted").stable   # exact, linear
 True
 """
-from .averaging import (AveragedSystem, AveragingValidityWarning, average,
-                        multiple_pendulum_upright, pendulum_averaged, pendulum_effective_potential,
-                        stability_window)
+from .averaging import AveragedSystem, AveragingValidityWarning, average
 from .floquet import floquet_grid, floquet_point, monodromy_data, stability_map
 from .mathieu import (characteristic_value, ince_strutt_chart, mathieu_monodromy_trace,
                       mathieu_parameters, pendulum_stability_map, pendulum_stability_window)
 from .pendulum import KapitzaPendulum
+from .pendulum_closed_forms import (multiple_pendulum_upright, pendulum_averaged,
+                                    pendulum_effective_potential, stability_window)
 from .plots import ince_strutt_figure, stability_map_figure
-from .results import (FloquetGrid, FloquetResult, FloquetWindow, InceStruttChart, MonodromyData,
-                      StabilityMap, StabilityWindow)
+from .results import (AveragingPrediction, EquilibriumPrediction, FloquetGrid, FloquetResult,
+                      FloquetWindow, InceStruttChart, MonodromyData, MultiplePendulumPrediction,
+                      PendulumAveraging, SlowModes, SlowModeSweep, StabilityMap, StabilityWindow)
 
 __all__ = [
     "KapitzaPendulum",
@@ -99,7 +106,8 @@ __all__ = [
     "mathieu_parameters", "characteristic_value", "mathieu_monodromy_trace",
     "pendulum_stability_window", "pendulum_stability_map", "ince_strutt_chart",
     "FloquetResult", "FloquetGrid", "MonodromyData", "StabilityMap", "StabilityWindow",
-    "FloquetWindow", "InceStruttChart",
+    "FloquetWindow", "InceStruttChart", "SlowModes", "AveragingPrediction", "SlowModeSweep",
+    "PendulumAveraging", "EquilibriumPrediction", "MultiplePendulumPrediction",
     "stability_map_figure", "ince_strutt_figure",
 ]
 __version__ = "0.1.0"

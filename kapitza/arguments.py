@@ -12,7 +12,7 @@ import numpy as np
 
 __all__ = ["ABOUT", "DRIVES", "pendulum_constants", "amplitude", "frequency", "drive",
            "grid_axis", "about_sign",
-           "about_angle", "drive_direction"]
+           "about_angle", "drive_direction", "averaging_order"]
 
 #: The pendulum's equilibria that persist under a vertical drive: name → (θ (rad), sign of
 #: the Mathieu parameter a = ±4ω0²/ω²).
@@ -124,3 +124,10 @@ def drive_direction(direction, *, where: str = "") -> str:
         raise ValueError(f"{where}drive must be one of {DRIVES}, got {direction!r}.")
     return direction
 
+
+def averaging_order(order) -> int:
+    """The order of an averaging result: 1 (Kapitza/Landau) or 2 (next order)."""
+    if order not in (1, 2) or isinstance(order, bool):
+        raise ValueError(f"order must be 1 (first-order averaging) or 2 (next order), got "
+                         f"{order!r}.")
+    return int(order)

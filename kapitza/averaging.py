@@ -1,5 +1,11 @@
 """Averaging over a fast periodic drive: the Kapitza effective potential of any system.
 
+The single pendulum's closed forms, its next order and Acheson's chain are in
+:mod:`kapitza.pendulum_closed_forms`; this module is the general method for any
+:class:`lagrange_core.System`, and its results are the value types of
+:mod:`kapitza.results` (:class:`~kapitza.results.SlowModes`,
+:class:`~kapitza.results.AveragingPrediction`, :class:`~kapitza.results.SlowModeSweep`).
+
 The method (Landau & Lifshitz, *Mechanics*, §30)
 -------------------------------------------------
 A :class:`lagrange_core.System` in the canonical form
@@ -44,50 +50,58 @@ for the pendulum ε² ~ ω0²/ω² ~ A²/l².  Damping −C q̇ enters the slow 
 unchanged, M Q̈ + C Q̇ + ∂U_eff/∂Q = 0; the damping's effect on the fast
 response is of relative order (γ/ω)².  The next order is available for the
 vertically driven single pendulum through the Mathieu equation
-(:func:`exponent_squared`, :func:`mathieu_a0`, :func:`mathieu_b1`).
+(:func:`kapitza.pendulum_closed_forms.pendulum_averaged` with ``order=2``).
 
 Validity is reported, not hidden: every prediction carries the ratio of the
 drive frequency to the slow frequencies and the size of the fast motion, and a
 ``valid`` flag from the thresholds :data:`MIN_FREQUENCY_RATIO` and
 :data:`MAX_AMPLITUDE_RATIO` (for the vertically driven pendulum also
-:data:`MAX_CORRECTION`, the size of the next-order correction, which catches the
-neighbourhood of the stability limits); scalar calls outside the regime emit an
-:class:`AveragingValidityWarning`, array calls only set the flags so that a sweep
-can mask those points.
+``MAX_CORRECTION`` of :mod:`kapitza.pendulum_closed_forms`, the size of the
+next-order correction, which catches the neighbourhood of the stability limits);
+scalar calls outside the regime emit an :class:`AveragingValidityWarning`, array
+calls only set the flags so that a sweep can mask those points.
+
+Compiled kernels
+----------------
+U_eff, its gradient and Hessian are generated as a numba module per system and drive
+frequency and kept in lagrange_core's one generated-module store
+(:mod:`lagrange_core.module_store`), keyed by the system's statement and the code
+that generates the module; a fresh process loads them without compiling.
+
+Examples
+--------
+The vertically driven pendulum (PHYSICS.md): U_eff = −m g l cos θ + m A² ω² sin² θ / 4.
+
+>>> from lagrange_core import problems
+>>> avg = average(problems.driven_pendulum("vertical"))
+>>> avg.effective_potential
+m*(A**2*omega**2*sin(theta)**2 - 4*g*l*cos(theta))/4
+>>> modes = avg.slow_modes(dict(m=1.0, l=1.0, g=9.81, A=0.05, omega=150.0), [3.141592653589793])
+>>> print(f"Ω² = {modes.omega_squared[0]:.4f} rad²/s² = A²ω²/2 − g/l = {0.05**2 * 150**2 / 2 - 9.81:.4f}")
+Ω² = 18.3150 rad²/s² = A²ω²/2 − g/l = 18.3150
 """
 from __future__ import annotations
 
 import functools
-import hashlib
-import inspect
 import itertools
 import math
 import re
 import textwrap
 import warnings
-from dataclasses import dataclass
 
 import numpy as np
-import pandas as pd
 import scipy.linalg
 import scipy.optimize
 import sympy as sp
 import symengine as se
 
-from lagrange_core import codegen
+from lagrange_core import _linalg, module_store
 from lagrange_core.systems import System, t as t_symbol
 
-from .results import StabilityWindow
+from .results import AveragingPrediction, SlowModes, SlowModeSweep
 
-__all__ = [
-    "MIN_FREQUENCY_RATIO", "MAX_AMPLITUDE_RATIO", "MAX_CORRECTION", "AveragingValidityWarning",
-    "fourier_split", "average", "AveragedSystem", "SlowModes", "SlowModeSweep",
-    "AveragingPrediction",
-    "pendulum_effective_potential", "pendulum_averaged", "PendulumAveraging",
-    "EquilibriumPrediction", "stability_window",
-    "exponent_squared", "mathieu_a0", "mathieu_b1",
-    "multiple_pendulum_upright", "MultiplePendulumPrediction",
-]
+__all__ = ["MIN_FREQUENCY_RATIO", "MAX_AMPLITUDE_RATIO", "AveragingValidityWarning",
+           "fourier_split", "average", "AveragedSystem"]
 
 #: A prediction is flagged invalid when ω < MIN_FREQUENCY_RATIO × (largest slow
 #: frequency or growth rate, and ω0 for the pendulum).  At ratio 5 the
@@ -97,12 +111,6 @@ MIN_FREQUENCY_RATIO = 5.0
 #: pendulum) exceeds MAX_AMPLITUDE_RATIO.  At A/l = 0.3 the first-order slow
 #: frequency of the pendulum is off by up to ≈ 7 % (next-order term 25 q⁴/128).
 MAX_AMPLITUDE_RATIO = 0.3
-#: ... or (vertically driven pendulum) when the next-order correction changes the slow
-#: frequency or growth rate by more than this fraction, or flips the stability: near the
-#: Kapitza limit Ω → 0 and any fixed-order result loses its relative accuracy.  Measured
-#: against exact Floquet values over 532 random valid points (A/l ≤ 0.3, 10 ≤ ω ≤ 300
-#: rad/s, l = 1 m): first order within 7.4 %, second order within 1.6 %.
-MAX_CORRECTION = 0.1
 
 
 class AveragingValidityWarning(UserWarning):
@@ -198,14 +206,13 @@ def fourier_split(expr, omega, time=t_symbol) -> dict[int, tuple[sp.Expr, sp.Exp
 # ======================================================================================
 
 @functools.cache
-def _source_hash() -> str:
-    """Hash of the code that generates the averaging kernels (not of the whole module, so
-    that unrelated edits keep the disk cache)."""
-    from lagrange_core import _linalg
-    parts = [inspect.getsource(AveragedSystem._generate_source), inspect.getsource(_Printer),
-             inspect.getsource(_function), _FIXED_SOURCE, repr(sorted(_ALLOWED)),
-             codegen.source_fingerprint(_linalg)]     # the generated code calls solve_dense
-    return hashlib.sha256("".join(parts).encode()).hexdigest()
+def _generator_fingerprint() -> str:
+    """Hash of the code that generates the averaging kernels and of the code they call
+    (not of this whole module, so that unrelated edits keep the store)."""
+    return module_store.content_key(
+        module_store.source_fingerprint(AveragedSystem._generate_source, _Printer, _function,
+                                        _linalg),     # the generated code calls solve_dense
+        _FIXED_SOURCE, repr(sorted(_ALLOWED)))
 
 
 def average(system: System, omega: str = "omega") -> "AveragedSystem":
@@ -237,121 +244,6 @@ def average(system: System, omega: str = "omega") -> "AveragedSystem":
 @functools.lru_cache(maxsize=64)
 def _average_cached(system, omega):
     return AveragedSystem(system, omega)
-
-
-@dataclass(frozen=True)
-class SlowModes:
-    """Small slow oscillations about one equilibrium of the averaged motion.
-
-    The averaged linearisation is M δQ̈ + C δQ̇ + H δQ = 0 with H the Hessian of
-    U_eff, M the (time-independent) mass matrix, C the averaged damping matrix.
-
-    Attributes
-    ----------
-    about : ndarray (n,)
-        The equilibrium (coordinates in SI units; angles wrapped into (−π, π]).
-    omega_squared : ndarray (n,)
-        Generalized eigenvalues Ω² of (H, M), ascending (rad²/s²); negative is unstable.
-    frequencies : ndarray (n,)
-        √Ω² (rad/s); NaN for an unstable mode.
-    stable : bool
-        All Ω² > 0 (linear stability of the averaged motion; with damping the
-        equilibrium is then asymptotically stable).
-    eigenvalues : ndarray (2n,), complex
-        Roots λ of det(λ² M + λ C + H) = 0 (1/s), sorted by imaginary part
-        (the damped slow dynamics; ±iΩ without damping).
-    damped_frequencies : ndarray (n,)
-        The non-negative imaginary parts of ``eigenvalues`` (rad/s), one per mode.
-    decay_rate : float
-        −max Re λ (1/s): the slowest decay rate (negative: growth).
-    frequency_ratio : float
-        ω / max(√|Ω²|): how much faster the drive is than the slow motion.
-    amplitude_ratio : float
-        Largest singular value of ∂ξ/∂q, the fast displacement amplitude per
-        unit slow displacement (A/l for the pendulum).
-    valid : bool
-        ``frequency_ratio ≥ MIN_FREQUENCY_RATIO`` and ``amplitude_ratio ≤ MAX_AMPLITUDE_RATIO``.
-    reasons : tuple of str
-        Why a prediction is not valid (empty if it is).
-    """
-
-    about: np.ndarray
-    omega_squared: np.ndarray
-    frequencies: np.ndarray
-    stable: bool
-    eigenvalues: np.ndarray
-    damped_frequencies: np.ndarray
-    decay_rate: float
-    frequency_ratio: float
-    amplitude_ratio: float
-    valid: bool
-    reasons: tuple = ()
-
-    def to_dataframe(self) -> pd.DataFrame:
-        """One row per mode."""
-        n = len(self.omega_squared)
-        return pd.DataFrame({
-            "about": [tuple(self.about.tolist())] * n, "mode": np.arange(n),
-            "omega_squared": self.omega_squared, "frequency": self.frequencies,
-            "damped_frequency": self.damped_frequencies, "stable": [self.stable] * n,
-            "decay_rate": [self.decay_rate] * n, "frequency_ratio": [self.frequency_ratio] * n,
-            "amplitude_ratio": [self.amplitude_ratio] * n, "valid": [self.valid] * n,
-            "reasons": ["; ".join(self.reasons)] * n})
-
-
-@dataclass(frozen=True)
-class AveragingPrediction:
-    """Equilibria of the averaged motion with their slow modes.
-
-    Attributes
-    ----------
-    params : dict
-        The parameter values used.
-    equilibria : tuple of SlowModes
-        One entry per distinct equilibrium found.
-    """
-
-    params: dict
-    equilibria: tuple
-
-    @property
-    def stable(self) -> tuple:
-        """The stable equilibria (SlowModes)."""
-        return tuple(e for e in self.equilibria if e.stable)
-
-    def to_dataframe(self) -> pd.DataFrame:
-        frames = [e.to_dataframe().assign(equilibrium=i) for i, e in enumerate(self.equilibria)]
-        return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
-
-
-@dataclass(frozen=True)
-class SlowModeSweep:
-    """Slow modes about one equilibrium over a grid of parameter values.
-
-    Attributes
-    ----------
-    params : dict of ndarray
-        The broadcast parameter arrays.
-    about : ndarray (n,)
-    omega_squared : ndarray (..., n)
-        Ω² of the averaged linearisation, ascending per point (rad²/s²).
-    stable, valid : bool ndarray (...)
-        See :class:`SlowModes`.
-    """
-
-    params: dict
-    about: np.ndarray
-    omega_squared: np.ndarray
-    stable: np.ndarray
-    valid: np.ndarray
-
-    def to_dataframe(self) -> pd.DataFrame:
-        cols = {k: np.ravel(v) for k, v in self.params.items()}
-        for j in range(self.omega_squared.shape[-1]):
-            cols[f"omega_squared_{j}"] = self.omega_squared[..., j].ravel()
-        cols["stable"] = self.stable.ravel()
-        cols["valid"] = self.valid.ravel()
-        return pd.DataFrame(cols)
 
 
 class AveragedSystem:
@@ -479,14 +371,9 @@ class AveragedSystem:
     def kernels(self):
         """The compiled module: ``effective(q, p, G, H) -> U_eff`` (fills gradient G and
         Hessian H), ``terms(q, p, M, f, fg, w)``, ``damping(q, p, C)``."""
-        system = self.system
-        key = hashlib.sha256((system.statement_key() + "|omega=" + self.omega.name + "|"
-                              + _source_hash()).encode())
-        name = f"_lc_avg_{key.hexdigest()[:20]}"
-        path = codegen.cache_dir() / f"{name}.py"
-        if not path.exists():
-            codegen.write_module(path, self._generate_source())
-        return codegen.load_module(path, name)
+        key = module_store.content_key(self.system.statement_key(), "omega=" + self.omega.name,
+                                       _generator_fingerprint())
+        return module_store.load_generated("_lc_avg", key, self._generate_source)
 
     def _generate_source(self) -> str:
         system = self.system
@@ -821,7 +708,7 @@ def _reasons(freq_ratio, amp) -> tuple:
 
 
 # -- code generation helpers (kept here so that the averaging kernels depend only on the
-#    public contract of lagrange_core: System, its symbols and codegen.cache_dir) -----------
+#    public contract of lagrange_core: System, its symbols and the module store) ------------
 
 _ALLOWED = {"sin", "cos", "tan", "exp", "log", "sqrt", "asin", "acos", "atan", "atan2", "sinh",
             "cosh", "tanh", "asinh", "acosh", "atanh", "pi", "E", "sign"}
@@ -930,545 +817,3 @@ def effective(q, p, G, H):
                 H[a, b] += w[k] * s
     return value
 '''
-
-
-# ======================================================================================
-# The next order for the vertically driven pendulum: Mathieu-equation series
-# ======================================================================================
-#
-# About θ = 0 (hanging, +) and θ = π (upright, −) the vertically driven pendulum is the
-# Mathieu equation y″ + (a − 2q cos 2τ) y = 0 with τ = ωt/2, a = ±4ω0²/ω², q = 2A/l
-# (shared/PHYSICS.md).  Its solutions are e^{iντ} × (π-periodic), and the slow angular
-# frequency of the pendulum is Ω = ν ω / 2.  Damping γ adds c y′ with c = 2γ/ω; the
-# substitution y = e^{−cτ/2} z turns it *exactly* into the undamped equation with
-# a′ = a − c²/4 = a − γ²/ω², the multipliers being scaled by e^{−γT/2}.
-
-
-def exponent_squared(a, q, order: int = 2):
-    """Characteristic exponent squared ν²(a, q) of the Mathieu equation, small a and q.
-
-    Inverting DLMF 28.15.1 (a = ν² + q²/(2(ν² − 1)) + (5ν² + 7) q⁴/(32 (ν² − 1)³ (ν² − 4)) + …)
-    in the Kapitza scaling a ~ q² ~ ε²:
-
-    * ``order=1`` (first-order averaging): ν² = a + q²/2, error O(ε⁴);
-    * ``order=2``: ν² = a + q²/2 + a q²/2 + 25 q⁴/128, error O(ε⁶).
-
-    Both are exact at q = 0 (ν² = a), and order 2 vanishes on the series of
-    a₀(q) = −q²/2 + 7q⁴/128 + O(q⁶) (the Kapitza limit).  The relative error
-    of Ω = νω/2 is O(ε²) (order 1) and O(ε⁴) (order 2) away from ν = 0.
-
-    Parameters
-    ----------
-    a, q : array_like
-    order : {1, 2}
-
-    Returns
-    -------
-    ndarray
-        ν²; negative means the solutions grow as e^{√(−ν²) τ}.
-    """
-    a, q = np.asarray(a, float), np.asarray(q, float)
-    q2 = q * q
-    if order == 1:
-        return a + q2 / 2
-    if order == 2:
-        return a + q2 / 2 + a * q2 / 2 + 25.0 * q2 * q2 / 128
-    raise ValueError(f"order must be 1 or 2, got {order!r}.")
-
-
-def mathieu_a0(q):
-    """a₀(q) from its power series (A&S 20.2.25), through q⁸.
-
-    Absolute error ≈ 1e-10 at q = 0.2, 1e-6 at q = 0.5 (vs scipy.special.mathieu_a).
-    """
-    q = np.asarray(q, float)
-    return -q**2 / 2 + 7 * q**4 / 128 - 29 * q**6 / 2304 + 68687 * q**8 / 18874368
-
-
-def mathieu_b1(q):
-    """b₁(q) from its power series (A&S 20.2.25), through q⁸.
-
-    Absolute error < 1e-12 at q = 0.2, ≈ 3e-7 at q = 0.9 (vs scipy.special.mathieu_b);
-    b₁ = 0 at q = 0.90805 (the upright pendulum's upper limit A/l = 0.4540 for ω → ∞).
-    """
-    q = np.asarray(q, float)
-    return (1 - q - q**2 / 8 + q**3 / 64 - q**4 / 1536 - 11 * q**5 / 36864 + 49 * q**6 / 589824
-            - 55 * q**7 / 9437184 - 83 * q**8 / 35389440)
-
-
-def _b1_root(target):
-    """q with b₁(q) = target (b₁ decreases on [0, 2.5]); vectorised bisection."""
-    target = np.asarray(target, float)
-    lo, hi = np.zeros_like(target), np.full_like(target, 2.5)
-    for _ in range(60):
-        mid = (lo + hi) / 2
-        above = mathieu_b1(mid) > target
-        lo, hi = np.where(above, mid, lo), np.where(above, hi, mid)
-    return (lo + hi) / 2
-
-
-# ======================================================================================
-# The single pendulum: closed forms, vectorised over A and ω
-# ======================================================================================
-
-def _as_drive(A, omega):
-    try:
-        A, omega = np.broadcast_arrays(np.asarray(A, float), np.asarray(omega, float))
-    except (TypeError, ValueError):
-        raise ValueError(f"A and omega must be numbers or arrays of numbers that broadcast "
-                         f"together, got A={A!r}, omega={omega!r}.") from None
-    if not (np.all(np.isfinite(A)) and np.all(A >= 0)):
-        raise ValueError("the drive amplitude A must be finite and ≥ 0 (m).")
-    if not (np.all(np.isfinite(omega)) and np.all(omega > 0)):
-        raise ValueError("the drive frequency omega must be finite and > 0 (rad/s).")
-    return A, omega
-
-
-def pendulum_effective_potential(theta, A, omega, *, l=1.0, g=9.81, drive="vertical"):
-    """U_eff(θ)/m (J/kg) of the driven pendulum, first-order averaging.
-
-    vertical:   U_eff/m = −g l cos θ + A² ω² sin² θ / 4
-    horizontal: U_eff/m = −g l cos θ + A² ω² cos² θ / 4
-
-    Relative error O(ε²), ε² ~ ω0²/ω² ~ A²/l² (see :func:`exponent_squared`).
-    Broadcasts over θ (rad), A (m) and ω (rad/s).
-    """
-    if drive not in ("vertical", "horizontal"):
-        raise ValueError(f"drive must be 'vertical' or 'horizontal', got {drive!r}.")
-    A, omega = _as_drive(A, omega)
-    theta = np.asarray(theta, float)
-    shake = np.sin(theta) if drive == "vertical" else np.cos(theta)
-    return -g * l * np.cos(theta) + (A * omega * shake) ** 2 / 4
-
-
-def _item(x):
-    x = np.asarray(x)
-    return x.item() if x.ndim == 0 else x
-
-
-@dataclass(frozen=True)
-class EquilibriumPrediction:
-    """The averaged prediction for one equilibrium of the driven pendulum.
-
-    Array fields have the broadcast shape of (A, ω) (Python scalars for scalar input).
-
-    Attributes
-    ----------
-    name : str
-        "hanging", "inverted", "tilted+" or "tilted-".  The tilted pair is, for the
-        vertical drive, the unstable maxima of U_eff at cos θ = −2 g l/(A² ω²)
-        (present when the upright is stable; first order at any ``order``); for
-        the horizontal drive, the stable tilted minima at cos θ* = 2 g l/(A² ω²).
-    theta : array
-        Angle from the downward vertical (rad); NaN where it does not exist.
-    exists : bool array
-    stable : bool array
-        Linear stability of the averaged motion (order 2 also checks the
-        parametric-resonance limit a′ < b₁(q)).
-    omega_squared : array
-        Ω² of the undamped averaged motion (rad²/s²); negative: unstable.
-    omega_slow : array
-        Ω = √Ω² (rad/s), NaN where Ω² < 0.
-    damped_frequency : array
-        √(Ω² − γ²/4) at order 1, (ω/2) ν(a − γ²/ω², q) at order 2 (rad/s);
-        0 when overdamped, NaN when unstable.
-    decay_rate : array
-        The slowest decay rate of small oscillations (1/s): γ/2 when
-        underdamped, γ/2 − √(γ²/4 − Ω²) when overdamped; negative: growth rate.
-    overdamped : bool array
-    error_estimate : array
-        Vertical drive, hanging and upright: |√|Ω₂²| − √|Ω₁²|| / √|Ω₁²|, the relative
-        size of the next-order correction to the slow frequency (or growth rate);
-        +inf when the correction flips the stability.  It estimates the error of
-        order 1 (within a factor ≈ 2, tests/test_averaging.py); the error of
-        order 2 is much smaller (see :data:`MAX_CORRECTION`).  NaN for the tilted
-        equilibria and the horizontal drive (no next order implemented).
-    frequency_ratio : array
-        ω / max(ω0, √|Ω²|, γ).
-    fast_drive, small_amplitude, converged, valid : bool arrays
-        ``frequency_ratio ≥ MIN_FREQUENCY_RATIO``, ``A/l ≤ MAX_AMPLITUDE_RATIO``,
-        ``error_estimate ≤ MAX_CORRECTION`` (True where no estimate exists), and
-        all three (False where the equilibrium does not exist).
-    """
-
-    name: str
-    theta: object
-    exists: object
-    stable: object
-    omega_squared: object
-    omega_slow: object
-    damped_frequency: object
-    decay_rate: object
-    overdamped: object
-    error_estimate: object
-    frequency_ratio: object
-    fast_drive: object
-    small_amplitude: object
-    converged: object
-    valid: object
-
-
-@dataclass(frozen=True)
-class PendulumAveraging:
-    """Averaged (Kapitza) predictions for the driven pendulum over arrays of A and ω.
-
-    Attributes
-    ----------
-    A, omega : array
-        Drive amplitude (m) and angular frequency (rad/s), broadcast.
-    l, g, damping : float
-        Length (m), gravity (m/s²), damping rate γ (1/s).
-    drive : str
-    order : int
-        1 (Kapitza/Landau averaging) or 2 (next order, vertical drive).
-    equilibria : tuple of EquilibriumPrediction
-    """
-
-    A: object
-    omega: object
-    l: float
-    g: float
-    damping: float
-    drive: str
-    order: int
-    equilibria: tuple
-
-    def __getitem__(self, name) -> EquilibriumPrediction:
-        for e in self.equilibria:
-            if e.name == name:
-                return e
-        raise KeyError(f"no equilibrium {name!r}; have {[e.name for e in self.equilibria]}.")
-
-    @property
-    def hanging(self) -> EquilibriumPrediction:
-        return self["hanging"]
-
-    @property
-    def inverted(self) -> EquilibriumPrediction:
-        return self["inverted"]
-
-    @property
-    def tilted(self) -> EquilibriumPrediction:
-        """The tilted equilibrium θ* > 0 (−θ* is its mirror; see EquilibriumPrediction.name)."""
-        return self["tilted+"]
-
-    @property
-    def valid(self):
-        """The predictions for every existing equilibrium are valid (per point)."""
-        return _item(np.logical_and.reduce([np.asarray(e.valid) | ~np.asarray(e.exists)
-                                            for e in self.equilibria]))
-
-    def to_dataframe(self) -> pd.DataFrame:
-        """One row per (A, ω) point and equilibrium."""
-        A, w = (np.ravel(x) for x in np.broadcast_arrays(self.A, self.omega))
-        rows = []
-        for e in self.equilibria:
-            cols = {f: np.ravel(np.broadcast_to(np.asarray(getattr(e, f)), np.shape(self.A)))
-                    for f in ("theta", "exists", "stable", "omega_squared", "omega_slow",
-                              "damped_frequency", "decay_rate", "overdamped", "error_estimate",
-                              "frequency_ratio", "fast_drive", "small_amplitude", "converged",
-                              "valid")}
-            rows.append(pd.DataFrame({"A": A, "omega": w, "equilibrium": e.name, **cols}))
-        return pd.concat(rows, ignore_index=True).assign(order=self.order, drive=self.drive)
-
-
-def pendulum_averaged(A, omega, *, l=1.0, g=9.81, damping=0.0, drive="vertical", order=1,
-                      warn=True) -> PendulumAveraging:
-    """Equilibria, stability and slow frequencies of the driven pendulum by averaging.
-
-    Parameters
-    ----------
-    A, omega : float or array
-        Drive amplitude (m, ≥ 0) and angular frequency (rad/s, > 0); broadcast.
-    l, g, damping : float
-        Length (m), gravity (m/s²), viscous damping rate γ (1/s) as in
-        θ̈ = −γ θ̇ − (g − A ω² cos ωt) sin θ / l.
-    drive : {"vertical", "horizontal"}
-    order : {1, 2}
-        1: Kapitza/Landau averaging.  Vertical drive: upright stable iff
-        A² ω² > 2 g l; Ω² = A² ω²/(2 l²) − g/l (upright), g/l + A² ω²/(2 l²)
-        (hanging); relative error of Ω O(ε²), ε² ~ ω0²/ω² ~ A²/l².
-        Horizontal drive: tilted equilibria cos θ* = 2 g l/(A² ω²) for
-        A² ω² > 2 g l, Ω² = A² ω² sin² θ*/(2 l²); hanging Ω² = g/l − A² ω²/(2 l²).
-        2 (vertical drive only): the next order from the Mathieu equation,
-        Ω² = (ω²/4) ν²(a, q) with ν² = a + q²/2 + a q²/2 + 25 q⁴/128
-        (a = ±4 g/(l ω²), q = 2A/l), i.e. for the upright
-        Ω² = A²ω²/(2l²) − g/l − 2 (g/l) A²/l² + 25 A⁴ω²/(32 l⁴), relative error
-        O(ε⁴); stability also requires a′ < b₁(q), which gives the upper limit
-        A/l → 0.4540 at high ω that first-order averaging cannot see.
-    warn : bool
-        Emit :class:`AveragingValidityWarning` for a scalar point outside the
-        regime (see :data:`MIN_FREQUENCY_RATIO`, :data:`MAX_AMPLITUDE_RATIO`).
-
-    Damping
-    -------
-    The averaged equation is θ̈ + γ θ̇ + ∂U_eff/∂θ = 0: damping does not move the
-    equilibria nor the first-order stability limit; small oscillations become
-    e^{−γt/2} cos(√(Ω² − γ²/4) t), overdamped when γ > 2Ω.  For the linearised
-    pendulum this is exact in form: the damped Mathieu equation equals the
-    undamped one at a′ = a − γ²/ω² with multipliers scaled by e^{−γT/2}, so the
-    decay rate of an underdamped slow oscillation is exactly γ/2 and order 2
-    uses ν²(a′, q), whose a′q²/2 term is the damping's weakening of the fast
-    response: Ω² gains −(γ/ω)² A²ω²/(2l²), so the minimum drive rises by a
-    relative (γ/ω)²/2 (the exact damped limit, where a Floquet multiplier
-    reaches 1, is matched to O(ε⁴)).  The upper (parametric-resonance) limit is evaluated at a′
-    without the tongue's damping shift, i.e. it errs on the unstable side by
-    O(γ/ω).
-    """
-    if drive not in ("vertical", "horizontal"):
-        raise ValueError(f"drive must be 'vertical' or 'horizontal', got {drive!r}.")
-    if order not in (1, 2):
-        raise ValueError(f"order must be 1 or 2, got {order!r}.")
-    if order == 2 and drive != "vertical":
-        raise ValueError("the next-order (order=2) theory is implemented for the vertical drive "
-                         "only; use order=1 for the horizontal drive.")
-    for name, v in (("l", l), ("g", g), ("damping", damping)):
-        if not (isinstance(v, (int, float)) and math.isfinite(v)):
-            raise ValueError(f"{name} must be a finite number, got {v!r}.")
-    if l <= 0 or g < 0 or damping < 0:
-        raise ValueError(f"need l > 0, g ≥ 0, damping ≥ 0; got l={l}, g={g}, damping={damping}.")
-    A, omega = _as_drive(A, omega)
-    w02 = g / l
-    gam = float(damping)
-    small = A / l <= MAX_AMPLITUDE_RATIO
-    eqs = []
-
-    def finish(name, theta, exists, w2, w2_damped, stable, err):
-        # w2: undamped Ω²; w2_damped: Ω² − γ²/4 (or its order-2 form)
-        exists = np.asarray(exists, bool)
-        stable = np.asarray(stable, bool) & exists
-        root = np.sqrt(np.abs(w2_damped))
-        damped = np.where(stable, np.where(w2_damped > 0, root, 0.0), np.nan)
-        decay = np.where(w2_damped >= 0, gam / 2, gam / 2 - root)
-        ratio = omega / np.maximum.reduce([np.full_like(omega, math.sqrt(w02)),
-                                           np.sqrt(np.abs(w2)), np.full_like(omega, gam)])
-        fast = ratio >= MIN_FREQUENCY_RATIO
-        converged = ~(err > MAX_CORRECTION)              # NaN (no estimate) counts as converged
-        nan = np.where(exists, 0.0, np.nan)
-        eqs.append(EquilibriumPrediction(
-            name=name, theta=_item(theta + nan), exists=_item(exists), stable=_item(stable),
-            omega_squared=_item(w2 + nan), omega_slow=_item(np.where(w2 >= 0, np.sqrt(np.abs(w2)),
-                                                                     np.nan) + nan),
-            damped_frequency=_item(damped + nan), decay_rate=_item(decay + nan),
-            overdamped=_item(stable & (w2_damped < 0)), error_estimate=_item(err + nan),
-            frequency_ratio=_item(ratio), fast_drive=_item(fast), small_amplitude=_item(small),
-            converged=_item(converged), valid=_item(fast & small & converged & exists)))
-
-    vib = (A * omega) ** 2 / (2 * l * l)          # A²ω²/(2l²)
-    if drive == "vertical":
-        q = 2 * A / l
-        shift = (gam / omega) ** 2                # a → a′ = a − γ²/ω²
-        for name, theta, sign in (("hanging", 0.0, 1.0), ("inverted", math.pi, -1.0)):
-            a = sign * 4 * w02 / omega**2
-            w2 = {o: omega**2 / 4 * exponent_squared(a, q, o) for o in (1, 2)}
-            w2d = omega**2 / 4 * exponent_squared(a - shift, q, order)
-            # exact damped criterion: growth of the a′-equation must beat e^{−γt/2}
-            stable = w2d > -gam**2 / 4
-            if order == 2:
-                stable = stable & (a - shift < mathieu_b1(q))
-            with np.errstate(invalid="ignore", divide="ignore"):
-                r1, r2 = np.sqrt(np.abs(w2[1])), np.sqrt(np.abs(w2[2]))
-                err = np.where(np.sign(w2[1]) == np.sign(w2[2]), np.abs(r2 - r1) / r1, np.inf)
-            finish(name, np.full_like(A, theta), np.ones_like(A, bool), w2[order], w2d, stable, err)
-        # the maxima of U_eff between them, cos θ = −2gl/(A²ω²), exist when the upright is
-        # stable (first order at any ``order``): the separatrix of the slow motion
-        with np.errstate(divide="ignore", invalid="ignore"):
-            c = np.where(vib > 0, -w02 / np.where(vib > 0, vib, 1.0), -np.inf)
-        exists = c > -1
-        ts = np.arccos(np.clip(c, -1, 1))
-        w2 = -vib * np.sin(ts) ** 2
-        for name, sgn in (("tilted+", 1.0), ("tilted-", -1.0)):
-            finish(name, sgn * ts, exists, w2, w2 - gam**2 / 4, np.zeros_like(exists),
-                   np.full_like(A, np.nan))
-    else:
-        nan = np.full_like(A, np.nan)
-        for name, theta, w2 in (("hanging", 0.0, w02 - vib), ("inverted", math.pi, -w02 - vib)):
-            finish(name, np.full_like(A, theta), np.ones_like(A, bool), w2, w2 - gam**2 / 4,
-                   w2 > 0, nan)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            c = np.where(vib > 0, w02 / np.where(vib > 0, vib, 1.0), np.inf)   # cos θ* = 2gl/(A²ω²)
-        exists = c < 1
-        ts = np.arccos(np.clip(c, -1, 1))
-        w2 = vib * np.sin(ts) ** 2
-        for name, sgn in (("tilted+", 1.0), ("tilted-", -1.0)):
-            finish(name, sgn * ts, exists, w2, w2 - gam**2 / 4, exists, nan)
-    out = PendulumAveraging(A=_item(A), omega=_item(omega), l=float(l), g=float(g),
-                            damping=gam, drive=drive, order=order, equilibria=tuple(eqs))
-    if warn and np.ndim(A) == 0:
-        bad = [e.name for e in out.equilibria if e.exists and not e.valid]
-        if bad:
-            e = out[bad[0]]
-            why = []
-            if not e.small_amplitude:
-                why.append(f"A/l = {A / l:.3g} > {MAX_AMPLITUDE_RATIO:g}")
-            if not e.fast_drive:
-                why.append(f"ω is only {e.frequency_ratio:.3g} × the slow frequencies "
-                           f"(< {MIN_FREQUENCY_RATIO:g})")
-            if not e.converged:
-                why.append(f"the next-order correction is {e.error_estimate:.3g} of the slow "
-                           f"frequency (> {MAX_CORRECTION:g}; near a stability limit?)")
-            warnings.warn(f"averaging outside its regime for {', '.join(bad)}: "
-                          + "; ".join(why), AveragingValidityWarning, stacklevel=2)
-    return out
-
-
-def stability_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2) -> StabilityWindow:
-    """The drive amplitudes that keep the vertically driven pendulum upright, at each ω.
-
-    Order 1: A_min = √(2 g l)/ω, A_max = +inf (first order cannot see the upper
-    limit).  Order 2: A_min from ν²(a′, q) = −γ²/ω², i.e. (undamped)
-    A²ω²(1 − 7A²/(16 l²)) ≈ 2 g l, relative error O(ε⁴); A_max from the parametric
-    resonance a′ = b₁(2A/l), → 0.4540 l as ω → ∞.  The exact window is
-    :func:`kapitza.mathieu.pendulum_stability_window`.
-
-    Returns
-    -------
-    kapitza.results.StabilityWindow
-        ``method="averaging"``, fields of ``omega``'s shape (floats for a scalar).
-    """
-    _, omega = _as_drive(0.0, omega)
-    if order not in (1, 2):
-        raise ValueError(f"order must be 1 or 2, got {order!r}.")
-    window = functools.partial(StabilityWindow, method="averaging", about="inverted", order=order,
-                               l=float(l), g=float(g), damping=float(damping), omega=_item(omega))
-    if order == 1:
-        return window(A_min=_item(np.sqrt(2 * g * l) / omega),
-                      A_max=_item(np.full_like(omega, np.inf)))
-    a = -4 * g / (l * omega**2)
-    s = (damping / omega) ** 2
-    ap = a - s
-    # ν²(a′, x = q²) = a′ + x/2 + a′x/2 + 25x²/128 = −s  →  quadratic in x
-    c2, c1, c0 = 25 / 128, (1 + ap) / 2, a
-    x = (-c1 + np.sqrt(c1 * c1 - 4 * c2 * c0)) / (2 * c2)
-    A_min = l * np.sqrt(x) / 2
-    A_max = l * _b1_root(ap) / 2
-    return window(A_min=_item(A_min), A_max=_item(A_max))
-
-
-# ======================================================================================
-# The N-link pendulum on a vertically vibrating pivot (Acheson's theorem)
-# ======================================================================================
-
-@dataclass(frozen=True)
-class MultiplePendulumPrediction:
-    """Upright N-link pendulum on a pivot shaken vertically as A cos ωt.
-
-    About the upright state the linearised equations M θ̈ = (g − A ω² cos ωt) L θ
-    (M_ij = l_i l_j μ_max(i,j), L = diag(l_i μ_i), μ_i = Σ_{j≥i} m_j) decouple in
-    the eigenvectors of M⁻¹L into N Mathieu equations, each a single pendulum of
-    effective length λ_k = g / ω_k², ω_k the normal-mode frequencies of the
-    *hanging* chain (Acheson 1993, "A pendulum theorem").  First-order
-    averaging (the Hessian of U_eff) gives
-
-        Ω_k² = A² ω² ω_k⁴ / (2 g²) − ω_k²,
-
-    so all links stay upright iff A ω > √2 g / ω_min (the slowest hanging mode;
-    (2 + √2) g l for the equal double pendulum), and at order 2 each mode obeys
-    the single-pendulum limits with l → λ_k, the upper one
-    A < 0.4540 g / ω_max² at high ω (the fastest hanging mode).
-
-    Attributes
-    ----------
-    masses, lengths : ndarray (N,)
-    g : float
-    hanging_frequencies : ndarray (N,)
-        ω_k of the undriven hanging chain (rad/s), ascending.
-    effective_lengths : ndarray (N,)
-        λ_k = g/ω_k² (m), descending.
-    minimum_drive : float
-        (A ω)_min = √2 g / ω_1 (m/s), first order.
-    A, omega : array or None
-        The drive, if given; then the fields below have its broadcast shape (+ (N,)).
-    omega_squared : ndarray (..., N) or None
-        Slow Ω_k² about the upright, in the order of ``hanging_frequencies``.
-    stable : bool array or None
-    mode_predictions : tuple of PendulumAveraging or None
-        The single-pendulum prediction of each mode (``inverted`` holds the
-        upright result); carries the validity flags.
-    order : int
-    """
-
-    masses: np.ndarray
-    lengths: np.ndarray
-    g: float
-    hanging_frequencies: np.ndarray
-    effective_lengths: np.ndarray
-    minimum_drive: float
-    A: object = None
-    omega: object = None
-    omega_squared: object = None
-    stable: object = None
-    valid: object = None
-    mode_predictions: tuple = None
-    order: int = 1
-
-    def to_dataframe(self) -> pd.DataFrame:
-        """One row per mode (and drive point, if given)."""
-        if self.mode_predictions is None:
-            return pd.DataFrame({"mode": np.arange(len(self.masses)),
-                                 "hanging_frequency": self.hanging_frequencies,
-                                 "effective_length": self.effective_lengths})
-        frames = []
-        for k, pred in enumerate(self.mode_predictions):
-            df = pred.to_dataframe()
-            df = df[df.equilibrium == "inverted"].drop(columns="equilibrium")
-            frames.append(df.assign(mode=k, hanging_frequency=self.hanging_frequencies[k],
-                                    effective_length=self.effective_lengths[k]))
-        return pd.concat(frames, ignore_index=True)
-
-
-def multiple_pendulum_upright(masses, lengths, *, g=9.81, A=None, omega=None, order=1,
-                              warn=True) -> MultiplePendulumPrediction:
-    """Acheson's multiple inverted pendulum: minimum drive and slow modes of the upright chain.
-
-    Parameters
-    ----------
-    masses, lengths : sequence of float (N,)
-        Bob masses (kg) and rod lengths (m), from the pivot outwards.
-    g : float
-        Gravity (m/s²).
-    A, omega : float or array, optional
-        Vertical drive amplitude (m) and frequency (rad/s); with them, the slow
-        frequencies and stability are computed (broadcast, no re-derivation).
-    order : {1, 2}
-        Per-mode accuracy as in :func:`pendulum_averaged`.
-
-    Returns
-    -------
-    MultiplePendulumPrediction
-    """
-    m = np.asarray(masses, float).ravel()
-    ls = np.asarray(lengths, float).ravel()
-    if m.shape != ls.shape or m.size == 0:
-        raise ValueError(f"masses and lengths need the same length N ≥ 1, got {m.size} and {ls.size}.")
-    if not (np.all(m > 0) and np.all(ls > 0) and np.all(np.isfinite(m)) and np.all(np.isfinite(ls))):
-        raise ValueError("masses and lengths must be finite and > 0.")
-    if not g > 0:
-        raise ValueError(f"g must be > 0 (m/s²), got {g}.")
-    n = m.size
-    mu = np.cumsum(m[::-1])[::-1]                        # μ_i = Σ_{j≥i} m_j
-    idx = np.maximum.outer(np.arange(n), np.arange(n))
-    M = np.outer(ls, ls) * mu[idx]
-    L = np.diag(ls * mu)
-    w2 = np.sort(scipy.linalg.eigh(g * L, M, eigvals_only=True))
-    wk = np.sqrt(w2)
-    lam = g / w2
-    out = dict(masses=m, lengths=ls, g=float(g), hanging_frequencies=wk, effective_lengths=lam,
-               minimum_drive=float(math.sqrt(2) * g / wk[0]), order=order)
-    if A is None and omega is None:
-        return MultiplePendulumPrediction(**out)
-    if A is None or omega is None:
-        raise ValueError("give both A and omega (or neither).")
-    A, omega = _as_drive(A, omega)
-    preds = tuple(pendulum_averaged(A, omega, l=float(lk), g=float(g), order=order, warn=False)
-                  for lk in lam)
-    W2 = np.stack([np.asarray(p.inverted.omega_squared, float) for p in preds], axis=-1)
-    stable = np.logical_and.reduce([np.asarray(p.inverted.stable) for p in preds])
-    valid = np.logical_and.reduce([np.asarray(p.inverted.valid) for p in preds])
-    if warn and np.ndim(A) == 0 and not valid:
-        warnings.warn(f"averaging outside its regime for the {n}-link pendulum (a mode has "
-                      f"A/λ_k > {MAX_AMPLITUDE_RATIO:g} or ω < {MIN_FREQUENCY_RATIO:g} × its slow "
-                      "frequency)", AveragingValidityWarning, stacklevel=2)
-    return MultiplePendulumPrediction(**out, A=_item(A), omega=_item(omega), omega_squared=W2,
-                                      stable=_item(stable), valid=_item(valid),
-                                      mode_predictions=preds)

@@ -6,7 +6,7 @@ viscous damping γ (1/s):
 
     θ̈ = −γ θ̇ − (g − A ω² cos ωt) sin θ / l          (vertical drive)
 
-The analyses live in their own modules (:mod:`kapitza.averaging`,
+The analyses live in their own modules (:mod:`kapitza.pendulum_closed_forms`,
 :mod:`kapitza.mathieu`, :mod:`kapitza.floquet`) and return the value types of
 :mod:`kapitza.results`; this class holds the pendulum's constants and routes to
 them, so a user meets one object.
@@ -19,9 +19,9 @@ from dataclasses import dataclass
 
 from lagrange_core import problems
 
-from . import arguments, averaging, mathieu
+from . import arguments, mathieu, pendulum_closed_forms
 from .floquet import floquet_point
-from .results import FloquetResult, StabilityMap, StabilityWindow
+from .results import FloquetResult, PendulumAveraging, StabilityMap, StabilityWindow
 
 __all__ = ["KapitzaPendulum"]
 
@@ -93,28 +93,29 @@ class KapitzaPendulum:
             p["gamma"] = self.damping
         return p
 
-    # -- averaging (kapitza.averaging) -----------------------------------------------------
+    # -- averaging (kapitza.pendulum_closed_forms) -----------------------------------------
     def effective_potential(self, theta, A, omega):
         """Kapitza effective potential per unit mass U_eff(θ)/m (J/kg), first-order averaging.
 
         Vertical drive: −g l cos θ + A² ω² sin² θ / 4; horizontal: −g l cos θ +
         A² ω² cos² θ / 4.  Broadcasts over θ (rad), A (m), ω (rad/s).  See
-        :func:`kapitza.averaging.pendulum_effective_potential`.
+        :func:`kapitza.pendulum_closed_forms.pendulum_effective_potential`.
         """
-        return averaging.pendulum_effective_potential(theta, A, omega, l=self.l, g=self.g,
-                                                      drive=self.drive)
+        return pendulum_closed_forms.pendulum_effective_potential(theta, A, omega, l=self.l,
+                                                                  g=self.g, drive=self.drive)
 
-    def averaged(self, A, omega, order: int = 1, warn: bool = True):
+    def averaged(self, A, omega, order: int = 1, warn: bool = True) -> PendulumAveraging:
         """Averaged predictions: equilibria, stability, slow frequencies, validity flags.
 
         ``A`` (m) and ``omega`` (rad/s) may be arrays (closed forms, numpy speed).
         ``order=2`` adds the next order (vertical drive).  Returns
-        :class:`kapitza.averaging.PendulumAveraging` with ``.inverted``, ``.hanging``
+        :class:`kapitza.results.PendulumAveraging` with ``.inverted``, ``.hanging``
         (and ``.tilted`` for the horizontal drive); see
-        :func:`kapitza.averaging.pendulum_averaged` for formulas and accuracy.
+        :func:`kapitza.pendulum_closed_forms.pendulum_averaged` for formulas and accuracy.
         """
-        return averaging.pendulum_averaged(A, omega, l=self.l, g=self.g, damping=self.damping,
-                                           drive=self.drive, order=order, warn=warn)
+        return pendulum_closed_forms.pendulum_averaged(A, omega, l=self.l, g=self.g,
+                                                       damping=self.damping, drive=self.drive,
+                                                       order=order, warn=warn)
 
     def stability_window(self, omega, about: str = "inverted", tol: float = 1e-10, *,
                          method: str = "floquet", order: int = 2) -> StabilityWindow:
@@ -126,7 +127,7 @@ class KapitzaPendulum:
         accuracy.  See :func:`kapitza.mathieu.pendulum_stability_window`.
 
         method="averaging": the averaging prediction of order ``order`` (inverted
-        only); see :func:`kapitza.averaging.stability_window`.
+        only); see :func:`kapitza.pendulum_closed_forms.stability_window`.
 
         Returns
         -------
@@ -138,8 +139,8 @@ class KapitzaPendulum:
             if about != "inverted":
                 raise ValueError(f"the averaging window is for about='inverted' only, got "
                                  f"{about!r}; use method='floquet' for the hanging pendulum.")
-            return averaging.stability_window(omega, l=self.l, g=self.g, damping=self.damping,
-                                              order=order)
+            return pendulum_closed_forms.stability_window(omega, l=self.l, g=self.g,
+                                                          damping=self.damping, order=order)
         if method != "floquet":
             raise ValueError(f"method must be 'floquet' or 'averaging', got {method!r}.")
         return mathieu.pendulum_stability_window(omega, l=self.l, g=self.g, damping=self.damping,

@@ -17,6 +17,8 @@ from scipy.optimize import brentq
 from scipy.special import mathieu_a, mathieu_b
 
 from kapitza import averaging as av
+from kapitza import mathieu as mm
+from kapitza import pendulum_closed_forms as pcf
 from kapitza.pendulum import KapitzaPendulum
 from lagrange_core import Particle, System, coordinates, problems, t
 
@@ -246,7 +248,7 @@ def test_next_order_convergence_against_floquet(sign):
         A, w = 0.1 * s, 20 * W0 / s
         exact = exact_slow_frequency(A, w, sign)
         for order in (1, 2):
-            r = av.pendulum_averaged(A, w, order=order, warn=False)
+            r = pcf.pendulum_averaged(A, w, order=order, warn=False)
             eq = r.inverted if sign < 0 else r.hanging
             errs[order].append(abs(eq.omega_slow / exact - 1))
     e1, e2 = np.array(errs[1]), np.array(errs[2])
@@ -256,7 +258,7 @@ def test_next_order_convergence_against_floquet(sign):
     np.testing.assert_allclose(e2[:-1] / e2[1:], 16.0, rtol=0.15)   # O(ε⁴)
     assert np.all(e2 < e1 / 20)
     # the order-1 error estimate predicts the actual error
-    r = av.pendulum_averaged(0.1, 20 * W0, order=1, warn=False)
+    r = pcf.pendulum_averaged(0.1, 20 * W0, order=1, warn=False)
     est = (r.inverted if sign < 0 else r.hanging).error_estimate
     assert est == pytest.approx(e1[0], rel=0.05)
 
@@ -268,21 +270,21 @@ def test_corrected_more_accurate_across_regime():
         if (A * w) ** 2 < 2.6 * G * L:        # stay clear of the Kapitza limit (Ω → 0)
             continue
         exact = exact_slow_frequency(A, w, -1)
-        o1 = av.pendulum_averaged(A, w, order=1, warn=False).inverted.omega_slow
-        o2 = av.pendulum_averaged(A, w, order=2, warn=False).inverted.omega_slow
+        o1 = pcf.pendulum_averaged(A, w, order=1, warn=False).inverted.omega_slow
+        o2 = pcf.pendulum_averaged(A, w, order=2, warn=False).inverted.omega_slow
         assert abs(o2 - exact) < abs(o1 - exact) / 5
 
 
 def test_series_against_scipy_characteristic_values():
     q = np.array([0.1, 0.3, 0.6, 0.9])
-    np.testing.assert_allclose(av.mathieu_b1(q), mathieu_b(1, q), atol=5e-7)
-    np.testing.assert_allclose(av.mathieu_a0(q[:3]), mathieu_a(0, q[:3]), atol=2e-5)
+    np.testing.assert_allclose(mm.mathieu_b1(q), mathieu_b(1, q), atol=5e-7)
+    np.testing.assert_allclose(mm.mathieu_a0(q[:3]), mathieu_a(0, q[:3]), atol=2e-5)
 
 
 def test_stability_window_against_exact_boundaries():
     w = np.array([15.0, 30.0, 60.0, 200.0]) * W0
-    win2 = av.stability_window(w, order=2)
-    win1 = av.stability_window(w, order=1)
+    win2 = pcf.stability_window(w, order=2)
+    win1 = pcf.stability_window(w, order=1)
     for i, om in enumerate(w):
         a = -4 * W0**2 / om**2
         q_lo = brentq(lambda q: mathieu_a(0, q) - a, 1e-6, 0.9)
@@ -291,16 +293,16 @@ def test_stability_window_against_exact_boundaries():
         assert abs(win2.A_min[i] / A_lo - 1) < abs(win1.A_min[i] / A_lo - 1) / 20
         assert win2.A_max[i] == pytest.approx(A_hi, rel=1e-5)
         assert np.isinf(win1.A_max[i])
-    assert av.stability_window(1e6 * W0).A_max == pytest.approx(0.4540, abs=1e-4)
+    assert pcf.stability_window(1e6 * W0).A_max == pytest.approx(0.4540, abs=1e-4)
     assert list(win2.to_dataframe().columns) == ["omega", "A_min", "A_max", "order"]
     # the order-2 stability flag sees the upper limit, order 1 does not
     w0 = 100 * W0
-    above = av.pendulum_averaged(0.47, w0, order=2, warn=False).inverted
+    above = pcf.pendulum_averaged(0.47, w0, order=2, warn=False).inverted
     assert not above.stable
-    assert av.pendulum_averaged(0.47, w0, order=1, warn=False).inverted.stable
+    assert pcf.pendulum_averaged(0.47, w0, order=1, warn=False).inverted.stable
     assert abs(np.trace(pendulum_monodromy(0.47, w0, -1))) > 2      # exact: unstable
     assert abs(np.trace(pendulum_monodromy(0.44, w0, -1))) < 2
-    assert av.pendulum_averaged(0.44, w0, order=2, warn=False).inverted.stable
+    assert pcf.pendulum_averaged(0.44, w0, order=2, warn=False).inverted.stable
 
 
 # -- point 5: damping ------------------------------------------------------------------------
@@ -360,7 +362,7 @@ def chain2():
 
 
 def test_double_pendulum_closed_form(chain2):
-    mp = av.multiple_pendulum_upright([1.0, 1.0], [L, L], g=G)
+    mp = pcf.multiple_pendulum_upright([1.0, 1.0], [L, L], g=G)
     assert mp.minimum_drive**2 == pytest.approx((2 + math.sqrt(2)) * G * L, rel=1e-12)
     assert mp.minimum_drive / math.sqrt(G * L) == pytest.approx(1.848, abs=1e-3)
     np.testing.assert_allclose(mp.hanging_frequencies**2, G / L * np.array([2 - 2**0.5, 2 + 2**0.5]))
@@ -371,7 +373,7 @@ def test_double_pendulum_closed_form(chain2):
     lam = L / np.array([2 - 2**0.5, 2 + 2**0.5])
     closed = np.sort((A * w) ** 2 / (2 * lam**2) - G / lam)
     np.testing.assert_allclose(modes.omega_squared, closed, rtol=1e-10)
-    np.testing.assert_allclose(av.multiple_pendulum_upright([1, 1], [L, L], A=A, omega=w)
+    np.testing.assert_allclose(pcf.multiple_pendulum_upright([1, 1], [L, L], A=A, omega=w)
                                .omega_squared, closed, rtol=1e-10)
     # a sweep over drive arrays with the general code: stable exactly above the minimum drive
     amps = np.array([0.4, 0.9, 1.1, 2.0])[:, None] * math.sqrt((2 + math.sqrt(2)) * G * L) / w
@@ -396,7 +398,7 @@ def test_acheson_theorem_general_chain_matches_general_code():
     # hanging normal modes from lagrange_core's own linearisation (independent of averaging)
     still = problems.n_link_pendulum(3)
     wk = still.normal_modes({k: v for k, v in params.items() if k not in ("A", "omega")})
-    mp = av.multiple_pendulum_upright(m, ls, g=G, A=params["A"], omega=params["omega"])
+    mp = pcf.multiple_pendulum_upright(m, ls, g=G, A=params["A"], omega=params["omega"])
     np.testing.assert_allclose(mp.hanging_frequencies, wk, rtol=1e-10)
     modes = av.average(chain).slow_modes(params, [math.pi] * 3, warn=False)
     theorem = (params["A"] * params["omega"]) ** 2 * wk**4 / (2 * G**2) - wk**2
@@ -423,7 +425,7 @@ def test_double_pendulum_floquet(chain2):
     """Exact multipliers of the linearised time-periodic chain (lagrange_core's Jacobian)."""
     base = {"g": G, "l1": L, "l2": L, "m1": 1.0, "m2": 1.0}
     A = 0.02
-    drive_min = av.multiple_pendulum_upright([1, 1], [L, L], g=G).minimum_drive
+    drive_min = pcf.multiple_pendulum_upright([1, 1], [L, L], g=G).minimum_drive
     results = {}
     for factor in (0.9, 1.3):
         w = factor * drive_min / A
@@ -434,16 +436,16 @@ def test_double_pendulum_floquet(chain2):
     np.testing.assert_allclose(np.abs(mu), 1.0, atol=1e-7)          # above: upright holds
     exact = np.sort(np.abs(np.angle(mu)))[::2] / (2 * math.pi / w)  # slow Ω_k from the multipliers
     for order, tol in ((1, 0.03), (2, 2e-3)):
-        pred = av.multiple_pendulum_upright([1, 1], [L, L], g=G, A=A, omega=w, order=order)
+        pred = pcf.multiple_pendulum_upright([1, 1], [L, L], g=G, A=A, omega=w, order=order)
         np.testing.assert_allclose(np.sqrt(np.sort(pred.omega_squared)), exact, rtol=tol)
     # the upper limit: A < 0.4540 g/ω_max² (fastest hanging mode) at high ω
-    mp = av.multiple_pendulum_upright([1, 1], [L, L], g=G)
+    mp = pcf.multiple_pendulum_upright([1, 1], [L, L], g=G)
     A_max = 0.4540 * G / mp.hanging_frequencies[-1] ** 2
     w = 60 * mp.hanging_frequencies[-1]
     for factor, stable in ((0.95, True), (1.05, False)):
         mu = np.linalg.eigvals(_chain_monodromy(chain2, {**base, "A": factor * A_max, "omega": w}))
         assert (np.max(np.abs(mu)) < 1 + 1e-6) == stable
-        pred = av.multiple_pendulum_upright([1, 1], [L, L], g=G, A=factor * A_max, omega=w,
+        pred = pcf.multiple_pendulum_upright([1, 1], [L, L], g=G, A=factor * A_max, omega=w,
                                             order=2, warn=False)
         assert bool(pred.stable) == stable
     assert len(pred.to_dataframe()) == 2 and len(mp.to_dataframe()) == 2
@@ -473,7 +475,7 @@ def test_validity_flags_and_warnings():
     ratio = w / np.maximum(W0, np.sqrt(np.abs(grid.inverted.omega_squared)))
     np.testing.assert_array_equal(v, (A / L <= av.MAX_AMPLITUDE_RATIO)
                                   & (ratio >= av.MIN_FREQUENCY_RATIO)
-                                  & (grid.inverted.error_estimate <= av.MAX_CORRECTION))
+                                  & (grid.inverted.error_estimate <= pcf.MAX_CORRECTION))
     # near the Kapitza limit Ω → 0: fast drive and small A, but flagged (not converged)
     w_k = math.sqrt(2 * G * L) / 0.1
     with pytest.warns(av.AveragingValidityWarning, match="next-order correction"):
@@ -500,14 +502,14 @@ def test_validity_flags_and_warnings():
 
 def test_bad_input_messages():
     with pytest.raises(ValueError, match="omega must be finite and > 0"):
-        av.pendulum_averaged(0.1, -3.0)
+        pcf.pendulum_averaged(0.1, -3.0)
     with pytest.raises(ValueError, match="order=2"):
-        av.pendulum_averaged(0.1, 100.0, drive="horizontal", order=2)
+        pcf.pendulum_averaged(0.1, 100.0, drive="horizontal", order=2)
     with pytest.raises(ValueError, match="not an equilibrium"):
         av.average(problems.driven_pendulum("vertical")).slow_modes(
             KapitzaPendulum().params(0.1, 100.0), [1.0])
     with pytest.raises(ValueError, match="same length"):
-        av.multiple_pendulum_upright([1, 1], [1])
+        pcf.multiple_pendulum_upright([1, 1], [1])
 
 
 def test_damped_kapitza_limit_against_damped_floquet():
@@ -517,8 +519,8 @@ def test_damped_kapitza_limit_against_damped_floquet():
     def growth(A):
         return np.max(np.abs(np.linalg.eigvals(pendulum_monodromy(A, w, -1, gamma=gamma)))) - 1
     exact = brentq(growth, 0.5 * math.sqrt(2 * G * L) / w, 2 * math.sqrt(2 * G * L) / w, xtol=1e-12)
-    first = av.stability_window(w, damping=gamma, order=1)
-    second = av.stability_window(w, damping=gamma, order=2)
+    first = pcf.stability_window(w, damping=gamma, order=1)
+    second = pcf.stability_window(w, damping=gamma, order=2)
     # order 1: damping does not move the limit, error O(ε²) + O(γ²/ω²);
     # order 2: includes the (γ/ω)² weakening of the fast response, error O(ε⁴)
     assert first.A_min == pytest.approx(math.sqrt(2 * G * L) / w)
