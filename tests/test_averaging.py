@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 import pytest
 import sympy as sp
+from helpers import G, L, W0, jacobian_monodromy, pendulum_monodromy
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 from scipy.special import mathieu_a, mathieu_b
@@ -22,28 +23,8 @@ from kapitza import pendulum_closed_forms as pcf
 from kapitza.pendulum import KapitzaPendulum
 from lagrange_core import Particle, System, coordinates, problems, t
 
-G, L = 9.81, 1.0
-W0 = math.sqrt(G / L)
 
-
-# -- exact references ----------------------------------------------------------------------
-
-def monodromy(rhs_matrix, period, n, rtol=1e-12):
-    """Monodromy of x' = A(t) x over one period (columns: fundamental solutions)."""
-    def f(tt, y):
-        return (rhs_matrix(tt) @ y.reshape(2 * n, 2 * n)).ravel()
-    sol = solve_ivp(f, (0.0, period), np.eye(2 * n).ravel(), method="DOP853",
-                    rtol=rtol, atol=1e-13)
-    return sol.y[:, -1].reshape(2 * n, 2 * n)
-
-
-def pendulum_monodromy(A, omega, sign, gamma=0.0, l=L, g=G):
-    """θ̈ = −γ θ̇ − sign (g − A ω² cos ωt) θ / l  (sign +1 hanging, −1 upright; PHYSICS.md)."""
-    def mat(tt):
-        k = sign * (g - A * omega**2 * math.cos(omega * tt)) / l
-        return np.array([[0.0, 1.0], [-k, -gamma]])
-    return monodromy(mat, 2 * math.pi / omega, 1)
-
+# -- exact references (and tests/helpers.py) -------------------------------------------------
 
 def exact_slow_frequency(A, omega, sign, l=L, g=G):
     """Ω = β ω / 2 with cos(π β) = tr M / 2 (PHYSICS.md); NaN if unstable."""
@@ -408,17 +389,7 @@ def test_acheson_theorem_general_chain_matches_general_code():
 
 
 def _chain_monodromy(chain, params):
-    k = chain.kernels
-    names = chain.parameters
-    p = np.array([params[n] for n in names])
-    n = chain.n_dof
-    y0 = np.concatenate([np.full(n, math.pi), np.zeros(n)])
-    J = np.empty((2 * n, 2 * n))
-
-    def mat(tt):
-        k.jacobian(tt, y0, p, J)
-        return J.copy()
-    return monodromy(mat, 2 * math.pi / params["omega"], n, rtol=1e-10)
+    return jacobian_monodromy(chain, params, [math.pi] * chain.n_dof, rtol=1e-10)
 
 
 def test_double_pendulum_floquet(chain2):

@@ -2,7 +2,8 @@
 
 Independent references: scipy.special.mathieu_a/b, scipy.linalg.eigvalsh_tridiagonal,
 the small-q series of a0 (DLMF 28.6.1), scipy.integrate.solve_ivp (DOP853, rtol 1e-12)
-on the original (damped) equations, and the first-order averaging closed forms.
+on the original (damped) equations (tests/helpers.py), and the first-order averaging
+closed forms.
 """
 import math
 
@@ -11,7 +12,7 @@ import pytest
 import scipy.linalg
 import scipy.special
 import sympy as sp
-from scipy.integrate import solve_ivp
+from helpers import G, L, W0, jacobian_monodromy, mathieu_ivp_trace
 
 from kapitza import floquet as fq
 from kapitza import mathieu as mm
@@ -19,9 +20,6 @@ from kapitza import plots
 from kapitza.pendulum import KapitzaPendulum
 from lagrange_core import problems
 from lagrange_core import t as t_sym
-
-G, L = 9.81, 1.0
-W0 = math.sqrt(G / L)
 
 
 @pytest.fixture(scope="session")
@@ -41,24 +39,6 @@ def double_pendulum():
 
 
 DP = {"g": G, "l1": 1.0, "l2": 1.0, "m1": 1.0, "m2": 1.0}
-
-
-def ivp_monodromy(rhs, d, T, rtol=1e-12):
-    """Monodromy by solve_ivp (DOP853) column by column."""
-    M = np.empty((d, d))
-    for j in range(d):
-        y0 = np.zeros(d)
-        y0[j] = 1.0
-        sol = solve_ivp(rhs, (0, T), y0, method="DOP853", rtol=rtol, atol=rtol * 1e-2)
-        M[:, j] = sol.y[:, -1]
-    return M
-
-
-def mathieu_ivp_trace(a, q, c=0.0):
-    """tr M of y″ + c y′ + (a − 2q cos 2τ) y = 0 over τ ∈ [0, π], damping kept as is."""
-    def rhs(tau, y):
-        return [y[1], -c * y[1] - (a - 2 * q * np.cos(2 * tau)) * y[0]]
-    return np.trace(ivp_monodromy(rhs, 2, np.pi))
 
 
 # -- 2. Mathieu characteristic values --------------------------------------------------
@@ -310,23 +290,15 @@ def test_heavy_damping(rng):
 
 # -- 6. general systems: the double pendulum ---------------------------------------------
 
-def double_ivp_monodromy(system, params, T):
-    k = system.kernels
-    P = system.parameter_array(params)
-    ystar = np.array([np.pi, np.pi, 0.0, 0.0])
-    J = np.empty((4, 4))
-
-    def rhs(t, x):
-        k.jacobian(t, ystar, P, J)
-        return J @ x
-    return ivp_monodromy(rhs, 4, T, rtol=1e-11)
+def double_ivp_monodromy(system, params):
+    return jacobian_monodromy(system, params, [np.pi, np.pi], rtol=1e-11)
 
 
 def test_double_pendulum_monodromy_against_solve_ivp(double_pendulum):
     for A, w in ((0.05, 150.0), (0.15, 60.0), (0.3, 40.0)):
         p = dict(DP, A=A, omega=w)
         r = fq.floquet_point(double_pendulum, p, [np.pi, np.pi], tol=1e-10)
-        M = double_ivp_monodromy(double_pendulum, p, 2 * np.pi / w)
+        M = double_ivp_monodromy(double_pendulum, p)
         assert np.allclose(r.monodromy, M, rtol=1e-7, atol=1e-7 * np.max(np.abs(M)))
         lam = np.linalg.eigvals(M)
         assert r.stable == bool(np.max(np.abs(lam)) < 1 + 1e-6)
@@ -342,8 +314,7 @@ def test_double_pendulum_map(double_pendulum):
     assert m.stable.any()                         # Acheson: a window exists
     # classification against solve_ivp at a few points, stable and unstable
     for i, j in ((3, 5), (5, 7), (9, 0), (1, 2)):
-        M = double_ivp_monodromy(double_pendulum, dict(DP, A=A[i], omega=w[j]),
-                                 2 * np.pi / w[j])
+        M = double_ivp_monodromy(double_pendulum, dict(DP, A=A[i], omega=w[j]))
         assert m.stable[i, j] == bool(np.max(np.abs(np.linalg.eigvals(M))) < 1 + 1e-6)
     assert set(m.to_dataframe().columns) >= {"A", "omega", "stable", "boundary", "trace"}
 

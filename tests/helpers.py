@@ -1,0 +1,54 @@
+"""References shared by the kapitza test files (test_floquet.py, test_averaging.py).
+
+Every reference is independent of kapitza: monodromy matrices integrated here with
+scipy's solve_ivp (DOP853) at tight tolerance, from the linearised equations as written
+in shared/PHYSICS.md or from lagrange_core's compiled Jacobian.
+"""
+import math
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+G, L = 9.81, 1.0
+W0 = math.sqrt(G / L)
+
+
+def monodromy(matrix, period, *, rtol=1e-12, atol=1e-13):
+    """Monodromy of x′ = matrix(t) x over one period: all columns of the fundamental
+    matrix integrated together by solve_ivp (DOP853)."""
+    d = np.shape(matrix(0.0))[0]
+
+    def f(tt, y):
+        return (np.asarray(matrix(tt)) @ y.reshape(d, d)).ravel()
+    sol = solve_ivp(f, (0.0, period), np.eye(d).ravel(), method="DOP853", rtol=rtol, atol=atol)
+    return sol.y[:, -1].reshape(d, d)
+
+
+def pendulum_monodromy(A, omega, sign, gamma=0.0, l=L, g=G):
+    """Over one drive period: θ̈ = −γ θ̇ − sign (g − A ω² cos ωt) θ / l (sign +1 hanging,
+    −1 upright; PHYSICS.md)."""
+    def mat(tt):
+        k = sign * (g - A * omega**2 * math.cos(omega * tt)) / l
+        return np.array([[0.0, 1.0], [-k, -gamma]])
+    return monodromy(mat, 2 * math.pi / omega)
+
+
+def mathieu_ivp_trace(a, q, c=0.0):
+    """tr M of y″ + c y′ + (a − 2q cos 2τ) y = 0 over τ ∈ [0, π], damping kept as is."""
+    def mat(tau):
+        return np.array([[0.0, 1.0], [-(a - 2 * q * np.cos(2 * tau)), -c]])
+    return np.trace(monodromy(mat, np.pi, rtol=1e-12, atol=1e-14))
+
+
+def jacobian_monodromy(system, params, about, *, rtol, atol=1e-13):
+    """Monodromy of x′ = J(t) x about the state (q = about, q̇ = 0) over one period
+    2π/params["omega"], J from the system's compiled ``jacobian`` kernel."""
+    k = system.kernels
+    P = system.parameter_array(params)
+    ystar = np.concatenate([np.asarray(about, float), np.zeros(len(about))])
+    J = np.empty((ystar.size, ystar.size))
+
+    def mat(tt):
+        k.jacobian(tt, ystar, P, J)
+        return J.copy()
+    return monodromy(mat, 2 * math.pi / params["omega"], rtol=rtol, atol=atol)
