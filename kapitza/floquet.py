@@ -74,12 +74,15 @@ its exact slow frequency is within 0.2 % of the averaging value √(A²ω²/2 �
 from __future__ import annotations
 
 import math
+import sys
 import time
 
 import numpy as np
 from numba import njit, prange
 
+from lagrange_core import _kernel_calls
 from lagrange_core._kernel_calls import JACOBIAN, call_jacobian
+from lagrange_core.module_store import guard_numba_cache
 
 from . import arguments
 from .results import FloquetGrid, FloquetResult, MonodromyData, StabilityMap
@@ -808,3 +811,7 @@ def stability_map(system, params, about, A, omega, *, amplitude="A", frequency="
                         uncertified_points=int(np.sum(~(g.margin > 1.0))),
                         flagged_points=len(flagged), flags_example=flagged[0] if flagged else (),
                         max_steps_per_period=int(np.max(g.steps)), samples=g.samples)
+
+
+# numba's cache does not notice a change of the kernel slots the sampler calls
+guard_numba_cache(sys.modules[__name__], _kernel_calls)

@@ -34,6 +34,7 @@ kind ``EV_COORDINATE`` q_j − value, ``EV_VELOCITY`` q̇_j − value, ``EV_MULT
 only downward, 0 both.
 """
 import math
+import sys
 
 import numpy as np
 from numba import njit
@@ -1071,3 +1072,10 @@ def fast_start(ka, y, f, t, p):
         f[i] = y[n + i]
         f[n + i] = a[i]
     return status
+
+
+# numba's cache does not notice changes to the slots and solvers these drivers call
+from . import _kernel_calls, _linalg  # noqa: E402
+from .module_store import guard_numba_cache  # noqa: E402
+
+guard_numba_cache(sys.modules[__name__], _kernel_calls, _linalg)

@@ -36,7 +36,7 @@ from pathlib import Path
 import numba
 
 __all__ = ["cache_dir", "source_fingerprint", "content_key", "load_generated",
-           "write_module", "load_module"]
+           "write_module", "load_module", "guard_numba_cache"]
 
 
 def cache_dir() -> Path:
@@ -129,3 +129,27 @@ def load_generated(prefix: str, key: str, generate: Callable[[], str]) -> types.
     if not path.exists():
         write_module(path, generate())
     return load_module(path, name)
+
+
+def guard_numba_cache(module: types.ModuleType, *dependencies) -> None:
+    """Flush the numba cache of ``module``'s jitted functions when a module they call into
+    has changed since the cache was written.
+
+    numba keys a cached function by its own file only: a cached driver that calls a
+    kernel slot or a solver defined in another module keeps the old machine code after
+    that module changes (a changed slot number then calls the wrong kernel).  Call this at
+    the end of such a module with the modules it calls into; it compares their
+    :func:`source_fingerprint` with the one recorded for this file and, if they differ,
+    empties the module's numba cache so the functions recompile on first use.
+    """
+    stamp = source_fingerprint(*dependencies)
+    where = hashlib.sha256(os.path.abspath(module.__file__).encode()).hexdigest()[:16]
+    marker = cache_dir() / "numba-dependencies" / f"{module.__name__}-{where}"
+    if marker.exists() and marker.read_text() == stamp:
+        return
+    for obj in list(vars(module).values()):
+        cache = getattr(obj, "_cache", None)
+        if getattr(obj, "__module__", None) == module.__name__ and hasattr(cache, "flush"):
+            cache.flush()
+    marker.parent.mkdir(exist_ok=True)
+    _write_atomic(marker, stamp)

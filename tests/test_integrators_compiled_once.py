@@ -91,3 +91,41 @@ def test_rigid_triangle_keeps_its_constraints():
     assert np.max(tr.constraint_residual) < 1e-9
     assert np.max(np.abs(tr.energy - tr.energy[0])) < 1e-7 * np.max(np.abs(tr.energy))
     assert tr.multipliers.shape == (len(tr.t), 3) and np.all(np.isfinite(tr.multipliers))
+
+
+def test_numba_cache_is_flushed_when_a_module_it_calls_into_changes(tmp_path):
+    """numba keys a cached function by its own file; guard_numba_cache also empties the
+    cache when a module the functions call into changes (a changed kernel slot would
+    otherwise call the wrong kernel)."""
+    (tmp_path / "dep.py").write_text("VALUE = 1\n")
+    (tmp_path / "user.py").write_text(textwrap.dedent("""
+        import sys
+        from numba import njit
+        import dep
+        from lagrange_core.module_store import guard_numba_cache
+
+        @njit(cache=True)
+        def f(x):
+            return x + dep.VALUE
+
+        guard_numba_cache(sys.modules[__name__], dep)
+    """))
+    code = """
+        import json, sys
+        sys.path.insert(0, sys.argv[1])
+        import user
+        value = user.f(1)
+        print(json.dumps([value, sum(user.f.stats.cache_hits.values())]))
+    """
+    env = {**__import__("os").environ, "LAGRANGE_CORE_CACHE": str(tmp_path / "store")}
+
+    def run():
+        out = subprocess.run([sys.executable, "-c", textwrap.dedent(code), str(tmp_path)],
+                             capture_output=True, text=True, check=True, env=env)
+        return json.loads(out.stdout.strip().splitlines()[-1])
+
+    assert run() == [2, 0]          # compiled
+    assert run() == [2, 1]          # from the cache
+    (tmp_path / "dep.py").write_text("VALUE = 5\n")
+    assert run() == [6, 0]          # the callee's module changed: recompiled, not stale
+    assert run() == [6, 1]
