@@ -192,8 +192,8 @@ def section_tolerance(quick):
     rows = []
     for tol in (1e-4, 1e-6, 1e-8, 1e-10, 1e-12):
         tt, g = best(lambda: fqm.floquet_grid(sysm, params, [math.pi], tol=tol), 2)
-        err = np.max(np.abs(g["trace"][ii, jj] - ref) / np.maximum(1, np.abs(ref)))
-        rows.append((tol, tt, int(g["steps"].max()), float(g["error"].max()), err))
+        err = np.max(np.abs(g.trace[ii, jj] - ref) / np.maximum(1, np.abs(ref)))
+        rows.append((tol, tt, int(g.steps.max()), float(g.error_estimate.max()), err))
         print(f"{tol:8.0e} {tt:9.3f} {rows[-1][2]:19d} {rows[-1][3]:13.1e} {err:25.1e}")
     return rows
 
@@ -211,8 +211,8 @@ def section_double(quick):
     for tol in (1e-6, 1e-8):
         tt, m = best(lambda: fqm.stability_map(dp, base, up, A, w, tol=tol), 2)
         print(f"kapitza tol {tol:.0e}: {tt:6.2f} s  stable fraction {m.stable.mean():.4f}, "
-              f"refined {m.meta['refined_points']}, uncertified {m.meta['uncertified_points']}, "
-              f"flagged {m.meta['flagged_points']}, max error estimate {m.error_estimate:.1e}")
+              f"refined {m.refined_points}, uncertified {m.uncertified_points}, "
+              f"flagged {m.flagged_points}, max error estimate {m.error_estimate:.1e}")
     t_ours = tt
     k = dp.kernels
     ystar = np.array(up + [0.0, 0.0])

@@ -211,10 +211,6 @@ class MonodromyData:
 
 
 # the keys of the dict floquet_grid used to return, for code written against it
-_GRID_KEYS = {"M": "monodromy_scaled", "logabs": "log_abs_multipliers", "slow": "omega_slow",
-              "error": "error_estimate", "liouville": "liouville_residual",
-              "pairing": "pairing_residual", "refined": "refined_points"}
-
 
 @dataclass(frozen=True)
 class FloquetGrid(MonodromyData):
@@ -284,12 +280,6 @@ class FloquetGrid(MonodromyData):
             error_estimate=float(self.error_estimate[index]), steps=int(self.steps[index]),
             samples=int(self.samples), liouville_residual=float(self.liouville_residual[index]),
             pairing_residual=float(self.pairing_residual[index]), flags=self.flags[flat])
-
-    def __getitem__(self, key: str):
-        """Old dict access (``grid["trace"]``, ``grid["error"]``, ...): use the attributes."""
-        if not isinstance(key, str):
-            raise TypeError(f"FloquetGrid[{key!r}]: index a point with grid.point({key!r}).")
-        return getattr(self, _GRID_KEYS.get(key, key))
 
     def to_dataframe(self):
         """One row per grid point: the parameters, stable, boundary, trace, log_growth,
@@ -375,15 +365,6 @@ class StabilityMap:
     def boundary(self) -> np.ndarray:
         """Label names per point: "stable", "T", "2T" or "complex"."""
         return _boundary_names(self.label)
-
-    @property
-    def meta(self) -> dict:
-        """The fields after ``method`` as a dict (read-only view for code written
-        against the old free ``meta`` dict; use the attributes)."""
-        names = ("l", "g", "damping", "params", "seconds", "refined_points",
-                 "uncertified_points", "flagged_points", "flags_example",
-                 "max_steps_per_period", "samples")
-        return {k: getattr(self, k) for k in names}
 
     def to_dataframe(self):
         """Long format: one row per grid point (A, omega, stable, boundary, trace, log_growth)."""
