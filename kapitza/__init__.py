@@ -75,6 +75,11 @@ Figures (:mod:`kapitza.plots`; they draw results and compute nothing)
     ince_strutt_figure
         The Ince–Strutt chart.
 
+Installation
+    warmup
+        Compile the integrators and the Floquet and Mathieu kernels once per
+        installation (:mod:`kapitza.warmup`; includes :func:`lagrange_core.warmup`).
+
 Examples
 --------
 >>> import math
@@ -93,6 +98,7 @@ from .pendulum import KapitzaPendulum
 from .pendulum_closed_forms import (multiple_pendulum_upright, pendulum_averaged,
                                     pendulum_effective_potential, stability_window)
 from .plots import ince_strutt_figure, stability_map_figure
+from .warmup import warmup
 from .results import (AveragingPrediction, EquilibriumPrediction, FloquetGrid, FloquetResult,
                       FloquetWindow, InceStruttChart, MonodromyData, MultiplePendulumPrediction,
                       PendulumAveraging, SlowModes, SlowModeSweep, StabilityMap, StabilityWindow)
@@ -108,6 +114,6 @@ __all__ = [
     "FloquetResult", "FloquetGrid", "MonodromyData", "StabilityMap", "StabilityWindow",
     "FloquetWindow", "InceStruttChart", "SlowModes", "AveragingPrediction", "SlowModeSweep",
     "PendulumAveraging", "EquilibriumPrediction", "MultiplePendulumPrediction",
-    "stability_map_figure", "ince_strutt_figure",
+    "stability_map_figure", "ince_strutt_figure", "warmup",
 ]
 __version__ = "0.1.0"
