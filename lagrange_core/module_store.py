@@ -139,17 +139,24 @@ def guard_numba_cache(module: types.ModuleType, *dependencies) -> None:
     kernel slot or a solver defined in another module keeps the old machine code after
     that module changes (a changed slot number then calls the wrong kernel).  Call this at
     the end of such a module with the modules it calls into; it compares their
-    :func:`source_fingerprint` with the one recorded for this file and, if they differ,
-    empties the module's numba cache so the functions recompile on first use.
+    :func:`source_fingerprint` with the one recorded beside numba's cache of this file
+    and, if they differ, empties that cache so the functions recompile on first use.
     """
     stamp = source_fingerprint(*dependencies)
-    where = hashlib.sha256(os.path.abspath(module.__file__).encode()).hexdigest()[:16]
-    marker = cache_dir() / "numba-dependencies" / f"{module.__name__}-{where}"
-    if marker.exists() and marker.read_text() == stamp:
+    caches = [obj._cache for obj in vars(module).values()
+              if getattr(obj, "__module__", None) == module.__name__
+              and hasattr(getattr(obj, "_cache", None), "flush")]
+    if not caches:
         return
-    for obj in list(vars(module).values()):
-        cache = getattr(obj, "_cache", None)
-        if getattr(obj, "__module__", None) == module.__name__ and hasattr(cache, "flush"):
-            cache.flush()
-    marker.parent.mkdir(exist_ok=True)
-    _write_atomic(marker, stamp)
+    marker = Path(caches[0].cache_path) / f"{module.__name__.rpartition('.')[2]}.dependencies"
+    try:
+        if marker.read_text() == stamp:
+            return
+    except OSError:
+        pass
+    for cache in caches:
+        cache.flush()
+    try:
+        _write_atomic(marker, stamp)
+    except OSError:         # a read-only cache directory: flushed again next time
+        pass
