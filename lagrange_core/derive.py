@@ -43,6 +43,9 @@ if TYPE_CHECKING:     # typing only: the statement sits above its derivation
 
 __all__ = ["Equations", "ParticleTerms", "derive"]
 
+#: the sympy view of M is simplified for systems of up to this many coordinates
+SIMPLIFY_DOF = 3
+
 
 def _se(expr):
     return se.sympify(expr)
@@ -172,8 +175,14 @@ class Equations:
 
     @functools.cached_property
     def mass_matrix(self) -> sp.Matrix:
+        """M(q, t) as sympy.  For up to ``SIMPLIFY_DOF`` coordinates its entries are
+        simplified with ``trigsimp`` (m (l² sin²θ + l² cos²θ) → l² m; ~30 ms an entry, so
+        larger systems keep them as derived).  The kernels never use this view."""
         n = len(self.system.q)
-        return sp.Matrix(n, n, [self._to_sympy(e) for row in self.mass_matrix_se for e in row])
+        entries = [self._to_sympy(e) for row in self.mass_matrix_se for e in row]
+        if n <= SIMPLIFY_DOF:
+            entries = [sp.trigsimp(e) for e in entries]
+        return sp.Matrix(n, n, entries)
 
     @functools.cached_property
     def forcing(self) -> sp.Matrix:
