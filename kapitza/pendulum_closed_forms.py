@@ -17,7 +17,6 @@ thresholds apply here too); the exact (Floquet) counterparts are
 """
 from __future__ import annotations
 
-import functools
 import math
 import warnings
 
@@ -26,8 +25,8 @@ import scipy.linalg
 
 from . import arguments
 from .averaging import MAX_AMPLITUDE_RATIO, MIN_FREQUENCY_RATIO, AveragingValidityWarning
-from .mathieu import (amplitude_from_q, exponent_squared, mathieu_b1, mathieu_b1_root,
-                      mathieu_parameters)
+from .mathieu import (amplitude_from_q, characteristic_value, exponent_squared, mathieu_b1,
+                      mathieu_b1_root, mathieu_parameters)
 from .results import (EquilibriumPrediction, MultiplePendulumPrediction, PendulumAveraging,
                       StabilityWindow)
 from .results import scalar_or_array as _s
@@ -224,15 +223,23 @@ def pendulum_averaged(A, omega, *, l=1.0, g=9.81, damping=0.0, drive="vertical",
     return out
 
 
-def stability_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2) -> StabilityWindow:
+def stability_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2, warn=True) -> StabilityWindow:
     """The drive amplitudes that keep the vertically driven pendulum upright, at each ω.
 
     Order 1: A_min = √(2 g l)/ω, A_max = +inf (first order cannot see the upper
     limit).  Order 2: A_min from ν²(a′, q) = −γ²/ω² (:func:`kapitza.mathieu.exponent_squared`),
     i.e. (undamped) A²ω²(1 − 7A²/(16 l²)) ≈ 2 g l, relative error O(ε⁴); A_max from
-    the parametric resonance a′ = b₁(2A/l) (series, :func:`kapitza.mathieu.mathieu_b1`),
-    → 0.4540 l as ω → ∞.  The exact window is
+    the parametric resonance a′ = b₁(2A/l), → 0.4540 l as ω → ∞ (b₁ from its series,
+    :func:`kapitza.mathieu.mathieu_b1`, up to q = 1, A/l = 0.5, where it is good to 7e-7;
+    beyond, at ω ≲ 6 ω0, from the exact characteristic value).  Where the order-2 edges
+    cross (A_min ≥ A_max, at low ω) the prediction has no window: both edges are NaN
+    and ``exists`` is False.  The exact window is
     :func:`kapitza.mathieu.pendulum_stability_window`.
+
+    Validity is reported as by :func:`pendulum_averaged`: ``fast_drive``
+    (ω ≥ MIN_FREQUENCY_RATIO × max(ω0, γ)), ``small_amplitude`` (A_min/l ≤
+    MAX_AMPLITUDE_RATIO), ``converged`` (the next order moves A_min by at most
+    :data:`MAX_CORRECTION`) and ``valid`` (all three, and a window exists).
 
     Parameters
     ----------
@@ -241,6 +248,9 @@ def stability_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2) -> Stability
     l, g, damping : float
         Length (m), gravity (m/s²), damping rate γ (1/s).
     order : {1, 2}
+    warn : bool
+        Emit :class:`~kapitza.averaging.AveragingValidityWarning` for a scalar ω whose
+        window is not valid (arrays only set the flags).
 
     Returns
     -------
@@ -263,18 +273,64 @@ def stability_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2) -> Stability
     _, omega = arguments.drive(0.0, omega)
     order = arguments.averaging_order(order)
     l, g, damping = arguments.pendulum_constants(l, g, damping)
-    window = functools.partial(StabilityWindow, method="averaging", about="inverted", order=order,
-                               l=l, g=g, damping=damping, omega=_s(omega))
-    if order == 1:
-        return window(A_min=_s(np.sqrt(2 * g * l) / omega), A_max=_s(np.full_like(omega, np.inf)))
     a, _, c_damp = mathieu_parameters(0.0, omega, l, g, damping, "inverted")
     s = c_damp**2 / 4
     ap = a - s
     # ν²(a′, x = q²) = a′ + x/2 + a′x/2 + 25x²/128 = −s  →  quadratic in x
     c2, c1, c0 = 25 / 128, (1 + ap) / 2, a
     x = (-c1 + np.sqrt(c1 * c1 - 4 * c2 * c0)) / (2 * c2)
-    return window(A_min=_s(amplitude_from_q(np.sqrt(x), l)),
-                  A_max=_s(amplitude_from_q(mathieu_b1_root(ap), l)))
+    lower = {1: np.sqrt(2 * g * l) / omega, 2: amplitude_from_q(np.sqrt(x), l)}
+    if order == 1:
+        A_min, A_max = lower[1], np.full_like(omega, np.inf)
+    else:
+        A_min, A_max = lower[2], amplitude_from_q(_b1_root(ap), l)
+    exists = A_min < A_max
+    A_min, A_max = np.where(exists, A_min, np.nan), np.where(exists, A_max, np.nan)
+    ratio = omega / max(math.sqrt(g / l), damping)
+    err = np.abs(lower[1] - lower[2]) / lower[2]
+    fast = ratio >= MIN_FREQUENCY_RATIO
+    small = lower[order] / l <= MAX_AMPLITUDE_RATIO
+    converged = err <= MAX_CORRECTION
+    valid = exists & fast & small & converged
+    if warn and np.ndim(omega) == 0 and not valid:
+        why = [] if exists else ["the order-2 edges cross (A_min ≥ A_max): no window"]
+        if not fast:
+            why.append(f"ω is only {ratio:.3g} × max(ω0, γ) (< {MIN_FREQUENCY_RATIO:g})")
+        if not small:
+            why.append(f"A_min/l = {lower[order] / l:.3g} > {MAX_AMPLITUDE_RATIO:g}")
+        if not converged:
+            why.append(f"the next order moves A_min by {err:.3g} (> {MAX_CORRECTION:g})")
+        warnings.warn(f"averaging window at ω = {float(omega):.4g} rad/s outside its regime: "
+                      + "; ".join(why), AveragingValidityWarning, stacklevel=2)
+    return StabilityWindow(method="averaging", about="inverted", order=order, l=l, g=g,
+                           damping=damping, omega=_s(omega), A_min=_s(A_min), A_max=_s(A_max),
+                           exists=_s(exists), frequency_ratio=_s(ratio), error_estimate=_s(err),
+                           fast_drive=_s(fast), small_amplitude=_s(small),
+                           converged=_s(converged), valid=_s(valid))
+
+
+#: b₁'s series (:func:`kapitza.mathieu.mathieu_b1`) is used for q ≤ this (absolute error
+#: 7e-7 here, 3e-5 at q = 1.5, 2e-3 at q = 2.5); beyond, the exact characteristic value.
+_B1_SERIES_LIMIT = 1.0
+
+
+def _b1_root(a):
+    """q > 0 with b₁(q) = a (b₁ decreases from 1 at q = 0; a ≤ 1)."""
+    a = np.asarray(a, float)
+    q = mathieu_b1_root(a)              # the series (on [0, 2.5]; kept where q ≤ the limit)
+    beyond = a < mathieu_b1(_B1_SERIES_LIMIT)
+    if np.any(beyond):
+        # exact b₁ is decreasing and below 1 − q: the root lies in [limit, 1 − a]
+        target = a[beyond]
+        lo = np.full_like(target, _B1_SERIES_LIMIT)
+        hi = np.maximum(1 - target, _B1_SERIES_LIMIT)
+        for _ in range(60):
+            mid = (lo + hi) / 2
+            above = np.asarray(characteristic_value("b", 1, mid)) > target
+            lo, hi = np.where(above, mid, lo), np.where(above, hi, mid)
+        q = np.array(q, float)
+        q[beyond] = (lo + hi) / 2
+    return q
 
 
 def multiple_pendulum_upright(masses, lengths, *, g=9.81, A=None, omega=None, order=1,

@@ -400,7 +400,8 @@ class StabilityWindow:
         hold the pendulum upright).  Averaging, order 1: A_min = √(2 g l)/ω and
         A_max = +inf (first order cannot see the upper limit); order 2: the next
         order, relative error O(ε⁴), with A_max from the parametric resonance
-        a′ = b₁(2A/l) (→ 0.4540 l as ω → ∞).
+        a′ = b₁(2A/l) (→ 0.4540 l as ω → ∞); NaN where the edges cross (see
+        ``exists``), and see ``valid`` before trusting an edge.
     method : {"floquet", "averaging"}
     about : str
         "inverted" (θ = π) or "hanging" (θ = 0; exact windows only, A_min = 0).
@@ -413,6 +414,19 @@ class StabilityWindow:
         Exact windows: the requested relative accuracy; None for averaging.
     l, g, damping : float or None
         Length (m), gravity (m/s²), damping rate γ (1/s) of the pendulum.
+    exists : bool or ndarray or None
+        Averaging: the prediction has a window, A_min < A_max (False: both edges
+        NaN); None for exact windows.
+    frequency_ratio : float or ndarray or None
+        Averaging: ω / max(ω0, γ) (at the lower edge the slow frequency is 0).
+    error_estimate : float or ndarray or None
+        Averaging: |A_min(order 1) − A_min(order 2)| / A_min(order 2), the size of
+        the next-order correction to the lower edge (it estimates the error of
+        order 1; that of order 2 is much smaller).
+    fast_drive, small_amplitude, converged, valid : bool or ndarray or None
+        Averaging, as for :class:`EquilibriumPrediction`: ``frequency_ratio ≥
+        MIN_FREQUENCY_RATIO``, ``A_min/l ≤ MAX_AMPLITUDE_RATIO``, ``error_estimate ≤
+        MAX_CORRECTION``, and all three with ``exists``.  None for exact windows.
     """
 
     omega: object
@@ -426,6 +440,13 @@ class StabilityWindow:
     l: float | None = None
     g: float | None = None
     damping: float | None = None
+    exists: object = None
+    frequency_ratio: object = None
+    error_estimate: object = None
+    fast_drive: object = None
+    small_amplitude: object = None
+    converged: object = None
+    valid: object = None
 
     def __post_init__(self):
         if self.method not in _WINDOW_METHODS:
