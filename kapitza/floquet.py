@@ -46,6 +46,10 @@ Accuracy guards
   characteristic polynomial is palindromic (multipliers in pairs λ, 1/λ).
 A result whose residual exceeds ``guard_tol`` (or, for very large growth, the
 rounding floor ≈ 1e-13·max|λ|/min|λ|) is flagged in ``FloquetResult.flags``.
+A point that would need more than ``MAX_STEPS_PER_PERIOD`` Taylor steps (ω → 0, a
+huge amplitude against a slow drive) is not integrated: it is reported unstable with
+the frozen-time estimate log|λ| ≈ ∮ max(0, max Re eig J(t)) dt and a flag (stability
+"undecided" when that estimate is small), so one such point never aborts a grid.
 
 Entry points and results
 ------------------------
@@ -240,17 +244,21 @@ def _period_map(C, S, K, omega, T, tol, order, X, work, coef, half):
     n = d // 2
     if half:
         ls, err, ns = _taylor_period(C, S, K, omega, 0.5 * T, tol, order, X, work, coef, True)
-        if ls == 0.0:
+        nx = 0.0
+        for r in range(d):
+            for c in range(d):
+                nx = max(nx, abs(X[r, c]))
+        # det X = 1 here, so ‖X‖‖X⁻¹‖ ≥ ‖X‖/d: a large X is ill-conditioned, and inverting a
+        # numerically singular one raised LinAlgError from inside the compiled loop
+        if ls == 0.0 and nx < 1e3:
             PX = X.copy()
             for r in range(n, d):
                 for c in range(d):
                     PX[r, c] = -PX[r, c]
             Xinv = np.linalg.inv(X)
-            nx = 0.0
             ni = 0.0
             for r in range(d):
                 for c in range(d):
-                    nx = max(nx, abs(X[r, c]))
                     ni = max(ni, abs(Xinv[r, c]))
             if nx * ni < 1e3:
                 Y = Xinv @ PX
@@ -412,30 +420,94 @@ def _prepare(system, params, about, frequency, tol):
                 liouville=T * np.trace(C[:, 0, :, n:], axis1=1, axis2=2))
 
 
+#: Taylor steps per period ≈ 4 √‖J_b‖ (balanced variables, see _integrate); beyond this many
+#: (slow drives of a stiff system, huge amplitudes, ω → 0) a point is not integrated: its
+#: growth is the frozen-time estimate of :func:`_frozen_growth`, and it is flagged
+MAX_STEPS_PER_PERIOD = 200_000
+
+
+def _balanced(prep, idx):
+    """J's lower block in the balanced variables (q, dq/ds), s = ωt: [L_q/ω², L_v/ω]."""
+    n = prep["n"]
+    om = prep["omega"][idx]
+    C = prep["C"][idx].copy()
+    S = prep["S"][idx].copy()
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        for X in (C, S):
+            X[:, :, :, :n] /= om[:, None, None, None] ** 2
+            X[:, :, :, n:] /= om[:, None, None, None]
+    return C, S
+
+
+def _step_count(C, S):
+    """The Taylor steps one period would take, ≈ 4 √(Σ_k ‖C_k‖ + ‖S_k‖) (inf if not finite)."""
+    norm = np.sum(np.max(np.abs(C), axis=(2, 3)) + np.max(np.abs(S), axis=(2, 3)), axis=1)
+    with np.errstate(invalid="ignore"):
+        return np.where(np.isfinite(norm), 4.0 * np.sqrt(norm) + 4.0, np.inf)
+
+
+def _frozen_growth(prep, idx, samples=256):
+    """Frozen-time (adiabatic, WKB-order) estimate of log|λ|max per period, and whether the
+    dominant frozen eigenvalue is real.
+
+    log|λ| ≈ ∫₀ᵀ max(0, max Re eig J(t)) dt, with J(t) from its Fourier series at
+    ``samples`` times: exact to leading order when J changes slowly against its own
+    rates (slow drives) or the growth is large (huge amplitudes, WKB); its relative
+    error is O(1/log|λ|), so it decides instability only when it is large.
+    """
+    n = prep["n"]
+    C, S, T = prep["C"][idx], prep["S"][idx], prep["T"][idx]
+    K = C.shape[1] - 1
+    ph = 2 * np.pi * np.arange(samples) / samples
+    k = np.arange(K + 1)
+    cos_, sin_ = np.cos(np.outer(ph, k)), np.sin(np.outer(ph, k))
+    L = np.einsum("jk,ikrc->ijrc", cos_, C) + np.einsum("jk,ikrc->ijrc", sin_, S)
+    J = np.zeros(L.shape[:2] + (2 * n, 2 * n))
+    J[:, :, :n, n:] = np.eye(n)
+    J[:, :, n:, :] = L
+    with np.errstate(over="ignore", invalid="ignore"):
+        ev = np.linalg.eigvals(np.where(np.isfinite(J), J, 0.0))
+        top = np.argmax(ev.real, axis=2)
+        lead = np.take_along_axis(ev, top[:, :, None], axis=2)[:, :, 0]
+        rate = np.maximum(lead.real, 0.0)
+        growth = T * np.mean(rate, axis=1)
+        real = np.abs(lead.imag[np.arange(len(idx)), np.argmax(rate, axis=1)]) == 0.0
+    return growth, real
+
+
 def _integrate(prep, idx, tol, order):
-    """Monodromies of the grid points ``idx`` (flat indices) to ``tol``."""
+    """Monodromies of the grid points ``idx`` (flat indices) to ``tol``.
+
+    Returns (M scaled, log scale, error estimate, steps, skipped): points that would
+    need more than :data:`MAX_STEPS_PER_PERIOD` Taylor steps are not integrated
+    (skipped; M = NaN, error = inf, steps = 0).
+    """
     d = 2 * prep["n"]
     n = prep["n"]
     m = idx.size
     # balanced variables (q, dq/ds), s = ωt: J_b = [[0, I], [L_q/ω², L_v/ω]], period 2π;
     # then M = D⁻¹ M_b D with D = diag(I, I/ω), and errors are relative to a balanced norm
     om = prep["omega"][idx]
-    C = prep["C"][idx].copy()
-    S = prep["S"][idx].copy()
-    C[:, :, :, :n] /= om[:, None, None, None] ** 2
-    S[:, :, :, :n] /= om[:, None, None, None] ** 2
-    C[:, :, :, n:] /= om[:, None, None, None]
-    S[:, :, :, n:] /= om[:, None, None, None]
-    Mout = np.empty((m, d, d))
-    logscale = np.empty(m)
-    err = np.empty(m)
-    steps = np.empty(m, dtype=np.int64)
-    # reversible (J even in t, no velocity block): integrate half a period
-    _monodromy_grid(C, S, prep["K"], np.ones(m), np.full(m, 2 * np.pi), float(tol), int(order),
-                    prep["half"], Mout, logscale, err, steps)
-    Mout[:, n:, :] *= om[:, None, None]
-    Mout[:, :, n:] /= om[:, None, None]
-    return Mout, logscale, np.maximum(err, prep["alias"]), steps
+    C, S = _balanced(prep, idx)
+    skipped = ~(_step_count(C, S) <= MAX_STEPS_PER_PERIOD)
+    Mout = np.full((m, d, d), np.nan)
+    logscale = np.zeros(m)
+    err = np.full(m, np.inf)
+    steps = np.zeros(m, dtype=np.int64)
+    run = np.nonzero(~skipped)[0]
+    if run.size:
+        Mr = np.empty((run.size, d, d))
+        lr = np.empty(run.size)
+        er = np.empty(run.size)
+        sr = np.empty(run.size, dtype=np.int64)
+        # reversible (J even in t, no velocity block): integrate half a period
+        _monodromy_grid(np.ascontiguousarray(C[run]), np.ascontiguousarray(S[run]), prep["K"],
+                        np.ones(run.size), np.full(run.size, 2 * np.pi), float(tol), int(order),
+                        prep["half"], Mr, lr, er, sr)
+        Mr[:, n:, :] *= om[run, None, None]
+        Mr[:, :, n:] /= om[run, None, None]
+        Mout[run], logscale[run], err[run], steps[run] = Mr, lr, np.maximum(er, prep["alias"]), sr
+    return Mout, logscale, err, steps, skipped
 
 
 def _monodromy_fields(prep, Ms, ls, err, steps) -> dict:
@@ -486,7 +558,7 @@ def monodromy_data(system, params, about, *, frequency="omega", tol=1e-10,
     True
     """
     prep = _prepare(system, params, about, frequency, tol)
-    Mout, ls, err, steps = _integrate(prep, np.arange(prep["T"].size), tol, order)
+    Mout, ls, err, steps, _ = _integrate(prep, np.arange(prep["T"].size), tol, order)
     return MonodromyData(**_monodromy_fields(prep, Mout, ls, err, steps))
 
 
@@ -640,6 +712,42 @@ def _analyse(Ms, ls, T, liou, err, guard_tol):
                 flags=flags)
 
 
+def _analyse_points(prep, idx, Ms, ls, err, skip, guard_tol):
+    """:func:`_analyse` for the grid points ``idx``; the points that were not integrated
+    (``skip``, see :func:`_integrate`) get the frozen-time growth estimate and a flag."""
+    T, liou = prep["T"][idx], prep["liouville"][idx]
+    d = Ms.shape[1]
+    res = _analyse(np.where(skip[:, None, None], np.eye(d), Ms), np.where(skip, 0.0, ls), T,
+                   liou, np.where(skip, 0.0, err), guard_tol)
+    where = np.nonzero(skip)[0]
+    if where.size == 0:
+        return res
+    growth, real = _frozen_growth(prep, idx[where])
+    with np.errstate(invalid="ignore"):
+        need = _step_count(*_balanced(prep, idx[where]))
+    decided = growth > 30.0           # unstable even if the estimate were off by a factor 2
+    for k in ("multipliers", "exponents"):
+        res[k][where] = np.nan
+    for k in ("logabs", "slow"):
+        res[k][where] = np.nan
+    res["logabs"][where, 0] = growth
+    with np.errstate(over="ignore", invalid="ignore"):
+        res["exponents"][where, 0] = growth / T[where]
+    res["trace"][where] = np.nan
+    res["stable"][where] = False
+    res["label"][where] = np.where(real, 1, 3)
+    res["liouville"][where] = np.nan
+    res["pairing"][where] = np.nan
+    res["margin"][where] = np.where(decided, np.inf, 0.0)
+    for j, i in enumerate(where):
+        res["flags"][i] = (
+            f"not integrated: ~{need[j]:.1e} Taylor steps per period needed (more than "
+            f"{MAX_STEPS_PER_PERIOD}; a slow drive or a huge amplitude); log|λ| ≈ {growth[j]:.4g}"
+            " per period is the frozen-time (adiabatic) estimate"
+            + ("" if decided[j] else "; stability undecided (reported unstable)"),)
+    return res
+
+
 def floquet_grid(system, params, about, *, frequency="omega", tol=1e-10, guard_tol=1e-8,
                  order=16, certify=False, coarse_tol=1e-4) -> FloquetGrid:
     """Floquet analysis for every parameter set of a broadcast grid.
@@ -685,15 +793,15 @@ def floquet_grid(system, params, about, *, frequency="omega", tol=1e-10, guard_t
     npts = T.size
     idx = np.arange(npts)
     first = max(tol, coarse_tol) if certify else tol
-    Ms, ls, err, steps = _integrate(prep, idx, first, order)
-    res = _analyse(Ms, ls, T, liou, err, guard_tol)
+    Ms, ls, err, steps, skip = _integrate(prep, idx, first, order)
+    res = _analyse_points(prep, idx, Ms, ls, err, skip, guard_tol)
     refined = 0
     if certify and first > tol:
-        redo = np.nonzero(~(res["margin"] > 1.0))[0]
+        redo = np.nonzero(~(res["margin"] > 1.0) & ~skip)[0]
         refined = redo.size
         if refined:
-            M2, l2, e2, s2 = _integrate(prep, redo, tol, order)
-            r2 = _analyse(M2, l2, T[redo], liou[redo], e2, guard_tol)
+            M2, l2, e2, s2, k2 = _integrate(prep, redo, tol, order)
+            r2 = _analyse_points(prep, redo, M2, l2, e2, k2, guard_tol)
             Ms[redo], ls[redo], err[redo], steps[redo] = M2, l2, e2, s2
             for k, v in r2.items():
                 if k == "flags":
@@ -805,12 +913,18 @@ def stability_map(system, params, about, A, omega, *, amplitude="A", frequency="
                      coarse_tol=coarse_tol if coarse_tol is not None else tol)
     flagged = [f for f in g.flags if f]
     return StabilityMap(A=A, omega=omega, stable=g.stable, label=g.label, trace=g.trace,
-                        log_growth=g.log_growth, error_estimate=float(np.max(g.error_estimate)),
+                        log_growth=g.log_growth, error_estimate=_largest_finite(g.error_estimate),
                         about=str(about), method="monodromy", params=fixed,
                         seconds=time.perf_counter() - t0, refined_points=g.refined_points,
                         uncertified_points=int(np.sum(~(g.margin > 1.0))),
                         flagged_points=len(flagged), flags_example=flagged[0] if flagged else (),
                         max_steps_per_period=int(np.max(g.steps)), samples=g.samples)
+
+
+def _largest_finite(x):
+    """The largest finite entry (0 if none): the error estimate over the integrated points."""
+    x = np.asarray(x)[np.isfinite(x)]
+    return float(np.max(x)) if x.size else 0.0
 
 
 # numba's cache does not notice a change of the kernel slots the sampler calls
