@@ -26,9 +26,17 @@ Program format
 Register r is the result of instruction r.  Instructions::
 
     ("y", i)  ("t",)  ("p", i)  ("c", value)          inputs and constants
-    ("add" | "mul" | "div" | "pow" | "atan2", a, b)
+    ("add" | "mul" | "div" | "pow" | "atan2" | "max" | "min", a, b)
     (name, a)   name in UNARY: sqrt exp log sin cos tan asin acos atan
-                sinh cosh tanh asinh acosh atanh abs sign
+                sinh cosh tanh asinh acosh atanh abs sign not
+    ("heaviside", a, h0)                                 1 (a > 0), 0 (a < 0), h0 (a = 0)
+    ("lt" | "le" | "eq" | "ne" | "and" | "or", a, b)    conditions: 1.0 true, 0.0 false
+    ("select", c, a, b)                                  a where c is true, else b
+
+Piecewise((e1, c1), (e2, c2), ...) becomes nested selects (NaN where no condition holds).
+The derivatives of max, min and select are those of the operand they pick; steps
+(sign, heaviside) and conditions have derivative 0 (everywhere but at the jump, where
+the kernels, which evaluate pointwise, take 0 too).
 
 (a − b is a + (−1)·b: LLVM folds it into one subtraction, exactly.)
 
@@ -47,14 +55,21 @@ from numba.core.typing import signature
 from numba.extending import intrinsic
 
 UNARY = ("sqrt", "exp", "log", "sin", "cos", "tan", "asin", "acos", "atan", "sinh",
-         "cosh", "tanh", "asinh", "acosh", "atanh", "abs", "sign")
-BINARY = ("add", "mul", "div", "pow", "atan2")
+         "cosh", "tanh", "asinh", "acosh", "atanh", "abs", "sign", "not")
+BINARY = ("add", "mul", "div", "pow", "atan2", "max", "min", "heaviside",
+          "lt", "le", "eq", "ne", "and", "or")
+#: conditions are 1.0 (true) or 0.0; ("select", c, a, b) is a where c is true, else b
+TERNARY = ("select",)
+#: instructions whose derivative is zero wherever it exists (steps and conditions)
+_FLAT = ("sign", "heaviside", "lt", "le", "eq", "ne", "and", "or", "not")
+_RELATIONS = {"StrictLessThan": "lt", "LessThan": "le", "Equality": "eq", "Unequality": "ne"}
 #: Function names a statement may use (symengine's names), mapped to instructions.
 _FUNCTIONS = {"sin": "sin", "cos": "cos", "tan": "tan", "log": "log", "asin": "asin",
               "acos": "acos", "atan": "atan", "sinh": "sinh", "cosh": "cosh", "tanh": "tanh",
               "asinh": "asinh", "acosh": "acosh", "atanh": "atanh", "Abs": "abs",
               "sign": "sign"}
-SUPPORTED = sorted({"sqrt", "exp", "atan2", "pi", "E", *_FUNCTIONS.values()})
+SUPPORTED = sorted({"sqrt", "exp", "atan2", "pi", "E", "Max", "Min", "Heaviside", "Piecewise",
+                    *_FUNCTIONS.values()})
 
 
 class _ProgramBuilder:
@@ -124,6 +139,29 @@ class _ProgramBuilder:
                 r = self.emit(("pow", self(base), self(e)))
         elif kind == "atan2":
             r = self.emit(("atan2", self(args[0]), self(args[1])))
+        elif kind in ("Max", "Min"):
+            op = kind.lower()
+            r = self(args[0])
+            for a in args[1:]:
+                r = self.emit((op, r, self(a)))
+        elif kind in _RELATIONS:
+            r = self.emit((_RELATIONS[kind], self(args[0]), self(args[1])))
+        elif kind in ("And", "Or"):
+            r = self(args[0])
+            for a in args[1:]:
+                r = self.emit((kind.lower(), r, self(a)))
+        elif kind == "Not":
+            r = self.emit(("not", self(args[0])))
+        elif kind in ("BooleanTrue", "BooleanFalse"):
+            r = self.const(1.0 if kind == "BooleanTrue" else 0.0)
+        elif kind == "Piecewise":
+            # (e1, c1, e2, c2, ...): the first true condition wins; none true: NaN
+            r = self.const(math.nan)
+            for e, cond in reversed(list(zip(args[0::2], args[1::2]))):
+                r = self.emit(("select", self(cond), self(e), r))
+        elif hasattr(expr, "get_name") and expr.get_name() == "Heaviside":
+            h0 = args[1] if len(args) > 1 else se.Rational(1, 2)
+            r = self.emit(("heaviside", self(args[0]), self(h0)))
         elif kind in _FUNCTIONS and len(args) == 1:
             r = self.emit((_FUNCTIONS[kind], self(args[0])))
         else:
@@ -181,8 +219,10 @@ def build_program(values, outputs, n_dof: int, n_parameters: int, cse: bool = Tr
     for ins in instructions:
         if ins[0] == "y":
             deps.append(frozenset([ins[1]]))
-        elif ins[0] in ("t", "p", "c", "sign"):
+        elif ins[0] in ("t", "p", "c", *_FLAT):
             deps.append(frozenset())
+        elif ins[0] == "select":                 # the condition carries no derivative
+            deps.append(deps[ins[2]] | deps[ins[3]])
         else:
             deps.append(frozenset().union(*(deps[a] for a in ins[1:])))
     return instructions, registers, tuple(tuple(sorted(deps[r])) for r in registers)
@@ -213,8 +253,34 @@ class _Emitter:
         negative = b.select(b.fcmp_ordered("<", x, self.const(0.0)), self.const(-1.0), zero_or_nan)
         return b.select(b.fcmp_ordered(">", x, self.const(0.0)), self.const(1.0), negative)
 
-    def value(self, op, a, b):
+    def truth(self, x):
+        """An LLVM i1: condition value x (1.0 or 0.0) is true."""
+        return self.b.fcmp_unordered("!=", x, self.const(0.0))
+
+    def boolean(self, bit):
+        return self.b.uitofp(bit, ir.DoubleType())
+
+    def value(self, op, a, b, c=None):
         B = self.b
+        if op == "select":
+            return B.select(self.truth(a), b, c)
+        if op in ("max", "min"):
+            # NaN in, NaN out (a + b is NaN then); else the larger / smaller
+            pick = B.select(B.fcmp_ordered(">=" if op == "max" else "<=", a, b), a, b)
+            return B.select(B.fcmp_unordered("uno", a, b), B.fadd(a, b), pick)
+        if op in ("lt", "le", "eq", "ne"):
+            cmp = {"lt": "<", "le": "<=", "eq": "==", "ne": "!="}[op]
+            bit = (B.fcmp_unordered(cmp, a, b) if op == "ne" else B.fcmp_ordered(cmp, a, b))
+            return self.boolean(bit)
+        if op in ("and", "or"):
+            bit = (B.and_ if op == "and" else B.or_)(self.truth(a), self.truth(b))
+            return self.boolean(bit)
+        if op == "not":
+            return self.boolean(B.not_(self.truth(a)))
+        if op == "heaviside":              # 1 for a > 0, 0 for a < 0, b at 0, NaN stays NaN
+            at_zero = B.select(B.fcmp_ordered("==", a, a), b, a)
+            below = B.select(B.fcmp_ordered("<", a, self.const(0.0)), self.const(0.0), at_zero)
+            return B.select(B.fcmp_ordered(">", a, self.const(0.0)), self.const(1.0), below)
         if op == "add":
             return B.fadd(a, b)
         if op == "mul":
@@ -243,11 +309,21 @@ class _Emitter:
                 out[k] = B.fadd(out[k], term) if k in out else term
         return out
 
-    def tangent(self, op, v, a, b, da, db):
-        """Tangent of v = op(a, b) from the operands' tangents."""
-        if (not da and not db) or op == "sign":
+    def _choose(self, bit, da, db):
+        """The tangent da where ``bit`` is true, else db (per state index)."""
+        zero = self.const(0.0)
+        return {k: self.b.select(bit, da.get(k, zero), db.get(k, zero)) for k in {*da, *db}}
+
+    def tangent(self, op, v, a, b, da, db, cond=None):
+        """Tangent of v = op(a, b) from the operands' tangents (``select``: v = a or b by
+        the value ``cond``; max and min: the tangent of the operand they pick)."""
+        if (not da and not db) or op in _FLAT:
             return {}
         B, c = self.b, self.const
+        if op == "select":
+            return self._choose(self.truth(cond), da, db)
+        if op in ("max", "min"):
+            return self._choose(B.fcmp_ordered(">=" if op == "max" else "<=", a, b), da, db)
         if op == "add":
             return self._combine(da, None, db, None)
         if op == "mul":
@@ -321,6 +397,11 @@ def _run(context, builder, instructions, load, tangents):
             v = load(ins)
             if op == "y" and tangents:
                 d = {ins[1]: em.const(1.0)}
+        elif op in TERNARY:                 # select(c, a, b)
+            cond, a, b = (values[i] for i in ins[1:])
+            v = em.value(op, cond, a, b)
+            if tangents:
+                d = em.tangent(op, v, a, b, dvalues[ins[2]], dvalues[ins[3]], cond)
         else:
             a = values[ins[1]]
             b = values[ins[2]] if op in BINARY else None
