@@ -17,6 +17,7 @@ thresholds apply here too); the exact (Floquet) counterparts are
 """
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 
@@ -140,6 +141,33 @@ def pendulum_averaged(A, omega, *, l=1.0, g=9.81, damping=0.0, drive="vertical",
                          "only; use order=1 for the horizontal drive.")
     l, g, gam = arguments.pendulum_constants(l, g, damping)
     A, omega = arguments.drive(A, omega)
+    parts = _in_chunks(functools.partial(_equilibria, l=l, g=g, gam=gam, drive=drive,
+                                         order=order), A, omega)
+    eqs = tuple(EquilibriumPrediction(name=name, **{k: _s(v) for k, v in fields.items()})
+                for name, fields in parts)
+    out = PendulumAveraging(A=_s(A), omega=_s(omega), l=l, g=g, damping=gam, drive=drive,
+                            order=order, equilibria=eqs)
+    if warn and np.ndim(A) == 0:
+        bad = [e.name for e in out.equilibria if e.exists and not e.valid]
+        if bad:
+            e = out[bad[0]]
+            why = []
+            if not e.small_amplitude:
+                why.append(f"A/l = {A / l:.3g} > {MAX_AMPLITUDE_RATIO:g}")
+            if not e.fast_drive:
+                why.append(f"ω is only {e.frequency_ratio:.3g} × the slow frequencies "
+                           f"(< {MIN_FREQUENCY_RATIO:g})")
+            if not e.converged:
+                why.append(f"the next-order correction is {e.error_estimate:.3g} of the slow "
+                           f"frequency (> {MAX_CORRECTION:g}; near a stability limit?)")
+            warnings.warn(f"averaging outside its regime for {', '.join(bad)}: "
+                          + "; ".join(why), AveragingValidityWarning, stacklevel=2)
+    return out
+
+
+def _equilibria(A, omega, *, l, g, gam, drive, order):
+    """The fields of every EquilibriumPrediction of :func:`pendulum_averaged` at the points
+    (A, omega): [(name, {field: array})]."""
     w02 = g / l
     small = A / l <= MAX_AMPLITUDE_RATIO
     eqs = []
@@ -156,14 +184,13 @@ def pendulum_averaged(A, omega, *, l=1.0, g=9.81, damping=0.0, drive="vertical",
         fast = ratio >= MIN_FREQUENCY_RATIO
         converged = ~(err > MAX_CORRECTION)              # NaN (no estimate) counts as converged
         nan = np.where(exists, 0.0, np.nan)
-        eqs.append(EquilibriumPrediction(
-            name=name, theta=_s(theta + nan), exists=_s(exists), stable=_s(stable),
-            omega_squared=_s(w2 + nan),
-            omega_slow=_s(np.where(w2 >= 0, np.sqrt(np.abs(w2)), np.nan) + nan),
-            damped_frequency=_s(damped + nan), decay_rate=_s(decay + nan),
-            overdamped=_s(stable & (w2_damped < 0)), error_estimate=_s(err + nan),
-            frequency_ratio=_s(ratio), fast_drive=_s(fast), small_amplitude=_s(small),
-            converged=_s(converged), valid=_s(fast & small & converged & exists)))
+        eqs.append((name, dict(
+            theta=theta + nan, exists=exists, stable=stable, omega_squared=w2 + nan,
+            omega_slow=np.where(w2 >= 0, np.sqrt(np.abs(w2)), np.nan) + nan,
+            damped_frequency=damped + nan, decay_rate=decay + nan,
+            overdamped=stable & (w2_damped < 0), error_estimate=err + nan,
+            frequency_ratio=ratio, fast_drive=fast, small_amplitude=small,
+            converged=converged, valid=fast & small & converged & exists)))
 
     vib = (A * omega) ** 2 / (2 * l * l)          # A²ω²/(2l²)
     if drive == "vertical":
@@ -203,24 +230,32 @@ def pendulum_averaged(A, omega, *, l=1.0, g=9.81, damping=0.0, drive="vertical",
         w2 = vib * np.sin(ts) ** 2
         for name, sgn in (("tilted+", 1.0), ("tilted-", -1.0)):
             finish(name, sgn * ts, exists, w2, w2 - gam**2 / 4, exists, nan)
-    out = PendulumAveraging(A=_s(A), omega=_s(omega), l=l, g=g, damping=gam, drive=drive,
-                            order=order, equilibria=tuple(eqs))
-    if warn and np.ndim(A) == 0:
-        bad = [e.name for e in out.equilibria if e.exists and not e.valid]
-        if bad:
-            e = out[bad[0]]
-            why = []
-            if not e.small_amplitude:
-                why.append(f"A/l = {A / l:.3g} > {MAX_AMPLITUDE_RATIO:g}")
-            if not e.fast_drive:
-                why.append(f"ω is only {e.frequency_ratio:.3g} × the slow frequencies "
-                           f"(< {MIN_FREQUENCY_RATIO:g})")
-            if not e.converged:
-                why.append(f"the next-order correction is {e.error_estimate:.3g} of the slow "
-                           f"frequency (> {MAX_CORRECTION:g}; near a stability limit?)")
-            warnings.warn(f"averaging outside its regime for {', '.join(bad)}: "
-                          + "; ".join(why), AveragingValidityWarning, stacklevel=2)
-    return out
+    return eqs
+
+
+#: Array calls of :func:`pendulum_averaged` run in chunks of this many points, so that
+#: their temporaries stay at a few tens of MB whatever the size (the result itself is
+#: ≈ 240 bytes per point).
+CHUNK_POINTS = 1 << 16
+
+
+def _in_chunks(fn, A, omega):
+    """``fn(A, omega)`` → [(name, {field: array})] over broadcast arrays of any size, one
+    chunk of :data:`CHUNK_POINTS` flat points at a time, assembled into arrays of A's shape."""
+    n = A.size
+    if n <= CHUNK_POINTS:
+        return fn(A, omega)
+    out = None
+    for start in range(0, n, CHUNK_POINTS):
+        stop = min(start + CHUNK_POINTS, n)
+        part = fn(A.flat[start:stop], omega.flat[start:stop])
+        if out is None:
+            out = [(name, {k: np.empty(n, np.asarray(v).dtype) for k, v in fields.items()})
+                   for name, fields in part]
+        for (_, into), (_, fields) in zip(out, part):
+            for k, v in fields.items():
+                into[k][start:stop] = v
+    return [(name, {k: v.reshape(A.shape) for k, v in fields.items()}) for name, fields in out]
 
 
 def stability_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2, warn=True) -> StabilityWindow:
