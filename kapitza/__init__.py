@@ -72,6 +72,8 @@ Results (:mod:`kapitza.results`; frozen dataclasses with ``to_dataframe()``)
 Figures (:mod:`kapitza.plots`; they draw results and compute nothing)
     stability_map_figure
         A stability map with stability windows (e.g. the averaging limit) drawn over it.
+    effective_potential_figure
+        U_eff(θ) with the averaged equilibria marked (stable / unstable).
     ince_strutt_figure
         The Ince–Strutt chart.
 
@@ -97,7 +99,7 @@ from .mathieu import (characteristic_value, ince_strutt_chart, mathieu_monodromy
 from .pendulum import KapitzaPendulum
 from .pendulum_closed_forms import (multiple_pendulum_upright, pendulum_averaged,
                                     pendulum_effective_potential, stability_window)
-from .plots import ince_strutt_figure, stability_map_figure
+from .plots import effective_potential_figure, ince_strutt_figure, stability_map_figure
 from .warmup import warmup
 from .results import (AveragingPrediction, EquilibriumPrediction, FloquetGrid, FloquetResult,
                       FloquetWindow, InceStruttChart, MonodromyData, MultiplePendulumPrediction,
@@ -114,6 +116,6 @@ __all__ = [
     "FloquetResult", "FloquetGrid", "MonodromyData", "StabilityMap", "StabilityWindow",
     "FloquetWindow", "InceStruttChart", "SlowModes", "AveragingPrediction", "SlowModeSweep",
     "PendulumAveraging", "EquilibriumPrediction", "MultiplePendulumPrediction",
-    "stability_map_figure", "ince_strutt_figure", "warmup",
+    "stability_map_figure", "effective_potential_figure", "ince_strutt_figure", "warmup",
 ]
 __version__ = "0.1.0"

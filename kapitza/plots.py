@@ -1,4 +1,4 @@
-"""Figures: stability maps with overlays, and the Ince–Strutt chart.
+"""Figures: stability maps with overlays, the effective potential, the Ince–Strutt chart.
 
 Figures compute no physics: each function draws results it is given (the value types
 of :mod:`kapitza.results`) and returns a :class:`matplotlib.figure.Figure` built on the
@@ -21,11 +21,13 @@ A ω = √(2 g l) drawn over it:
 """
 from __future__ import annotations
 
+import ast
+
 import numpy as np
 
-from .results import InceStruttChart, StabilityMap, StabilityWindow
+from .results import InceStruttChart, PendulumAveraging, StabilityMap, StabilityWindow
 
-__all__ = ["stability_map_figure", "ince_strutt_figure"]
+__all__ = ["stability_map_figure", "effective_potential_figure", "ince_strutt_figure"]
 
 _COLORS = {0: "#d9f0d3", 1: "#fdd49e", 2: "#c6dbef", 3: "#e7d4e8"}
 _NAMES = {0: "stable", 1: "unstable, period-T boundary", 2: "unstable, period-2T boundary",
@@ -63,7 +65,28 @@ def _window_label(window: StabilityWindow) -> str:
     return "Floquet window (exact)"
 
 
-def stability_map_figure(result: StabilityMap, *, overlays=(), ax=None, title=None):
+def _about_text(about) -> str:
+    """The equilibrium for a title: its name, or its coordinates in multiples of π."""
+    if isinstance(about, str) and not about.startswith(("[", "(")):
+        return f"the {about} state"
+    try:
+        values = ast.literal_eval(about) if isinstance(about, str) else about
+        if isinstance(values, dict):
+            values = list(values.values())
+        values = np.atleast_1d(np.asarray(values, float))
+    except (ValueError, TypeError, SyntaxError):     # not numbers: as given, shortened
+        return f"the state {str(about)[:40]}"
+    parts = []
+    for v in values:
+        k = v / np.pi
+        parts.append(("0" if k == 0 else "π" if k == 1 else f"{k:g}π")
+                     if abs(k - round(k * 4) / 4) < 1e-12 else f"{v:.4g}")
+    return f"the state q = ({', '.join(parts)})"
+
+
+def stability_map_figure(result: StabilityMap, *, overlays=(), ax=None, title=None,
+                         dimensionless=False, l=None, g=None, log_omega=False, log_A=False,
+                         boundaries=True):
     """Stability map (A vertical, ω horizontal), with stability windows drawn over it.
 
     Parameters
@@ -81,12 +104,29 @@ def stability_map_figure(result: StabilityMap, *, overlays=(), ax=None, title=No
         Draw into this axes instead of a new figure.
     title : str, optional
         Default: the equilibrium and the method.
+    dimensionless : bool
+        Axes A/l and ω/ω0 (ω0 = √(g/l)) instead of A (m) and ω (rad/s); needs the
+        map's l and g (the pendulum's maps carry them) or ``l=`` and ``g=``.
+    l, g : float, optional
+        Length (m) and gravity (m/s²) for ``dimensionless`` when the map has none.
+    log_omega, log_A : bool
+        Logarithmic axes (the hanging state's tongues at ω = 2ω0/n only show on a
+        logarithmic ω axis).
+    boundaries : bool
+        Draw the boundaries between stable and unstable regions as lines.
 
     Returns
     -------
     matplotlib.figure.Figure
+
+    Raises
+    ------
+    ValueError
+        ``dimensionless`` without a length and gravity; a logarithmic axis whose
+        range includes 0 or negative values.
     """
     from matplotlib.colors import ListedColormap
+    from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
     _check("result", result, StabilityMap, "compute one with KapitzaPendulum.stability_map")
     for window in overlays:
@@ -96,27 +136,120 @@ def stability_map_figure(result: StabilityMap, *, overlays=(), ax=None, title=No
     labels = np.asarray(result.label)
     present = sorted(set(np.unique(labels).tolist()) | {0})
     cmap = ListedColormap([_COLORS[k] for k in range(4)])
-    w, A = np.asarray(result.omega), np.asarray(result.A)
+    # axis scales: SI, or A/l and ω/ω0
+    a_scale, w_scale = 1.0, 1.0
+    if dimensionless:
+        l = result.l if l is None else l
+        g = result.g if g is None else g
+        if l is None or g is None:
+            raise ValueError("dimensionless=True needs the length and gravity: this map has "
+                             "none (a general system's map); pass l=... (m) and g=... (m/s²).")
+        a_scale, w_scale = 1.0 / l, 1.0 / np.sqrt(g / l)
+    w, A = np.asarray(result.omega) * w_scale, np.asarray(result.A) * a_scale
+    for name, on, axis in (("log_omega", log_omega, w), ("log_A", log_A, A)):
+        if on and axis.min() <= 0:
+            raise ValueError(f"{name}=True needs positive values, but the map's axis starts at "
+                             f"{axis.min():g}; compute the map from a positive value.")
     ax.pcolormesh(w, A, labels, cmap=cmap, vmin=-0.5, vmax=3.5, shading="nearest",
                   rasterized=True)
     handles = [Patch(color=_COLORS[k], label=_NAMES[k]) for k in present]
+    if boundaries and 0 < np.count_nonzero(labels == 0) < labels.size:
+        ax.contour(w, A, (labels == 0).astype(float), levels=[0.5], colors="#1b7837",
+                   linewidths=0.9)
+        handles.append(Line2D([], [], color="#1b7837", lw=0.9, label="stability boundary"))
     for k, window in enumerate(overlays):
         style = _LINE_STYLES[k % len(_LINE_STYLES)]
         label = _window_label(window)
         for edge in (window.A_min, window.A_max):
-            ww, Ab = np.broadcast_arrays(np.asarray(window.omega, float), np.asarray(edge, float))
+            ww, Ab = np.broadcast_arrays(np.asarray(window.omega, float) * w_scale,
+                                         np.asarray(edge, float) * a_scale)
             inside = np.isfinite(Ab) & (Ab >= A.min()) & (Ab <= A.max())
             if inside.any():
                 line, = ax.plot(ww[inside], Ab[inside], style, color="k", lw=1.2, label=label)
                 if not label.startswith("_"):
                     handles.append(line)          # one legend entry per window
                     label = "_" + label
-    ax.set_xlabel("drive angular frequency ω (rad/s)")
-    ax.set_ylabel("drive amplitude A (m)")
+    if dimensionless:
+        ax.set_xlabel("drive frequency ω/ω0  (ω0 = √(g/l))")
+        ax.set_ylabel("drive amplitude A/l")
+    else:
+        ax.set_xlabel("drive angular frequency ω (rad/s)")
+        ax.set_ylabel("drive amplitude A (m)")
+    ax.set_xscale("log" if log_omega else "linear")
+    ax.set_yscale("log" if log_A else "linear")
     ax.set_xlim(w.min(), w.max())
     ax.set_ylim(A.min(), A.max())
-    ax.set_title(title or f"Floquet stability of the {result.about} state\n({result.method})")
+    ax.set_title(title or f"Floquet stability of {_about_text(result.about)}\n({result.method})",
+                 fontsize=10)
     ax.legend(handles=handles, loc="upper right", fontsize=8, framealpha=0.9)
+    return fig
+
+
+def effective_potential_figure(theta, potential, *, prediction: PendulumAveraging | None = None,
+                               ax=None, title=None):
+    """The effective potential U_eff(θ)/m with the averaged equilibria marked.
+
+    Parameters
+    ----------
+    theta, potential : array
+        Angles (rad, from the downward vertical) and U_eff/m there (J/kg), e.g. from
+        :func:`kapitza.pendulum_effective_potential` at one (A, ω).
+    prediction : kapitza.results.PendulumAveraging, optional
+        From :func:`kapitza.pendulum_averaged` at the same scalar (A, ω): its equilibria
+        are marked on the curve (filled: stable, open: unstable), with their names.
+    ax : matplotlib Axes, optional
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from kapitza import pendulum_averaged, pendulum_effective_potential
+    >>> theta = np.linspace(-np.pi, 2 * np.pi, 600)
+    >>> U = pendulum_effective_potential(theta, 0.05, 2 * np.pi * 60)
+    >>> fig = effective_potential_figure(theta, U, prediction=pendulum_averaged(0.05, 2 * np.pi * 60))
+    >>> sorted(t.get_text() for t in fig.axes[0].texts)[:2]
+    ['hanging', 'inverted']
+    """
+    theta = np.asarray(theta, float)
+    potential = np.asarray(potential, float)
+    if theta.ndim != 1 or potential.shape != theta.shape or theta.size < 2:
+        raise ValueError(f"theta and potential must be 1-D arrays of the same length ≥ 2, got "
+                         f"shapes {theta.shape} and {potential.shape}; evaluate U_eff at one "
+                         "(A, ω) over an array of angles.")
+    if prediction is not None:
+        _check("prediction", prediction, PendulumAveraging,
+               "compute one with kapitza.pendulum_averaged at a scalar A and ω")
+    fig, ax = _axes(ax, (6.4, 4.2))
+    ax.plot(theta, potential, color="C0", lw=1.5, label="U_eff/m (first-order averaging)")
+    if prediction is not None:
+        lo, hi = theta.min(), theta.max()
+        for eq in prediction.equilibria:
+            if not bool(np.all(eq.exists)):
+                continue
+            th0 = float(np.squeeze(eq.theta))
+            for th in th0 + 2 * np.pi * np.arange(-2, 3):       # every copy in the range
+                if lo <= th <= hi:
+                    u = np.interp(th, theta, potential)
+                    stable = bool(np.all(eq.stable))
+                    ax.plot([th], [u], "o", ms=7, color="C2" if stable else "C3",
+                            mfc=None if stable else "white")
+                    ax.annotate(eq.name, (th, u), textcoords="offset points", xytext=(0, 8),
+                                ha="center", fontsize=8)
+    ticks = np.arange(np.ceil(theta.min() / (np.pi / 2)), np.floor(theta.max() / (np.pi / 2)) + 1)
+    ax.set_xticks(ticks * np.pi / 2,
+                  [{0: "0", 1: "π/2", 2: "π", 3: "3π/2", -1: "−π/2", -2: "−π"}.get(
+                      int(k), f"{k / 2:g}π") for k in ticks])
+    pad = 0.04 * (theta.max() - theta.min())          # room for the marks' names
+    ax.set_xlim(theta.min() - pad, theta.max() + pad)
+    ax.margins(y=0.14)
+    ax.set_xlabel("θ from the downward vertical (rad)")
+    ax.set_ylabel("U_eff / m (J/kg)")
+    ax.set_title(title or "Effective potential (filled: stable, open: unstable)", fontsize=10)
+    ax.legend(loc="lower right", fontsize=8)
     return fig
 
 

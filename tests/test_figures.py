@@ -1,0 +1,78 @@
+"""Figures (issue 10, item 15): titles that fit, dimensionless and logarithmic axes,
+boundaries as lines, the effective potential with its equilibria marked.  The figures
+draw results; the values drawn are checked against the results they were given."""
+import math
+
+import numpy as np
+import pytest
+
+import kapitza
+from kapitza import KapitzaPendulum, plots
+
+L, G = 0.5, 9.81
+W0 = math.sqrt(G / L)
+
+
+@pytest.fixture(scope="module")
+def pend():
+    return KapitzaPendulum(l=L, g=G)
+
+
+def _inside(fig, artist):
+    fig.canvas.draw()
+    box = artist.get_window_extent(fig.canvas.get_renderer())
+    frame = fig.bbox
+    return (box.x0 >= frame.x0 - 0.5 and box.x1 <= frame.x1 + 0.5
+            and box.y0 >= frame.y0 - 0.5 and box.y1 <= frame.y1 + 0.5)
+
+
+def test_dimensionless_log_axes_and_boundaries(pend):
+    omega = np.geomspace(3 * W0, 300 * W0, 120)
+    m = pend.stability_map(np.linspace(0.001, 0.35, 90), omega)
+    avg = pend.stability_window(omega, method="averaging", order=1)
+    fig = plots.stability_map_figure(m, overlays=[avg], dimensionless=True, log_omega=True)
+    ax = fig.axes[0]
+    assert ax.get_xscale() == "log" and "ω/ω0" in ax.get_xlabel() and "A/l" in ax.get_ylabel()
+    np.testing.assert_allclose(ax.get_xlim(), (omega[0] / W0, omega[-1] / W0), rtol=1e-12)
+    np.testing.assert_allclose(ax.get_ylim(), (0.001 / L, 0.35 / L), rtol=1e-12)
+    # the averaging limit A ω = √(2 g l) drawn in A/l against ω/ω0: (A/l)(ω/ω0) = √2
+    line = next(li for li in ax.lines if li.get_label().startswith("averaging"))
+    x, y = line.get_data()
+    np.testing.assert_allclose(np.asarray(x) * np.asarray(y), math.sqrt(2), rtol=1e-12)
+    # the stable/unstable boundary is drawn as a line (a contour set)
+    assert any(type(c).__name__ in ("QuadContourSet", "ContourSet", "PathCollection",
+                                    "LineCollection") for c in ax.collections[1:])
+    assert _inside(fig, ax.title)
+
+
+def test_log_axis_from_zero_and_dimensionless_without_constants_are_refused(pend):
+    m = pend.stability_map(np.linspace(0.0, 0.3, 10), np.linspace(10.0, 100.0, 10))
+    with pytest.raises(ValueError, match="log_A=True needs positive values"):
+        plots.stability_map_figure(m, log_A=True)
+    general = kapitza.results.StabilityMap(
+        A=m.A, omega=m.omega, stable=m.stable, label=m.label, trace=None, log_growth=None,
+        error_estimate=0.0, about="[3.141592653589793, 0.0]", method="monodromy")
+    with pytest.raises(ValueError, match="pass l=... .* and g="):
+        plots.stability_map_figure(general, dimensionless=True)
+    fig = plots.stability_map_figure(general, dimensionless=True, l=L, g=G)
+    assert "q = (π, 0)" in fig.axes[0].get_title()
+    assert _inside(fig, fig.axes[0].title)
+
+
+def test_effective_potential_marks_the_equilibria(pend):
+    A, omega = 0.04, 2 * math.pi * 50
+    theta = np.linspace(-math.pi, 2 * math.pi, 901)
+    U = kapitza.pendulum_effective_potential(theta, A, omega, l=L, g=G)
+    pred = kapitza.pendulum_averaged(A, omega, l=L, g=G)
+    fig = plots.effective_potential_figure(theta, U, prediction=pred)
+    ax = fig.axes[0]
+    names = sorted({t.get_text() for t in ax.texts})
+    assert names == sorted(e.name for e in pred.equilibria if bool(np.all(e.exists)))
+    for text in ax.texts:              # each mark sits on the curve, at its equilibrium
+        th, u = text.xy
+        eq = pred[text.get_text()]
+        assert math.cos(th) == pytest.approx(math.cos(float(eq.theta)), abs=1e-12)
+        assert u == pytest.approx(float(np.interp(th, theta, U)), rel=1e-12)
+    assert _inside(fig, ax.title)
+    with pytest.raises(ValueError, match="same length"):
+        plots.effective_potential_figure(theta, U[:-1])
