@@ -211,8 +211,8 @@ def effective_potential_figure(theta, potential, *, prediction: PendulumAveragin
     >>> theta = np.linspace(-np.pi, 2 * np.pi, 600)
     >>> U = pendulum_effective_potential(theta, 0.05, 2 * np.pi * 60)
     >>> fig = effective_potential_figure(theta, U, prediction=pendulum_averaged(0.05, 2 * np.pi * 60))
-    >>> sorted(t.get_text() for t in fig.axes[0].texts)[:2]
-    ['hanging', 'inverted']
+    >>> sorted({t.get_text() for t in fig.axes[0].texts})     # marked (every copy in range)
+    ['hanging', 'inverted', 'tilted+', 'tilted-']
     """
     theta = np.asarray(theta, float)
     potential = np.asarray(potential, float)
