@@ -562,6 +562,80 @@ def monodromy_data(system, params, about, *, frequency="omega", tol=1e-10,
     return MonodromyData(**_monodromy_fields(prep, Mout, ls, err, steps))
 
 
+def _reduced_polynomial(lam, n):
+    """Undamped (symplectic) monodromies: the palindromic characteristic polynomial from
+    the multipliers ``lam`` (npts, 2n), symmetrised (c_k = c_(2n−k), the projection onto
+    the symplectic structure), written as λ^(−n) p(λ) = Q(x), x = λ + 1/λ.
+
+    Returns Q's coefficients (npts, n + 1; ascending, monic) and its roots x (npts, n):
+    the equilibrium is stable iff every x is real and in [−2, 2].  The coefficients are
+    symmetric functions of the multipliers, accurate to O(ε) where the multipliers
+    themselves, near a collision, are only accurate to O(√ε).
+    """
+    npts, d = lam.shape
+    c = np.zeros((npts, d + 1), dtype=complex)
+    c[:, 0] = 1.0
+    for j in range(d):
+        c[:, 1:] = c[:, 1:] - lam[:, j, None] * c[:, :-1]
+    c = c.real
+    c = 0.5 * (c + c[:, ::-1])
+    # λ^m + λ^(−m) = D_m(x): D_0 = 2, D_1 = x, D_(m+1) = x D_m − D_(m−1)
+    D = [np.array([2.0]), np.array([0.0, 1.0])]
+    for m in range(2, n + 1):
+        D.append(np.concatenate([[0.0], D[-1]]) - np.pad(D[-2], (0, 2)))
+    qc = np.zeros((npts, n + 1))
+    qc[:, 0] = c[:, n]
+    for m in range(1, n + 1):
+        qc[:, :m + 1] += c[:, n - m, None] * D[m][None, :]
+    comp = np.zeros((npts, n, n))
+    comp[:, np.arange(1, n), np.arange(n - 1)] = 1.0
+    comp[:, :, n - 1] = -qc[:, :n] / qc[:, n:]
+    x = np.linalg.eigvals(comp)
+    return qc, x.astype(complex)
+
+
+def _poly_eval(qc, x, deriv=0):
+    """Σ_k qc[:, k] x^k (or its derivative of order ``deriv``) at each root column of x."""
+    k = np.arange(qc.shape[1])
+    w = qc.copy()
+    for _ in range(deriv):
+        w = w[:, 1:] * k[1:w.shape[1] + 1][None, :]
+        k = np.arange(w.shape[1])
+    return np.sum(w[:, None, :] * x[:, :, None] ** k[None, None, :], axis=2)
+
+
+def _reduced_decision(qc, x, rel_err, norm):
+    """Stability and its margin from the reduced polynomial Q(x) (:func:`_reduced_polynomial`).
+
+    Stable iff every root x is real (LAPACK returns real eigenvalues of a real matrix
+    with zero imaginary part) and |x| ≤ 2.  Each root's uncertainty is Q's error over
+    |Q′| (a simple root) or 2√(error/|Q″|) (near a collision), the smaller; Q's error is
+    2n × rel_err × max(1, ‖M‖) times Σ|q_k||x|^k.  ``margin`` (> 1 certifies), in units
+    of that uncertainty: stable, the smallest over the roots of 2 − |x| and half the gap
+    to the nearest other root (where a collision could leave the real axis); unstable,
+    the largest distance of a root from the segment [−2, 2].
+    """
+    npts, n = x.shape
+    real = x.imag == 0.0
+    stable = np.all(real & (np.abs(x.real) <= 2.0), axis=1)
+    k = np.arange(n + 1)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        dq = (2 * n * rel_err * np.maximum(1.0, norm))[:, None] * np.sum(
+            np.abs(qc)[:, None, :] * np.abs(x)[:, :, None] ** k[None, None, :], axis=2)
+        d1 = np.abs(_poly_eval(qc, x, 1))
+        d2 = np.abs(_poly_eval(qc, x, 2))
+        e = np.minimum(dq / d1, 2.0 * np.sqrt(dq / d2))
+        e = np.where(np.isfinite(e), e, np.inf)
+        gap = np.abs(x[:, :, None] - x[:, None, :])
+        gap[:, np.arange(n), np.arange(n)] = np.inf
+        gap = np.where(real[:, :, None] & real[:, None, :], gap, np.inf)
+        # stable: every root must stay real and inside; unstable: one root outside suffices
+        inside = np.minimum(2.0 - np.abs(x.real), 0.5 * np.min(gap, axis=2))
+        outside = np.abs(x - np.clip(x.real, -2.0, 2.0))      # distance to [−2, 2]
+        margin = np.where(stable, np.min(inside / e, axis=1), np.max(outside / e, axis=1))
+    return stable, np.where(np.isnan(margin), 0.0, margin)
+
+
 def _analyse(Ms, ls, T, liou, err, guard_tol):
     """Multipliers, stability, labels, margins and guards for a stack of scaled monodromies.
 
@@ -595,6 +669,16 @@ def _analyse(Ms, ls, T, liou, err, guard_tol):
             # λ̃ (scaled by e^(−ls)): λ̃² − x̃ λ̃ + e^(−2 ls) = 0
             w = np.sqrt(xs * xs - 4.0 * np.exp(-2.0 * np.minimum(ls, 300))[:, None])
             lam = np.concatenate([0.5 * (xs + w), 0.5 * (xs - w)], axis=1)
+    reduce = None
+    if d > 2 and not symplectic4:
+        # undamped: decide on the best estimate of the symplectic monodromy (the reduced
+        # polynomial in x = λ + 1/λ), as the 2 × 2 and 4 × 4 paths do
+        reduce = np.nonzero(undamped & (ls == 0.0) & np.all(np.isfinite(Ms), axis=(1, 2)))[0]
+        if reduce.size:
+            qc, xr = _reduced_polynomial(lam[reduce], n)
+            root = np.sqrt(xr * xr - 4.0)
+            lam = lam.copy()
+            lam[reduce] = np.concatenate([0.5 * (xr + root), 0.5 * (xr - root)], axis=1)
     with np.errstate(divide="ignore"):
         logabs = np.log(np.abs(lam)) + ls[:, None]
     order = np.argsort(-logabs, axis=1)
@@ -652,8 +736,14 @@ def _analyse(Ms, ls, T, liou, err, guard_tol):
     else:
         top = logabs[:, 0]
         e_log = np.sqrt(tol_abs / scale_m)       # eigenvalues near a collision: √ε sensitivity
-        stable[:] = np.where(undamped, top <= e_log, top < 0.0)
-        margin = np.abs(top) / e_log
+        # damped: all |λ| < 1; undamped with huge growth (scaled M): unstable
+        stable[:] = ~undamped & (top < 0.0)
+        margin = np.where(undamped, np.inf, np.abs(top) / e_log)
+        if reduce.size:
+            st, mg = _reduced_decision(qc, xr, tol_abs[reduce] / scale_m[reduce],
+                                       scale_m[reduce])
+            stable[reduce] = st
+            margin[reduce] = mg
         ang = np.abs(np.angle(lam[:, 0]))
         label[:] = np.where(stable, 0, np.where(ang < 1e-6, 1, np.where(np.pi - ang < 1e-6,
                                                                          2, 3)))

@@ -86,10 +86,12 @@ class FloquetResult:
         tr M (±inf if beyond float range).
     stable : bool
         Linear stability, decided on the best estimate of M: 2 × 2: Jury's test
-        |tr M| ≤ 1 + det M with the exact det = exp(∮ tr J); 4 × 4 undamped: both
-        λ + 1/λ real in [−2, 2]; otherwise all |λ| < 1 (damped) or |λ| = 1 within
-        the error estimate (undamped).  Points whose test is within 10× the
-        error estimate of its threshold are counted as uncertified by maps.
+        |tr M| ≤ 1 + det M with the exact det = exp(∮ tr J); undamped (4 × 4 and
+        larger): every x = λ + 1/λ real in [−2, 2], the roots of the symmetrised
+        (palindromic) characteristic polynomial written in x; damped: all |λ| < 1.
+        How sure the decision is, is the grid's ``margin``: points whose test is
+        within its uncertainty (10× the error estimate) of the threshold are
+        counted as uncertified by maps.
     omega_slow : ndarray
         Slow angular frequencies (rad/s) of the stable solutions, arg(λ)/T ∈
         [0, ω/2], one per pair of multipliers (NaN if unstable).  For the

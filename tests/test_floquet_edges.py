@@ -66,3 +66,59 @@ def test_one_bad_point_does_not_abort_the_grid(pendulum):
     m = fq.stability_map(pendulum.system, dict(m=1.0, l=L, g=G), [math.pi], A, w)
     assert m.flagged_points == 3 and np.isfinite(m.error_estimate)
     assert m.stable.tolist() == g.stable.tolist()
+
+
+# -- item 6: the stable flag of undamped systems with 3+ coordinates -------------------
+
+TP = {"g": G, "l1": 1.0, "l2": 1.0, "l3": 1.0, "m1": 1.0, "m2": 1.0, "m3": 1.0}
+UP3 = [math.pi] * 3
+EDGE3 = 0.068706532019068      # the triple pendulum's lower window edge at ω = 100 rad/s
+
+
+@pytest.fixture(scope="module")
+def triple():
+    import sympy as sp
+
+    from lagrange_core import problems
+    from lagrange_core import t as t_sym
+    A, w = sp.symbols("A omega", positive=True)
+    return problems.n_link_pendulum(3, pivot=(0, A * sp.cos(w * t_sym)))
+
+
+def _reference_multipliers(system, A):
+    from helpers import jacobian_monodromy
+    M = jacobian_monodromy(system, dict(TP, A=A, omega=100.0), UP3, rtol=1e-12)
+    lam = np.linalg.eigvals(M)
+    return lam[np.argsort(-np.abs(lam))]
+
+
+def test_triple_pendulum_small_growth_is_unstable(triple):
+    # 1e-9 (relative) below the edge the upright chain grows by 5.7e-6 per period; with an
+    # error estimate of 1e-9 it was called stable (max log|λ| ≤ √(10·error) = 1e-4)
+    A = EDGE3 * (1 - 1e-9)
+    r = fq.floquet_point(triple, dict(TP, A=A, omega=100.0), UP3)
+    lam = _reference_multipliers(triple, A)
+    assert abs(lam[0].imag) < 1e-9 and 4e-6 < math.log(abs(lam[0])) < 8e-6   # solve_ivp
+    assert r.error_estimate > 1e-10 and math.sqrt(10 * r.error_estimate) > 1e-4
+    assert not r.stable and r.boundary == "T"
+    assert r.log_growth == pytest.approx(math.log(abs(lam[0])), rel=1e-3)
+    # 3e-8 inside the window: a rotation by 3.1e-5 rad per period, on the unit circle
+    A = EDGE3 * (1 + 3e-8)
+    r = fq.floquet_point(triple, dict(TP, A=A, omega=100.0), UP3)
+    lam = _reference_multipliers(triple, A)
+    assert abs(lam[0].imag) > 3e-5 > 30 * abs(abs(lam[0]) - 1)                 # solve_ivp
+    assert r.stable and r.log_growth == pytest.approx(0.0, abs=1e-12)
+    assert np.allclose(np.abs(r.multipliers), 1.0, atol=1e-12)
+
+
+def test_triple_pendulum_uncertified_counts_only_the_uncertain(triple):
+    # a sweep through the window, no point near an edge: every classification is certain
+    A = np.linspace(0.0, 0.1, 21)
+    m = fq.stability_map(triple, TP, UP3, A, [100.0], tol=1e-10)
+    assert m.stable.sum() >= 1 and m.uncertified_points == 0 and m.flagged_points == 0
+    for i in range(0, 21, 4):
+        lam = _reference_multipliers(triple, A[i])
+        assert m.stable[i, 0] == bool(np.max(np.abs(lam)) < 1 + 1e-6)
+    # points 1e-9 from the edge are within the error estimate: counted, whichever side
+    near = fq.stability_map(triple, TP, UP3, EDGE3 * np.array([1 - 1e-9, 1 + 1e-9]), [100.0])
+    assert near.uncertified_points == 2
