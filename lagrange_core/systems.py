@@ -22,7 +22,6 @@ Conventions
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
@@ -30,6 +29,7 @@ import numpy as np
 import sympy as sp
 
 from .bodies import RigidBody
+from .checks import real_array, real_number
 from .symbols import coordinates, t, velocity_symbol
 
 __all__ = ["t", "coordinates", "Particle", "RigidBody", "System"]
@@ -508,16 +508,8 @@ class System:
             raise ValueError(
                 f"missing value(s) for parameter(s) {missing} of {self._label()}; pass them in "
                 f"params, e.g. params={{{', '.join(repr(n) + ': ...' for n in missing)}}}.")
-        values = np.empty(len(names))
-        for i, n in enumerate(names):
-            try:
-                v = float(params[n])
-            except (TypeError, ValueError):
-                raise ValueError(f"parameter {n!r} must be a real number, got {params[n]!r}.") from None
-            if not math.isfinite(v):
-                raise ValueError(f"parameter {n!r} must be finite, got {v}.")
-            values[i] = v
-        return values
+        return np.array([real_number(params[n], f"parameter {n!r}", example=f"params={{{n!r}: 1.0}}")
+                         for n in names], dtype=float)
 
     def coordinate_array(self, values, what: str = "q") -> np.ndarray:
         """Coordinates (or velocities) given as a sequence or a dict keyed by coordinate
@@ -530,12 +522,10 @@ class System:
                 raise ValueError(f"{what}: unknown coordinate(s) {unknown}; the coordinates of "
                                  f"{self._label()} are {list(self.coordinates)}.")
             values = [values.get(c, 0.0) for c in self.coordinates]
-        arr = np.array(values, dtype=float).reshape(-1) if np.ndim(values) else np.full(1, float(values))
+        arr = real_array(values, what).reshape(-1)
         if arr.shape != (n,):
             raise ValueError(f"{what} must have {n} entries (one per coordinate "
                              f"{list(self.coordinates)}), got {arr.size}.")
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"{what} must be finite, got {arr}.")
         return arr
 
     def mass_forcing(self, q, qdot, t=0.0, params=None) -> tuple[np.ndarray, np.ndarray]:
