@@ -142,7 +142,10 @@ def guard_numba_cache(module: types.ModuleType, *dependencies) -> None:
     :func:`source_fingerprint` with the one recorded beside numba's cache of this file
     and, if they differ, empties that cache so the functions recompile on first use.
     """
-    stamp = source_fingerprint(*dependencies)
+    try:
+        stamp = source_fingerprint(*dependencies)
+    except OSError:         # no writable cache directory: nothing to compare with
+        return
     caches = [obj._cache for obj in vars(module).values()
               if getattr(obj, "__module__", None) == module.__name__
               and hasattr(getattr(obj, "_cache", None), "flush")]
