@@ -89,10 +89,83 @@ from lagrange_core._kernel_calls import JACOBIAN, call_jacobian
 from lagrange_core.module_store import guard_numba_cache
 
 from . import arguments
-from .results import FloquetGrid, FloquetResult, MonodromyData, StabilityMap
+from .results import (ComputationInterrupted, FloquetGrid, FloquetResult, MonodromyData,
+                      StabilityMap)
 
 __all__ = ["floquet_point", "floquet_grid", "stability_map", "monodromy_data", "FloquetResult",
-           "FloquetGrid", "MonodromyData", "StabilityMap"]
+           "FloquetGrid", "MonodromyData", "StabilityMap", "ComputationInterrupted"]
+
+# -- long grids: chunks, progress, Ctrl-C ------------------------------------------------
+
+class _ProgressLine:
+    """A progress line on stderr (after 0.5 s, at most 10 updates per second), or a callback.
+
+    ``progress``: None (a line when stderr is a terminal), False (quiet), True (a line),
+    or a callable ``progress(done, total)`` called after every chunk.
+    """
+
+    def __init__(self, progress, total, label, unit):
+        if not (progress is None or isinstance(progress, bool) or callable(progress)):
+            raise ValueError(f"progress must be None, True, False or a callable "
+                             f"progress(done, total); got {progress!r}.")
+        self.callback = progress if callable(progress) and not isinstance(progress, bool) \
+            else None
+        tty = getattr(sys.stderr, "isatty", lambda: False)()
+        self.show = progress is True or (progress is None and tty)
+        self.total, self.label, self.unit = total, label, unit
+        self.t0 = self.last = time.perf_counter()
+        self.shown = False
+
+    def update(self, done):
+        if self.show:
+            now = time.perf_counter()
+            el = now - self.t0
+            if el > 0.5 and (now - self.last > 0.1 or done == self.total):
+                self.last = now
+                eta = el * (self.total - done) / max(done, 1)
+                sys.stderr.write(f"\r{self.label}: {done}/{self.total} {self.unit} "
+                                 f"({100 * done / self.total:.0f} %), {el:.1f} s, "
+                                 f"~{eta:.0f} s left ")
+                sys.stderr.flush()
+                self.shown = True
+        if self.callback is not None:
+            self.callback(done, self.total)
+
+    def close(self):
+        if self.shown:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+
+
+def run_in_chunks(work, total, *, progress=None, label="", unit="points", first=64,
+                  target=0.25):
+    """Call ``work(start, stop)`` over consecutive chunks of range(total).
+
+    Each chunk is one compiled call sized to take about ``target`` seconds (the
+    first has ``first`` items; each next one is sized from the rate measured,
+    at most 8× the last), so Ctrl-C — which Python sees only between compiled
+    calls — stops the loop within a chunk's time.  Returns (items finished,
+    interrupted); the caller turns an interruption into
+    :class:`~kapitza.results.ComputationInterrupted` with its partial result.
+    """
+    bar = _ProgressLine(progress, total, label, unit)
+    done = 0
+    size = max(1, min(first, total))
+    try:
+        while done < total:
+            start, stop = done, min(total, done + size)
+            t0 = time.perf_counter()
+            work(start, stop)
+            dt = time.perf_counter() - t0
+            done = stop
+            bar.update(done)
+            size = int(min(max(1.0, (stop - start) / max(dt, 1e-6) * target), 8 * size))
+    except KeyboardInterrupt:
+        bar.close()
+        return done, True
+    bar.close()
+    return done, False
+
 
 # -- J(t) samples over a parameter grid (compiled once, for every system) ------------------
 
@@ -475,12 +548,14 @@ def _frozen_growth(prep, idx, samples=256):
     return growth, real
 
 
-def _integrate(prep, idx, tol, order):
+def _integrate(prep, idx, tol, order, progress=False):
     """Monodromies of the grid points ``idx`` (flat indices) to ``tol``.
 
-    Returns (M scaled, log scale, error estimate, steps, skipped): points that would
-    need more than :data:`MAX_STEPS_PER_PERIOD` Taylor steps are not integrated
-    (skipped; M = NaN, error = inf, steps = 0).
+    Returns (M scaled, log scale, error estimate, steps, skipped, finished): points
+    that would need more than :data:`MAX_STEPS_PER_PERIOD` Taylor steps are not
+    integrated (skipped; M = NaN, error = inf, steps = 0); the points run in chunks
+    (:func:`run_in_chunks`, ``progress``), and after Ctrl-C ``finished`` marks those
+    done (the others as skipped, with ``finished`` False).
     """
     d = 2 * prep["n"]
     n = prep["n"]
@@ -490,24 +565,35 @@ def _integrate(prep, idx, tol, order):
     om = prep["omega"][idx]
     C, S = _balanced(prep, idx)
     skipped = ~(_step_count(C, S) <= MAX_STEPS_PER_PERIOD)
+    finished = np.ones(m, dtype=bool)
     Mout = np.full((m, d, d), np.nan)
     logscale = np.zeros(m)
     err = np.full(m, np.inf)
     steps = np.zeros(m, dtype=np.int64)
     run = np.nonzero(~skipped)[0]
     if run.size:
-        Mr = np.empty((run.size, d, d))
-        lr = np.empty(run.size)
-        er = np.empty(run.size)
-        sr = np.empty(run.size, dtype=np.int64)
-        # reversible (J even in t, no velocity block): integrate half a period
-        _monodromy_grid(np.ascontiguousarray(C[run]), np.ascontiguousarray(S[run]), prep["K"],
-                        np.ones(run.size), np.full(run.size, 2 * np.pi), float(tol), int(order),
-                        prep["half"], Mr, lr, er, sr)
+        Cr, Sr = np.ascontiguousarray(C[run]), np.ascontiguousarray(S[run])
+        Mr = np.full((run.size, d, d), np.nan)
+        lr = np.zeros(run.size)
+        er = np.full(run.size, np.inf)
+        sr = np.zeros(run.size, dtype=np.int64)
+        one, two_pi = np.ones(run.size), np.full(run.size, 2 * np.pi)
+
+        def work(a, b):
+            # reversible (J even in t, no velocity block): integrate half a period
+            _monodromy_grid(Cr[a:b], Sr[a:b], prep["K"], one[a:b], two_pi[a:b], float(tol),
+                            int(order), prep["half"], Mr[a:b], lr[a:b], er[a:b], sr[a:b])
+
+        done, _ = run_in_chunks(work, run.size, progress=progress, label="Floquet grid")
+        finished[run[done:]] = False
+        skipped[run[done:]] = True
+        Mr[done:] = np.nan
         Mr[:, n:, :] *= om[run, None, None]
         Mr[:, :, n:] /= om[run, None, None]
         Mout[run], logscale[run], err[run], steps[run] = Mr, lr, np.maximum(er, prep["alias"]), sr
-    return Mout, logscale, err, steps, skipped
+        err[run[done:]] = np.inf
+        steps[run[done:]] = 0
+    return Mout, logscale, err, steps, skipped, finished
 
 
 def _monodromy_fields(prep, Ms, ls, err, steps) -> dict:
@@ -521,7 +607,7 @@ def _monodromy_fields(prep, Ms, ls, err, steps) -> dict:
 
 
 def monodromy_data(system, params, about, *, frequency="omega", tol=1e-10,
-                   order=16) -> MonodromyData:
+                   order=16, progress=None) -> MonodromyData:
     """Monodromy matrices for a broadcast grid of parameter sets.
 
     Parameters
@@ -534,6 +620,10 @@ def monodromy_data(system, params, about, *, frequency="omega", tol=1e-10,
         The equilibrium's coordinates q* (velocities zero).
     tol : float
         Target error of M relative to max(1, ‖M‖).
+    progress : None, bool or callable
+        As for :func:`floquet_grid` (points not reached before Ctrl-C, and points
+        that would need more than ``MAX_STEPS_PER_PERIOD`` Taylor steps, have M = NaN
+        and error_estimate = inf).
 
     Returns
     -------
@@ -558,8 +648,12 @@ def monodromy_data(system, params, about, *, frequency="omega", tol=1e-10,
     True
     """
     prep = _prepare(system, params, about, frequency, tol)
-    Mout, ls, err, steps, _ = _integrate(prep, np.arange(prep["T"].size), tol, order)
-    return MonodromyData(**_monodromy_fields(prep, Mout, ls, err, steps))
+    Mout, ls, err, steps, _, fin = _integrate(prep, np.arange(prep["T"].size), tol, order,
+                                              progress)
+    data = MonodromyData(**_monodromy_fields(prep, Mout, ls, err, steps))
+    if not fin.all():
+        raise ComputationInterrupted(data, fin.reshape(prep["shape"]))
+    return data
 
 
 def _reduced_polynomial(lam, n):
@@ -802,14 +896,16 @@ def _analyse(Ms, ls, T, liou, err, guard_tol):
                 flags=flags)
 
 
-def _analyse_points(prep, idx, Ms, ls, err, skip, guard_tol):
+def _analyse_points(prep, idx, Ms, ls, err, skip, finished, guard_tol):
     """:func:`_analyse` for the grid points ``idx``; the points that were not integrated
-    (``skip``, see :func:`_integrate`) get the frozen-time growth estimate and a flag."""
+    (``skip``, see :func:`_integrate`) get the frozen-time growth estimate and a flag,
+    those not reached before Ctrl-C (``~finished``) NaN and a flag."""
     T, liou = prep["T"][idx], prep["liouville"][idx]
     d = Ms.shape[1]
     res = _analyse(np.where(skip[:, None, None], np.eye(d), Ms), np.where(skip, 0.0, ls), T,
                    liou, np.where(skip, 0.0, err), guard_tol)
-    where = np.nonzero(skip)[0]
+    where = np.nonzero(skip & finished)[0]
+    _not_computed(res, np.nonzero(~finished)[0])
     if where.size == 0:
         return res
     growth, real = _frozen_growth(prep, idx[where])
@@ -838,8 +934,19 @@ def _analyse_points(prep, idx, Ms, ls, err, skip, guard_tol):
     return res
 
 
+def _not_computed(res, where):
+    """Mark the points ``where`` of an :func:`_analyse` result as not computed (Ctrl-C)."""
+    for k in ("multipliers", "exponents", "logabs", "slow", "trace", "liouville", "pairing"):
+        res[k][where] = np.nan
+    res["stable"][where] = False
+    res["label"][where] = 3
+    res["margin"][where] = 0.0
+    for i in where:
+        res["flags"][i] = ("not computed: interrupted (Ctrl-C)",)
+
+
 def floquet_grid(system, params, about, *, frequency="omega", tol=1e-10, guard_tol=1e-8,
-                 order=16, certify=False, coarse_tol=1e-4) -> FloquetGrid:
+                 order=16, certify=False, coarse_tol=1e-4, progress=None) -> FloquetGrid:
     """Floquet analysis for every parameter set of a broadcast grid.
 
     Parameters
@@ -854,6 +961,13 @@ def floquet_grid(system, params, about, *, frequency="omega", tol=1e-10, guard_t
         the error estimate of its threshold.  Far from boundaries the reported
         trace is then accurate to ``coarse_tol`` (see the "error" array), and
         every classification is certified by its margin.
+    progress : None, bool or callable
+        The grid runs in chunks of about 0.25 s each; a progress line on stderr when
+        it is a terminal (None), always (True), never (False), or ``progress(done,
+        total)`` called after each chunk.  Ctrl-C stops it within a chunk and raises
+        :class:`~kapitza.results.ComputationInterrupted` (a KeyboardInterrupt) whose
+        ``.result`` is this grid with the finished points filled (the others NaN,
+        unstable, flagged "not computed") and ``.computed`` marks them.
 
     Returns
     -------
@@ -883,29 +997,37 @@ def floquet_grid(system, params, about, *, frequency="omega", tol=1e-10, guard_t
     npts = T.size
     idx = np.arange(npts)
     first = max(tol, coarse_tol) if certify else tol
-    Ms, ls, err, steps, skip = _integrate(prep, idx, first, order)
-    res = _analyse_points(prep, idx, Ms, ls, err, skip, guard_tol)
+    Ms, ls, err, steps, skip, fin = _integrate(prep, idx, first, order, progress)
+    res = _analyse_points(prep, idx, Ms, ls, err, skip, fin, guard_tol)
+    interrupted = not fin.all()
     refined = 0
-    if certify and first > tol:
+    if certify and first > tol and not interrupted:
         redo = np.nonzero(~(res["margin"] > 1.0) & ~skip)[0]
-        refined = redo.size
-        if refined:
-            M2, l2, e2, s2, k2 = _integrate(prep, redo, tol, order)
-            r2 = _analyse_points(prep, redo, M2, l2, e2, k2, guard_tol)
-            Ms[redo], ls[redo], err[redo], steps[redo] = M2, l2, e2, s2
+        if redo.size:
+            M2, l2, e2, s2, k2, f2 = _integrate(prep, redo, tol, order, progress)
+            r2 = _analyse_points(prep, redo, M2, l2, e2, k2, f2, guard_tol)
+            # after Ctrl-C the points not refined keep their coarse result
+            interrupted = not f2.all()
+            keep = np.nonzero(f2)[0]
+            redo = redo[keep]
+            refined = redo.size
+            Ms[redo], ls[redo], err[redo], steps[redo] = M2[keep], l2[keep], e2[keep], s2[keep]
             for k, v in r2.items():
                 if k == "flags":
-                    for j, i in enumerate(redo):
+                    for j, i in zip(keep, redo):
                         res["flags"][i] = v[j]
                 else:
-                    res[k][redo] = v
+                    res[k][redo] = v[keep]
     out = {k: v.reshape(shape + v.shape[1:]) for k, v in res.items() if k != "flags"}
-    return FloquetGrid(**_monodromy_fields(prep, Ms, ls, err, steps),
+    grid = FloquetGrid(**_monodromy_fields(prep, Ms, ls, err, steps),
                        multipliers=out["multipliers"], log_abs_multipliers=out["logabs"],
                        exponents=out["exponents"], trace=out["trace"], stable=out["stable"],
                        label=out["label"], omega_slow=out["slow"],
                        liouville_residual=out["liouville"], pairing_residual=out["pairing"],
                        margin=out["margin"], flags=tuple(res["flags"]), refined_points=refined)
+    if interrupted:
+        raise ComputationInterrupted(grid, fin.reshape(shape))
+    return grid
 
 
 def floquet_point(system, params, about, *, frequency="omega", tol=1e-10, guard_tol=1e-8,
@@ -942,12 +1064,12 @@ def floquet_point(system, params, about, *, frequency="omega", tol=1e-10, guard_
             raise ValueError(f"floquet_point takes scalar parameters; {k!r} is an array. Use "
                              "floquet_grid or stability_map for grids.")
     return floquet_grid(system, params, about, frequency=frequency, tol=tol, guard_tol=guard_tol,
-                        order=order).point()
+                        order=order, progress=False).point()
 
 
 def stability_map(system, params, about, A, omega, *, amplitude="A", frequency="omega",
                   tol=1e-8, coarse_tol=None, guard_tol=1e-6,
-                  order=16) -> StabilityMap:
+                  order=16, progress=None) -> StabilityMap:
     """Stability map of a driven equilibrium over an (A, ω) grid by monodromy integration.
 
     Every point is integrated to ``tol``; ``uncertified_points`` of the result counts
@@ -968,6 +1090,10 @@ def stability_map(system, params, about, A, omega, *, amplitude="A", frequency="
         Grid axes for the parameters named ``amplitude`` and ``frequency``.
     tol : float
         Target error of the monodromy near boundaries (relative to max(1, ‖M‖)).
+    progress : None, bool or callable
+        Progress line and Ctrl-C, as for :func:`floquet_grid`; the
+        :class:`~kapitza.results.ComputationInterrupted` raised carries this map
+        with the finished points filled.
 
     Returns
     -------
@@ -998,9 +1124,18 @@ def stability_map(system, params, about, A, omega, *, amplitude="A", frequency="
     p[amplitude] = A[:, None]
     p[frequency] = omega[None, :]
     t0 = time.perf_counter()
-    g = floquet_grid(system, p, about, frequency=frequency, tol=tol, guard_tol=guard_tol,
-                     order=order, certify=coarse_tol is not None,
-                     coarse_tol=coarse_tol if coarse_tol is not None else tol)
+    try:
+        g = floquet_grid(system, p, about, frequency=frequency, tol=tol, guard_tol=guard_tol,
+                         order=order, certify=coarse_tol is not None,
+                         coarse_tol=coarse_tol if coarse_tol is not None else tol,
+                         progress=progress)
+    except ComputationInterrupted as e:
+        partial = _map_from_grid(e.result, A, omega, about, fixed, t0)
+        raise ComputationInterrupted(partial, e.computed) from None
+    return _map_from_grid(g, A, omega, about, fixed, t0)
+
+
+def _map_from_grid(g, A, omega, about, fixed, t0) -> StabilityMap:
     flagged = [f for f in g.flags if f]
     return StabilityMap(A=A, omega=omega, stable=g.stable, label=g.label, trace=g.trace,
                         log_growth=g.log_growth, error_estimate=_largest_finite(g.error_estimate),

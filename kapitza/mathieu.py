@@ -64,7 +64,8 @@ from numba import njit, prange
 from scipy.optimize import brentq
 
 from . import arguments
-from .results import InceStruttChart, StabilityMap, StabilityWindow
+from .floquet import run_in_chunks
+from .results import ComputationInterrupted, InceStruttChart, StabilityMap, StabilityWindow
 
 __all__ = ["mathieu_parameters", "amplitude_from_q", "characteristic_value", "mathieu_trace",
            "mathieu_monodromy_trace", "ince_strutt_boundaries", "ince_strutt_chart",
@@ -821,7 +822,7 @@ def pendulum_stability_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inver
 
 
 def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, damping=0.0, about="inverted",
-                           trace=False, tol=1e-10) -> StabilityMap:
+                           trace=False, tol=1e-10, progress=None) -> StabilityMap:
     """Stability of the driven pendulum's equilibrium on the grid A × ω.
 
     Undamped: from characteristic values computed once per A (q = 2A/l) and
@@ -830,6 +831,13 @@ def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, damping=0.0, about="inver
     in a (so ≈ 1e-15 relative in A and ω).  Damped, or with ``trace=True``: the
     trace of the monodromy at every point by integration of the damping-free
     u-equation (:func:`mathieu_monodromy_trace`, tolerance ``tol``).
+
+    The traces run in chunks of rows (about 0.25 s each) with a progress line on
+    stderr when it is a terminal (``progress`` None; True always, False never, or a
+    callable ``progress(done_rows, total_rows)``).  Ctrl-C stops within a chunk and
+    raises :class:`~kapitza.results.ComputationInterrupted` (a KeyboardInterrupt)
+    whose ``.result`` is the map with the finished rows of A filled (the others:
+    trace and log_growth NaN; damped: unstable, label 3) and ``.computed`` marks them.
 
     Returns
     -------
@@ -858,8 +866,16 @@ def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, damping=0.0, about="inver
         method = "characteristic values"
     if damping > 0.0 or trace:
         ap = np.ascontiguousarray(a - c * c / 4)
-        out = np.empty((q.size, w.size, 5))
-        _trace_grid(ap, np.ascontiguousarray(q), float(tol), 1 << 22, out)
+        qc = np.ascontiguousarray(q)
+        out = np.full((q.size, w.size, 5), np.nan)
+
+        def rows(i0, i1):
+            _trace_grid(ap, qc[i0:i1], float(tol), 1 << 22, out[i0:i1])
+
+        done, interrupted = run_in_chunks(rows, q.size, progress=progress,
+                                          label="Mathieu trace map", unit="rows of A",
+                                          first=2)
+        out[done:] = np.nan          # a chunk may have finished just as Ctrl-C came
         lg_u = out[:, :, 2]
         log_tr = lg_u - (np.pi * c / 2)[None, :]
         tr = np.where(log_tr > 700, out[:, :, 1] * np.inf,
@@ -870,12 +886,22 @@ def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, damping=0.0, about="inver
             trm = np.where(big, 0.0, np.exp(np.minimum(lg_u, 30)) / 2)
             ach = np.where(big, lg_u, np.arccosh(np.maximum(trm, 1.0)))
         lg = ach - (np.pi * c / 2)[None, :]
-        err = float(np.max(out[:, :, 3]))
+        err = float(np.max(out[:done, :, 3])) if done else 0.0
         if damping > 0.0:
             thr = 1.0 + np.exp(-2 * np.pi * damping / w)
-            stable = np.where(log_tr > 700, False, np.abs(tr) < thr[None, :])
+            with np.errstate(invalid="ignore"):
+                stable = np.where(log_tr > 700, False, np.abs(tr) < thr[None, :])
             label = np.where(stable, 0, np.where(out[:, :, 1] > 0, 1, 2)).astype(np.int8)
+            label[done:] = 3
             method = "monodromy (Mathieu, damping removed)"
+        if interrupted:
+            computed = np.zeros(stable.shape, dtype=bool)
+            computed[:done] = True
+            partial = StabilityMap(A=A, omega=w, stable=stable, label=label, trace=tr,
+                                   log_growth=lg, error_estimate=err, about=about,
+                                   method=method, l=l, g=g, damping=damping,
+                                   seconds=time.perf_counter() - t0)
+            raise ComputationInterrupted(partial, computed)
     return StabilityMap(A=A, omega=w, stable=stable, label=label, trace=tr, log_growth=lg,
                         error_estimate=err, about=about, method=method, l=l, g=g,
                         damping=damping, seconds=time.perf_counter() - t0)

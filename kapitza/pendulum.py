@@ -175,13 +175,15 @@ class KapitzaPendulum:
         return floquet_point(self.system, self.params(float(A), float(omega)), [theta], tol=tol)
 
     def stability_map(self, A, omega, about: str = "inverted", *, trace: bool = False,
-                      tol: float = 1e-10) -> StabilityMap:
+                      tol: float = 1e-10, progress=None) -> StabilityMap:
         """Stability of θ = π (or θ = 0) over the grid A × ω (vertical drive).
 
         Undamped: characteristic values of the Mathieu equation once per A and a
         comparison for every ω (the whole grid in milliseconds; boundaries exact
         to ≈ 1e-15 relative); damped or ``trace=True``: the monodromy trace at
-        every point to ``tol``.  See :func:`kapitza.mathieu.pendulum_stability_map`.
+        every point to ``tol``, in chunks with a progress line on stderr (``progress``)
+        and Ctrl-C keeping the finished rows (:class:`kapitza.results.ComputationInterrupted`).
+        See :func:`kapitza.mathieu.pendulum_stability_map`.
 
         Returns
         -------
@@ -193,7 +195,8 @@ class KapitzaPendulum:
         """
         self._vertical("stability_map")
         return mathieu.pendulum_stability_map(A, omega, l=self.l, g=self.g, damping=self.damping,
-                                              about=about, trace=trace, tol=tol)
+                                              about=about, trace=trace, tol=tol,
+                                              progress=progress)
 
     # -- direct integration (lagrange_core) --------------------------------------------
     def simulate(self, theta0: float, theta_dot0: float, t_span, A: float, omega: float, *,

@@ -33,7 +33,7 @@ import numpy as np
 __all__ = ["BOUNDARIES", "scalar_or_array", "FloquetResult", "MonodromyData", "FloquetGrid",
            "StabilityMap", "StabilityWindow", "FloquetWindow", "InceStruttChart", "SlowModes",
            "AveragingPrediction", "SlowModeSweep", "EquilibriumPrediction", "PendulumAveraging",
-           "MultiplePendulumPrediction"]
+           "MultiplePendulumPrediction", "ComputationInterrupted"]
 
 #: Names of the stability labels 0, 1, 2, 3: stable; unstable in a region bounded by
 #: period-T solutions (multiplier +1); by period-2T solutions (multiplier −1); complex
@@ -56,6 +56,28 @@ def _unscale(scaled, log_scale):
     ls = np.asarray(log_scale, dtype=float)[..., None, None]
     with np.errstate(over="ignore", invalid="ignore"):
         return np.where(ls > 700, scaled * np.inf, scaled * np.exp(np.minimum(ls, 700)))
+
+
+class ComputationInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a long grid computation (a Floquet grid or map, a damped Mathieu map).
+
+    A KeyboardInterrupt, so scripts still stop; it carries what was finished.
+
+    Attributes
+    ----------
+    result
+        The partial result (the type the call returns): finished points filled, the
+        others NaN (traces, growth), unstable, and flagged where the type has flags.
+    computed : bool ndarray
+        Which points were finished (the result's grid shape).
+    """
+
+    def __init__(self, result, computed):
+        self.result = result
+        self.computed = np.asarray(computed, dtype=bool)
+        super().__init__(f"interrupted: {int(self.computed.sum())} of {self.computed.size} "
+                         "grid points were computed; the partial result is in the exception's "
+                         ".result (.computed marks the finished points)")
 
 
 # ======================================================================================

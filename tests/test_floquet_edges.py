@@ -122,3 +122,118 @@ def test_triple_pendulum_uncertified_counts_only_the_uncertain(triple):
     # points 1e-9 from the edge are within the error estimate: counted, whichever side
     near = fq.stability_map(triple, TP, UP3, EDGE3 * np.array([1 - 1e-9, 1 + 1e-9]), [100.0])
     assert near.uncertified_points == 2
+
+
+# -- item 8: chunks, progress, Ctrl-C --------------------------------------------------
+
+from kapitza.results import ComputationInterrupted  # noqa: E402
+
+
+def _stop(done, total):
+    raise KeyboardInterrupt
+
+
+def test_floquet_grid_interrupt_keeps_finished_points():
+    p = KapitzaPendulum(l=L, g=G, damping=0.5)
+    A = np.linspace(0.0, 0.6, 40)
+    w = np.linspace(20.0, 200.0, 40)
+    params = dict(p.params(0.0, 1.0), A=A[:, None], omega=w[None, :])
+    with pytest.raises(ComputationInterrupted) as info:
+        fq.floquet_grid(p.system, params, [math.pi], progress=_stop)
+    e = info.value
+    assert isinstance(e, KeyboardInterrupt) and e.computed.shape == (40, 40)
+    n = int(e.computed.sum())
+    assert 0 < n < 1600 and e.computed.ravel()[:n].all()      # the first chunk, in order
+    g = e.result
+    i, j = np.nonzero(e.computed)
+    a, q, c = mm.mathieu_parameters(A[i], w[j], L, G, p.damping, "inverted")
+    ref = mm.mathieu_trace(a, q, c, tol=1e-13)
+    assert np.allclose(g.trace[i, j], ref, rtol=1e-8, atol=1e-9)
+    assert np.isnan(g.trace[~e.computed]).all() and not g.stable[~e.computed].any()
+    assert all(g.flags[k] == ("not computed: interrupted (Ctrl-C)",)
+               for k in np.flatnonzero(~e.computed))
+    # the general map carries its partial map
+    with pytest.raises(ComputationInterrupted) as info:
+        fq.stability_map(p.system, dict(m=1.0, l=L, g=G, gamma=0.5), [math.pi], A, w,
+                         progress=_stop)
+    assert info.value.computed.sum() == n
+    assert np.array_equal(info.value.result.stable[e.computed], g.stable[e.computed])
+
+
+def test_mathieu_map_interrupt_keeps_finished_rows():
+    p = KapitzaPendulum(l=L, g=G, damping=0.5)
+    A = np.linspace(0.0, 0.6, 30)
+    w = np.linspace(5.0, 200.0, 25)
+    with pytest.raises(ComputationInterrupted) as info:
+        p.stability_map(A, w, progress=_stop)
+    e = info.value
+    rows = np.nonzero(e.computed.all(axis=1))[0]
+    assert rows.tolist() == [0, 1] and not e.computed[2:].any()
+    a, q, c = mm.mathieu_parameters(A[:2, None], w[None, :], L, G, p.damping, "inverted")
+    ref = np.vectorize(lambda *x: mm.mathieu_trace(*x, tol=1e-13))(a, q, c)
+    assert np.allclose(e.result.trace[:2], ref, rtol=1e-8, atol=1e-9)
+    assert np.isnan(e.result.trace[2:]).all() and not e.result.stable[2:].any()
+    full = p.stability_map(A, w, progress=False)
+    assert np.array_equal(full.stable[:2], e.result.stable[:2])
+
+
+def test_progress_line_only_on_request(capsys):
+    p = KapitzaPendulum(l=L, g=G, damping=0.5)
+    A, w = np.linspace(0.0, 0.6, 60), np.linspace(5.0, 200.0, 60)
+    calls = []
+    p.stability_map(A, w, progress=lambda d, t: calls.append((d, t)))
+    assert calls[-1] == (60, 60) and all(a < b for (a, _), (b, _) in zip(calls, calls[1:]))
+    p.stability_map(A, w)                    # stderr is not a terminal here: quiet
+    p.stability_map(A, w, progress=False)
+    assert capsys.readouterr().err == ""
+    with pytest.raises(ValueError, match="progress"):
+        p.stability_map(A, w, progress="yes")
+
+
+CHILD = r"""
+import json, signal, sys, time
+import numpy as np
+from kapitza.pendulum import KapitzaPendulum
+from kapitza.results import ComputationInterrupted
+p = KapitzaPendulum(l=1.0, g=9.81, damping=0.3)
+A, w = np.linspace(0.0, 0.7, 1000), np.linspace(2.0, 400.0, 1000) * np.sqrt(9.81)
+p.stability_map(A[:2], w[:2], progress=False)            # compiled / loaded
+print("ready", flush=True)
+try:
+    p.stability_map(A, w, progress=False)
+    print(json.dumps({"finished": True}))
+except ComputationInterrupted as e:
+    t = time.time()
+    rows = e.computed.all(axis=1)
+    tr = e.result.trace
+    print(json.dumps({"finished": False, "t": t, "rows": int(rows.sum()),
+                      "prefix": bool(rows[:rows.sum()].all()),
+                      "done_finite": bool(np.isfinite(tr[rows]).all()),
+                      "rest_nan": bool(np.isnan(tr[~rows]).all())}), flush=True)
+"""
+
+
+def test_ctrl_c_stops_a_long_map_within_a_second(tmp_path):
+    import json
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    script = tmp_path / "child.py"
+    script.write_text(CHILD)
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        time.sleep(2.0)
+        sent = time.time()
+        os.kill(proc.pid, signal.SIGINT)
+        out = proc.stdout.readline()
+        proc.wait(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    res = json.loads(out)
+    assert res["finished"] is False
+    assert res["t"] - sent < 1.0
+    assert 0 < res["rows"] < 1000 and res["prefix"] and res["done_finite"] and res["rest_nan"]
