@@ -111,7 +111,8 @@ import symengine as se
 from lagrange_core import _linalg, module_store
 from lagrange_core.systems import System, t as t_symbol
 
-from .results import AveragingPrediction, SlowModes, SlowModeSweep
+from .floquet import run_in_chunks
+from .results import AveragingPrediction, ComputationInterrupted, SlowModes, SlowModeSweep
 
 __all__ = ["MIN_FREQUENCY_RATIO", "MAX_AMPLITUDE_RATIO", "AveragingValidityWarning",
            "fourier_split", "average", "AveragedSystem"]
@@ -695,7 +696,7 @@ class AveragedSystem:
                           AveragingValidityWarning, stacklevel=2)
         return modes
 
-    def sweep(self, params, about) -> "SlowModeSweep":
+    def sweep(self, params, about, progress=None) -> "SlowModeSweep":
         """Slow modes about ``about`` over arrays of parameter values (no re-derivation).
 
         Parameters
@@ -704,24 +705,51 @@ class AveragedSystem:
             Parameter values by name; any of them may be arrays, broadcast together.
         about : sequence
             An equilibrium for every point (e.g. the upright chain).
+        progress : None, bool or callable
+            The points run in chunks of about 0.25 s (:func:`kapitza.floquet.run_in_chunks`):
+            a progress line on stderr for sweeps longer than 0.5 s when stderr is a
+            terminal (None), always (True), never (False), or ``progress(done, total)``
+            after every chunk.
 
         Returns
         -------
         SlowModeSweep
             ``omega_squared`` of shape (..., n) and per-point ``stable``, ``valid``.
+
+        Raises
+        ------
+        kapitza.results.ComputationInterrupted
+            On Ctrl-C (within a chunk's time): a KeyboardInterrupt whose ``.result`` is
+            the SlowModeSweep with the finished points filled (the others NaN, not
+            stable, not valid) and ``.computed`` marks them.
         """
         names = list(params)
         arrays = np.broadcast_arrays(*[np.asarray(params[k], float) for k in names])
         shape = arrays[0].shape
         n = self.system.n_dof
-        w2 = np.empty(shape + (n,))
-        stable = np.empty(shape, bool)
-        valid = np.empty(shape, bool)
-        for idx in np.ndindex(shape):
-            modes = self.slow_modes({k: a[idx] for k, a in zip(names, arrays)}, about, warn=False)
-            w2[idx], stable[idx], valid[idx] = modes.omega_squared, modes.stable, modes.valid
-        return SlowModeSweep(params={k: a for k, a in zip(names, arrays)}, about=np.asarray(about, float),
-                             omega_squared=w2, stable=stable, valid=valid)
+        w2 = np.full(shape + (n,), np.nan)
+        stable = np.zeros(shape, bool)
+        valid = np.zeros(shape, bool)
+        size = int(np.prod(shape))
+
+        def work(start, stop):
+            for i in range(start, stop):
+                idx = np.unravel_index(i, shape)
+                modes = self.slow_modes({k: a[idx] for k, a in zip(names, arrays)}, about,
+                                        warn=False)
+                w2[idx], stable[idx], valid[idx] = modes.omega_squared, modes.stable, modes.valid
+
+        done, interrupted = run_in_chunks(work, size, progress=progress, label="averaging sweep")
+        if interrupted:                       # a chunk cut short: its points count as not done
+            w2.reshape(size, n)[done:] = np.nan
+            stable.reshape(size)[done:] = False
+            valid.reshape(size)[done:] = False
+        result = SlowModeSweep(params={k: a for k, a in zip(names, arrays)},
+                               about=np.asarray(about, float), omega_squared=w2, stable=stable,
+                               valid=valid)
+        if interrupted:
+            raise ComputationInterrupted(result, (np.arange(size) < done).reshape(shape))
+        return result
 
     def minimum_amplitude(self, params, about, amplitude: str = "A", upper: float = None) -> float:
         """The smallest value of the parameter ``amplitude`` that makes ``about`` stable.

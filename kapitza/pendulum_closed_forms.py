@@ -26,10 +26,11 @@ import scipy.linalg
 
 from . import arguments
 from .averaging import MAX_AMPLITUDE_RATIO, MIN_FREQUENCY_RATIO, AveragingValidityWarning
+from .floquet import run_in_chunks
 from .mathieu import (amplitude_from_q, characteristic_value, exponent_squared, mathieu_b1,
                       mathieu_b1_root, mathieu_parameters)
-from .results import (EquilibriumPrediction, MultiplePendulumPrediction, PendulumAveraging,
-                      StabilityWindow)
+from .results import (ComputationInterrupted, EquilibriumPrediction, MultiplePendulumPrediction,
+                      PendulumAveraging, StabilityWindow)
 from .results import scalar_or_array as _s
 
 __all__ = ["MAX_CORRECTION", "pendulum_effective_potential", "pendulum_averaged",
@@ -71,7 +72,7 @@ def pendulum_effective_potential(theta, A, omega, *, l=1.0, g=9.81, drive="verti
 
 
 def pendulum_averaged(A, omega, *, l=1.0, g=9.81, damping=0.0, drive="vertical", order=1,
-                      warn=True) -> PendulumAveraging:
+                      warn=True, progress=None) -> PendulumAveraging:
     """Equilibria, stability and slow frequencies of the driven pendulum by averaging.
 
     Parameters
@@ -98,6 +99,20 @@ def pendulum_averaged(A, omega, *, l=1.0, g=9.81, damping=0.0, drive="vertical",
         Emit :class:`~kapitza.averaging.AveragingValidityWarning` for a scalar point
         outside the regime (see ``MIN_FREQUENCY_RATIO``, ``MAX_AMPLITUDE_RATIO`` of
         :mod:`kapitza.averaging` and :data:`MAX_CORRECTION`).
+    progress : None, bool or callable
+        Arrays of more than :data:`CHUNK_POINTS` points run in chunks of about 0.25 s
+        (:func:`kapitza.floquet.run_in_chunks`): a progress line on stderr for calls
+        longer than 0.5 s when stderr is a terminal (None), always (True), never
+        (False), or ``progress(done, total)`` after every chunk.
+
+    Raises
+    ------
+    kapitza.results.ComputationInterrupted
+        On Ctrl-C during a chunked call (within a chunk's time): a KeyboardInterrupt
+        whose ``.result`` is the PendulumAveraging of the points finished, the first
+        ones in flat (C) order of the broadcast (A, ω) (1-d fields, views into the
+        arrays being filled: writing NaN into the rest would cost seconds for 10⁷
+        points), and ``.computed`` marks them on the broadcast shape.
 
     Returns
     -------
@@ -141,12 +156,20 @@ def pendulum_averaged(A, omega, *, l=1.0, g=9.81, damping=0.0, drive="vertical",
                          "only; use order=1 for the horizontal drive.")
     l, g, gam = arguments.pendulum_constants(l, g, damping)
     A, omega = arguments.drive(A, omega)
-    parts = _in_chunks(functools.partial(_equilibria, l=l, g=g, gam=gam, drive=drive,
-                                         order=order), A, omega)
+    if not (progress is None or isinstance(progress, bool) or callable(progress)):
+        raise ValueError(f"progress must be None, True, False or a callable "
+                         f"progress(done, total); got {progress!r}.")
+    parts, computed = _in_chunks(functools.partial(_equilibria, l=l, g=g, gam=gam, drive=drive,
+                                                   order=order), A, omega, progress)
+    if computed is not None:                  # the finished points, flat
+        done = int(computed.sum())
+        A, omega = A.flat[:done], omega.flat[:done]
     eqs = tuple(EquilibriumPrediction(name=name, **{k: _s(v) for k, v in fields.items()})
                 for name, fields in parts)
     out = PendulumAveraging(A=_s(A), omega=_s(omega), l=l, g=g, damping=gam, drive=drive,
                             order=order, equilibria=eqs)
+    if computed is not None:
+        raise ComputationInterrupted(out, computed)
     if warn and np.ndim(A) == 0:
         bad = [e.name for e in out.equilibria if e.exists and not e.valid]
         if bad:
@@ -239,23 +262,33 @@ def _equilibria(A, omega, *, l, g, gam, drive, order):
 CHUNK_POINTS = 1 << 16
 
 
-def _in_chunks(fn, A, omega):
-    """``fn(A, omega)`` → [(name, {field: array})] over broadcast arrays of any size, one
-    chunk of :data:`CHUNK_POINTS` flat points at a time, assembled into arrays of A's shape."""
+def _in_chunks(fn, A, omega, progress=None):
+    """``fn(A, omega)`` → [(name, {field: array})] over broadcast arrays of any size, in
+    chunks (:func:`kapitza.floquet.run_in_chunks`: about 0.25 s each, progress, Ctrl-C)
+    of at most :data:`CHUNK_POINTS` flat points per numpy pass, assembled into arrays of
+    A's shape.  Returns (fields, None), or after Ctrl-C (the finished flat prefix of
+    every field, computed) with ``computed`` the mask of finished points on A's shape."""
     n = A.size
-    if n <= CHUNK_POINTS:
-        return fn(A, omega)
-    out = None
-    for start in range(0, n, CHUNK_POINTS):
-        stop = min(start + CHUNK_POINTS, n)
-        part = fn(A.flat[start:stop], omega.flat[start:stop])
-        if out is None:
-            out = [(name, {k: np.empty(n, np.asarray(v).dtype) for k, v in fields.items()})
-                   for name, fields in part]
-        for (_, into), (_, fields) in zip(out, part):
-            for k, v in fields.items():
-                into[k][start:stop] = v
-    return [(name, {k: v.reshape(A.shape) for k, v in fields.items()}) for name, fields in out]
+    if n <= CHUNK_POINTS and (progress is None or progress is False):
+        return fn(A, omega), None
+    out = [(name, {k: np.empty(n, np.asarray(v).dtype) for k, v in fields.items()})
+           for name, fields in fn(A.flat[:1], omega.flat[:1])]
+
+    def work(start, stop):
+        for lo in range(start, stop, CHUNK_POINTS):
+            hi = min(lo + CHUNK_POINTS, stop)
+            part = fn(A.flat[lo:hi], omega.flat[lo:hi])
+            for (_, into), (_, fields) in zip(out, part):
+                for k, v in fields.items():
+                    into[k][lo:hi] = v
+
+    done, interrupted = run_in_chunks(work, n, progress=progress, label="pendulum_averaged",
+                                      first=min(n, CHUNK_POINTS))
+    if interrupted:
+        return ([(name, {k: v[:done] for k, v in fields.items()}) for name, fields in out],
+                (np.arange(n) < done).reshape(A.shape))
+    return [(name, {k: v.reshape(A.shape) for k, v in fields.items()})
+            for name, fields in out], None
 
 
 def stability_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2, warn=True) -> StabilityWindow:

@@ -196,3 +196,101 @@ def test_two_link_drag_against_direct_simulation():
     traj = chain.simulate(hanging, [0.0, 0.0], (0.0, t_end), P, rtol=1e-10, t_eval=t_eval)
     mean = np.asarray(traj.q)[:-1].mean(axis=0)
     np.testing.assert_allclose(mean, hanging, rtol=3e-3)       # measured 2.3e-3, 1.1e-3
+
+
+# -- item 8 (averaging): progress and Ctrl-C on long array calls ------------------------------
+
+def test_long_array_call_reports_progress_and_is_quiet_off_terminal(capsys):
+    A = np.linspace(0.0, 0.2, 3 * pcf.CHUNK_POINTS + 17)
+    seen = []
+    out = pcf.pendulum_averaged(A, 300.0, order=2, warn=False,
+                                progress=lambda done, total: seen.append((done, total)))
+    assert seen[-1] == (A.size, A.size) and len(seen) >= 2
+    assert all(d1 < d2 for (d1, _), (d2, _) in zip(seen, seen[1:]))
+    whole = pcf.pendulum_averaged(A, 300.0, order=2, warn=False, progress=False)
+    np.testing.assert_array_equal(out.inverted.omega_squared, whole.inverted.omega_squared)
+    pcf.pendulum_averaged(A, 300.0, order=2, warn=False)      # stderr is not a terminal here
+    assert capsys.readouterr().err == ""
+    with pytest.raises(ValueError, match="progress must be"):
+        pcf.pendulum_averaged(0.1, 300.0, progress="yes")
+
+
+def test_ctrl_c_keeps_the_finished_points():
+    """Ctrl-C (here raised from the progress callback, between chunks) raises a
+    KeyboardInterrupt carrying the finished part: the first points in flat order, equal
+    to the full call's; ``computed`` marks them on the grid."""
+    from kapitza.results import ComputationInterrupted
+    A = np.linspace(0.0, 0.2, 4 * pcf.CHUNK_POINTS).reshape(4, -1)
+    w = np.array([[200.0], [300.0], [400.0], [500.0]])
+
+    def stop(done, total):
+        if done < total:
+            raise KeyboardInterrupt
+    with pytest.raises(ComputationInterrupted) as info:
+        pcf.pendulum_averaged(A, w, order=2, warn=False, progress=stop)
+    assert isinstance(info.value, KeyboardInterrupt)
+    part, computed = info.value.result, info.value.computed
+    assert computed.shape == A.shape and 0 < computed.sum() < A.size
+    done = int(computed.sum())
+    assert np.all(computed.ravel()[:done]) and not np.any(computed.ravel()[done:])
+    np.testing.assert_array_equal(part.A, A.ravel()[:done])
+    np.testing.assert_array_equal(part.omega, np.broadcast_to(w, A.shape).ravel()[:done])
+    whole = pcf.pendulum_averaged(A, w, order=2, warn=False)
+    for a, b in zip(whole.equilibria, part.equilibria):
+        for field, value in vars(a).items():
+            if field != "name":
+                np.testing.assert_array_equal(getattr(b, field), np.ravel(value)[:done])
+
+
+def test_ctrl_c_stops_a_long_call_within_a_second():
+    """A real SIGINT 1 s into a 10⁷-point call: the exception arrives within a second."""
+    import subprocess
+    import sys
+    probe = """
+import os, signal, threading, time
+import numpy as np
+from kapitza import pendulum_closed_forms as pcf
+from kapitza.results import ComputationInterrupted
+A = np.linspace(0.0, 0.2, 10_000_000)
+pcf.pendulum_averaged(A[:10], 300.0)
+sent = []
+def fire():
+    time.sleep(1.0)
+    sent.append(time.perf_counter())
+    os.kill(os.getpid(), signal.SIGINT)
+threading.Thread(target=fire, daemon=True).start()
+try:
+    pcf.pendulum_averaged(A, 300.0, order=2, warn=False)
+except ComputationInterrupted as e:
+    print(time.perf_counter() - sent[0], int(e.computed.sum()))
+"""
+    run = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True)
+    delay, kept = run.stdout.split()
+    assert float(delay) < 1.0 and int(kept) > 0
+
+
+def test_general_sweep_progress_and_ctrl_c():
+    from kapitza.pendulum import KapitzaPendulum
+    from kapitza.results import ComputationInterrupted
+    from lagrange_core import problems
+    avg = av.average(problems.driven_pendulum("vertical"))
+    base = KapitzaPendulum().params(0.1, 200.0)
+    params = {**base, "A": np.linspace(0.02, 0.1, 300).reshape(3, 100)}
+    seen = []
+    whole = avg.sweep(params, [math.pi], progress=lambda d, t: seen.append((d, t)))
+    assert seen[-1] == (300, 300)
+    # the closed form Ω² = A²ω²/(2l²) − g/l (PHYSICS.md) at every point
+    np.testing.assert_allclose(whole.omega_squared[..., 0],
+                               params["A"]**2 * 200.0**2 / 2 - base["g"], rtol=1e-10)
+
+    def stop(done, total):
+        raise KeyboardInterrupt
+    with pytest.raises(ComputationInterrupted) as info:
+        avg.sweep(params, [math.pi], progress=stop)
+    part, computed = info.value.result, info.value.computed
+    assert computed.shape == (3, 100) and 0 < computed.sum() < 300
+    np.testing.assert_array_equal(part.omega_squared[computed], whole.omega_squared[computed])
+    assert np.all(np.isnan(part.omega_squared[~computed]))
+    assert not np.any(part.stable[~computed] | part.valid[~computed])
+    np.testing.assert_array_equal(part.stable[computed], whole.stable[computed])
