@@ -858,7 +858,15 @@ def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, damping=0.0, about="inver
     A = arguments.grid_axis("A", A, "m", positive=False)
     w = arguments.grid_axis("omega", omega, "rad/s", positive=True)
     t0 = time.perf_counter()
-    a, q, c = mathieu_parameters(A, w, l, g, damping, about)        # a, c per ω; q per A
+    with np.errstate(over="ignore", divide="ignore"):
+        a, q, c = mathieu_parameters(A, w, l, g, damping, about)    # a, c per ω; q per A
+    if not np.all(np.isfinite(a)):
+        slow = float(w[~np.isfinite(a)][0])
+        raise ValueError(f"omega = {slow!r} rad/s is too slow for the Mathieu form: a = "
+                         f"±4 g/(l ω²) overflows. Use ω ≥ 1e-150 rad/s, or "
+                         "kapitza.floquet.stability_map(pendulum.system, ...), which reports "
+                         "such points with a frozen-time growth estimate and a flag.")
+    flagged, example = 0, ()
     tr = lg = None
     err = 1e-15
     if damping == 0.0:
@@ -886,13 +894,22 @@ def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, damping=0.0, about="inver
             trm = np.where(big, 0.0, np.exp(np.minimum(lg_u, 30)) / 2)
             ach = np.where(big, lg_u, np.arccosh(np.maximum(trm, 1.0)))
         lg = ach - (np.pi * c / 2)[None, :]
-        err = float(np.max(out[:done, :, 3])) if done else 0.0
+        bad = ~np.isfinite(lg[:done])
+        flagged = int(bad.sum())
+        if flagged:
+            i, j = np.argwhere(bad)[0]
+            example = (f"trace not computed at A = {A[i]:.6g} m, ω = {w[j]:.6g} rad/s (RK4 "
+                       "overflow: a slow drive or a huge amplitude); NaN, reported unstable. "
+                       "kapitza.floquet.stability_map estimates its growth",)
+        est = out[:done, :, 3][np.isfinite(out[:done, :, 3])]
+        err = float(np.max(est)) if est.size else 0.0
         if damping > 0.0:
             thr = 1.0 + np.exp(-2 * np.pi * damping / w)
             with np.errstate(invalid="ignore"):
                 stable = np.where(log_tr > 700, False, np.abs(tr) < thr[None, :])
             label = np.where(stable, 0, np.where(out[:, :, 1] > 0, 1, 2)).astype(np.int8)
             label[done:] = 3
+            label[:done][bad] = 3
             method = "monodromy (Mathieu, damping removed)"
         if interrupted:
             computed = np.zeros(stable.shape, dtype=bool)
@@ -900,11 +917,13 @@ def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, damping=0.0, about="inver
             partial = StabilityMap(A=A, omega=w, stable=stable, label=label, trace=tr,
                                    log_growth=lg, error_estimate=err, about=about,
                                    method=method, l=l, g=g, damping=damping,
-                                   seconds=time.perf_counter() - t0)
+                                   seconds=time.perf_counter() - t0, flagged_points=flagged,
+                                   flags_example=example)
             raise ComputationInterrupted(partial, computed)
     return StabilityMap(A=A, omega=w, stable=stable, label=label, trace=tr, log_growth=lg,
                         error_estimate=err, about=about, method=method, l=l, g=g,
-                        damping=damping, seconds=time.perf_counter() - t0)
+                        damping=damping, seconds=time.perf_counter() - t0,
+                        flagged_points=flagged, flags_example=example)
 
 
 # -- series for small q (the next order of averaging) ----------------------------------

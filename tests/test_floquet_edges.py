@@ -237,3 +237,23 @@ def test_ctrl_c_stops_a_long_map_within_a_second(tmp_path):
     assert res["finished"] is False
     assert res["t"] - sent < 1.0
     assert 0 < res["rows"] < 1000 and res["prefix"] and res["done_finite"] and res["rest_nan"]
+
+
+def test_mathieu_map_at_extreme_slow_drives():
+    # ω = 1e-3 rad/s: A ω² = 1e-7 m/s² ≪ g, so the damped upright pendulum falls as the
+    # undriven one, rate −γ/2 + √(γ²/4 + ω0²) (closed form), for one period T = 2π/ω
+    gam = 0.3
+    p = KapitzaPendulum(l=L, g=G, damping=gam)
+    m = p.stability_map([0.1], [1e-3], progress=False)
+    rate = -gam / 2 + math.sqrt(gam**2 / 4 + W0**2)
+    assert not m.stable[0, 0]
+    assert m.log_growth[0, 0] == pytest.approx(rate * 2 * math.pi / 1e-3, rel=1e-6)
+    # ω = 1e-100: the RK4 trace overflows: NaN, unstable and counted as flagged, not a number
+    m = p.stability_map([0.1, 0.2], [1e-100, 60.0], progress=False)
+    assert np.isnan(m.log_growth[:, 0]).all() and not m.stable[:, 0].any()
+    assert m.flagged_points == 2 and "1e-100" in m.flags_example[0]
+    assert m.stable[:, 1].all() and np.isfinite(m.error_estimate)
+    # ω = 1e-300: a = 4 ω0²/ω² overflows; the error names omega and the way out
+    for damping in (0.0, gam):
+        with pytest.raises(ValueError, match=r"omega = 1e-300.*floquet\.stability_map"):
+            KapitzaPendulum(l=L, g=G, damping=damping).stability_map([0.1], [1e-300])
