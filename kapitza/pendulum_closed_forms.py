@@ -354,8 +354,9 @@ def stability_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2, warn=True) -
         A_min, A_max = lower[2], amplitude_from_q(_b1_root(ap), l)
     exists = A_min < A_max
     A_min, A_max = np.where(exists, A_min, np.nan), np.where(exists, A_max, np.nan)
-    ratio = omega / max(math.sqrt(g / l), damping)
-    err = np.abs(lower[1] - lower[2]) / lower[2]
+    with np.errstate(divide="ignore", invalid="ignore"):     # g = 0: both edges are 0
+        ratio = omega / max(math.sqrt(g / l), damping)
+        err = np.where(lower[2] > 0, np.abs(lower[1] - lower[2]) / lower[2], 0.0)
     fast = ratio >= MIN_FREQUENCY_RATIO
     small = lower[order] / l <= MAX_AMPLITUDE_RATIO
     converged = err <= MAX_CORRECTION

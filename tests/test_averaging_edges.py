@@ -60,6 +60,8 @@ def test_window_carries_validity_flags():
         warnings.simplefilter("error")
         pcf.stability_window(100 * w0, l=l, g=G)
         pcf.stability_window(omegas, l=l, g=G)
+        weightless = pcf.stability_window(omegas, l=l, g=0.0)   # no gravity to overcome
+    assert np.all(weightless.A_min == 0) and np.all(weightless.valid)
 
 
 # -- item 9: memory of large array calls ------------------------------------------------------
