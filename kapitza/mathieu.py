@@ -445,6 +445,10 @@ def _classify_grid(q, a, kmax, stable, label, chunk):
                 label[i, j] = 0 if cnt % 2 == 1 else (1 if (cnt // 2) % 2 == 0 else 2)
 
 
+#: the most characteristic values per family :func:`stability_counts` computes per q
+_KMAX_LIMIT = 1_000
+
+
 def _kmax_needed(q, a):
     # characteristic values below max(a): a_k, b_k ≥ k² − 2|q| roughly (Gershgorin), so
     # orders up to √(max a + 2|q|) + 2 suffice in each family.
@@ -474,6 +478,10 @@ def stability_counts(q, a):
         raise ValueError("q and a must be 1-d arrays (grid axes).")
     if not (np.all(np.isfinite(q)) and np.all(np.isfinite(a))):
         raise ValueError("q and a must be finite.")
+    if _kmax_needed(q, a) > _KMAX_LIMIT:
+        raise ValueError(f"max(a) = {float(np.max(a)):.3g} (with max|q| = "
+                         f"{float(np.max(np.abs(q))):.3g}) lies above more than {_KMAX_LIMIT} "
+                         "characteristic values per family; keep a + 2|q| below 4e6.")
     stable = np.empty((q.size, a.size), dtype=np.bool_)
     label = np.empty((q.size, a.size), dtype=np.int8)
     # continuation along q: one chunk of consecutive q per task (a few tasks per core)
@@ -870,6 +878,13 @@ def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, damping=0.0, about="inver
     tr = lg = None
     err = 1e-15
     if damping == 0.0:
+        if _kmax_needed(q, a) > _KMAX_LIMIT:
+            wmin = float(np.min(w))
+            raise ValueError(
+                f"about={about!r} with omega = {wmin!r} rad/s: a = 4 g/(l ω²) = "
+                f"{float(np.max(a)):.3g} lies above ~{_kmax_needed(q, a):.2g} resonance "
+                "tongues, too many to count (seconds per A). Use ω ≥ 1e-3·√(g/l) here, or "
+                "kapitza.floquet.stability_map(pendulum.system, ...) (monodromy integration).")
         stable, label = stability_counts(q, a)
         method = "characteristic values"
     if damping > 0.0 or trace:

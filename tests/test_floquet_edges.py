@@ -257,3 +257,11 @@ def test_mathieu_map_at_extreme_slow_drives():
     for damping in (0.0, gam):
         with pytest.raises(ValueError, match=r"omega = 1e-300.*floquet\.stability_map"):
             KapitzaPendulum(l=L, g=G, damping=damping).stability_map([0.1], [1e-300])
+
+
+def test_hanging_map_at_very_slow_drive_names_omega():
+    # a = 4ω0²/ω² = 4e41 lies above ~1e20 tongues: this raised OverflowError ("int too big")
+    with pytest.raises(ValueError, match=r"omega = 1e-20 .*floquet\.stability_map"):
+        KapitzaPendulum(l=L, g=G).stability_map([0.1], [1e-20], about="hanging")
+    with pytest.raises(ValueError, match="max\\(a\\)"):
+        mm.stability_counts(np.array([0.1]), np.array([1e9]))
