@@ -53,6 +53,9 @@ The Mathieu equation of the single pendulum (:mod:`kapitza.mathieu`)
         The Mathieu equation's stability chart and characteristic curves.
 
 Results (:mod:`kapitza.results`; frozen dataclasses with ``to_dataframe()``)
+    ComputationInterrupted
+        Ctrl-C during a long map, grid or sweep (a KeyboardInterrupt); ``.result`` holds
+        the finished points, ``.computed`` which they are.
     FloquetResult
         One point's Floquet analysis: multipliers, trace, stability, slow frequency, guards.
     FloquetGrid, MonodromyData
@@ -101,9 +104,10 @@ from .pendulum_closed_forms import (multiple_pendulum_upright, pendulum_averaged
                                     pendulum_effective_potential, stability_window)
 from .plots import effective_potential_figure, ince_strutt_figure, stability_map_figure
 from .warmup import warmup
-from .results import (AveragingPrediction, EquilibriumPrediction, FloquetGrid, FloquetResult,
-                      FloquetWindow, InceStruttChart, MonodromyData, MultiplePendulumPrediction,
-                      PendulumAveraging, SlowModes, SlowModeSweep, StabilityMap, StabilityWindow)
+from .results import (AveragingPrediction, ComputationInterrupted, EquilibriumPrediction,
+                      FloquetGrid, FloquetResult, FloquetWindow, InceStruttChart, MonodromyData,
+                      MultiplePendulumPrediction, PendulumAveraging, SlowModes, SlowModeSweep,
+                      StabilityMap, StabilityWindow)
 
 __all__ = [
     "KapitzaPendulum",
@@ -113,7 +117,8 @@ __all__ = [
     "floquet_point", "floquet_grid", "monodromy_data", "stability_map",
     "mathieu_parameters", "characteristic_value", "mathieu_monodromy_trace",
     "pendulum_stability_window", "pendulum_stability_map", "ince_strutt_chart",
-    "FloquetResult", "FloquetGrid", "MonodromyData", "StabilityMap", "StabilityWindow",
+    "ComputationInterrupted", "FloquetResult", "FloquetGrid", "MonodromyData", "StabilityMap",
+    "StabilityWindow",
     "FloquetWindow", "InceStruttChart", "SlowModes", "AveragingPrediction", "SlowModeSweep",
     "PendulumAveraging", "EquilibriumPrediction", "MultiplePendulumPrediction",
     "stability_map_figure", "effective_potential_figure", "ince_strutt_figure", "warmup",

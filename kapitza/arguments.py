@@ -10,7 +10,9 @@ import math
 
 import numpy as np
 
-__all__ = ["ABOUT", "DRIVES", "pendulum_constants", "amplitude", "frequency", "drive",
+from lagrange_core.checks import real_array, real_number
+
+__all__ = ["ABOUT", "DRIVES", "real_number", "pendulum_constants", "amplitude", "frequency", "drive",
            "grid_axis", "about_sign",
            "about_angle", "drive_direction", "averaging_order"]
 
@@ -38,18 +40,18 @@ def pendulum_constants(l, g, damping=0.0, *, where: str = "",
     out = []
     for name, v, unit, strict in zip(names, (l, g, damping), ("m", "m/s²", "1/s"),
                                      (True, False, False)):
-        number = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
-        if not (number and math.isfinite(v) and (v > 0 if strict else v >= 0)):
+        try:    # numbers of every kind (numpy scalars, 0-d arrays); no strings or booleans
+            out.append(real_number(v, name, unit=unit, minimum=0.0, strict=strict))
+        except ValueError:
             raise ValueError(f"{where}{name} must be a finite number {'>' if strict else '≥'} 0 "
-                             f"({unit}), got {v!r}.")
-        out.append(float(v))
+                             f"({unit}), got {v!r}.") from None
     return tuple(out)
 
 
 def _floats(name, value, where):
-    try:
-        return np.asarray(value, float)
-    except (TypeError, ValueError):
+    try:    # refuses strings and booleans (np.asarray would convert them silently)
+        return real_array(value, name)
+    except ValueError:
         raise ValueError(f"{where}{name} must be a number or an array of numbers, got "
                          f"{_show(value)}.") from None
 
@@ -86,13 +88,14 @@ def drive(A, omega, *, where: str = "") -> tuple[np.ndarray, np.ndarray]:
 
 def grid_axis(name: str, values, unit: str | None, *, positive: bool | None) -> np.ndarray:
     """A grid axis as a 1-d float array: finite values, > 0 (``positive=True``), ≥ 0
-    (``False``) or of any sign (``None``); ``unit`` only names the unit in the message."""
+    (``False``) or of any sign (``None``); ``unit`` only names the unit in the message.
+    An empty axis is allowed (an empty map).  Strings and booleans are refused."""
     need = {True: " > 0", False: " ≥ 0", None: ""}[positive]
     try:
-        arr = np.atleast_1d(np.asarray(values, dtype=float))
-    except (TypeError, ValueError):
+        arr = np.atleast_1d(real_array(values, name))
+    except ValueError:
         arr = None
-    ok = (arr is not None and arr.ndim == 1 and arr.size > 0 and bool(np.all(np.isfinite(arr)))
+    ok = (arr is not None and arr.ndim == 1
           and (positive is None or bool(np.all(arr > 0 if positive else arr >= 0))))
     if not ok:
         raise ValueError(f"{name} must be a number or a 1-d array (a grid axis) of finite "

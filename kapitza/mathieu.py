@@ -451,7 +451,9 @@ _KMAX_LIMIT = 1_000
 
 def _kmax_needed(q, a):
     # characteristic values below max(a): a_k, b_k ≥ k² − 2|q| roughly (Gershgorin), so
-    # orders up to √(max a + 2|q|) + 2 suffice in each family.
+    # orders up to √(max a + 2|q|) + 2 suffice in each family.  An empty grid needs none.
+    if np.size(q) == 0 or np.size(a) == 0:
+        return 3
     amax = float(np.max(a))
     return int(math.sqrt(max(amax + 2.0 * float(np.max(np.abs(q))), 0.0)) / 2) + 3
 

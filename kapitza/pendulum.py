@@ -39,7 +39,8 @@ class KapitzaPendulum:
     Parameters
     ----------
     l : float
-        Rod length (m), > 0.
+        Length (m), > 0: of the massless rod of a point-mass pendulum, or the equivalent
+        length I/(m d) of a physical pendulum (:meth:`physical`, :meth:`rod`).
     g : float
         Gravitational acceleration (m/s²), ≥ 0.
     damping : float
@@ -76,6 +77,55 @@ class KapitzaPendulum:
         arguments.pendulum_constants(self.l, self.g, self.damping, where="KapitzaPendulum: ")
         arguments.drive_direction(self.drive, where="KapitzaPendulum: ")
 
+    @classmethod
+    def physical(cls, inertia: float, distance: float, mass: float = 1.0, *, g: float = 9.81,
+                 damping: float = 0.0, drive: str = "vertical") -> "KapitzaPendulum":
+        """A physical pendulum: any rigid body pivoted at a shaken point.
+
+        Parameters
+        ----------
+        inertia : float
+            Moment of inertia about the pivot, I (kg m²), > 0.
+        distance : float
+            Pivot to centre of mass, d (m), > 0.
+        mass : float
+            m (kg), > 0.
+        g, damping, drive
+            As for the class; ``damping`` is γ in I θ̈ = −I γ θ̇ − m d (g + ÿ_p) sin θ.
+
+        Its angle obeys I θ̈ = −m d (g + ÿ_p) sin θ: the point-mass equation with l
+        replaced by the equivalent length l_eq = I/(m d), the pivot's motion entering
+        unchanged (shared/PHYSICS.md).  So every result of the returned pendulum
+        (averaging, windows, Floquet, θ(t)) holds exactly for the body, with A the
+        pivot's amplitude; only ``simulate``'s ``energy`` is that of the equivalent
+        point mass of 1 kg.
+
+        Examples
+        --------
+        >>> KapitzaPendulum.physical(inertia=2.0, distance=0.5, mass=4.0).l      # I/(m d)
+        1.0
+        """
+        inertia = arguments.real_number(inertia, "inertia", unit="kg m²", minimum=0.0,
+                                        strict=True)
+        distance = arguments.real_number(distance, "distance", unit="m", minimum=0.0,
+                                         strict=True)
+        mass = arguments.real_number(mass, "mass", unit="kg", minimum=0.0, strict=True)
+        return cls(l=inertia / (mass * distance), g=g, damping=damping, drive=drive)
+
+    @classmethod
+    def rod(cls, length: float, *, g: float = 9.81, damping: float = 0.0,
+            drive: str = "vertical") -> "KapitzaPendulum":
+        """A uniform rod of ``length`` L (m) pivoted at one end: l_eq = 2L/3 (I = m L²/3,
+        d = L/2; see :meth:`physical`).
+
+        Examples
+        --------
+        >>> round(KapitzaPendulum.rod(1.5).l, 12)
+        1.0
+        """
+        length = arguments.real_number(length, "length", unit="m", minimum=0.0, strict=True)
+        return cls.physical(length**2 / 3, length / 2, 1.0, g=g, damping=damping, drive=drive)
+
     @property
     def omega0(self) -> float:
         """Small-oscillation angular frequency √(g/l) of the undriven pendulum (rad/s)."""
@@ -104,18 +154,20 @@ class KapitzaPendulum:
         return pendulum_closed_forms.pendulum_effective_potential(theta, A, omega, l=self.l,
                                                                   g=self.g, drive=self.drive)
 
-    def averaged(self, A, omega, order: int = 1, warn: bool = True) -> PendulumAveraging:
+    def averaged(self, A, omega, order: int = 1, warn: bool = True,
+                 progress=None) -> PendulumAveraging:
         """Averaged predictions: equilibria, stability, slow frequencies, validity flags.
 
         ``A`` (m) and ``omega`` (rad/s) may be arrays (closed forms, numpy speed).
         ``order=2`` adds the next order (vertical drive).  Returns
         :class:`kapitza.results.PendulumAveraging` with ``.inverted``, ``.hanging``
         (and ``.tilted`` for the horizontal drive); see
-        :func:`kapitza.pendulum_closed_forms.pendulum_averaged` for formulas and accuracy.
+        :func:`kapitza.pendulum_closed_forms.pendulum_averaged` for formulas and accuracy,
+        and for ``progress`` (large arrays run in chunks; Ctrl-C keeps the finished part).
         """
         return pendulum_closed_forms.pendulum_averaged(A, omega, l=self.l, g=self.g,
                                                        damping=self.damping, drive=self.drive,
-                                                       order=order, warn=warn)
+                                                       order=order, warn=warn, progress=progress)
 
     def stability_window(self, omega, about: str = "inverted", tol: float = 1e-10, *,
                          method: str = "floquet", order: int = 2) -> StabilityWindow:
@@ -220,5 +272,10 @@ class KapitzaPendulum:
         lagrange_core.integrate.Trajectory
             ``t``, ``q`` (column ``theta``), ``qdot``, ``energy``, ``error_estimate``, ...
         """
-        return self.system.simulate([theta0], [theta_dot0], t_span, self.params(A, omega),
-                                    method=method, rtol=rtol, t_eval=t_eval, **options)
+        A, omega = arguments.drive(A, omega, where="KapitzaPendulum.simulate: ")
+        if A.ndim:
+            raise ValueError(f"KapitzaPendulum.simulate: A and omega must be scalars, got shape "
+                             f"{A.shape}; call it once per point.")
+        return self.system.simulate([theta0], [theta_dot0], t_span,
+                                    self.params(float(A), float(omega)), method=method,
+                                    rtol=rtol, t_eval=t_eval, **options)
