@@ -251,6 +251,8 @@ def test_ctrl_c_stops_a_long_call_within_a_second():
     probe = """
 import os, signal, threading, time
 import numpy as np
+# a background job of a shell ignores SIGINT: restore Ctrl-C's KeyboardInterrupt
+signal.signal(signal.SIGINT, signal.default_int_handler)
 from kapitza import pendulum_closed_forms as pcf
 from kapitza.results import ComputationInterrupted
 A = np.linspace(0.0, 0.2, 10_000_000)

@@ -193,6 +193,9 @@ def test_progress_line_only_on_request(capsys):
 CHILD = r"""
 import json, signal, sys, time
 import numpy as np
+# a shell that starts commands in the background ignores SIGINT in them, and Python then
+# installs no handler: restore Ctrl-C's KeyboardInterrupt, as in an interactive run
+signal.signal(signal.SIGINT, signal.default_int_handler)
 from kapitza.pendulum import KapitzaPendulum
 from kapitza.results import ComputationInterrupted
 p = KapitzaPendulum(l=1.0, g=9.81, damping=0.3)
