@@ -23,8 +23,9 @@ The pendulum and Acheson's chain in closed form (:mod:`kapitza.pendulum_closed_f
         U_eff(θ)/m of the vertically or horizontally driven pendulum (J/kg).
     pendulum_averaged
         Equilibria, stability and slow frequencies by averaging, order 1 or 2, over arrays.
-    stability_window
-        The averaging prediction of the amplitudes that hold the pendulum upright, per ω.
+    averaging_window
+        The averaging prediction of the amplitudes that hold the pendulum upright, per ω
+        (the exact window: ``KapitzaPendulum.stability_window``).
     multiple_pendulum_upright
         Minimum drive and slow modes of the upright N-link chain (Acheson's theorem).
 
@@ -101,7 +102,7 @@ from .mathieu import (characteristic_value, ince_strutt_chart, mathieu_monodromy
                       mathieu_parameters, pendulum_stability_map, pendulum_stability_window)
 from .pendulum import KapitzaPendulum
 from .pendulum_closed_forms import (multiple_pendulum_upright, pendulum_averaged,
-                                    pendulum_effective_potential, stability_window)
+                                    pendulum_effective_potential, averaging_window)
 from .plots import effective_potential_figure, ince_strutt_figure, stability_map_figure
 from .warmup import warmup
 from .results import (AveragingPrediction, ComputationInterrupted, EquilibriumPrediction,
@@ -112,7 +113,7 @@ from .results import (AveragingPrediction, ComputationInterrupted, EquilibriumPr
 __all__ = [
     "KapitzaPendulum",
     "average", "AveragedSystem", "AveragingValidityWarning",
-    "pendulum_effective_potential", "pendulum_averaged", "stability_window",
+    "pendulum_effective_potential", "pendulum_averaged", "averaging_window",
     "multiple_pendulum_upright",
     "floquet_point", "floquet_grid", "monodromy_data", "stability_map",
     "mathieu_parameters", "characteristic_value", "mathieu_monodromy_trace",

@@ -179,7 +179,7 @@ class KapitzaPendulum:
         accuracy.  See :func:`kapitza.mathieu.pendulum_stability_window`.
 
         method="averaging": the averaging prediction of order ``order`` (inverted
-        only); see :func:`kapitza.pendulum_closed_forms.stability_window`.
+        only); see :func:`kapitza.pendulum_closed_forms.averaging_window`.
 
         Returns
         -------
@@ -191,7 +191,7 @@ class KapitzaPendulum:
             if about != "inverted":
                 raise ValueError(f"the averaging window is for about='inverted' only, got "
                                  f"{about!r}; use method='floquet' for the hanging pendulum.")
-            return pendulum_closed_forms.stability_window(omega, l=self.l, g=self.g,
+            return pendulum_closed_forms.averaging_window(omega, l=self.l, g=self.g,
                                                           damping=self.damping, order=order)
         if method != "floquet":
             raise ValueError(f"method must be 'floquet' or 'averaging', got {method!r}.")

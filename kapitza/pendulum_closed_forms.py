@@ -34,7 +34,7 @@ from .results import (ComputationInterrupted, EquilibriumPrediction, MultiplePen
 from .results import scalar_or_array as _s
 
 __all__ = ["MAX_CORRECTION", "pendulum_effective_potential", "pendulum_averaged",
-           "stability_window", "multiple_pendulum_upright"]
+           "averaging_window", "multiple_pendulum_upright"]
 
 #: A vertically driven pendulum's prediction is also flagged invalid when the next-order
 #: correction changes the slow frequency or growth rate by more than this fraction, or
@@ -291,7 +291,7 @@ def _in_chunks(fn, A, omega, progress=None):
             for name, fields in out], None
 
 
-def stability_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2, warn=True) -> StabilityWindow:
+def averaging_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2, warn=True) -> StabilityWindow:
     """The drive amplitudes that keep the vertically driven pendulum upright, at each ω.
 
     Order 1: A_min = √(2 g l)/ω, A_max = +inf (first order cannot see the upper
@@ -330,12 +330,12 @@ def stability_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2, warn=True) -
     Order 2 against the exact window (l = 1 m, ω = 50 and 500 rad/s):
 
     >>> from kapitza.mathieu import pendulum_stability_window
-    >>> win, exact = stability_window([50.0, 500.0], order=2), pendulum_stability_window([50.0, 500.0])
+    >>> win, exact = averaging_window([50.0, 500.0], order=2), pendulum_stability_window([50.0, 500.0])
     >>> print(win.A_min.round(5), exact.A_min.round(5))
     [0.08874 0.00886] [0.08874 0.00886]
     >>> print(win.A_max.round(4), exact.A_max.round(4))
     [0.4606 0.4541] [0.4606 0.4541]
-    >>> print(f"order 1: {stability_window(50.0, order=1).A_min:.5f} m = √(2 g l)/ω")
+    >>> print(f"order 1: {averaging_window(50.0, order=1).A_min:.5f} m = √(2 g l)/ω")
     order 1: 0.08859 m = √(2 g l)/ω
     """
     _, omega = arguments.drive(0.0, omega)

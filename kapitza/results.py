@@ -413,7 +413,7 @@ class StabilityWindow:
 
     One type for the exact window (``method="floquet"``:
     :func:`kapitza.mathieu.pendulum_stability_window`) and the averaging prediction
-    (``method="averaging"``: :func:`kapitza.pendulum_closed_forms.stability_window`);
+    (``method="averaging"``: :func:`kapitza.pendulum_closed_forms.averaging_window`);
     both from :meth:`kapitza.KapitzaPendulum.stability_window`.
 
     Attributes

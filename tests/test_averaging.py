@@ -264,8 +264,8 @@ def test_series_against_scipy_characteristic_values():
 
 def test_stability_window_against_exact_boundaries():
     w = np.array([15.0, 30.0, 60.0, 200.0]) * W0
-    win2 = pcf.stability_window(w, order=2)
-    win1 = pcf.stability_window(w, order=1)
+    win2 = pcf.averaging_window(w, order=2)
+    win1 = pcf.averaging_window(w, order=1)
     for i, om in enumerate(w):
         a = -4 * W0**2 / om**2
         q_lo = brentq(lambda q: mathieu_a(0, q) - a, 1e-6, 0.9)
@@ -274,7 +274,7 @@ def test_stability_window_against_exact_boundaries():
         assert abs(win2.A_min[i] / A_lo - 1) < abs(win1.A_min[i] / A_lo - 1) / 20
         assert win2.A_max[i] == pytest.approx(A_hi, rel=1e-5)
         assert np.isinf(win1.A_max[i])
-    assert pcf.stability_window(1e6 * W0).A_max == pytest.approx(0.4540, abs=1e-4)
+    assert pcf.averaging_window(1e6 * W0).A_max == pytest.approx(0.4540, abs=1e-4)
     assert list(win2.to_dataframe().columns) == ["omega", "A_min", "A_max", "order"]
     # the order-2 stability flag sees the upper limit, order 1 does not
     w0 = 100 * W0
@@ -490,8 +490,8 @@ def test_damped_kapitza_limit_against_damped_floquet():
     def growth(A):
         return np.max(np.abs(np.linalg.eigvals(pendulum_monodromy(A, w, -1, gamma=gamma)))) - 1
     exact = brentq(growth, 0.5 * math.sqrt(2 * G * L) / w, 2 * math.sqrt(2 * G * L) / w, xtol=1e-12)
-    first = pcf.stability_window(w, damping=gamma, order=1)
-    second = pcf.stability_window(w, damping=gamma, order=2)
+    first = pcf.averaging_window(w, damping=gamma, order=1)
+    second = pcf.averaging_window(w, damping=gamma, order=2)
     # order 1: damping does not move the limit, error O(ε²) + O(γ²/ω²);
     # order 2: includes the (γ/ω)² weakening of the fast response, error O(ε⁴)
     assert first.A_min == pytest.approx(math.sqrt(2 * G * L) / w)

@@ -25,7 +25,7 @@ def test_window_upper_edge_is_the_resonance_at_any_frequency():
     l = 0.3
     w0 = math.sqrt(G / l)
     omegas = np.array([5.0, 0.8 * w0, 1.2 * w0, 1.6 * w0, 8 * w0])
-    win = pcf.stability_window(omegas, l=l, g=G)
+    win = pcf.averaging_window(omegas, l=l, g=G)
     for i, om in enumerate(omegas):
         a = -4 * G / (l * om**2)
         q_hi = brentq(lambda q: mathieu_b(1, q) - a, 0.1, 60.0, xtol=1e-14)
@@ -40,27 +40,27 @@ def test_window_carries_validity_flags():
     l = 0.3
     w0 = math.sqrt(G / l)
     omegas = np.array([0.8, 3.0, 10.0, 100.0]) * w0
-    win = pcf.stability_window(omegas, l=l, g=G)
+    win = pcf.averaging_window(omegas, l=l, g=G)
     np.testing.assert_allclose(win.frequency_ratio, omegas / w0)
     np.testing.assert_array_equal(win.fast_drive, [False, False, True, True])
     np.testing.assert_array_equal(win.small_amplitude, win.A_min / l <= av.MAX_AMPLITUDE_RATIO)
     np.testing.assert_array_equal(win.valid, [False, False, True, True])
     # the error estimate is the order-1 edge's distance from the order-2 edge
-    first = pcf.stability_window(omegas, l=l, g=G, order=1)
+    first = pcf.averaging_window(omegas, l=l, g=G, order=1)
     np.testing.assert_allclose(win.error_estimate, np.abs(first.A_min / win.A_min - 1), rtol=1e-12)
     assert np.all(np.isinf(first.A_max)) and np.all(first.exists)
     np.testing.assert_array_equal(first.valid, [False, False, True, True])
     # the damping rate counts among the slow rates
-    damped = pcf.stability_window(100 * w0, l=l, g=G, damping=30 * w0, warn=False)
+    damped = pcf.averaging_window(100 * w0, l=l, g=G, damping=30 * w0, warn=False)
     assert damped.fast_drive is False and damped.valid is False
     # scalar: a warning names the reason; arrays only set the flags
     with pytest.warns(av.AveragingValidityWarning, match="× max"):
-        pcf.stability_window(0.8 * w0, l=l, g=G)
+        pcf.averaging_window(0.8 * w0, l=l, g=G)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        pcf.stability_window(100 * w0, l=l, g=G)
-        pcf.stability_window(omegas, l=l, g=G)
-        weightless = pcf.stability_window(omegas, l=l, g=0.0)   # no gravity to overcome
+        pcf.averaging_window(100 * w0, l=l, g=G)
+        pcf.averaging_window(omegas, l=l, g=G)
+        weightless = pcf.averaging_window(omegas, l=l, g=0.0)   # no gravity to overcome
     assert np.all(weightless.A_min == 0) and np.all(weightless.valid)
 
 
