@@ -478,9 +478,15 @@ def _prepare(system, params, about, frequency, tol):
     ystar = _equilibrium_state(system, about)
     kernels = system.kernels
     npts = P.shape[0]
-    _check_persists(system, kernels, P, ystar, T, sorted({0, npts // 2, npts - 1}))
-    C, S, K, samples, alias = _sample_fourier(kernels.addresses("jacobian"), P, ystar, T, tol)
     n = system.n_dof
+    if npts == 0:
+        # an empty grid: nothing to sample (the results have the empty broadcast shape)
+        C = np.zeros((0, 2, n, 2 * n))
+        S, K, samples, alias = C.copy(), 1, 0, 0.0
+    else:
+        _check_persists(system, kernels, P, ystar, T, sorted({0, npts // 2, npts - 1}))
+        C, S, K, samples, alias = _sample_fourier(kernels.addresses("jacobian"), P, ystar, T,
+                                                  tol)
     # reversible: J even in t (no sine terms) and no velocity block, to rounding of the FFT
     big = np.max(np.abs(C), axis=(1, 2, 3))[:, None, None, None]
     half = bool(np.all(np.abs(S) <= 1e-13 * big) and np.all(np.abs(C[:, :, :, n:]) <= 1e-13 * big))
@@ -1143,7 +1149,8 @@ def _map_from_grid(g, A, omega, about, fixed, t0) -> StabilityMap:
                         seconds=time.perf_counter() - t0, refined_points=g.refined_points,
                         uncertified_points=int(np.sum(~(g.margin > 1.0))),
                         flagged_points=len(flagged), flags_example=flagged[0] if flagged else (),
-                        max_steps_per_period=int(np.max(g.steps)), samples=g.samples)
+                        max_steps_per_period=int(np.max(g.steps, initial=0)),
+                        samples=g.samples)
 
 
 def _largest_finite(x):

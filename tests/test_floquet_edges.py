@@ -268,3 +268,23 @@ def test_hanging_map_at_very_slow_drive_names_omega():
         KapitzaPendulum(l=L, g=G).stability_map([0.1], [1e-20], about="hanging")
     with pytest.raises(ValueError, match="max\\(a\\)"):
         mm.stability_counts(np.array([0.1]), np.array([1e9]))
+
+
+# -- issue 10, item 1: empty grids give empty results ------------------------------------
+
+def test_empty_grids_give_empty_results(pendulum):
+    # an empty parameter array or axis raised IndexError in _prepare / _sample_fourier
+    base = dict(m=1.0, l=L, g=G)
+    g = fq.floquet_grid(pendulum.system, dict(base, A=np.array([]), omega=60.0), [math.pi])
+    assert g.shape == (0,) and g.stable.shape == (0,) and g.multipliers.shape == (0, 2)
+    assert g.flags == () and len(g.to_dataframe()) == 0
+    g = fq.floquet_grid(pendulum.system, dict(base, A=np.zeros((3, 0)),
+                                              omega=np.full((3, 1), 60.0)), [math.pi])
+    assert g.shape == (3, 0) and g.trace.shape == (3, 0) and len(g.to_dataframe()) == 0
+    d = fq.monodromy_data(pendulum.system, dict(base, A=np.array([]), omega=60.0), [math.pi])
+    assert d.monodromy.shape == (0, 2, 2) and len(d.to_dataframe()) == 0
+    for A, w in (([], [60.0]), ([0.1, 0.2], []), ([], [])):
+        m = fq.stability_map(pendulum.system, base, [math.pi], A, w)
+        assert m.stable.shape == m.label.shape == m.trace.shape == (len(A), len(w))
+        assert len(m.to_dataframe()) == 0 and m.flagged_points == 0
+        assert m.error_estimate == 0.0 and m.max_steps_per_period == 0
