@@ -207,9 +207,9 @@ def section_double(quick):
     A = np.linspace(0.0, 0.3, n)
     w = np.linspace(10.0, 150.0, n)
     up = [math.pi, math.pi]
-    fqm.stability_map(dp, base, up, A[:4], w[:4], tol=1e-8)
+    fqm.stability_map(dp, A[:4], w[:4], base, up, tol=1e-8)
     for tol in (1e-6, 1e-8):
-        tt, m = best(lambda: fqm.stability_map(dp, base, up, A, w, tol=tol), 2)
+        tt, m = best(lambda: fqm.stability_map(dp, A, w, base, up, tol=tol), 2)
         print(f"kapitza tol {tol:.0e}: {tt:6.2f} s  stable fraction {m.stable.mean():.4f}, "
               f"refined {m.refined_points}, uncertified {m.uncertified_points}, "
               f"flagged {m.flagged_points}, max error estimate {m.error_estimate:.1e}")

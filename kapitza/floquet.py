@@ -80,6 +80,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+from collections.abc import Mapping
 
 import numpy as np
 from numba import njit, prange
@@ -1073,7 +1074,7 @@ def floquet_point(system, params, about, *, frequency="omega", tol=1e-10, guard_
                         order=order, progress=False).point()
 
 
-def stability_map(system, params, about, A, omega, *, amplitude="A", frequency="omega",
+def stability_map(system, A, omega, params, about, *, amplitude="A", frequency="omega",
                   tol=1e-8, coarse_tol=None, guard_tol=1e-6,
                   order=16, progress=None) -> StabilityMap:
     """Stability map of a driven equilibrium over an (A, ω) grid by monodromy integration.
@@ -1085,15 +1086,18 @@ def stability_map(system, params, about, A, omega, *, amplitude="A", frequency="
     boundaries are far apart on the grid; for near-identity monodromies — slow
     motion, ω ≫ ω0 — nearly every point needs ``tol`` anyway).
 
+    The axes come first, in the order of :meth:`kapitza.KapitzaPendulum.stability_map`
+    ``(A, omega, about=...)``: ``stability_map(system, A, omega, params, about)``.
+
     Parameters
     ----------
     system : lagrange_core.System
+    A, omega : 1-d arrays
+        Grid axes for the parameters named ``amplitude`` and ``frequency``.
     params : dict
         The other parameters (scalars).
     about : sequence or dict
         The equilibrium's coordinates.
-    A, omega : 1-d arrays
-        Grid axes for the parameters named ``amplitude`` and ``frequency``.
     tol : float
         Target error of the monodromy near boundaries (relative to max(1, ‖M‖)).
     progress : None, bool or callable
@@ -1118,11 +1122,19 @@ def stability_map(system, params, about, A, omega, *, amplitude="A", frequency="
     >>> from lagrange_core import problems, t
     >>> A, w = sp.symbols("A omega", positive=True)
     >>> chain = problems.n_link_pendulum(2, pivot=(0, A * sp.cos(w * t)))
-    >>> m = stability_map(chain, dict(g=9.81, l1=1.0, l2=1.0, m1=1.0, m2=1.0),
-    ...                   [math.pi, math.pi], A=[0.0, 0.1], omega=[100.0], tol=1e-8)
+    >>> m = stability_map(chain, [0.0, 0.1], [100.0],
+    ...                   dict(g=9.81, l1=1.0, l2=1.0, m1=1.0, m2=1.0), [math.pi, math.pi],
+    ...                   tol=1e-8)
     >>> m.stable[:, 0].tolist(), m.flagged_points
     ([False, True], 0)
     """
+    if isinstance(A, Mapping) or isinstance(omega, Mapping) or not isinstance(params, Mapping):
+        raise TypeError(
+            "stability_map takes the grid axes first: stability_map(system, A, omega, params, "
+            "about, ...) (as KapitzaPendulum.stability_map(A, omega, about=...)); got a "
+            f"{type(A).__name__} for A, a {type(omega).__name__} for omega and a "
+            f"{type(params).__name__} for params (the old order was system, params, about, A, "
+            "omega).")
     A = arguments.grid_axis(amplitude, A, None, positive=None)
     omega = arguments.grid_axis(frequency, omega, "rad/s", positive=True)
     fixed = {k: v for k, v in params.items() if k not in (amplitude, frequency)}

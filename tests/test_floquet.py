@@ -308,7 +308,7 @@ def test_double_pendulum_monodromy_against_solve_ivp(double_pendulum):
 def test_double_pendulum_map(double_pendulum):
     A = np.linspace(0.0, 0.3, 10)
     w = np.linspace(20.0, 150.0, 8)
-    m = fq.stability_map(double_pendulum, DP, [np.pi, np.pi], A, w, tol=1e-9)
+    m = fq.stability_map(double_pendulum, A, w, DP, [np.pi, np.pi], tol=1e-9)
     assert m.stable.shape == (10, 8) and m.flagged_points == 0
     assert not m.stable[0].any()                  # no drive: the upright state falls
     assert m.stable.any()                         # Acheson: a window exists

@@ -63,7 +63,7 @@ def test_one_bad_point_does_not_abort_the_grid(pendulum):
     assert np.allclose(g.log_growth[:, 0], W0 * 2 * math.pi / w[0], rtol=1e-12)
     assert all("not integrated" in g.flags[3 * i][0] for i in range(3))
     assert np.all(g.margin[:, 0] == np.inf)           # e^(1e301): certainly unstable
-    m = fq.stability_map(pendulum.system, dict(m=1.0, l=L, g=G), [math.pi], A, w)
+    m = fq.stability_map(pendulum.system, A, w, dict(m=1.0, l=L, g=G), [math.pi])
     assert m.flagged_points == 3 and np.isfinite(m.error_estimate)
     assert m.stable.tolist() == g.stable.tolist()
 
@@ -114,13 +114,14 @@ def test_triple_pendulum_small_growth_is_unstable(triple):
 def test_triple_pendulum_uncertified_counts_only_the_uncertain(triple):
     # a sweep through the window, no point near an edge: every classification is certain
     A = np.linspace(0.0, 0.1, 21)
-    m = fq.stability_map(triple, TP, UP3, A, [100.0], tol=1e-10)
+    m = fq.stability_map(triple, A, [100.0], TP, UP3, tol=1e-10)
     assert m.stable.sum() >= 1 and m.uncertified_points == 0 and m.flagged_points == 0
     for i in range(0, 21, 4):
         lam = _reference_multipliers(triple, A[i])
         assert m.stable[i, 0] == bool(np.max(np.abs(lam)) < 1 + 1e-6)
     # points 1e-9 from the edge are within the error estimate: counted, whichever side
-    near = fq.stability_map(triple, TP, UP3, EDGE3 * np.array([1 - 1e-9, 1 + 1e-9]), [100.0])
+    near = fq.stability_map(triple, EDGE3 * np.array([1 - 1e-9, 1 + 1e-9]), [100.0], TP,
+                            UP3)
     assert near.uncertified_points == 2
 
 
@@ -154,7 +155,7 @@ def test_floquet_grid_interrupt_keeps_finished_points():
                for k in np.flatnonzero(~e.computed))
     # the general map carries its partial map
     with pytest.raises(ComputationInterrupted) as info:
-        fq.stability_map(p.system, dict(m=1.0, l=L, g=G, gamma=0.5), [math.pi], A, w,
+        fq.stability_map(p.system, A, w, dict(m=1.0, l=L, g=G, gamma=0.5), [math.pi],
                          progress=_stop)
     assert info.value.computed.sum() == n
     assert np.array_equal(info.value.result.stable[e.computed], g.stable[e.computed])
@@ -284,7 +285,21 @@ def test_empty_grids_give_empty_results(pendulum):
     d = fq.monodromy_data(pendulum.system, dict(base, A=np.array([]), omega=60.0), [math.pi])
     assert d.monodromy.shape == (0, 2, 2) and len(d.to_dataframe()) == 0
     for A, w in (([], [60.0]), ([0.1, 0.2], []), ([], [])):
-        m = fq.stability_map(pendulum.system, base, [math.pi], A, w)
+        m = fq.stability_map(pendulum.system, A, w, base, [math.pi])
         assert m.stable.shape == m.label.shape == m.trace.shape == (len(A), len(w))
         assert len(m.to_dataframe()) == 0 and m.flagged_points == 0
         assert m.error_estimate == 0.0 and m.max_steps_per_period == 0
+
+
+# -- issue 10, item 2: A and ω in the same place as KapitzaPendulum.stability_map ---------
+
+def test_general_map_takes_the_axes_first(pendulum):
+    base = dict(m=1.0, l=L, g=G)
+    A, w = np.array([0.05, 0.2]), np.array([60.0, 120.0])
+    m = fq.stability_map(pendulum.system, A, w, base, [math.pi])
+    kw = fq.stability_map(pendulum.system, A=A, omega=w, params=base, about=[math.pi])
+    ref = pendulum.stability_map(A, w, about="inverted")
+    assert m.stable.tolist() == kw.stable.tolist() == ref.stable.tolist()
+    # the old order (system, params, about, A, omega) is refused, naming the new one
+    with pytest.raises(TypeError, match=r"stability_map\(system, A, omega, params, about"):
+        fq.stability_map(pendulum.system, base, [math.pi], A, w)
