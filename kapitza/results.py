@@ -414,7 +414,9 @@ class StabilityWindow:
     One type for the exact window (``method="floquet"``:
     :func:`kapitza.mathieu.pendulum_stability_window`) and the averaging prediction
     (``method="averaging"``: :func:`kapitza.pendulum_closed_forms.averaging_window`);
-    both from :meth:`kapitza.KapitzaPendulum.stability_window`.
+    both from :meth:`kapitza.KapitzaPendulum.stability_window`.  The averaging window
+    of any system's equilibrium (order 1, ``l`` and ``g`` None, ``about`` its
+    coordinates as text) is :meth:`kapitza.averaging.AveragedSystem.stability_window`.
 
     Attributes
     ----------
@@ -429,7 +431,8 @@ class StabilityWindow:
         ``exists``), and see ``valid`` before trusting an edge.
     method : {"floquet", "averaging"}
     about : str
-        "inverted" (θ = π) or "hanging" (θ = 0; exact windows only, A_min = 0).
+        "inverted" (θ = π) or "hanging" (θ = 0; exact windows only, A_min = 0); for a
+        general system the equilibrium's coordinates, e.g. "[3.14159..., 3.14159...]".
     order : int or None
         Averaging order (1 or 2); None for exact windows.
     accuracy : ndarray or None
