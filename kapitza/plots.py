@@ -59,7 +59,7 @@ def _check(name, value, kind, fix):
 def _window_label(window: StabilityWindow) -> str:
     """Legend text of a window overlay, from its fields."""
     if window.method == "averaging":
-        if window.order == 1:
+        if window.order == 1 and window.l is not None:       # the single pendulum's closed form
             return "averaging (order 1): A ω = √(2 g l)"
         return f"averaging (order {window.order})"
     return "Floquet window (exact)"
