@@ -77,8 +77,11 @@ its exact slow frequency is within 0.2 % of the averaging value √(A²ω²/2 �
 """
 from __future__ import annotations
 
+import contextlib
 import math
+import signal
 import sys
+import threading
 import time
 from collections.abc import Mapping
 
@@ -138,6 +141,33 @@ class _ProgressLine:
             sys.stderr.flush()
 
 
+#: Ctrl-C while :func:`_defer_ctrl_c` is active: "hit" is set instead of raising in NumPy glue
+_SIGINT = {"active": False, "hit": False}
+
+
+@contextlib.contextmanager
+def _defer_ctrl_c():
+    """While active (main thread, Python's own SIGINT handler installed), Ctrl-C only sets
+    ``_SIGINT["hit"]``; :func:`run_in_chunks` stops at the next chunk boundary, and the
+    NumPy code between the chunked stages is never cut in the middle (its result would be
+    lost with a plain KeyboardInterrupt).  Re-entrant: nested calls do nothing."""
+    if (_SIGINT["active"] or threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
+        yield
+        return
+
+    def handler(signum, frame):
+        _SIGINT["hit"] = True
+
+    _SIGINT.update(active=True, hit=False)
+    old = signal.signal(signal.SIGINT, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+        _SIGINT.update(active=False, hit=False)
+
+
 def run_in_chunks(work, total, *, progress=None, label="", unit="points", first=64,
                   target=0.25):
     """Call ``work(start, stop)`` over consecutive chunks of range(total).
@@ -154,6 +184,8 @@ def run_in_chunks(work, total, *, progress=None, label="", unit="points", first=
     size = max(1, min(first, total))
     try:
         while done < total:
+            if _SIGINT["hit"]:
+                raise KeyboardInterrupt
             start, stop = done, min(total, done + size)
             t0 = time.perf_counter()
             work(start, stop)
@@ -398,30 +430,48 @@ def _check_persists(system, kernels, P, ystar, T, idx):
                     "vertical drive).")
 
 
-def _sample(ka, P, ystar, T, M):
-    """FFT over one period of M samples of J's lower block, its scale, and its tail."""
+class _Stopped(Exception):
+    """Ctrl-C while J(t) was sampled: no grid point is finished."""
+
+
+def _sample(ka, P, ystar, T, M, progress=False):
+    """FFT over one period of M samples of J's lower block, its scale, and its tail.
+
+    Runs in chunks (:func:`run_in_chunks`; sampling and FFT per chunk); raises
+    :class:`_Stopped` after Ctrl-C."""
     npts = P.shape[0]
     d = ystar.size
     n = d // 2
-    out = np.empty((npts, M, d, d))
-    status = np.zeros(npts, dtype=np.int64)
-    floquet_sample_jacobian(ka, P, ystar, T, M, out, status)
-    if np.any(status != 0):
-        bad = int(np.argmax(status != 0))
-        raise ValueError(f"the mass matrix is singular at the equilibrium for parameters "
-                         f"{P[bad].tolist()}; cannot linearise there.")
-    top = out[:, :, :n, :]
-    if not (np.all(top[:, :, :, :n] == 0.0) and np.all(top[:, :, :, n:] == np.eye(n))):
-        raise ValueError("the Jacobian does not have the mechanical block form [[0, I], ...].")
-    L = out[:, :, n:, :]
-    F = np.fft.rfft(L, axis=1) / M
-    scale = np.maximum(np.max(np.abs(L), axis=(1, 2, 3)), 1e-300)
-    # harmonics above M/4 (with the Nyquist one) measure the aliasing of what lies beyond
-    tail = np.max(np.abs(F[:, M // 4 + 1:]), axis=(1, 2, 3)) / scale
+    F = np.empty((npts, M // 2 + 1, n, d), dtype=complex)
+    scale = np.empty(npts)
+    tail = np.empty(npts)
+
+    def work(a, b):
+        out = np.empty((b - a, M, d, d))
+        status = np.zeros(b - a, dtype=np.int64)
+        floquet_sample_jacobian(ka, P[a:b], ystar, T[a:b], M, out, status)
+        if np.any(status != 0):
+            bad = a + int(np.argmax(status != 0))
+            raise ValueError(f"the mass matrix is singular at the equilibrium for parameters "
+                             f"{P[bad].tolist()}; cannot linearise there.")
+        top = out[:, :, :n, :]
+        if not (np.all(top[:, :, :, :n] == 0.0) and np.all(top[:, :, :, n:] == np.eye(n))):
+            raise ValueError("the Jacobian does not have the mechanical block form "
+                             "[[0, I], ...].")
+        L = out[:, :, n:, :]
+        F[a:b] = np.fft.rfft(L, axis=1) / M
+        scale[a:b] = np.maximum(np.max(np.abs(L), axis=(1, 2, 3)), 1e-300)
+        # harmonics above M/4 (with the Nyquist one) measure the aliasing of what lies beyond
+        tail[a:b] = np.max(np.abs(F[a:b, M // 4 + 1:]), axis=(1, 2, 3)) / scale[a:b]
+
+    _, stopped = run_in_chunks(work, npts, progress=progress,
+                               label="Floquet grid: sampling J(t)")
+    if stopped:
+        raise _Stopped
     return F, scale, tail
 
 
-def _sample_fourier(ka, P, ystar, T, tol, max_samples=256):
+def _sample_fourier(ka, P, ystar, T, tol, max_samples=256, progress=False):
     """Fourier coefficients (C, S) of J's lower block L(t) for every grid point."""
     npts = P.shape[0]
     thr = max(tol, 1e-13) * 1e-2
@@ -437,7 +487,7 @@ def _sample_fourier(ka, P, ystar, T, tol, max_samples=256):
     K = int(keep[-1]) + 1 if keep.size else 0
     M = max(4, 1 << int(math.ceil(math.log2(2 * K + 2))))
     while True:
-        F, scale, tail = _sample(ka, P, ystar, T, M)
+        F, scale, tail = _sample(ka, P, ystar, T, M, progress)
         if np.all(tail <= thr) or M >= max_samples:
             break
         M *= 2
@@ -452,8 +502,10 @@ def _sample_fourier(ka, P, ystar, T, tol, max_samples=256):
     return np.ascontiguousarray(C), np.ascontiguousarray(S), K, M, float(np.max(tail))
 
 
-def _prepare(system, params, about, frequency, tol):
-    """Validate, broadcast the parameter grid, and sample J's Fourier series."""
+def _prepare(system, params, about, frequency, tol, progress=False):
+    """Validate, broadcast the parameter grid, and sample J's Fourier series.
+
+    After Ctrl-C during the sampling, the dict has ``stopped`` True and no series."""
     _check_system(system)
     if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (1e-15 <= tol < 1):
         raise ValueError(f"tol must be a number in [1e-15, 1), got {tol!r}.")
@@ -486,8 +538,12 @@ def _prepare(system, params, about, frequency, tol):
         S, K, samples, alias = C.copy(), 1, 0, 0.0
     else:
         _check_persists(system, kernels, P, ystar, T, sorted({0, npts // 2, npts - 1}))
-        C, S, K, samples, alias = _sample_fourier(kernels.addresses("jacobian"), P, ystar, T,
-                                                  tol)
+        try:
+            C, S, K, samples, alias = _sample_fourier(kernels.addresses("jacobian"), P, ystar,
+                                                      T, tol, progress=progress)
+        except _Stopped:
+            return dict(omega=omega, T=T, shape=shape, n=n, params=grid_params, samples=0,
+                        liouville=np.full(npts, np.nan), stopped=True)
     # reversible: J even in t (no sine terms) and no velocity block, to rounding of the FFT
     big = np.max(np.abs(C), axis=(1, 2, 3))[:, None, None, None]
     half = bool(np.all(np.abs(S) <= 1e-13 * big) and np.all(np.abs(C[:, :, :, n:]) <= 1e-13 * big))
@@ -495,7 +551,7 @@ def _prepare(system, params, about, frequency, tol):
         S = np.zeros_like(S)
         C[:, :, :, n:] = 0.0
     return dict(C=C, S=S, K=K, samples=samples, alias=alias, omega=omega, T=T, shape=shape,
-                n=n, half=half, params=grid_params,
+                n=n, half=half, params=grid_params, stopped=False,
                 # ∮ tr J dt = T · tr(mean of J_v): the harmonics integrate to zero
                 liouville=T * np.trace(C[:, 0, :, n:], axis1=1, axis2=2))
 
@@ -558,7 +614,7 @@ def _frozen_growth(prep, idx, samples=256):
 def _integrate(prep, idx, tol, order, progress=False):
     """Monodromies of the grid points ``idx`` (flat indices) to ``tol``.
 
-    Returns (M scaled, log scale, error estimate, steps, skipped, finished): points
+    Returns (M scaled, log scale, error estimate, steps, skipped, finished, stopped): points
     that would need more than :data:`MAX_STEPS_PER_PERIOD` Taylor steps are not
     integrated (skipped; M = NaN, error = inf, steps = 0); the points run in chunks
     (:func:`run_in_chunks`, ``progress``), and after Ctrl-C ``finished`` marks those
@@ -578,6 +634,7 @@ def _integrate(prep, idx, tol, order, progress=False):
     err = np.full(m, np.inf)
     steps = np.zeros(m, dtype=np.int64)
     run = np.nonzero(~skipped)[0]
+    stopped = False
     if run.size:
         Cr, Sr = np.ascontiguousarray(C[run]), np.ascontiguousarray(S[run])
         Mr = np.full((run.size, d, d), np.nan)
@@ -591,7 +648,8 @@ def _integrate(prep, idx, tol, order, progress=False):
             _monodromy_grid(Cr[a:b], Sr[a:b], prep["K"], one[a:b], two_pi[a:b], float(tol),
                             int(order), prep["half"], Mr[a:b], lr[a:b], er[a:b], sr[a:b])
 
-        done, _ = run_in_chunks(work, run.size, progress=progress, label="Floquet grid")
+        done, stopped = run_in_chunks(work, run.size, progress=progress,
+                                      label="Floquet grid")
         finished[run[done:]] = False
         skipped[run[done:]] = True
         Mr[done:] = np.nan
@@ -600,7 +658,7 @@ def _integrate(prep, idx, tol, order, progress=False):
         Mout[run], logscale[run], err[run], steps[run] = Mr, lr, np.maximum(er, prep["alias"]), sr
         err[run[done:]] = np.inf
         steps[run[done:]] = 0
-    return Mout, logscale, err, steps, skipped, finished
+    return Mout, logscale, err, steps, skipped, finished, stopped
 
 
 def _monodromy_fields(prep, Ms, ls, err, steps) -> dict:
@@ -654,13 +712,30 @@ def monodromy_data(system, params, about, *, frequency="omega", tol=1e-10,
     >>> bool(np.allclose(np.linalg.det(data.monodromy), np.exp(-0.5 * data.period), rtol=1e-9))
     True
     """
-    prep = _prepare(system, params, about, frequency, tol)
-    Mout, ls, err, steps, _, fin = _integrate(prep, np.arange(prep["T"].size), tol, order,
-                                              progress)
-    data = MonodromyData(**_monodromy_fields(prep, Mout, ls, err, steps))
-    if not fin.all():
-        raise ComputationInterrupted(data, fin.reshape(prep["shape"]))
-    return data
+    with _defer_ctrl_c():
+        prep = _prepare(system, params, about, frequency, tol, progress)
+        if prep["stopped"]:
+            data = MonodromyData(**_monodromy_fields(prep, *_nothing(prep)))
+            raise ComputationInterrupted(data, np.zeros(prep["shape"], dtype=bool))
+        Mout, ls, err, steps, _, fin, stopped = _integrate(prep, np.arange(prep["T"].size), tol,
+                                                           order, progress)
+        data = MonodromyData(**_monodromy_fields(prep, Mout, ls, err, steps))
+        if stopped or _SIGINT["hit"] or not fin.all():
+            raise ComputationInterrupted(data, fin.reshape(prep["shape"]))
+        return data
+
+
+#: seconds spent analysing the integrated points after Ctrl-C stopped the integration (the
+#: others keep their monodromy in the result but count as not computed)
+_AFTER_CTRL_C = 0.5
+
+
+def _nothing(prep):
+    """Monodromy fields (M, log scale, error, steps) of a grid of which nothing was
+    computed (Ctrl-C while J was sampled): NaN, 0, inf, 0."""
+    m, d = prep["T"].size, 2 * prep["n"]
+    return (np.full((m, d, d), np.nan), np.zeros(m), np.full(m, np.inf),
+            np.zeros(m, dtype=np.int64))
 
 
 def _reduced_polynomial(lam, n):
@@ -941,6 +1016,51 @@ def _analyse_points(prep, idx, Ms, ls, err, skip, finished, guard_tol):
     return res
 
 
+def _blank(m, n):
+    """An :func:`_analyse` result for ``m`` points that were not computed (Ctrl-C)."""
+    d = 2 * n
+    res = dict(multipliers=np.full((m, d), np.nan, dtype=complex), logabs=np.full((m, d), np.nan),
+               trace=np.full(m, np.nan), stable=np.zeros(m, dtype=bool),
+               label=np.full(m, 3, dtype=np.int8), slow=np.full((m, n), np.nan),
+               exponents=np.full((m, d), np.nan, dtype=complex), liouville=np.full(m, np.nan),
+               pairing=np.full(m, np.nan), margin=np.zeros(m), flags=[()] * m)
+    _not_computed(res, np.arange(m))
+    return res
+
+
+def _analyse_chunked(prep, idx, Ms, ls, err, skip, finished, guard_tol, progress,
+                     budget=None):
+    """:func:`_analyse_points` in chunks (:func:`run_in_chunks`) up to the last finished
+    point.  Returns (result, analysed, stopped): after Ctrl-C, or when ``budget`` seconds
+    have passed (after an interrupted integration), the points not analysed are marked not
+    computed."""
+    m = idx.size
+    last = np.flatnonzero(finished)
+    limit = int(last[-1]) + 1 if last.size else 0
+    parts = []
+    t0 = time.perf_counter()
+
+    def work(a, b):
+        if budget is not None and time.perf_counter() - t0 > budget:
+            raise KeyboardInterrupt
+        parts.append(_analyse_points(prep, idx[a:b], Ms[a:b], ls[a:b], err[a:b], skip[a:b],
+                                     finished[a:b], guard_tol))
+
+    _, stopped = run_in_chunks(work, limit, progress=progress, label="Floquet grid: analysis",
+                               first=4096, target=0.25 if budget is None else 0.1)
+    stopped = stopped or limit < m
+    done = sum(p["trace"].size for p in parts)
+    parts.append(_blank(m - done, prep["n"]))
+    if len(parts) == 2 and done == m:
+        res = parts[0]
+    else:
+        res = {k: np.concatenate([p[k] for p in parts]) for k in parts[0] if k != "flags"}
+        res["flags"] = [f for p in parts for f in p["flags"]]
+    analysed = np.zeros(m, dtype=bool)
+    analysed[:done] = True
+    return res, analysed, stopped
+
+
 def _not_computed(res, where):
     """Mark the points ``where`` of an :func:`_analyse` result as not computed (Ctrl-C)."""
     for k in ("multipliers", "exponents", "logabs", "slow", "trace", "liouville", "pairing"):
@@ -998,23 +1118,42 @@ def floquet_grid(system, params, about, *, frequency="omega", tol=1e-10, guard_t
     >>> grid.point(1).stable
     True
     """
-    prep = _prepare(system, params, about, frequency, tol)
+    with _defer_ctrl_c():
+        return _floquet_grid(system, params, about, frequency, tol, guard_tol, order, certify,
+                             coarse_tol, progress)
+
+
+def _floquet_grid(system, params, about, frequency, tol, guard_tol, order, certify,
+                  coarse_tol, progress) -> FloquetGrid:
+    # three chunked stages (sampling J, integration, analysis): Ctrl-C stops any of them at
+    # a chunk's end; the integrated points are still analysed (a second Ctrl-C stops that)
+    prep = _prepare(system, params, about, frequency, tol, progress)
     shape = prep["shape"]
-    T, liou = prep["T"], prep["liouville"]
-    npts = T.size
+    npts = prep["T"].size
+    if prep["stopped"]:
+        grid = _grid(prep, *_nothing(prep), _blank(npts, prep["n"]), 0)
+        raise ComputationInterrupted(grid, np.zeros(shape, dtype=bool))
     idx = np.arange(npts)
     first = max(tol, coarse_tol) if certify else tol
-    Ms, ls, err, steps, skip, fin = _integrate(prep, idx, first, order, progress)
-    res = _analyse_points(prep, idx, Ms, ls, err, skip, fin, guard_tol)
-    interrupted = not fin.all()
+    Ms, ls, err, steps, skip, fin, stopped = _integrate(prep, idx, first, order, progress)
+    stopped = stopped or _SIGINT["hit"]
+    _SIGINT["hit"] = False
+    res, analysed, s2 = _analyse_chunked(prep, idx, Ms, ls, err, skip, fin, guard_tol, progress,
+                                         _AFTER_CTRL_C if stopped else None)
+    fin &= analysed
+    interrupted = stopped or s2 or not fin.all()
     refined = 0
     if certify and first > tol and not interrupted:
         redo = np.nonzero(~(res["margin"] > 1.0) & ~skip)[0]
         if redo.size:
-            M2, l2, e2, s2, k2, f2 = _integrate(prep, redo, tol, order, progress)
-            r2 = _analyse_points(prep, redo, M2, l2, e2, k2, f2, guard_tol)
+            M2, l2, e2, s2, k2, f2, stopped = _integrate(prep, redo, tol, order, progress)
+            stopped = stopped or _SIGINT["hit"]
+            _SIGINT["hit"] = False
+            r2, a2, s3 = _analyse_chunked(prep, redo, M2, l2, e2, k2, f2, guard_tol, progress,
+                                          _AFTER_CTRL_C if stopped else None)
+            f2 &= a2
             # after Ctrl-C the points not refined keep their coarse result
-            interrupted = not f2.all()
+            interrupted = stopped or s3 or not f2.all()
             keep = np.nonzero(f2)[0]
             redo = redo[keep]
             refined = redo.size
@@ -1025,16 +1164,21 @@ def floquet_grid(system, params, about, *, frequency="omega", tol=1e-10, guard_t
                         res["flags"][i] = v[j]
                 else:
                     res[k][redo] = v[keep]
+    grid = _grid(prep, Ms, ls, err, steps, res, refined)
+    if interrupted or _SIGINT["hit"]:
+        raise ComputationInterrupted(grid, fin.reshape(shape))
+    return grid
+
+
+def _grid(prep, Ms, ls, err, steps, res, refined) -> FloquetGrid:
+    shape = prep["shape"]
     out = {k: v.reshape(shape + v.shape[1:]) for k, v in res.items() if k != "flags"}
-    grid = FloquetGrid(**_monodromy_fields(prep, Ms, ls, err, steps),
+    return FloquetGrid(**_monodromy_fields(prep, Ms, ls, err, steps),
                        multipliers=out["multipliers"], log_abs_multipliers=out["logabs"],
                        exponents=out["exponents"], trace=out["trace"], stable=out["stable"],
                        label=out["label"], omega_slow=out["slow"],
                        liouville_residual=out["liouville"], pairing_residual=out["pairing"],
                        margin=out["margin"], flags=tuple(res["flags"]), refined_points=refined)
-    if interrupted:
-        raise ComputationInterrupted(grid, fin.reshape(shape))
-    return grid
 
 
 def floquet_point(system, params, about, *, frequency="omega", tol=1e-10, guard_tol=1e-8,
@@ -1142,15 +1286,16 @@ def stability_map(system, A, omega, params, about, *, amplitude="A", frequency="
     p[amplitude] = A[:, None]
     p[frequency] = omega[None, :]
     t0 = time.perf_counter()
-    try:
-        g = floquet_grid(system, p, about, frequency=frequency, tol=tol, guard_tol=guard_tol,
-                         order=order, certify=coarse_tol is not None,
-                         coarse_tol=coarse_tol if coarse_tol is not None else tol,
-                         progress=progress)
-    except ComputationInterrupted as e:
-        partial = _map_from_grid(e.result, A, omega, about, fixed, t0)
-        raise ComputationInterrupted(partial, e.computed) from None
-    return _map_from_grid(g, A, omega, about, fixed, t0)
+    with _defer_ctrl_c():
+        try:
+            g = floquet_grid(system, p, about, frequency=frequency, tol=tol,
+                             guard_tol=guard_tol, order=order, certify=coarse_tol is not None,
+                             coarse_tol=coarse_tol if coarse_tol is not None else tol,
+                             progress=progress)
+        except ComputationInterrupted as e:
+            partial = _map_from_grid(e.result, A, omega, about, fixed, t0)
+            raise ComputationInterrupted(partial, e.computed) from None
+        return _map_from_grid(g, A, omega, about, fixed, t0)
 
 
 def _map_from_grid(g, A, omega, about, fixed, t0) -> StabilityMap:

@@ -134,13 +134,26 @@ def _stop(done, total):
     raise KeyboardInterrupt
 
 
+def _stop_in(stage):
+    """A progress callback raising Ctrl-C's KeyboardInterrupt at its first call in ``stage``
+    of a general Floquet grid (0 sampling J(t), 1 integration, 2 analysis): each stage
+    reports its own (done, total) and ends with done == total."""
+    ended = [0]
+
+    def progress(done, total):
+        if ended[0] == stage:
+            raise KeyboardInterrupt
+        ended[0] += done == total
+    return progress
+
+
 def test_floquet_grid_interrupt_keeps_finished_points():
     p = KapitzaPendulum(l=L, g=G, damping=0.5)
     A = np.linspace(0.0, 0.6, 40)
     w = np.linspace(20.0, 200.0, 40)
     params = dict(p.params(0.0, 1.0), A=A[:, None], omega=w[None, :])
     with pytest.raises(ComputationInterrupted) as info:
-        fq.floquet_grid(p.system, params, [math.pi], progress=_stop)
+        fq.floquet_grid(p.system, params, [math.pi], progress=_stop_in(1))
     e = info.value
     assert isinstance(e, KeyboardInterrupt) and e.computed.shape == (40, 40)
     n = int(e.computed.sum())
@@ -156,7 +169,7 @@ def test_floquet_grid_interrupt_keeps_finished_points():
     # the general map carries its partial map
     with pytest.raises(ComputationInterrupted) as info:
         fq.stability_map(p.system, A, w, dict(m=1.0, l=L, g=G, gamma=0.5), [math.pi],
-                         progress=_stop)
+                         progress=_stop_in(1))
     assert info.value.computed.sum() == n
     assert np.array_equal(info.value.result.stable[e.computed], g.stable[e.computed])
 
@@ -303,3 +316,42 @@ def test_general_map_takes_the_axes_first(pendulum):
     # the old order (system, params, about, A, omega) is refused, naming the new one
     with pytest.raises(TypeError, match=r"stability_map\(system, A, omega, params, about"):
         fq.stability_map(pendulum.system, base, [math.pi], A, w)
+
+
+# -- issue 10, item 3: Ctrl-C while J(t) is sampled and while the points are analysed -----
+
+@pytest.mark.parametrize("stage", [0, 1, 2])
+def test_floquet_grid_interrupt_at_each_stage(stage):
+    p = KapitzaPendulum(l=L, g=G, damping=0.5)
+    A = np.linspace(0.0, 0.6, 100)
+    w = np.linspace(20.0, 200.0, 100)
+    base = dict(m=1.0, l=L, g=G, gamma=0.5)
+    params = dict(base, A=A[:, None], omega=w[None, :])
+    full = fq.floquet_grid(p.system, params, [math.pi], progress=False)
+    with pytest.raises(ComputationInterrupted) as info:
+        fq.floquet_grid(p.system, params, [math.pi], progress=_stop_in(stage))
+    e = info.value
+    g, done = e.result, e.computed
+    assert isinstance(g, fq.FloquetGrid) and g.shape == done.shape == (100, 100)
+    n = int(done.sum())
+    # sampling: nothing finished; integration: its first chunk; analysis: the first 4096
+    assert n == {0: 0, 1: 64, 2: 4096}[stage] and done.ravel()[:n].all()
+    assert np.array_equal(g.trace[done], full.trace[done])
+    assert np.array_equal(g.stable[done], full.stable[done])
+    assert np.isnan(g.trace[~done]).all() and not g.stable[~done].any()
+    assert np.isnan(g.log_growth[~done]).all() and np.all(g.label[~done] == 3)
+    assert all(g.flags[k] == ("not computed: interrupted (Ctrl-C)",)
+               for k in np.flatnonzero(~done))
+    # the general map and the monodromy data carry the same points
+    with pytest.raises(ComputationInterrupted) as info:
+        fq.stability_map(p.system, A, w, base, [math.pi], progress=_stop_in(stage))
+    m = info.value.result
+    assert np.array_equal(info.value.computed, done) and m.stable.shape == (100, 100)
+    assert np.array_equal(m.stable, g.stable) and m.flagged_points >= 10000 - n
+    if stage < 2:
+        with pytest.raises(ComputationInterrupted) as info:
+            fq.monodromy_data(p.system, params, [math.pi], progress=_stop_in(stage))
+        d = info.value.result
+        ok = info.value.computed
+        assert int(ok.sum()) == n and np.isnan(d.monodromy[~ok]).all()
+        assert np.array_equal(d.monodromy[ok], full.monodromy[ok])
