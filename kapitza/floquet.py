@@ -1089,12 +1089,16 @@ def floquet_grid(system, params, about, *, frequency="omega", tol=1e-10, guard_t
         trace is then accurate to ``coarse_tol`` (see the "error" array), and
         every classification is certified by its margin.
     progress : None, bool or callable
-        The grid runs in chunks of about 0.25 s each; a progress line on stderr when
-        it is a terminal (None), always (True), never (False), or ``progress(done,
-        total)`` called after each chunk.  Ctrl-C stops it within a chunk and raises
-        :class:`~kapitza.results.ComputationInterrupted` (a KeyboardInterrupt) whose
-        ``.result`` is this grid with the finished points filled (the others NaN,
-        unstable, flagged "not computed") and ``.computed`` marks them.
+        The grid runs in three stages — sampling J(t), integration, analysis — each in
+        chunks of about 0.25 s; a progress line on stderr when it is a terminal (None),
+        always (True), never (False), or ``progress(done, total)`` called after each
+        chunk (each stage counts its own points from 0 to ``total``).  Ctrl-C stops
+        any stage within a chunk (it is held back during the NumPy code between the
+        chunks) and raises :class:`~kapitza.results.ComputationInterrupted` (a
+        KeyboardInterrupt) whose ``.result`` is this grid with the finished points
+        filled (the others NaN, unstable, label 3, flagged "not computed") and
+        ``.computed`` marks them: none during the sampling; after the integration,
+        the integrated points analysed within 0.5 s (the rest keep their monodromy).
 
     Returns
     -------

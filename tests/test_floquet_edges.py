@@ -355,3 +355,58 @@ def test_floquet_grid_interrupt_at_each_stage(stage):
         ok = info.value.computed
         assert int(ok.sum()) == n and np.isnan(d.monodromy[~ok]).all()
         assert np.array_equal(d.monodromy[ok], full.monodromy[ok])
+
+
+GENERAL_CHILD = r"""
+import json, math, signal, sys, time
+import numpy as np
+signal.signal(signal.SIGINT, signal.default_int_handler)     # see CHILD
+from kapitza import floquet as fq
+from kapitza.pendulum import KapitzaPendulum
+from kapitza.results import ComputationInterrupted
+p = KapitzaPendulum(l=1.0, g=9.81, damping=0.3)
+base = dict(m=1.0, l=1.0, g=9.81, gamma=0.3)
+A, w = np.linspace(0.0, 0.7, 600), np.linspace(2.0, 400.0, 600) * np.sqrt(9.81)
+fq.stability_map(p.system, A[:2], w[:2], base, [math.pi], progress=False)   # compiled
+print("ready", flush=True)
+try:
+    fq.stability_map(p.system, A, w, base, [math.pi], progress=False)
+    print(json.dumps({"finished": True}), flush=True)
+except ComputationInterrupted as e:
+    t = time.time()
+    c = e.computed.ravel()
+    n = int(c.sum())
+    tr = e.result.trace.ravel()
+    print(json.dumps({"finished": False, "t": t, "n": n, "prefix": bool(c[:n].all()),
+                      "done_finite": bool(np.isfinite(tr[c]).all()),
+                      "rest_nan": bool(np.isnan(tr[~c]).all())}), flush=True)
+"""
+
+
+@pytest.mark.parametrize("delay", [0.0, 0.6])
+def test_ctrl_c_stops_a_general_map_within_a_second(tmp_path, delay):
+    # at once (J(t) is being sampled) or later (integration or analysis): stopped within
+    # a second, never a plain KeyboardInterrupt from the NumPy code between the chunks
+    import json
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    script = tmp_path / "child.py"
+    script.write_text(GENERAL_CHILD)
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        time.sleep(delay)
+        sent = time.time()
+        os.kill(proc.pid, signal.SIGINT)
+        out = proc.stdout.readline()
+        proc.wait(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    res = json.loads(out)
+    assert res["finished"] is False
+    assert res["t"] - sent < 1.0
+    assert res["n"] < 360000 and res["prefix"] and res["done_finite"] and res["rest_nan"]
