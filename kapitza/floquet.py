@@ -1299,7 +1299,10 @@ def stability_map(system, A, omega, params, about, *, amplitude="A", frequency="
         except ComputationInterrupted as e:
             partial = _map_from_grid(e.result, A, omega, about, fixed, t0)
             raise ComputationInterrupted(partial, e.computed) from None
-        return _map_from_grid(g, A, omega, about, fixed, t0)
+        result = _map_from_grid(g, A, omega, about, fixed, t0)
+        if _SIGINT["hit"]:             # Ctrl-C after the last chunk: everything is computed
+            raise ComputationInterrupted(result, np.ones(result.stable.shape, dtype=bool))
+        return result
 
 
 def _map_from_grid(g, A, omega, about, fixed, t0) -> StabilityMap:
