@@ -72,7 +72,7 @@ its exact slow frequency is within 0.2 % of the averaging value √(A²ω²/2 �
 ...                   dict(m=1.0, l=1.0, g=9.81, A=0.05, omega=w), [math.pi])
 >>> r.stable, r.boundary, r.flags
 (True, 'stable', ())
->>> print(f"Ω = {r.omega_slow[0]:.2f} rad/s, averaging {math.sqrt((0.05 * w)**2 / 2 - 9.81):.2f} rad/s")
+>>> print(f"Ω = {r.omega_slow:.2f} rad/s, averaging {math.sqrt((0.05 * w)**2 / 2 - 9.81):.2f} rad/s")
 Ω = 12.98 rad/s, averaging 12.96 rad/s
 """
 from __future__ import annotations

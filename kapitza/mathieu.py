@@ -736,7 +736,7 @@ def pendulum_stability_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inver
     Parameters
     ----------
     omega : float or 1-d array
-        Drive angular frequency (rad/s).
+        Drive angular frequency (rad/s); a scalar gives a window of scalar fields.
     l, g, damping : float
         Length (m), gravity (m/s²), damping rate γ (1/s).
     about : {"inverted", "hanging"}
@@ -757,9 +757,9 @@ def pendulum_stability_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inver
 
     >>> import math
     >>> win = pendulum_stability_window(1e4 * math.sqrt(9.81), l=1.0, g=9.81)
-    >>> print(f"{win.A_max[0]:.4f} m")
+    >>> print(f"{win.A_max:.4f} m")
     0.4540 m
-    >>> bool(win.accuracy[0] <= 1e-10)          # certified to the requested tol
+    >>> bool(win.accuracy <= 1e-10)          # certified to the requested tol
     True
     """
     l, g, damping = arguments.pendulum_constants(l, g, damping)
@@ -826,8 +826,10 @@ def pendulum_stability_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inver
                 q1, e1 = _bracket_root(margin, qs[j1 - 1], qs[j1], tol)
                 Amin[i], Amax[i], acc[i] = 0.0, q1, e1
     # the roots above are in q (A_min of the hanging pendulum is 0 in either unit)
-    return StabilityWindow(omega=w, A_min=amplitude_from_q(Amin, l),
-                           A_max=amplitude_from_q(Amax, l), method="floquet", about=about,
+    A_min, A_max = amplitude_from_q(Amin, l), amplitude_from_q(Amax, l)
+    if np.ndim(omega) == 0:           # a scalar call gives scalars
+        w, A_min, A_max, acc = float(w[0]), float(A_min[0]), float(A_max[0]), float(acc[0])
+    return StabilityWindow(omega=w, A_min=A_min, A_max=A_max, method="floquet", about=about,
                            accuracy=acc, tol=tol, l=l, g=g, damping=damping)
 
 

@@ -61,10 +61,10 @@ class KapitzaPendulum:
     >>> exact = pend.floquet(A=0.05, omega=w, about="inverted")
     >>> avg.stable, exact.stable
     (True, True)
-    >>> print(f"Ω: averaging {avg.omega_slow:.2f} rad/s, exact {exact.omega_slow[0]:.2f} rad/s")
+    >>> print(f"Ω: averaging {avg.omega_slow:.2f} rad/s, exact {exact.omega_slow:.2f} rad/s")
     Ω: averaging 12.96 rad/s, exact 12.98 rad/s
     >>> win = pend.stability_window(w)
-    >>> print(f"{win.A_min[0]:.4f} m < A < {win.A_max[0]:.4f} m")
+    >>> print(f"{win.A_min:.4f} m < A < {win.A_max:.4f} m")
     0.0117 m < A < 0.4541 m
     """
 

@@ -80,6 +80,12 @@ class ComputationInterrupted(KeyboardInterrupt):
                          ".result (.computed marks the finished points)")
 
 
+def _scalar_if_one(values):
+    """One slow frequency (a one-coordinate system) as a float, several as an array."""
+    values = np.asarray(values)
+    return float(values.reshape(-1)[0]) if values.size == 1 else values
+
+
 # ======================================================================================
 # Floquet analysis
 # ======================================================================================
@@ -114,9 +120,10 @@ class FloquetResult:
         How sure the decision is, is the grid's ``margin``: points whose test is
         within its uncertainty (10× the error estimate) of the threshold are
         counted as uncertified by maps.
-    omega_slow : ndarray
+    omega_slow : float or ndarray
         Slow angular frequencies (rad/s) of the stable solutions, arg(λ)/T ∈
-        [0, ω/2], one per pair of multipliers (NaN if unstable).  For the
+        [0, ω/2], one per pair of multipliers (NaN if unstable); a float for a system
+        of one coordinate.  For the
         pendulum cos(πβ) = tr M e^(γT/2)/2 and Ω = βω/2: the exact linear value
         that first-order averaging approximates.
     exponents : ndarray, complex (2n)
@@ -299,7 +306,7 @@ class FloquetGrid(MonodromyData):
             log_scale=float(self.log_scale[index]), multipliers=self.multipliers[index],
             log_abs_multipliers=self.log_abs_multipliers[index],
             trace=float(self.trace[index]), stable=bool(self.stable[index]),
-            omega_slow=self.omega_slow[index], exponents=self.exponents[index],
+            omega_slow=_scalar_if_one(self.omega_slow[index]), exponents=self.exponents[index],
             boundary=BOUNDARIES[int(self.label[index])],
             error_estimate=float(self.error_estimate[index]), steps=int(self.steps[index]),
             samples=int(self.samples), liouville_residual=float(self.liouville_residual[index]),

@@ -145,10 +145,10 @@ def test_omega_slow_exact_and_against_averaging(pendulum):
     # exact: cos(πβ) = tr M / 2, Ω = β ω / 2 (independent trace from the Mathieu integrator)
     a, q, _ = mm.mathieu_parameters(A, w, L, G, 0.0, "inverted")
     beta = math.acos(mm.mathieu_trace(a, q) / 2) / math.pi
-    assert r.omega_slow[0] == pytest.approx(beta * w / 2, rel=1e-9)
+    assert r.omega_slow == pytest.approx(beta * w / 2, rel=1e-9)
     # first-order averaging: Ω² = A²ω²/(2l²) − g/l, to O((A/l)², (ω0/ω)²)
     Omega_av = math.sqrt(A**2 * w**2 / (2 * L**2) - G / L)
-    assert r.omega_slow[0] == pytest.approx(Omega_av, rel=3e-3)
+    assert r.omega_slow == pytest.approx(Omega_av, rel=3e-3)
 
 
 @pytest.mark.parametrize("tol", [1e-6, 1e-9, 1e-12])
@@ -185,8 +185,8 @@ def test_stability_window_high_frequency_limits(pendulum):
     q = math.sqrt(-2 * a)
     for _ in range(5):                       # a = −q²/2 + 7q⁴/128 solved for q
         q = math.sqrt(2 * (-a + 7 * q**4 / 128))
-    assert win.A_min[0] == pytest.approx(q * L / 2, rel=1e-10)
-    assert win.A_max[0] == pytest.approx(0.4540, abs=1e-4)
+    assert win.A_min == pytest.approx(q * L / 2, rel=1e-10)
+    assert win.A_max == pytest.approx(0.4540, abs=1e-4)
 
 
 def test_damped_window_is_the_floquet_condition(damped):
@@ -358,12 +358,12 @@ def test_hanging_map_tongues(pendulum, rng):
 def test_general_path_at_high_frequency_ratio(pendulum):
     # ω/ω0 = 1e3, A = 2 A_min: the monodromy is within 1e-5 of the identity
     w = 1e3 * W0
-    A = 2 * pendulum.stability_window(w).A_min[0]
+    A = 2 * pendulum.stability_window(w).A_min
     r = pendulum.floquet(A, w, tol=1e-12)
     a, q, _ = mm.mathieu_parameters(A, w, L, G, 0.0, "inverted")
     assert r.trace == pytest.approx(mm.mathieu_trace(a, q, tol=1e-14), abs=1e-11)
     assert r.stable and r.boundary == "stable"
     Omega_av = math.sqrt(A**2 * w**2 / (2 * L**2) - G / L)
-    assert r.omega_slow[0] == pytest.approx(Omega_av, rel=1e-3)
+    assert r.omega_slow == pytest.approx(Omega_av, rel=1e-3)
     df = r.to_dataframe()
     assert len(df) == 2 and np.allclose(df["abs"], 1.0, atol=1e-9)
