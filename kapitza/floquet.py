@@ -1139,25 +1139,15 @@ def _floquet_grid(system, params, about, frequency, tol, guard_tol, order, certi
         raise ComputationInterrupted(grid, np.zeros(shape, dtype=bool))
     idx = np.arange(npts)
     first = max(tol, coarse_tol) if certify else tol
-    Ms, ls, err, steps, skip, fin, stopped = _integrate(prep, idx, first, order, progress)
-    stopped = stopped or _SIGINT["hit"]
-    _SIGINT["hit"] = False
-    res, analysed, s2 = _analyse_chunked(prep, idx, Ms, ls, err, skip, fin, guard_tol, progress,
-                                         _AFTER_CTRL_C if stopped else None)
-    fin &= analysed
-    interrupted = stopped or s2 or not fin.all()
+    Ms, ls, err, steps, skip, fin, res, interrupted = _pass(prep, idx, first, order, guard_tol,
+                                                           progress)
     refined = 0
     if certify and first > tol and not interrupted:
         redo = np.nonzero(~(res["margin"] > 1.0) & ~skip)[0]
         if redo.size:
-            M2, l2, e2, s2, k2, f2, stopped = _integrate(prep, redo, tol, order, progress)
-            stopped = stopped or _SIGINT["hit"]
-            _SIGINT["hit"] = False
-            r2, a2, s3 = _analyse_chunked(prep, redo, M2, l2, e2, k2, f2, guard_tol, progress,
-                                          _AFTER_CTRL_C if stopped else None)
-            f2 &= a2
+            M2, l2, e2, s2, _, f2, r2, interrupted = _pass(prep, redo, tol, order, guard_tol,
+                                                           progress)
             # after Ctrl-C the points not refined keep their coarse result
-            interrupted = stopped or s3 or not f2.all()
             keep = np.nonzero(f2)[0]
             redo = redo[keep]
             refined = redo.size
@@ -1172,6 +1162,20 @@ def _floquet_grid(system, params, about, frequency, tol, guard_tol, order, certi
     if interrupted or _SIGINT["hit"]:
         raise ComputationInterrupted(grid, fin.reshape(shape))
     return grid
+
+
+def _pass(prep, idx, tol, order, guard_tol, progress):
+    """Integrate and analyse the grid points ``idx`` at ``tol``: (monodromies, log scales,
+    error estimates, steps, skipped, finished, analysis, interrupted).  After a Ctrl-C in
+    the integration the points integrated are still analysed, for at most _AFTER_CTRL_C."""
+    Ms, ls, err, steps, skip, fin, stopped = _integrate(prep, idx, tol, order, progress)
+    stopped = stopped or _SIGINT["hit"]
+    _SIGINT["hit"] = False
+    res, analysed, analysis_stopped = _analyse_chunked(prep, idx, Ms, ls, err, skip, fin,
+                                                       guard_tol, progress,
+                                                       _AFTER_CTRL_C if stopped else None)
+    fin &= analysed
+    return Ms, ls, err, steps, skip, fin, res, stopped or analysis_stopped or not fin.all()
 
 
 def _grid(prep, Ms, ls, err, steps, res, refined) -> FloquetGrid:

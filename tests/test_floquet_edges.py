@@ -230,7 +230,9 @@ except ComputationInterrupted as e:
 """
 
 
-def test_ctrl_c_stops_a_long_map_within_a_second(tmp_path):
+def _interrupt_child(tmp_path, source, delay, timeout):
+    """Run ``source`` in a child process, send it SIGINT ``delay`` s after it prints
+    "ready", and return (its JSON report, the time the signal was sent)."""
     import json
     import os
     import signal
@@ -238,19 +240,23 @@ def test_ctrl_c_stops_a_long_map_within_a_second(tmp_path):
     import sys
     import time
     script = tmp_path / "child.py"
-    script.write_text(CHILD)
+    script.write_text(source)
     proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
     try:
         assert proc.stdout.readline().strip() == "ready"
-        time.sleep(2.0)
+        time.sleep(delay)
         sent = time.time()
         os.kill(proc.pid, signal.SIGINT)
         out = proc.stdout.readline()
-        proc.wait(timeout=30)
+        proc.wait(timeout=timeout)
     finally:
         if proc.poll() is None:
             proc.kill()
-    res = json.loads(out)
+    return json.loads(out), sent
+
+
+def test_ctrl_c_stops_a_long_map_within_a_second(tmp_path):
+    res, sent = _interrupt_child(tmp_path, CHILD, 2.0, 30)
     assert res["finished"] is False
     assert res["t"] - sent < 1.0
     assert 0 < res["rows"] < 1000 and res["prefix"] and res["done_finite"] and res["rest_nan"]
@@ -387,26 +393,7 @@ except ComputationInterrupted as e:
 def test_ctrl_c_stops_a_general_map_within_a_second(tmp_path, delay):
     # at once (J(t) is being sampled) or later (integration or analysis): stopped within
     # a second, never a plain KeyboardInterrupt from the NumPy code between the chunks
-    import json
-    import os
-    import signal
-    import subprocess
-    import sys
-    import time
-    script = tmp_path / "child.py"
-    script.write_text(GENERAL_CHILD)
-    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
-    try:
-        assert proc.stdout.readline().strip() == "ready"
-        time.sleep(delay)
-        sent = time.time()
-        os.kill(proc.pid, signal.SIGINT)
-        out = proc.stdout.readline()
-        proc.wait(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    res = json.loads(out)
+    res, sent = _interrupt_child(tmp_path, GENERAL_CHILD, delay, 60)
     assert res["finished"] is False
     assert res["t"] - sent < 1.0
     assert res["n"] < 360000 and res["prefix"] and res["done_finite"] and res["rest_nan"]
