@@ -39,7 +39,7 @@ from numba import types
 from numba.extending import intrinsic
 
 __all__ = ["SLOTS", "SIGNATURES", "RHS", "ENERGY", "RESIDUAL", "PHI_Q", "JACOBIAN",
-           "FAST_ACCEL", "DRIVE_RATES", "N_SLOTS", "MAX_DRIVE_RATES", "call_rhs", "call_energy",
+           "FAST_ACCEL", "DRIVE_RATES", "MAX_DRIVE_RATES", "call_rhs", "call_energy",
            "call_residual", "call_constraint_jacobian", "call_jacobian", "call_fast_accel",
            "call_drive_rates"]
 
@@ -47,7 +47,6 @@ __all__ = ["SLOTS", "SIGNATURES", "RHS", "ENERGY", "RESIDUAL", "PHI_Q", "JACOBIA
 SLOTS = ("rhs", "energy", "constraint_residual", "constraint_jacobian", "jacobian",
          "fast_accel", "drive_rates")
 RHS, ENERGY, RESIDUAL, PHI_Q, JACOBIAN, FAST_ACCEL, DRIVE_RATES = range(7)
-N_SLOTS = len(SLOTS)
 #: how many harmonic rates a drive kernel may have (``drive_rates`` writes that many at most)
 MAX_DRIVE_RATES = 64
 
