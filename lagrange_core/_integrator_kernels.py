@@ -19,10 +19,13 @@ one stopped.  Python regains control between chunks (Ctrl-C, memory).
 Shared state layout (the named slots below)
 -------------------------------------------
 ``tv`` (float64, ``TV_SIZE``): ``TV_T`` time, ``TV_END`` end time, ``TV_H`` next step,
-``TV_ERROR`` sum of local error estimates, ``TV_T_CARRY`` Kahan compensation of t.
+``TV_ERROR`` sum of local error estimates, ``TV_T_CARRY`` Kahan compensation of t,
+``TV_HOLD`` the held step of the adaptive RKN (0 until the first block is complete) and
+``TV_HREF`` the step its block of error ratios refers to (:func:`held_step_record`).
 ``stats`` (int64, ``STATS_SIZE``): ``ST_STEPS`` accepted steps, ``ST_REJECTED``,
 ``ST_RHS`` right-hand-side evaluations, ``ST_STORED`` output rows used, ``ST_STRIDE``
-stride counter, ``ST_NEXT_EVAL`` next t_eval index, ``ST_EVENTS`` events stored.
+stride counter, ``ST_NEXT_EVAL`` next t_eval index, ``ST_EVENTS`` events stored,
+``ST_BLOCK`` error ratios recorded in the current block of the held step.
 
 Status codes returned (``STATUS_*``): done, chunk budget used, output buffer full,
 terminal event, singular mass matrix, step size underflow / non-finite state,
@@ -51,11 +54,20 @@ from ._linalg import solve_augmented
 STATUS_DONE, STATUS_CHUNK, STATUS_FULL, STATUS_EVENT, STATUS_SINGULAR, STATUS_UNDERFLOW, \
     STATUS_EVFULL = range(7)
 #: slots of the float state ``tv``
-TV_T, TV_END, TV_H, TV_ERROR, TV_SPARE, TV_T_CARRY = range(6)
-TV_SIZE = 6
+TV_T, TV_END, TV_H, TV_ERROR, TV_HOLD, TV_T_CARRY, TV_HREF = range(7)
+TV_SIZE = 7
 #: slots of the integer statistics ``stats``
-ST_STEPS, ST_REJECTED, ST_RHS, ST_STORED, ST_STRIDE, ST_NEXT_EVAL, ST_EVENTS, ST_SPARE = range(8)
+ST_STEPS, ST_REJECTED, ST_RHS, ST_STORED, ST_STRIDE, ST_NEXT_EVAL, ST_EVENTS, ST_BLOCK = range(8)
 STATS_SIZE = 8
+#: the held step of the adaptive RKN: a low quantile (HOLD_QUANTILE) of the ideal steps
+#: proposed by each block of evaluated steps; it grows by at most HOLD_GROWTH per block
+HOLD_QUANTILE = 0.2
+HOLD_GROWTH = 5.0
+#: a new held step replaces the last one only when it differs by more than this ratio
+HOLD_CHANGE = 1.1
+#: the RKN driver recomputes the drive's cos/sin at least every DRIVE_RESYNC steps (in
+#: between it rotates them: a relative rounding of ~1e-16 per step, not accumulated)
+DRIVE_RESYNC = 64
 #: event kinds (column 0 of ``ev_int``)
 EV_COORDINATE, EV_VELOCITY, EV_MULTIPLIER, EV_ENERGY = range(4)
 #: numba's error model without zero-division branches, fused multiply-adds; no
@@ -729,6 +741,48 @@ def second_order_stop(ka, family, t, x, hs, q, v, a0, qn, vn, anew, p, c, A, b, 
 # -- the drivers for q̈ = f(q, t): rotations for the drive ------------------------------
 
 @njit(cache=True, inline=INLINE)
+def held_step_record(tv, stats, block, err, hs):
+    """Record one evaluated step (size hs, scaled error err of the 10th-order estimate,
+    so err ∝ hs¹¹) in the block of the held step; at the block's end set the new held step.
+
+    The block stores r = err·(h_ref/hs)¹¹ with h_ref = ``tv[TV_HREF]``: the error the
+    step would have had at h_ref, so the ideal step of a step is 0.9·h_ref·r^(−1/11)
+    (what the classic controller would propose) whatever size it was taken at.  When
+    the block is full the new held step is the ``HOLD_QUANTILE`` quantile of those ideal
+    steps (one power per block: the (1 − q) quantile of r), at most ``HOLD_GROWTH``
+    times the last one; it replaces the last one only if they differ by more than
+    ``HOLD_CHANGE``.  Returns the new held step, or 0.0 when it is unchanged (or the
+    block not yet full).
+    """
+    nb = block.shape[0]
+    if nb == 0 or not math.isfinite(err):
+        return 0.0
+    href = tv[TV_HREF]
+    if href == 0.0:
+        href = hs
+        tv[TV_HREF] = hs
+    x = href / hs
+    x2 = x * x
+    x4 = x2 * x2
+    block[stats[ST_BLOCK]] = err * (x4 * x4 * x2 * x)
+    stats[ST_BLOCK] += 1
+    if stats[ST_BLOCK] < nb:
+        return 0.0
+    k = int((1.0 - HOLD_QUANTILE) * (nb - 1) + 0.5)
+    r = np.partition(block, k)[k]
+    hold = HOLD_GROWTH * href if r == 0.0 else 0.9 * href * r ** (-1.0 / 11.0)
+    stats[ST_BLOCK] = 0
+    old = tv[TV_HOLD]
+    if old > 0.0:
+        if old / HOLD_CHANGE <= hold <= old * HOLD_CHANGE:
+            return 0.0          # the same within HOLD_CHANGE: keep it (and its rotations)
+        hold = min(hold, HOLD_GROWTH * old)
+    tv[TV_HOLD] = hold
+    tv[TV_HREF] = hold
+    return hold
+
+
+@njit(cache=True, inline=INLINE)
 def _event_scratch(n, n_ev):
     """Scratch of the events of a q̈ = f(q, t) driver: W, dydt, a state, g values, roots,
     and an unused weight array (the RKN's stand-in for the symplectic weights)."""
@@ -746,7 +800,7 @@ def drive_rates(ka, p):
 
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol, atol, max_steps,
-                   t_eval, stride, tout, yout, ev_int, ev_val, ev_g, ev_t, ev_k, ev_y):
+                   t_eval, stride, tout, yout, ev_int, ev_val, ev_g, ev_t, ev_k, ev_y, block):
     """RKN 12(10) on the drive kernel; fixed step tv[TV_H] or adaptive.
 
     Same state layout, statuses and outputs as :func:`dop853_chunk`.  Output at
@@ -754,8 +808,16 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
     closely spaced outputs cost extra steps).  Events: :func:`second_order_events`.
 
     Step-size control (adaptive): err = RMS of the difference of the 12th- and
-    10th-order solutions [Δq, Δv] scaled by atol + rtol·max(|y|, |y_new|);
-    new h = h·min(5, max(0.2, 0.9·err^(−1/11))), no growth right after a rejection.
+    10th-order solutions [Δq, Δv] scaled by atol + rtol·max(|y|, |y_new|); a step
+    with err ≥ 1 is rejected and retaken at h·max(0.2, 0.9·err^(−1/11)).
+    After an accepted step, for the first ``len(block)`` evaluated steps (all of
+    them if ``block`` is empty) the classic controller: new h = h·min(5,
+    0.9·err^(−1/11)), no growth right after a rejection.  From then on the step is
+    *held*: it stays at the held step tv[TV_HOLD] while the steps pass, and after a
+    rejection grows back to it (by the classic factor, at least 1); every
+    ``len(block)`` evaluated steps the held step is set anew from their errors
+    (:func:`held_step_record`).  So the step does not chase the drive's phase, the
+    drive's rotations are computed once per step size, and rejections are rare.
     """
     n = y.shape[0] // 2
     rates = drive_rates(ka, p)
@@ -791,6 +853,7 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
     h_rot = -1.0
     rejected = False
     expo = -1.0 / 11.0
+    exact_drive = True
     for step in range(max_steps + 1):
         status = chunk_status(step, max_steps, t, t_end, t_eval, stats, cap, n_ev,
                               ev_t.shape[0])
@@ -798,9 +861,16 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
             return status
         hmin = 16.0 * 2.220446049250313e-16 * max(abs(t), abs(t_end))
         t_target = next_stop(t_end, t_eval, stats)
-        for k in range(nd):
-            cs0[2 * k] = np.cos(rates[k] * t)
-            cs0[2 * k + 1] = np.sin(rates[k] * t)
+        # the drive at t: from the cos/sin (every DRIVE_RESYNC steps, after a shortened
+        # step or an event), else the rotation by the last step computed for its FSAL stage
+        if exact_drive or stats[ST_STEPS] % DRIVE_RESYNC == 0:
+            for k in range(nd):
+                cs0[2 * k] = np.cos(rates[k] * t)
+                cs0[2 * k + 1] = np.sin(rates[k] * t)
+        else:
+            for k in range(2 * nd):
+                cs0[k] = css[k]
+        exact_drive = False
         while True:
             clipped = False
             hs = h
@@ -873,6 +943,7 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
                     return STATUS_UNDERFLOW
                 break
             stats[ST_REJECTED] += 1
+            held_step_record(tv, stats, block, err, hs)
             h = hs * max(0.2, 0.9 * err ** expo) if finite else 0.2 * hs
             rejected = True
             if h < hmin:
@@ -899,10 +970,12 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
                                        bp, w0, K, qs, rates, css, Wn, stats)
             t_new = t + x_stop * hs
             tv[TV_T_CARRY] = 0.0
+            exact_drive = True
             for i in range(n):
                 cqn[i] = 0.0
                 cvn[i] = 0.0
         else:
+            exact_drive = clipped
             # FSAL: f at the new state; the drive at t + hs is the rotation of stage c = 1
             for k in range(nd):
                 cr = rot[ns - 1, k, 0]
@@ -927,11 +1000,21 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
         if fired:
             return STATUS_EVENT
         if adaptive:
-            factor = 5.0 if err == 0.0 else min(5.0, 0.9 * err ** expo)
-            if rejected:
-                factor = min(1.0, factor)
-            h = max(h, hs * factor) if clipped else hs * factor
+            hold = tv[TV_HOLD]
+            if hold == 0.0 or hs < hold:
+                factor = 5.0 if err == 0.0 else min(5.0, 0.9 * err ** expo)
+                if rejected:
+                    factor = min(1.0, factor)
+                if hold == 0.0:        # the first block: the classic controller
+                    h = max(h, hs * factor) if clipped else hs * factor
+                elif not clipped:      # below the held step: back to it, never further down
+                    h = min(hold, hs * max(1.0, factor)) if not rejected else hs
+            elif not clipped:
+                h = hold
             rejected = False
+            new_hold = held_step_record(tv, stats, block, err, hs)
+            if new_hold > 0.0 and (h >= hold or h > new_hold):
+                h = new_hold
         tv[TV_H] = h
     return STATUS_CHUNK
 

@@ -524,6 +524,7 @@ class _Run:
     ev_k: np.ndarray
     ev_y: np.ndarray
     stride: int = 1
+    block: np.ndarray = None   # the held step's block of error ratios (adaptive RKN)
 
 
 def _chunk_dop853(run, budget):
@@ -541,7 +542,7 @@ def _chunk_fast_rkn(run, budget):
                                 tab["A"], tab["b"], tab["bp"], tab["bh"], tab["bph"],
                                 run.meth.adaptive, o.rtol, o.atol, budget, run.t_eval,
                                 run.stride, run.tout, run.yout, run.ev_int, run.ev_val, run.ev_g,
-                                run.ev_t, run.ev_k, run.ev_y)
+                                run.ev_t, run.ev_k, run.ev_y, run.block)
 
 
 def _chunk_fast_symplectic(run, budget):
@@ -578,6 +579,9 @@ def _addresses(kernels, driver, ev_int):
 
 
 # -- simulate ----------------------------------------------------------------------------
+
+#: evaluated steps per block of the adaptive RKN's held step (_integrator_kernels.held_step_record)
+_HOLD_BLOCK = 64
 
 def simulate(kernels, q0, qdot0, t_span, p, *, method=None, rtol=1e-9, atol=None,
              t_eval=None, events=(), max_steps=None, h=None, stride=1, error_check=False,
@@ -629,7 +633,7 @@ def _step_from_tolerance(kernels, label, q0, qd0, p, o):
     pilot = replace(o, t1=o.t0 + span / 50, t_eval=None, h=None, stride=1, max_steps=None)
     t_pilot = _run_compiled(kernels, label, METHODS["rkn12"], q0, qd0, p, pilot, (),
                             np.zeros((0, 4), dtype=np.int64), np.zeros(0), time.perf_counter(),
-                            along=False).t
+                            along=False, hold=False).t
     steps = np.sort(np.diff(t_pilot)[:-1] if len(t_pilot) > 2 else np.diff(t_pilot))
     h = float(steps[int(0.2 * (len(steps) - 1))])
     return span / math.ceil(span / h)
@@ -667,7 +671,7 @@ def _singular_error(label, m, t, y):
 
 
 def _run_compiled(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, start,
-                  along=True):
+                  along=True, hold=True):
     n, m = kernels.n_dof, kernels.n_constraints
     driver = _DRIVERS[meth.driver]
     ka = _addresses(kernels, driver, ev_int)
@@ -705,7 +709,7 @@ def _run_compiled(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, s
     ev_cap = max(64, 4 * len(events))
     run = _Run(ka, m, meth, o, y, f, p, tv, stats, t_eval, tout, yout, ev_int, ev_val, ev_g,
                np.empty(ev_cap), np.empty(ev_cap, dtype=np.int64), np.empty((ev_cap, 2 * n)),
-               o.stride)
+               o.stride, np.empty(_HOLD_BLOCK if meth.adaptive and hold else 0))
     ev_list = []
     total_limit = o.max_steps if o.max_steps is not None else np.iinfo(np.int64).max
     status_name, message = "success", "reached the end of t_span"
