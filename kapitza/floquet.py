@@ -77,11 +77,8 @@ its exact slow frequency is within 0.2 % of the averaging value √(A²ω²/2 �
 """
 from __future__ import annotations
 
-import contextlib
 import math
-import signal
 import sys
-import threading
 import time
 from collections.abc import Mapping
 
@@ -91,6 +88,9 @@ from numba import njit, prange
 from lagrange_core import _kernel_calls
 from lagrange_core._kernel_calls import JACOBIAN, call_jacobian
 from lagrange_core.module_store import guard_numba_cache
+from lagrange_core.progress import ProgressLine as _ProgressLine  # noqa: F401
+from lagrange_core.progress import _SIGINT, run_in_chunks  # noqa: F401
+from lagrange_core.progress import defer_ctrl_c as _defer_ctrl_c
 
 from . import arguments
 from .results import (ComputationInterrupted, FloquetGrid, FloquetResult, MonodromyData,
@@ -98,107 +98,6 @@ from .results import (ComputationInterrupted, FloquetGrid, FloquetResult, Monodr
 
 __all__ = ["floquet_point", "floquet_grid", "stability_map", "monodromy_data", "FloquetResult",
            "FloquetGrid", "MonodromyData", "StabilityMap", "ComputationInterrupted"]
-
-# -- long grids: chunks, progress, Ctrl-C ------------------------------------------------
-
-class _ProgressLine:
-    """A progress line on stderr (after 0.5 s, at most 10 updates per second), or a callback.
-
-    ``progress``: None (a line when stderr is a terminal), False (quiet), True (a line),
-    or a callable ``progress(done, total)`` called after every chunk.
-    """
-
-    def __init__(self, progress, total, label, unit):
-        if not (progress is None or isinstance(progress, bool) or callable(progress)):
-            raise ValueError(f"progress must be None, True, False or a callable "
-                             f"progress(done, total); got {progress!r}.")
-        self.callback = progress if callable(progress) and not isinstance(progress, bool) \
-            else None
-        tty = getattr(sys.stderr, "isatty", lambda: False)()
-        self.show = progress is True or (progress is None and tty)
-        self.total, self.label, self.unit = total, label, unit
-        self.t0 = self.last = time.perf_counter()
-        self.shown = False
-
-    def update(self, done):
-        if self.show:
-            now = time.perf_counter()
-            el = now - self.t0
-            if el > 0.5 and (now - self.last > 0.1 or done == self.total):
-                self.last = now
-                eta = el * (self.total - done) / max(done, 1)
-                sys.stderr.write(f"\r{self.label}: {done}/{self.total} {self.unit} "
-                                 f"({100 * done / self.total:.0f} %), {el:.1f} s, "
-                                 f"~{eta:.0f} s left ")
-                sys.stderr.flush()
-                self.shown = True
-        if self.callback is not None:
-            self.callback(done, self.total)
-
-    def close(self):
-        if self.shown:
-            sys.stderr.write("\n")
-            sys.stderr.flush()
-
-
-#: Ctrl-C while :func:`_defer_ctrl_c` is active: "hit" is set instead of raising in NumPy glue
-_SIGINT = {"active": False, "hit": False}
-
-
-@contextlib.contextmanager
-def _defer_ctrl_c():
-    """While active (main thread, Python's own SIGINT handler installed), Ctrl-C only sets
-    ``_SIGINT["hit"]``; :func:`run_in_chunks` stops at the next chunk boundary, and the
-    NumPy code between the chunked stages is never cut in the middle (its result would be
-    lost with a plain KeyboardInterrupt).  Re-entrant: nested calls do nothing."""
-    if (_SIGINT["active"] or threading.current_thread() is not threading.main_thread()
-            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
-        yield
-        return
-
-    def handler(signum, frame):
-        _SIGINT["hit"] = True
-
-    _SIGINT.update(active=True, hit=False)
-    old = signal.signal(signal.SIGINT, handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, old)
-        _SIGINT.update(active=False, hit=False)
-
-
-def run_in_chunks(work, total, *, progress=None, label="", unit="points", first=64,
-                  target=0.25):
-    """Call ``work(start, stop)`` over consecutive chunks of range(total).
-
-    Each chunk is one compiled call sized to take about ``target`` seconds (the
-    first has ``first`` items; each next one is sized from the rate measured,
-    at most 8× the last), so Ctrl-C — which Python sees only between compiled
-    calls — stops the loop within a chunk's time.  Returns (items finished,
-    interrupted); the caller turns an interruption into
-    :class:`~kapitza.results.ComputationInterrupted` with its partial result.
-    """
-    bar = _ProgressLine(progress, total, label, unit)
-    done = 0
-    size = max(1, min(first, total))
-    try:
-        while done < total:
-            if _SIGINT["hit"]:
-                raise KeyboardInterrupt
-            start, stop = done, min(total, done + size)
-            t0 = time.perf_counter()
-            work(start, stop)
-            dt = time.perf_counter() - t0
-            done = stop
-            bar.update(done)
-            size = int(min(max(1.0, (stop - start) / max(dt, 1e-6) * target), 8 * size))
-    except KeyboardInterrupt:
-        bar.close()
-        return done, True
-    bar.close()
-    return done, False
-
 
 # -- J(t) samples over a parameter grid (compiled once, for every system) ------------------
 

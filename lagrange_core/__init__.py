@@ -14,6 +14,9 @@ Linearization
     Linearisation about an equilibrium (:mod:`lagrange_core.linearize`).
 Trajectory, METHODS, Event, turning_point, crossing, multiplier_zero, SimulationInterrupted
     Integration (``System.simulate``; :mod:`lagrange_core.integrate`).
+GridTrajectories, GridInterrupted
+    Many trajectories in one compiled parallel call, observables only
+    (``System.simulate_grid``; :mod:`lagrange_core.batch`).
 problems, fields
     The catalogue of the lecture's problems; 1-D fields (:class:`fields.Field1D`).
 warmup
@@ -31,6 +34,15 @@ from .systems import Particle, System
 from .warmup import warmup
 
 __all__ = ["System", "Particle", "RigidBody", "rotation_matrix", "coordinates", "t", "derive",
-           "Equations", "compile_kernels", "Kernels", "Linearization", "problems", "fields", "Trajectory", "METHODS", "Event",
-           "turning_point", "crossing", "multiplier_zero", "SimulationInterrupted", "warmup"]
+           "Equations", "compile_kernels", "Kernels", "Linearization", "problems", "fields",
+           "Trajectory", "METHODS", "Event", "turning_point", "crossing", "multiplier_zero",
+           "SimulationInterrupted", "GridTrajectories", "GridInterrupted", "warmup"]
 __version__ = "0.1.0"
+
+
+def __getattr__(name):
+    # the batch kernels load on first use (80 ms of numba set-up a plain import need not pay)
+    if name in ("GridTrajectories", "GridInterrupted"):
+        from . import batch
+        return getattr(batch, name)
+    raise AttributeError(f"module 'lagrange_core' has no attribute {name!r}")

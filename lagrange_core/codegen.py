@@ -32,7 +32,7 @@ Integer returns are a status: 0 success, 1 singular (augmented) mass matrix.  Th
 (so the multipliers come with every right-hand side).
 Module constants: ``N_DOF``, ``N_CONSTRAINTS``, ``N_PARAMETERS``, ``N_PARTICLES``,
 ``WORK_SHAPE``, ``BAND`` (half-bandwidth of M), ``RKN_FORM`` and ``RKN_REASON``
-(whether q̈ = f(q, t), :func:`lagrange_core.forms.rkn_form`).
+(whether q̈ = f(q, t), :func:`lagrange_core.forms.rkn_form`), ``ENERGY_CONSERVED``.
 
 Code compiled once for every system (the integrators, Floquet's sampler) reaches the
 kernels through their C entry points ``c_<kernel>`` (plain functions of raw pointers;
@@ -127,6 +127,7 @@ COORDINATES = {coordinates!r}
 PARAMETERS = {parameters!r}
 RKN_FORM = {rkn_form!r}                 # q̈ = f(q, t): lagrange_core.forms.rkn_form
 RKN_REASON = {rkn_reason!r}
+ENERGY_CONSERVED = {energy_conserved!r}        # h constant of the motion (Equations.energy_conserved)
 '''
 
 
@@ -479,7 +480,8 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
                           k=len(system.parameters), n_particles=len(system.particles),
                           n_values=len(value.exprs), N=N, band=band,
                           coordinates=system.coordinates, parameters=system.parameters,
-                          rkn_form=rkn[0], rkn_reason=rkn[1]),
+                          rkn_form=rkn[0], rkn_reason=rkn[1],
+                          energy_conserved=bool(equations.energy_conserved)),
            f"\nPROGRAM = {program!r}\nTARGETS = {tuple(targets)!r}\n",
            _table("TARGET_TABLE", targets, 3), _table("TAN_PTR", tan_ptr), _table("TAN_J", tan_j),
            "N_TANGENTS = TAN_J.shape[0]\n"
@@ -599,7 +601,8 @@ class Kernels:
     ``constraint_residual``, ``constraint_jacobian``, ``particle_positions``; and the
     statement's facts:
     ``n_dof``, ``n_constraints``, ``n_particles``, ``coordinates``, ``parameters``,
-    ``rkn_form`` (q̈ = f(q, t)) with ``rkn_reason`` (why not), ``label`` (for messages),
+    ``rkn_form`` (q̈ = f(q, t)) with ``rkn_reason`` (why not), ``energy_conserved``
+    (the energy function h is a constant of the motion), ``label`` (for messages),
     ``statement_key`` (keys other generators' modules in the store) and ``equations()``
     (the derived equations, derived on the first call: generators of further kernels
     need them only when the store lacks their module).
@@ -618,6 +621,7 @@ class Kernels:
         self.coordinates = module.COORDINATES
         self.rkn_form = module.RKN_FORM
         self.rkn_reason = module.RKN_REASON
+        self.energy_conserved = module.ENERGY_CONSERVED
         for name in _KERNEL_NAMES:
             setattr(self, name, getattr(module, name))
         self._addresses = np.zeros(len(SLOTS), dtype=np.int64)

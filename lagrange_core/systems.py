@@ -637,6 +637,41 @@ class System:
         return integrate.simulate(self.kernels, q0, qdot0, t_span, p, method=method, rtol=rtol,
                                   t_eval=t_eval, label=self._label(), **options)
 
+    def simulate_grid(self, q0, qdot0, t_span, params=None, *, method=None, rtol=1e-9,
+                      atol=None, h=None, strobe=None, reference=None, band=None, energy=False,
+                      max_steps=None, progress=None):
+        """Integrate a whole grid of parameter sets and initial states in one compiled,
+        parallel call; returns a frozen :class:`~lagrange_core.batch.GridTrajectories` of
+        observables (final state, strobe samples, max deviation, band exit, energy drift,
+        counts and a status per point).
+
+        Everything per point (``q0``, ``qdot0``, the ends of ``t_span``, every value in
+        ``params``, ``h``, ``strobe``, ``reference``, ``band``) broadcasts numpy-style:
+        ``params={"A": A[:, None], "omega": omega[None, :], ...}`` is an (A, ω) grid.
+        See :func:`lagrange_core.batch.simulate_grid` for the arguments and
+        :mod:`lagrange_core.batch` for what is observed and how.
+
+        Examples
+        --------
+        The driven pendulum upright at four amplitudes for 200 drive periods: the two
+        weak drives let it fall (status "left_band"), the two strong ones hold it.
+
+        >>> import numpy as np
+        >>> from lagrange_core import problems
+        >>> pend = problems.driven_pendulum("vertical")
+        >>> w = 2 * np.pi * 60
+        >>> A = np.array([0.002, 0.008, 0.03, 0.06])
+        >>> g = pend.simulate_grid([np.pi - 0.1], [0.0], (0.0, 200 * 2 * np.pi / w),
+        ...                        dict(m=1.0, l=1.0, g=9.81, A=A, omega=w),
+        ...                        band=([np.pi / 2], [3 * np.pi / 2]))
+        >>> g.status_name.tolist()
+        ['left_band', 'left_band', 'finished', 'finished']
+        """
+        from .batch import simulate_grid
+        return simulate_grid(self, q0, qdot0, t_span, params, method=method, rtol=rtol,
+                             atol=atol, h=h, strobe=strobe, reference=reference, band=band,
+                             energy=energy, max_steps=max_steps, progress=progress)
+
     def linearize(self, params=None, about=None, t=0.0):
         """Linearise about an equilibrium: M δq̈ + C δq̇ + K δq = 0.
 

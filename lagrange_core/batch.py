@@ -1,0 +1,498 @@
+"""Many trajectories at once: a grid of parameters and initial states in compiled parallel code.
+
+Entry point: :meth:`System.simulate_grid` (which calls :func:`simulate_grid`).  It
+returns a frozen :class:`GridTrajectories` holding *observables*, computed inside the
+compiled kernel as the steps are taken (:mod:`lagrange_core._batch_kernels`), never the
+trajectories: memory grows with the number of points (and strobe samples), not with
+the number of steps.
+
+What can be observed (each only when asked; see the kernel module for how)
+-----------------------------------------------------------------------
+* the final state (always), and the time mean of q over the run (always);
+* ``strobe=T``: q and q̇ at t0 + kT (stroboscopic samples of a drive of period T);
+* ``reference=q_ref``: the running maximum of |q − q_ref| per coordinate;
+* ``band=(lower, upper)``: the first time a coordinate leaves [lower, upper], where
+  that trajectory stops (status "left_band");
+* ``energy=True``: max |h(t) − h(t0)| (NaN for a statement whose energy function is
+  not conserved: a drive, forces or dissipation).
+
+Methods
+-------
+The names of :data:`lagrange_core.integrate.METHODS` that run compiled: ``"rkn12"``
+(adaptive RKN 12(10)), ``"rkn12-fixed"`` (its 12th-order formula at a fixed step: ``h``,
+or per point from an adaptive pilot over the first 1/50 of the span, shortened so a
+whole number of steps spans the strobe period), ``"yoshida6"`` (symplectic, ``h``
+required), for q̈ = f(q, t); ``"dop853"`` and ``"rk8"`` (``h`` required) for any system,
+constrained ones included.  ``method=None`` takes "rkn12" when the statement has the
+form q̈ = f(q, t) and "dop853" otherwise (the rule of :func:`lagrange_core.integrate.simulate`).
+Steps are shortened to land on every strobe time, so the samples are the method's
+own solution, not an interpolation.
+
+Failure is per point
+--------------------
+A point whose mass matrix turns singular, whose state becomes non-finite, whose step
+size falls below the resolution of t or whose step budget (``max_steps``) runs out
+gets that status (:data:`STATUS_NAMES`) and the state where it stopped; no other
+point is affected and nothing is raised.
+
+Chunks, progress and Ctrl-C
+---------------------------
+The points run in chunks of about a quarter of a second
+(:func:`lagrange_core.progress.run_in_chunks`), each one parallel compiled call; a
+progress line is shown on stderr when it is a terminal (``progress``).  Ctrl-C stops at the end of the running chunk and raises
+:class:`GridInterrupted` (a KeyboardInterrupt) whose ``.result`` holds every finished
+point (the others have status "not_run").
+"""
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import _batch_kernels as _bk
+from .checks import real_array
+from .drive_kernel import load_drive_kernel
+from .progress import defer_ctrl_c, run_in_chunks
+
+__all__ = ["GridTrajectories", "GridInterrupted", "simulate_grid", "STATUS_NAMES"]
+
+#: the per-point status codes of :attr:`GridTrajectories.status`, by value
+STATUS_NAMES = ("finished", "left_band", "underflow", "non_finite", "singular", "max_steps",
+                "not_run")
+
+#: points per block of the interleaved RKN kernel (a thread takes one block at a time)
+_BLOCK = 32
+_USE_LANES = True
+
+_GRID_METHODS = {"rkn12": ("second_order", 0, True), "rkn12-fixed": ("second_order", 0, False),
+                 "yoshida6": ("second_order", 1, False), "dop853": ("dop853", 0, True),
+                 "rk8": ("dop853", 0, False)}
+
+
+@dataclass(frozen=True, eq=False)
+class GridTrajectories:
+    """Observables of a grid of trajectories (:func:`simulate_grid`); immutable.
+
+    Every array has the grid's broadcast ``shape`` S in front.
+
+    Attributes
+    ----------
+    shape : tuple
+        The grid's shape S.
+    coordinates : tuple of str
+    params : dict name -> ndarray S
+        Every parameter's value at every point.
+    t0, t_final : ndarray S
+        Start time and the time each run stopped (s): t1, or where it left the band or
+        failed.
+    q, qdot : ndarray S + (n,)
+        The state at ``t_final``.
+    q_mean : ndarray S + (n,)
+        Time average of q over [t0, t_final] (corrected trapezoid per step, 4th order).
+    strobe_period : ndarray S or None
+        The strobe period T (s).
+    strobe_q, strobe_qdot : ndarray S + (K, n) or None
+        q, q̇ at t0 + kT, k = 0 … K − 1; NaN after a run's end (a shorter span, a stop).
+    max_deviation : ndarray S + (n,) or None
+        max of |q − q_ref| at t0 and at every step end (``reference``; between
+        step ends it is not sampled).
+    exit_time : ndarray S or None
+        First time a coordinate left the band (NaN: it never did).
+    exit_coordinate : ndarray S (int) or None
+        Which coordinate (index) left it (−1: none).
+    energy_drift : ndarray S or None
+        max |h(t) − h(t0)| over step ends (J); NaN when h is not conserved.
+    n_steps, n_rejected, n_evaluations : ndarray S (int)
+        Accepted and rejected steps, kernel evaluations (a pilot's included).
+    error_estimate : ndarray S
+        Sum of the local error estimates (as :attr:`Trajectory.error_estimate`; 0 for
+        the symplectic method, which has none).
+    status : ndarray S (int)
+        Index into :data:`STATUS_NAMES`; :attr:`status_name` spells it.
+    method : str
+    rtol, atol : float
+    wall_time : float
+        Seconds for the whole grid.
+    """
+
+    shape: tuple
+    coordinates: tuple
+    params: dict
+    t0: np.ndarray
+    t_final: np.ndarray
+    q: np.ndarray
+    qdot: np.ndarray
+    q_mean: np.ndarray
+    strobe_period: np.ndarray | None
+    strobe_q: np.ndarray | None
+    strobe_qdot: np.ndarray | None
+    max_deviation: np.ndarray | None
+    exit_time: np.ndarray | None
+    exit_coordinate: np.ndarray | None
+    energy_drift: np.ndarray | None
+    n_steps: np.ndarray
+    n_rejected: np.ndarray
+    n_evaluations: np.ndarray
+    error_estimate: np.ndarray
+    status: np.ndarray
+    method: str
+    rtol: float
+    atol: float
+    wall_time: float
+
+    @property
+    def size(self) -> int:
+        return int(np.prod(self.shape, dtype=np.int64))
+
+    @property
+    def status_name(self) -> np.ndarray:
+        """The status of every point as a string array of shape S."""
+        return np.asarray(STATUS_NAMES, dtype=object)[self.status]
+
+    @property
+    def ok(self) -> np.ndarray:
+        """True where the run ended normally: finished, or left the band (bool, S)."""
+        return (self.status == 0) | (self.status == 1)
+
+    def counts(self) -> dict:
+        """How many points ended with each status."""
+        values, k = np.unique(self.status, return_counts=True)
+        return {STATUS_NAMES[v]: int(c) for v, c in zip(values, k)}
+
+    def to_dataframe(self):
+        """One row per grid point: the parameters, the final state, the observables
+        asked for (per coordinate), the counts and the status (strobe samples are left
+        out: they are a sequence per point; see :attr:`strobe_q`)."""
+        import pandas as pd
+        flat = self.size
+        data = {name: np.broadcast_to(v, self.shape).reshape(flat)
+                for name, v in self.params.items()}
+        data["t_final"] = self.t_final.reshape(flat)
+        for j, c in enumerate(self.coordinates):
+            data[c] = self.q[..., j].reshape(flat)
+            data[f"{c}_dot"] = self.qdot[..., j].reshape(flat)
+            data[f"{c}_mean"] = self.q_mean[..., j].reshape(flat)
+            if self.max_deviation is not None:
+                data[f"{c}_max_deviation"] = self.max_deviation[..., j].reshape(flat)
+        if self.exit_time is not None:
+            data["exit_time"] = self.exit_time.reshape(flat)
+            data["exit_coordinate"] = self.exit_coordinate.reshape(flat)
+        if self.energy_drift is not None:
+            data["energy_drift"] = self.energy_drift.reshape(flat)
+        data["n_steps"] = self.n_steps.reshape(flat)
+        data["error_estimate"] = self.error_estimate.reshape(flat)
+        data["status"] = pd.Categorical(self.status_name.reshape(flat), categories=STATUS_NAMES)
+        return pd.DataFrame(data)
+
+
+class GridInterrupted(KeyboardInterrupt):
+    """Ctrl-C during :func:`simulate_grid`; ``.result`` holds the finished points (the
+    others have status "not_run")."""
+
+    def __init__(self, result, done):
+        super().__init__(f"grid interrupted after {done} of {result.size} points; the finished "
+                         "ones are in the exception's .result (status 'not_run' marks the rest)")
+        self.result = result
+
+
+# -- arguments ---------------------------------------------------------------------------
+
+def _grid_arrays(system, q0, qdot0, t_span, params, h, strobe, reference, band):
+    """Broadcast every per-point input to the grid shape S; flat (N, ...) float arrays."""
+    n = system.n_dof
+    names = system.parameters
+
+    def state(values, what):
+        if isinstance(values, Mapping):
+            unknown = sorted(set(map(str, values)) - set(system.coordinates))
+            if unknown:
+                raise ValueError(f"{what}: unknown coordinate(s) {unknown}; the coordinates "
+                                 f"are {list(system.coordinates)}.")
+            cols = [real_array(values.get(c, 0.0), f"{what}[{c!r}]")
+                    for c in system.coordinates]
+            return np.stack(np.broadcast_arrays(*cols), axis=-1)
+        arr = real_array(values, what)
+        if arr.ndim == 0 or arr.shape[-1] != n:
+            raise ValueError(f"{what} must have a last axis of {n} entries (one per coordinate "
+                             f"{list(system.coordinates)}), got shape {arr.shape}; or pass a "
+                             "dict coordinate -> value(s).")
+        return arr
+
+    Q0 = state(q0, "q0")
+    V0 = state(qdot0, "qdot0")
+    params = {} if params is None else dict(params)
+    params = {str(k): v for k, v in params.items()}
+    unknown = sorted(set(params) - set(names))
+    if unknown:
+        raise ValueError(f"unknown parameter(s) {unknown}; the parameters are {list(names)}.")
+    missing = [p for p in names if p not in params]
+    if missing:
+        raise ValueError(f"missing value(s) for parameter(s) {missing}; pass them in params "
+                         "(scalars or arrays that broadcast against each other).")
+    pv = {k: real_array(params[k], f"parameter {k!r}") for k in names}
+    try:
+        t0, t1 = t_span
+    except (TypeError, ValueError):
+        raise ValueError(f"t_span must be a pair (t0, t1) (scalars or arrays), got "
+                         f"{t_span!r}.") from None
+    t0 = real_array(t0, "t_span[0]")
+    t1 = real_array(t1, "t_span[1]")
+    extras = {"h": h, "strobe": strobe}
+    extras = {k: real_array(v, k) for k, v in extras.items() if v is not None}
+    per_coord = {}
+    if reference is not None:
+        per_coord["reference"] = state(reference, "reference")
+    if band is not None:
+        try:
+            lo, hi = band
+        except (TypeError, ValueError):
+            raise ValueError("band must be a pair (lower, upper) of coordinate values "
+                             "(±inf for an unbounded side).") from None
+        for what, v, side in (("band lower", lo, -np.inf), ("band upper", hi, np.inf)):
+            per_coord[what] = _bounds(system, v, what, side)
+    shapes = {"q0": Q0.shape[:-1], "qdot0": V0.shape[:-1], "t_span[0]": t0.shape,
+              "t_span[1]": t1.shape}
+    shapes.update({f"parameter {k!r}": v.shape for k, v in pv.items()})
+    shapes.update({k: v.shape for k, v in extras.items()})
+    shapes.update({k: v.shape[:-1] for k, v in per_coord.items()})
+    try:
+        S = np.broadcast_shapes(*shapes.values())
+    except ValueError:
+        desc = ", ".join(f"{k} {s}" for k, s in shapes.items() if s)
+        raise ValueError(f"the grid inputs do not broadcast against each other: {desc}. Give "
+                         "each axis its own dimension, e.g. A[:, None] and omega[None, :].") \
+            from None
+    N = int(np.prod(S, dtype=np.int64))
+
+    def flat(a, tail=()):
+        return np.ascontiguousarray(np.broadcast_to(a, S + tail).reshape((N,) + tail),
+                                    dtype=float)
+
+    T0, T1 = flat(t0), flat(t1)
+    bad = ~(T1 > T0)
+    if N and bad.any():
+        k = int(np.argmax(bad))
+        raise ValueError(f"t_span: the end time must be after the start time at every point; "
+                         f"at flat index {k} t0 = {T0[k]!r}, t1 = {T1[k]!r}.")
+    out = dict(S=S, N=N, Y0=np.hstack([flat(Q0, (n,)), flat(V0, (n,))]),
+               P=np.stack([flat(pv[k]) for k in names], axis=1) if names else np.zeros((N, 0)),
+               TS=np.stack([T0, T1], axis=1),
+               params={k: np.broadcast_to(v, S) for k, v in pv.items()})
+    if N == 0:
+        out["P"] = out["P"].reshape(0, len(names))
+    H = flat(extras["h"]) if "h" in extras else np.zeros(N)
+    if "h" in extras and not np.all(H > 0):
+        raise ValueError("h must be a positive step size (s) at every point.")
+    out["H"] = H
+    if "strobe" in extras:
+        TSTR = flat(extras["strobe"])
+        if not np.all(TSTR > 0):
+            raise ValueError("strobe must be a positive period T (s) at every point, e.g. "
+                             "strobe=2*np.pi/omega.")
+        out["TSTR"] = TSTR
+        span = (T1 - T0) / TSTR
+        out["K"] = int(np.max(np.floor(span * (1 + 1e-12)))) + 1 if N else 1
+    else:
+        out["TSTR"] = np.zeros(N)
+        out["K"] = 0
+    out["REF"] = flat(per_coord["reference"], (n,)) if "reference" in per_coord \
+        else np.zeros((N, n))
+    lo = flat(per_coord["band lower"], (n,)) if "band lower" in per_coord \
+        else np.full((N, n), -np.inf)
+    hi = flat(per_coord["band upper"], (n,)) if "band upper" in per_coord \
+        else np.full((N, n), np.inf)
+    if band is not None:
+        inside = (out["Y0"][:, :n] >= lo) & (out["Y0"][:, :n] <= hi)
+        if N and not inside.all():
+            k = int(np.argmax(~inside.all(axis=1)))
+            raise ValueError(f"band: the initial state at flat index {k}, q0 = "
+                             f"{out['Y0'][k, :n].tolist()}, lies outside [{lo[k].tolist()}, "
+                             f"{hi[k].tolist()}]; a run must start inside its band.")
+        if not np.all(lo < hi):
+            raise ValueError("band: every lower bound must be below its upper bound.")
+    out["LO"], out["HI"] = lo, hi
+    return out
+
+
+def _bounds(system, values, what, unbounded):
+    """One side of a band as an array (..., n): a number, an array, or a dict
+    coordinate -> bound (missing coordinates unbounded); ±inf allowed, NaN refused."""
+    n = system.n_dof
+    if isinstance(values, Mapping):
+        unknown = sorted(set(map(str, values)) - set(system.coordinates))
+        if unknown:
+            raise ValueError(f"{what}: unknown coordinate(s) {unknown}; the coordinates are "
+                             f"{list(system.coordinates)}.")
+        cols = [np.asarray(values.get(c, unbounded), dtype=float) for c in system.coordinates]
+        arr = np.stack(np.broadcast_arrays(*cols), axis=-1)
+    else:
+        try:
+            arr = np.asarray(values, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"{what} must be numbers (±inf for unbounded), got "
+                             f"{values!r}.") from None
+        if arr.ndim == 0:
+            arr = np.full(n, float(arr))
+        if arr.shape[-1] != n:
+            raise ValueError(f"{what} must have a last axis of {n} entries (one per coordinate "
+                             f"{list(system.coordinates)}), got shape {arr.shape}.")
+    if np.isnan(arr).any():
+        raise ValueError(f"{what} contains NaN; use ±inf for an unbounded side.")
+    return arr
+
+
+def _check_scalars(rtol, atol, max_steps):
+    rtol = float(rtol)
+    if not (math.isfinite(rtol) and 1e-15 <= rtol):
+        raise ValueError(f"rtol must be a number ≥ 1e-15, got {rtol!r}.")
+    atol = rtol if atol is None else float(atol)
+    if not (math.isfinite(atol) and atol > 0):
+        raise ValueError(f"atol must be a positive number, got {atol!r}.")
+    if max_steps is None:
+        max_steps = 1 << 62
+    elif int(max_steps) != max_steps or max_steps < 1:
+        raise ValueError(f"max_steps must be a positive whole number, got {max_steps!r}.")
+    return rtol, atol, int(max_steps)
+
+
+def _grid_method(kernels, method, h_given):
+    from .integrate import rkn_eligibility
+    if method is None:
+        method = "rkn12" if kernels.rkn_form else "dop853"
+    if method not in _GRID_METHODS:
+        raise ValueError(f"simulate_grid runs methods {sorted(_GRID_METHODS)}, got {method!r}.")
+    family, sub, adaptive = _GRID_METHODS[method]
+    if family == "second_order" and not kernels.rkn_form:
+        raise ValueError(f"method {method!r} needs equations of the form q̈ = f(q, t), but "
+                         f"{rkn_eligibility(kernels)[1]}. Use method='dop853' instead.")
+    if not adaptive and not h_given and method != "rkn12-fixed":
+        raise ValueError(f"method {method!r} has a fixed step: pass h (s), e.g. h=T/20 for a "
+                         "drive of period T.")
+    return method, family, sub, adaptive
+
+
+# -- simulate_grid -----------------------------------------------------------------------
+
+def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1e-9,
+                  atol=None, h=None, strobe=None, reference=None, band=None, energy=False,
+                  max_steps=None, progress=None) -> GridTrajectories:
+    """Integrate ``system`` at every point of a broadcast grid; see the module docstring.
+
+    Parameters
+    ----------
+    system : lagrange_core.System
+    q0, qdot0 : array_like (..., n) or dict coordinate -> value(s)
+        Initial coordinates and velocities; the leading axes broadcast with the rest.
+    t_span : (t0, t1)
+        Start and end time (s); each may be an array (e.g. a number of drive periods
+        ``(0, 500 * 2 * np.pi / omega)``).
+    params : dict name -> float or array
+        Every parameter, scalars or arrays that broadcast against each other.
+    method, rtol, atol, h
+        Method name (module docstring), tolerances, fixed step (s; scalar or array).
+    strobe : float or array, optional
+        Period T (s) of the stroboscopic samples.
+    reference : array_like (..., n), optional
+        q_ref for the running maximum of |q − q_ref|.
+    band : (lower, upper), optional
+        Arrays (..., n) (±inf: unbounded) or dicts coordinate -> bound.
+    energy : bool
+        Record the energy drift.
+    max_steps : int, optional
+        Step budget per point (status "max_steps" when used up).
+    progress : None, bool or callable
+        See :class:`lagrange_core.progress.ProgressLine`.
+
+    Returns
+    -------
+    GridTrajectories
+
+    Raises
+    ------
+    ValueError
+        Bad input (naming the argument), an ineligible method.
+    GridInterrupted
+        On Ctrl-C, with the finished points in ``.result``.
+    """
+    start = time.perf_counter()
+    rtol, atol, max_steps = _check_scalars(rtol, atol, max_steps)
+    g = _grid_arrays(system, q0, qdot0, t_span, params, h, strobe, reference, band)
+    kernels = system.kernels
+    method, family, sub, adaptive = _grid_method(kernels, method, h is not None)
+    n, m, N, K = system.n_dof, kernels.n_constraints, g["N"], g["K"]
+    flags = ((_bk.OBS_STROBE if strobe is not None else 0)
+             | (_bk.OBS_REF if reference is not None else 0)
+             | (_bk.OBS_BAND if band is not None else 0)
+             | (_bk.OBS_ENERGY if energy and kernels.energy_conserved else 0))
+    slots = {"rhs", "energy"} if energy else {"rhs"}
+    if m:
+        slots |= {"constraint_residual", "constraint_jacobian"}
+    if family == "second_order":
+        load_drive_kernel(kernels)
+    ka = kernels.addresses(*sorted(slots))
+
+    YF = np.full((N, 2 * n), np.nan)
+    TF = np.full(N, np.nan)
+    SQ = np.full((N, max(K, 1) if strobe is not None else 1, 2 * n), np.nan)
+    QM = np.zeros((N, n))
+    DEV = np.zeros((N, n))
+    EXIT = np.full(N, np.nan)
+    EXITC = np.full(N, -1, dtype=np.int64)
+    EDRIFT = np.full(N, np.nan)
+    COUNTS = np.zeros((N, 3), dtype=np.int64)
+    ERR = np.zeros(N)
+    STATUS = np.full(N, _bk.GRID_NOT_RUN, dtype=np.int64)
+    from .integrate import METHODS
+    tab = METHODS[method].table
+    pilot = method == "rkn12-fixed" and h is None
+    common = (g["Y0"], g["P"], g["TS"], g["H"], g["TSTR"], g["REF"], g["LO"], g["HI"], flags,
+              rtol, atol, max_steps)
+    outs = (YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS)
+    order = np.arange(N, dtype=np.int64)
+
+    def work(a, b):
+        idx = order[a:b]
+        if method == "rkn12-fixed" and _USE_LANES:
+            _bk.grid_rkn_lanes(ka, pilot, idx, _BLOCK, *common, tab["c"], tab["A"], tab["b"],
+                               tab["bp"], tab["bh"], tab["bph"], *outs)
+        elif family == "second_order":
+            _bk.grid_second_order(ka, sub, adaptive, pilot, idx, *common, tab["c"], tab["A"],
+                                  tab["b"], tab["bp"], tab["bh"], tab["bph"], tab["w"], *outs)
+        else:
+            _bk.grid_dop853(ka, m, adaptive, idx, *common, tab["A"], tab["B"], tab["C"],
+                            tab["E3"], tab["E5"], *outs)
+
+    import numba
+    with defer_ctrl_c(), numba.parallel_chunksize(1):
+        done, interrupted = run_in_chunks(work, N, progress=progress, label="simulate_grid",
+                                          first=8 * numba.get_num_threads())
+    run = STATUS != _bk.GRID_NOT_RUN
+    span = TF - g["TS"][:, 0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        QM = np.where((span > 0)[:, None], QM / span[:, None], YF[:, :n])
+    QM[~run] = np.nan
+    if not (flags & _bk.OBS_ENERGY):
+        EDRIFT[:] = np.nan
+    S = g["S"]
+    result = GridTrajectories(
+        shape=S, coordinates=tuple(system.coordinates), params=g["params"],
+        t0=g["TS"][:, 0].reshape(S), t_final=TF.reshape(S), q=YF[:, :n].reshape(S + (n,)),
+        qdot=YF[:, n:].reshape(S + (n,)), q_mean=QM.reshape(S + (n,)),
+        strobe_period=g["TSTR"].reshape(S) if strobe is not None else None,
+        strobe_q=SQ[:, :K, :n].reshape(S + (K, n)) if strobe is not None else None,
+        strobe_qdot=SQ[:, :K, n:].reshape(S + (K, n)) if strobe is not None else None,
+        max_deviation=DEV.reshape(S + (n,)) if reference is not None else None,
+        exit_time=EXIT.reshape(S) if band is not None else None,
+        exit_coordinate=EXITC.reshape(S) if band is not None else None,
+        energy_drift=EDRIFT.reshape(S) if energy else None,
+        n_steps=COUNTS[:, _bk.CNT_STEPS].reshape(S),
+        n_rejected=COUNTS[:, _bk.CNT_REJECTED].reshape(S),
+        n_evaluations=COUNTS[:, _bk.CNT_EVALS].reshape(S), error_estimate=ERR.reshape(S),
+        status=STATUS.reshape(S), method=method, rtol=rtol, atol=atol,
+        wall_time=time.perf_counter() - start)
+    if interrupted:
+        raise GridInterrupted(result, done)
+    return result
