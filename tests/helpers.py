@@ -1,4 +1,5 @@
-"""References shared by the kapitza test files (test_floquet.py, test_averaging.py).
+"""References shared by the test files (test_floquet.py, test_averaging.py, ...), and the
+child-process harness of the Ctrl-C tests (:func:`interrupt_child`).
 
 Every reference is independent of kapitza: monodromy matrices integrated here with
 scipy's solve_ivp (DOP853) at tight tolerance, from the linearised equations as written
@@ -52,3 +53,28 @@ def jacobian_monodromy(system, params, about, *, rtol, atol=1e-13):
         k.jacobian(tt, ystar, P, J)
         return J.copy()
     return monodromy(mat, 2 * math.pi / params["omega"], rtol=rtol, atol=atol)
+
+
+def interrupt_child(tmp_path, source, delay, timeout):
+    """Run ``source`` in a child process, send it SIGINT ``delay`` s after it prints
+    "ready", and return (its JSON report, the time the signal was sent)."""
+    import json
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    script = tmp_path / "child.py"
+    script.write_text(source)
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        time.sleep(delay)
+        sent = time.time()
+        os.kill(proc.pid, signal.SIGINT)
+        out = proc.stdout.readline()
+        proc.wait(timeout=timeout)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    return json.loads(out), sent

@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 import sympy as sp
+from helpers import interrupt_child
 
 from lagrange_core import System, coordinates, problems
 from lagrange_core.batch import STATUS_NAMES, GridTrajectories
@@ -157,3 +158,43 @@ def test_bad_input_names_the_argument(pend, kwargs, match):
 
 def test_status_names_are_documented():
     assert STATUS_NAMES[:2] == ("finished", "left_band") and "not_run" in STATUS_NAMES
+
+
+CHILD = r'''
+import json, math, signal, sys, time
+import numpy as np
+signal.signal(signal.SIGINT, signal.default_int_handler)   # a background job ignores SIGINT
+from lagrange_core import problems
+from lagrange_core.batch import GridInterrupted
+pend = problems.driven_pendulum("vertical")
+P = dict(m=1.0, l=1.0, g=9.81)
+w = 2 * np.pi * 60
+A = np.linspace(0.03, 0.1, 4000)
+pend.simulate_grid([np.pi - 0.1], [0.0], (0.0, 0.01), dict(P, A=A[:4], omega=w))  # compile
+print("ready", flush=True)
+try:
+    pend.simulate_grid([np.pi - 0.1], [0.0], (0.0, 200.0), dict(P, A=A, omega=w),
+                       progress=False)
+    print(json.dumps({"finished": True, "t": time.time()}), flush=True)
+except GridInterrupted as e:
+    t = time.time()
+    r = e.result
+    done = np.flatnonzero(r.status == 0)
+    k = int(done[len(done) // 2])
+    one = pend.simulate_grid([np.pi - 0.1], [0.0], (0.0, 200.0), dict(P, A=A[k], omega=w))
+    print(json.dumps({"finished": False, "t": t, "done": int(len(done)),
+                      "not_run": int(np.sum(r.status_name == "not_run")),
+                      "same": bool(one.q[0] == r.q[k, 0]),
+                      "nan_rest": bool(np.isnan(r.q[r.status == 6]).all())}), flush=True)
+'''
+
+
+def test_ctrl_c_keeps_the_finished_points(tmp_path):
+    """Ctrl-C during a long grid (4000 points × 200 s) stops within a second and raises
+    GridInterrupted carrying every finished point (equal to a run of its own); the
+    rest are marked "not_run" with NaN states."""
+    res, sent = interrupt_child(tmp_path, CHILD, 1.5, 60)
+    assert res["finished"] is False
+    assert res["t"] - sent < 1.0
+    assert res["done"] > 0 and res["not_run"] > 0 and res["done"] + res["not_run"] == 4000
+    assert res["same"] and res["nan_rest"]

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers import G, L, W0
+from helpers import G, L, W0, interrupt_child
 
 from kapitza import floquet as fq
 from kapitza import mathieu as mm
@@ -230,33 +230,8 @@ except ComputationInterrupted as e:
 """
 
 
-def _interrupt_child(tmp_path, source, delay, timeout):
-    """Run ``source`` in a child process, send it SIGINT ``delay`` s after it prints
-    "ready", and return (its JSON report, the time the signal was sent)."""
-    import json
-    import os
-    import signal
-    import subprocess
-    import sys
-    import time
-    script = tmp_path / "child.py"
-    script.write_text(source)
-    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
-    try:
-        assert proc.stdout.readline().strip() == "ready"
-        time.sleep(delay)
-        sent = time.time()
-        os.kill(proc.pid, signal.SIGINT)
-        out = proc.stdout.readline()
-        proc.wait(timeout=timeout)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    return json.loads(out), sent
-
-
 def test_ctrl_c_stops_a_long_map_within_a_second(tmp_path):
-    res, sent = _interrupt_child(tmp_path, CHILD, 2.0, 30)
+    res, sent = interrupt_child(tmp_path, CHILD, 2.0, 30)
     assert res["finished"] is False
     assert res["t"] - sent < 1.0
     assert 0 < res["rows"] < 1000 and res["prefix"] and res["done_finite"] and res["rest_nan"]
@@ -395,7 +370,7 @@ def test_ctrl_c_stops_a_general_map_within_a_second(tmp_path, delay):
     # a second, never a plain KeyboardInterrupt from the NumPy code between the chunks.
     # (Not at 0 s: a signal that lands before the call has begun, while the child is still
     # between "ready" and the map, is a plain Ctrl-C with nothing to keep.)
-    res, sent = _interrupt_child(tmp_path, GENERAL_CHILD, delay, 60)
+    res, sent = interrupt_child(tmp_path, GENERAL_CHILD, delay, 60)
     assert res["finished"] is False
     assert res["t"] - sent < 1.0
     assert res["n"] < 360000 and res["prefix"] and res["done_finite"] and res["rest_nan"]
