@@ -39,6 +39,11 @@ Floquet analysis (:mod:`kapitza.floquet`)
     stability_map
         Stability of any system's driven equilibrium over an (A, ω) grid.
 
+Periodic orbits (:mod:`kapitza.periodic_orbit`)
+    periodic_orbit
+        The T-periodic orbit of any driven system (Newton shooting on the period map) and
+        its Floquet multipliers: the slow states of drives that leave no equilibrium.
+
 The Mathieu equation of the single pendulum (:mod:`kapitza.mathieu`)
     mathieu_parameters
         The mapping (A, ω, l, g, γ, about) → (a, q, c), written once.
@@ -72,6 +77,8 @@ Results (:mod:`kapitza.results`; frozen dataclasses with ``to_dataframe()``)
         Results of the general averaging.
     PendulumAveraging, EquilibriumPrediction, MultiplePendulumPrediction
         Results of the pendulum's closed forms.
+    PeriodicOrbit
+        A periodic orbit: state, period mean, fast amplitude, multipliers, stability.
 
 Figures (:mod:`kapitza.plots`; they draw results and compute nothing)
     stability_map_figure
@@ -101,14 +108,15 @@ from .floquet import floquet_grid, floquet_point, monodromy_data, stability_map
 from .mathieu import (characteristic_value, ince_strutt_chart, mathieu_monodromy_trace,
                       mathieu_parameters, pendulum_stability_map, pendulum_stability_window)
 from .pendulum import KapitzaPendulum
+from .periodic_orbit import periodic_orbit
 from .pendulum_closed_forms import (multiple_pendulum_upright, pendulum_averaged,
                                     pendulum_effective_potential, averaging_window)
 from .plots import effective_potential_figure, ince_strutt_figure, stability_map_figure
 from .warmup import warmup
 from .results import (AveragingPrediction, ComputationInterrupted, EquilibriumPrediction,
                       FloquetGrid, FloquetResult, FloquetWindow, InceStruttChart, MonodromyData,
-                      MultiplePendulumPrediction, PendulumAveraging, SlowModes, SlowModeSweep,
-                      StabilityMap, StabilityWindow)
+                      MultiplePendulumPrediction, PendulumAveraging, PeriodicOrbit, SlowModes,
+                      SlowModeSweep, StabilityMap, StabilityWindow)
 
 __all__ = [
     "KapitzaPendulum",
@@ -116,6 +124,7 @@ __all__ = [
     "pendulum_effective_potential", "pendulum_averaged", "averaging_window",
     "multiple_pendulum_upright",
     "floquet_point", "floquet_grid", "monodromy_data", "stability_map",
+    "periodic_orbit", "PeriodicOrbit",
     "mathieu_parameters", "characteristic_value", "mathieu_monodromy_trace",
     "pendulum_stability_window", "pendulum_stability_map", "ince_strutt_chart",
     "ComputationInterrupted", "FloquetResult", "FloquetGrid", "MonodromyData", "StabilityMap",

@@ -21,6 +21,7 @@ from lagrange_core import problems
 
 from . import arguments, mathieu, pendulum_closed_forms
 from .floquet import floquet_point
+from .periodic_orbit import periodic_orbit
 from .results import FloquetResult, PendulumAveraging, StabilityMap, StabilityWindow
 
 __all__ = ["KapitzaPendulum"]
@@ -206,25 +207,51 @@ class KapitzaPendulum:
                              "drive='vertical'.")
 
     def floquet(self, A: float, omega: float, about: str = "inverted",
-                tol: float = 1e-10) -> FloquetResult:
-        """Floquet analysis of the linearised pendulum about θ = π or θ = 0 (vertical drive).
+                tol: float = 1e-10):
+        """Floquet analysis of the linearised pendulum about θ = π or θ = 0 (vertical drive),
+        or about the periodic orbit of the horizontal drive (``about="tilted"``).
 
-        Integrates the monodromy of the system's exact Jacobian over one drive
-        period (:func:`kapitza.floquet.floquet_point`) to relative accuracy ``tol``.
+        Vertical drive: integrates the monodromy of the system's exact Jacobian over one
+        drive period (:func:`kapitza.floquet.floquet_point`) to relative accuracy ``tol``.
+        Horizontal drive: no angle persists under the drive; the slow states are
+        T-periodic orbits, found by Newton shooting from the averaging prediction
+        (:func:`kapitza.periodic_orbit.periodic_orbit`): ``about="tilted"`` (the tilted
+        state, cos θ* = 2gl/(Aω)², θ* > 0; it exists when (Aω)² > 2gl), "tilted-" (its
+        mirror image), "hanging" or "inverted" (the orbits near θ = 0 and π).
 
         Returns
         -------
-        kapitza.results.FloquetResult
-            ``trace``, ``multipliers``, ``stable``, ``omega_slow`` (rad/s; the exact
-            linear slow frequency: cos(πβ) = tr M e^(γT/2)/2, Ω = βω/2), guards.
+        kapitza.results.FloquetResult or kapitza.results.PeriodicOrbit
+            Vertical: ``trace``, ``multipliers``, ``stable``, ``omega_slow`` (rad/s; the
+            exact linear slow frequency: cos(πβ) = tr M e^(γT/2)/2, Ω = βω/2), guards.
+            Horizontal: the orbit (its period mean ``q_mean``, ``multipliers``, ``stable``,
+            ``omega_slow``).
         """
-        self._vertical("Floquet analysis")
-        theta = arguments.about_angle(about)
         A, omega = arguments.drive(A, omega)
         if A.ndim:
             raise ValueError(f"A and omega must be scalars here, got shape {A.shape}; use "
                              "stability_map for grids.")
-        return floquet_point(self.system, self.params(float(A), float(omega)), [theta], tol=tol)
+        params = self.params(float(A), float(omega))
+        if self.drive == "horizontal":
+            return periodic_orbit(self.system, params, [self._orbit_guess(about, A, omega)],
+                                  tol=tol)
+        theta = arguments.about_angle(about)
+        return floquet_point(self.system, params, [theta], tol=tol)
+
+    def _orbit_guess(self, about, A, omega):
+        """The averaging prediction of a horizontal drive's slow state (rad)."""
+        if about in ("hanging", "inverted"):
+            return arguments.about_angle(about)
+        if about not in ("tilted", "tilted+", "tilted-"):
+            raise ValueError(f"about must be 'tilted', 'tilted-', 'hanging' or 'inverted' for "
+                             f"the horizontal drive, got {about!r}.")
+        c = 2 * self.g * self.l / (float(A) * float(omega)) ** 2
+        if c >= 1:
+            raise ValueError(f"the horizontal drive tilts the pendulum only when (Aω)² > 2gl; "
+                             f"here (Aω)² = {(float(A) * float(omega)) ** 2:.4g} m²/s² ≤ "
+                             f"2gl = {2 * self.g * self.l:.4g}. Use about='hanging', or a "
+                             "stronger drive.")
+        return -math.acos(c) if about == "tilted-" else math.acos(c)
 
     def stability_map(self, A, omega, about: str = "inverted", *, trace: bool = False,
                       tol: float = 1e-10, progress=None) -> StabilityMap:

@@ -863,3 +863,72 @@ class MultiplePendulumPrediction:
             frames.append(df.assign(mode=k, hanging_frequency=self.hanging_frequencies[k],
                                     effective_length=self.effective_lengths[k]))
         return pd.concat(frames, ignore_index=True)
+
+
+@dataclass(frozen=True, eq=False)
+class PeriodicOrbit:
+    """A periodic orbit of a driven system and its Floquet stability (immutable).
+
+    Built by :func:`kapitza.periodic_orbit.periodic_orbit` (Newton shooting on the period
+    map; its docstring states the method and the accuracy).
+
+    Attributes
+    ----------
+    coordinates : tuple of str
+    params : dict
+        The parameter values (scalars).
+    period : float
+        The orbit's period (s): ``periods`` × 2π/ω.
+    periods : int
+        Drive periods per orbit period (1: T-periodic; 2: a subharmonic orbit).
+    state : ndarray (2n,)
+        [q, q̇] on the orbit at t = 0 (the drive's phase zero).
+    q_mean : ndarray (n,)
+        Mean of q over one period (the slow state of averaging).
+    amplitude : ndarray (n,)
+        Half the peak-to-peak range of q over one period (the fast motion).
+    multipliers : ndarray, complex (2n,)
+        Eigenvalues of the monodromy, by decreasing modulus.
+    monodromy : ndarray (2n, 2n) or None
+        The monodromy matrix (None for a persisting equilibrium, analysed by
+        :func:`kapitza.floquet_point`).
+    stable : bool
+        Every |λ| ≤ 1 up to the error (see the module docstring).
+    omega_slow : float or ndarray (n,)
+        Slow frequency |arg λ|/T of each stable pair (rad/s, in [0, ω/2]); NaN if
+        unstable; a float for one coordinate.
+    residual : float
+        |φ_T(y0) − y0| at the returned state.
+    error_estimate : float
+        Error estimate of the monodromy (the flow's step-doubling difference).
+    iterations : int
+        Newton iterations (0: a persisting equilibrium).
+    method : str
+    """
+
+    coordinates: tuple
+    params: dict
+    period: float
+    periods: int
+    state: np.ndarray
+    q_mean: np.ndarray
+    amplitude: np.ndarray
+    multipliers: np.ndarray
+    monodromy: np.ndarray | None
+    stable: bool
+    omega_slow: float | np.ndarray
+    residual: float
+    error_estimate: float
+    iterations: int
+    method: str
+
+    def to_dataframe(self):
+        """One row per coordinate: state at t = 0, period mean, fast amplitude (and the
+        orbit's period, stability and slow frequency repeated)."""
+        import pandas as pd
+        n = len(self.coordinates)
+        slow = np.broadcast_to(np.asarray(self.omega_slow, dtype=float), (n,))
+        return pd.DataFrame({"q0": self.state[:n], "qdot0": self.state[n:],
+                             "q_mean": self.q_mean, "amplitude": self.amplitude,
+                             "omega_slow": slow, "period": self.period, "stable": self.stable},
+                            index=pd.Index(self.coordinates, name="coordinate"))
