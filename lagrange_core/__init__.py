@@ -19,10 +19,13 @@ GridTrajectories, GridInterrupted
     (``System.simulate_grid``; :mod:`lagrange_core.batch`).
 problems, fields
     The catalogue of the lecture's problems; 1-D fields (:class:`fields.Field1D`).
+effects
+    Rigs and the effects a set-up names (gravity, a pivot drive, damping, air drag,
+    springs), built into a System with only those terms (:mod:`lagrange_core.effects`).
 warmup
     Compile the integrators once per installation (:mod:`lagrange_core.warmup`).
 """
-from . import fields, problems
+from . import effects, fields, problems
 from .codegen import Kernels, compile_kernels
 from .derive import Equations, derive
 from .integrate import (METHODS, Event, SimulationInterrupted, Trajectory, crossing,
@@ -34,7 +37,7 @@ from .systems import Particle, System
 from .warmup import warmup
 
 __all__ = ["System", "Particle", "RigidBody", "rotation_matrix", "coordinates", "t", "derive",
-           "Equations", "compile_kernels", "Kernels", "Linearization", "problems", "fields",
+           "Equations", "compile_kernels", "Kernels", "Linearization", "problems", "fields", "effects",
            "Trajectory", "METHODS", "Event", "turning_point", "crossing", "multiplier_zero",
            "SimulationInterrupted", "GridTrajectories", "GridInterrupted", "warmup"]
 __version__ = "0.1.0"
