@@ -37,7 +37,8 @@ from .systems import Particle, System
 from .warmup import warmup
 
 __all__ = ["System", "Particle", "RigidBody", "rotation_matrix", "coordinates", "t", "derive",
-           "Equations", "compile_kernels", "Kernels", "Linearization", "problems", "fields", "effects",
+           "Equations", "compile_kernels", "Kernels", "Linearization", "problems", "fields",
+           "effects",
            "Trajectory", "METHODS", "Event", "turning_point", "crossing", "multiplier_zero",
            "SimulationInterrupted", "GridTrajectories", "GridInterrupted", "warmup"]
 __version__ = "0.1.0"
