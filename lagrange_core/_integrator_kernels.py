@@ -63,6 +63,8 @@ STATS_SIZE = 8
 #: proposed by each block of evaluated steps; it grows by at most HOLD_GROWTH per block
 HOLD_QUANTILE = 0.2
 HOLD_GROWTH = 5.0
+#: the first block is shorter (a short run reaches the held step sooner)
+HOLD_FIRST = 16
 #: a new held step replaces the last one only when it differs by more than this ratio
 HOLD_CHANGE = 1.1
 #: the RKN driver recomputes the drive's cos/sin at least every DRIVE_RESYNC steps (in
@@ -748,7 +750,8 @@ def held_step_record(tv, stats, block, err, hs):
     The block stores r = err·(h_ref/hs)¹¹ with h_ref = ``tv[TV_HREF]``: the error the
     step would have had at h_ref, so the ideal step of a step is 0.9·h_ref·r^(−1/11)
     (what the classic controller would propose) whatever size it was taken at.  When
-    the block is full the new held step is the ``HOLD_QUANTILE`` quantile of those ideal
+    the block is full (``len(block)`` steps; the first block, before any held step,
+    ``HOLD_FIRST``) the new held step is the ``HOLD_QUANTILE`` quantile of those ideal
     steps (one power per block: the (1 − q) quantile of r), at most ``HOLD_GROWTH``
     times the last one; it replaces the last one only if they differ by more than
     ``HOLD_CHANGE``.  Returns the new held step, or 0.0 when it is unchanged (or the
@@ -757,6 +760,8 @@ def held_step_record(tv, stats, block, err, hs):
     nb = block.shape[0]
     if nb == 0 or not math.isfinite(err):
         return 0.0
+    if tv[TV_HOLD] == 0.0:
+        nb = min(nb, HOLD_FIRST)
     href = tv[TV_HREF]
     if href == 0.0:
         href = hs
@@ -769,9 +774,12 @@ def held_step_record(tv, stats, block, err, hs):
     if stats[ST_BLOCK] < nb:
         return 0.0
     k = int((1.0 - HOLD_QUANTILE) * (nb - 1) + 0.5)
-    r = np.partition(block, k)[k]
+    r = np.partition(block[:nb], k)[k]
     hold = HOLD_GROWTH * href if r == 0.0 else 0.9 * href * r ** (-1.0 / 11.0)
     stats[ST_BLOCK] = 0
+    if not hold > 0.0:          # r overflowed: steps far below h_ref; start the block anew
+        tv[TV_HREF] = hs
+        return 0.0
     old = tv[TV_HOLD]
     if old > 0.0:
         if old / HOLD_CHANGE <= hold <= old * HOLD_CHANGE:
@@ -810,7 +818,7 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
     Step-size control (adaptive): err = RMS of the difference of the 12th- and
     10th-order solutions [Δq, Δv] scaled by atol + rtol·max(|y|, |y_new|); a step
     with err ≥ 1 is rejected and retaken at h·max(0.2, 0.9·err^(−1/11)).
-    After an accepted step, for the first ``len(block)`` evaluated steps (all of
+    After an accepted step, for the first ``HOLD_FIRST`` evaluated steps (all of
     them if ``block`` is empty) the classic controller: new h = h·min(5,
     0.9·err^(−1/11)), no growth right after a rejection.  From then on the step is
     *held*: it stays at the held step tv[TV_HOLD] while the steps pass, and after a

@@ -471,8 +471,19 @@ def _choose_method(kernels, method):
     return meth
 
 
+#: zero-size arrays for runs without events, output times or constraints (nothing writes
+#: them; shared, so a short run does not allocate them again)
+_NO_EV_INT = np.zeros((0, 4), dtype=np.int64)
+_NO_EV_K = np.zeros(0, dtype=np.int64)
+_NO_EV_Y = np.zeros((0, 2))
+_NO_LAMBDA = np.zeros((0, 1))
+_EMPTY = np.zeros(0)
+
+
 def _event_arrays(kernels, events):
     events = tuple(events or ())
+    if not events:
+        return events, _NO_EV_INT, _EMPTY
     ev_int = np.zeros((len(events), 4), dtype=np.int64)
     ev_val = np.zeros(len(events))
     for k, ev in enumerate(events):
@@ -568,20 +579,22 @@ _DRIVERS = {
 }
 
 
-def _addresses(kernels, driver, ev_int):
+def _addresses(kernels, driver):
     """Compile (or load) the C entry points this run calls; the system's address table."""
-    slots = {"energy", *driver.kernels}      # energy: Trajectory.energy (along)
     if kernels.n_constraints:                # projection; multipliers come with the rhs
-        slots |= {"rhs", "constraint_residual", "constraint_jacobian"}
+        slots = ("energy", "rhs", "constraint_residual", "constraint_jacobian", *driver.kernels)
+    else:                                    # energy: Trajectory.energy (along)
+        slots = ("energy", *driver.kernels)
     if driver.drive_kernel:
         load_drive_kernel(kernels)
-    return kernels.addresses(*sorted(slots))
+    return kernels.addresses(*slots)
 
 
 # -- simulate ----------------------------------------------------------------------------
 
 #: evaluated steps per block of the adaptive RKN's held step (_integrator_kernels.held_step_record)
 _HOLD_BLOCK = 64
+_NO_STEP_LIMIT = 2**63 - 1
 
 def simulate(kernels, q0, qdot0, t_span, p, *, method=None, rtol=1e-9, atol=None,
              t_eval=None, events=(), max_steps=None, h=None, stride=1, error_check=False,
@@ -592,9 +605,19 @@ def simulate(kernels, q0, qdot0, t_span, p, *, method=None, rtol=1e-9, atol=None
     in the kernels' order); :meth:`System.simulate` makes them from names and documents
     the options.  ``label`` names the system in messages (default ``kernels.label``).
     """
-    start = time.perf_counter()
     o = check_options(t_span, rtol=rtol, atol=atol, t_eval=t_eval, max_steps=max_steps, h=h,
                       stride=stride, chunk_steps=chunk_steps, max_points=max_points)
+    return simulate_checked(kernels, q0, qdot0, p, o, method=method, events=events,
+                            error_check=error_check, label=label)
+
+
+def simulate_checked(kernels, q0, qdot0, p, options, *, method=None, events=(),
+                     error_check=False, label=None) -> Trajectory:
+    """:func:`simulate` with its options checked already (``options`` from
+    :func:`check_options`): what :meth:`System.simulate` calls, so that one call checks
+    them once."""
+    start = time.perf_counter()
+    o = options
     label = kernels.label if label is None else label
     q0 = np.asarray(q0, dtype=float)
     qd0 = np.asarray(qdot0, dtype=float)
@@ -632,8 +655,7 @@ def _step_from_tolerance(kernels, label, q0, qd0, p, o):
     span = o.t1 - o.t0
     pilot = replace(o, t1=o.t0 + span / 50, t_eval=None, h=None, stride=1, max_steps=None)
     t_pilot = _run_compiled(kernels, label, METHODS["rkn12"], q0, qd0, p, pilot, (),
-                            np.zeros((0, 4), dtype=np.int64), np.zeros(0), time.perf_counter(),
-                            along=False, hold=False).t
+                            _NO_EV_INT, _EMPTY, time.perf_counter(), along=False, hold=False).t
     steps = np.sort(np.diff(t_pilot)[:-1] if len(t_pilot) > 2 else np.diff(t_pilot))
     h = float(steps[int(0.2 * (len(steps) - 1))])
     return span / math.ceil(span / h)
@@ -644,16 +666,18 @@ def _finish(kernels, ka, meth, o, p, T, Y, err, err_kind, counts, status, messag
     """The Trajectory, with energy, multipliers and constraint residual along it
     (``along=False``: energy NaN, for internal pilot runs)."""
     n, m = kernels.n_dof, kernels.n_constraints
-    T = np.ascontiguousarray(T)
-    Y = np.ascontiguousarray(Y)
-    E = np.full(T.shape[0], np.nan)
-    LAM = np.zeros((T.shape[0], max(m, 1)))
-    RES = np.zeros(T.shape[0])
+    N = T.shape[0]
+    E = np.empty(N)
+    # (the multipliers and the residual are written only for a constrained system)
+    LAM = np.zeros((N, m)) if m else _NO_LAMBDA
+    RES = np.zeros(N) if m else _EMPTY
     if along:
         _kern.along(ka, m, T, Y, p, E, LAM, RES)
+    else:
+        E.fill(np.nan)
     return Trajectory(
         coordinates=kernels.coordinates, t=T, q=Y[:, :n].copy(), qdot=Y[:, n:].copy(), energy=E,
-        multipliers=LAM[:, :m].copy() if m else None, constraint_residual=RES if m else None,
+        multipliers=LAM if m else None, constraint_residual=RES if m else None,
         error_estimate=float(err), error_estimate_kind=err_kind, n_steps=int(counts[0]),
         n_rejected=int(counts[1]), n_rhs=int(counts[2]), status=status, message=message,
         events=tuple(sorted(ev_list, key=lambda e: e.t)), method=meth.name, rtol=o.rtol,
@@ -672,14 +696,19 @@ def _singular_error(label, m, t, y):
 
 def _run_compiled(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, start,
                   along=True, hold=True):
+    """Run a compiled driver chunk by chunk; the Trajectory (``hold=False``: the adaptive
+    RKN with its classic step-size controller throughout, for the pilot of rkn12-fixed)."""
     n, m = kernels.n_dof, kernels.n_constraints
+    n2 = 2 * n
     driver = _DRIVERS[meth.driver]
-    ka = _addresses(kernels, driver, ev_int)
-    t0, t1, t_eval = o.t0, o.t1, o.t_eval
-    y = np.concatenate([q0, qd0])
+    ka = _addresses(kernels, driver)
+    t0 = o.t0
+    y = np.empty(n2)
+    y[:n] = q0
+    y[n:] = qd0
     if m and _kern.project_start(ka, m, t0, y, p) != 0:
         raise _singular_error(label, m, t0, y)
-    f = np.empty(2 * n)
+    f = np.empty(n2)
     status = (_kern.fast_start(ka, y, f, t0, p) if driver.drive_kernel
               else _kern.derivative_start(ka, m, t0, y, p, f))
     if status != 0:
@@ -687,55 +716,64 @@ def _run_compiled(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, s
     h0 = (_kern.initial_step(ka, m, t0, y, f, p, o.rtol, o.atol, 1.0 / (meth.error_order + 1))
           if meth.adaptive else o.h)
     tv = np.zeros(_kern.TV_SIZE)
-    tv[[_kern.TV_T, _kern.TV_END, _kern.TV_H]] = t0, t1, h0
+    tv[_kern.TV_T] = t0
+    tv[_kern.TV_END] = o.t1
+    tv[_kern.TV_H] = h0
     stats = np.zeros(_kern.STATS_SIZE, dtype=np.int64)
     stats[_kern.ST_RHS] = 1 + (2 if meth.adaptive else 0)
-    if t_eval is not None:
+    if o.t_eval is not None:
+        t_eval = o.t_eval
         cap = t_eval.shape[0]
-        tout = np.empty(cap)
-        yout = np.empty((cap, 2 * n))
         k0 = int(np.searchsorted(t_eval, t0, side="right"))
-        tout[:k0] = t_eval[:k0]
-        yout[:k0] = y
-        stats[_kern.ST_STORED] = stats[_kern.ST_NEXT_EVAL] = k0
-        pieces_t, pieces_y = [], []
+    else:                     # every stride-th step, from the initial state on
+        t_eval = _EMPTY
+        cap = 4096
+        k0 = 1
+    tout = np.empty(cap)
+    yout = np.empty((cap, n2))
+    tout[:k0] = t0 if o.t_eval is None else t_eval[:k0]
+    yout[:k0] = y
+    stats[_kern.ST_STORED] = k0
+    stats[_kern.ST_NEXT_EVAL] = k0 if o.t_eval is not None else 0
+    if events:
+        ev_g = np.array([_event_value_py(kernels, ev_int[k], ev_val[k], t0, y, p)
+                         for k in range(len(events))], dtype=float)
+        ev_cap = max(64, 4 * len(events))
+        ev_t, ev_k, ev_y = (np.empty(ev_cap), np.empty(ev_cap, dtype=np.int64),
+                            np.empty((ev_cap, n2)))
     else:
-        tout = np.empty(4096)
-        yout = np.empty((4096, 2 * n))
-        t_eval = np.empty(0)
-        pieces_t, pieces_y = [np.array([t0])], [y[None, :].copy()]
-    ev_g = np.array([_event_value_py(kernels, ev_int[k], ev_val[k], t0, y, p)
-                     for k in range(len(events))], dtype=float)
-    ev_cap = max(64, 4 * len(events))
+        ev_g, ev_t, ev_k, ev_y = _EMPTY, _EMPTY, _NO_EV_K, _NO_EV_Y
     run = _Run(ka, m, meth, o, y, f, p, tv, stats, t_eval, tout, yout, ev_int, ev_val, ev_g,
-               np.empty(ev_cap), np.empty(ev_cap, dtype=np.int64), np.empty((ev_cap, 2 * n)),
-               o.stride, np.empty(_HOLD_BLOCK if meth.adaptive and hold else 0))
+               ev_t, ev_k, ev_y, o.stride,
+               np.empty(_HOLD_BLOCK) if meth.adaptive and hold else _EMPTY)
     ev_list = []
-    total_limit = o.max_steps if o.max_steps is not None else np.iinfo(np.int64).max
+    total_limit = o.max_steps if o.max_steps is not None else _NO_STEP_LIMIT
     status_name, message = "success", "reached the end of t_span"
-    stored = [1]
+    pieces_t, pieces_y = [], []     # without t_eval: the rows stored so far
+    stored = 0
 
     def drain():
+        nonlocal stored
         k = int(stats[_kern.ST_EVENTS])
         for i in range(k):
-            ev_list.append(EventRecord(events[run.ev_k[i]].name, float(run.ev_t[i]),
-                                       run.ev_y[i, :n].copy(), run.ev_y[i, n:].copy()))
+            ev_list.append(EventRecord(events[ev_k[i]].name, float(ev_t[i]),
+                                       ev_y[i, :n].copy(), ev_y[i, n:].copy()))
         stats[_kern.ST_EVENTS] = 0
         if o.t_eval is None:
             k = int(stats[_kern.ST_STORED])
             if k:
                 pieces_t.append(tout[:k].copy())
                 pieces_y.append(yout[:k].copy())
-                stored[0] += k
+                stored += k
             stats[_kern.ST_STORED] = 0
-            if stored[0] > o.max_points:
+            if stored > o.max_points:
                 # memory bound: keep every other stored row (and the last), store half as often
                 T_ = np.concatenate(pieces_t)
                 Y_ = np.concatenate(pieces_y)
                 keep = np.r_[np.arange(0, len(T_) - 1, 2), len(T_) - 1]
                 pieces_t[:] = [T_[keep]]
                 pieces_y[:] = [Y_[keep]]
-                stored[0] = len(keep)
+                stored = len(keep)
                 run.stride *= 2
 
     interrupted = False
@@ -772,12 +810,13 @@ def _run_compiled(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, s
     if o.t_eval is not None:
         k = int(stats[_kern.ST_STORED])
         T, Y = tout[:k], yout[:k]
+    elif len(pieces_t) == 1:
+        T, Y = pieces_t[0], pieces_y[0]
     else:
         T, Y = np.concatenate(pieces_t), np.concatenate(pieces_y)
-    symplectic = meth.family == "symplectic"
-    err = tv[_kern.TV_ERROR] if not symplectic else float("nan")
-    kind = "sum of local error estimates" if np.isfinite(err) else "none"
-    counts = stats[[_kern.ST_STEPS, _kern.ST_REJECTED, _kern.ST_RHS]]
+    err = tv[_kern.TV_ERROR] if meth.family != "symplectic" else math.nan
+    kind = "sum of local error estimates" if math.isfinite(err) else "none"
+    counts = (stats[_kern.ST_STEPS], stats[_kern.ST_REJECTED], stats[_kern.ST_RHS])
     traj = _finish(kernels, ka, meth, o, p, T, Y, err, kind, counts, status_name, message,
                    ev_list, start, along)
     if interrupted:

@@ -629,13 +629,34 @@ class System:
             On Ctrl-C, carrying the part computed in ``.trajectory``.
         """
         from . import integrate
-        q0 = self.coordinate_array(q0, "q0")
-        qdot0 = self.coordinate_array(qdot0, "qdot0")
-        p = self.parameter_array(params)
-        # every argument is checked before the kernels compile (seconds, cold)
-        integrate.check_options(t_span, rtol=rtol, t_eval=t_eval, **options)
-        return integrate.simulate(self.kernels, q0, qdot0, t_span, p, method=method, rtol=rtol,
-                                  t_eval=t_eval, label=self._label(), **options)
+        q0, qdot0, p = self._simulate_arrays(q0, qdot0, params)
+        # every argument is checked before the kernels compile (seconds, cold), once
+        checked = integrate.check_options(t_span, rtol=rtol, t_eval=t_eval, **options)
+        return integrate.simulate_checked(
+            self.kernels, q0, qdot0, p, checked, method=method, events=options.get("events", ()),
+            error_check=options.get("error_check", False), label=self._label())
+
+    def _simulate_arrays(self, q0, qdot0, params):
+        """(q0, q̇0, p) as float arrays for :meth:`simulate`.  The common call (lists or
+        tuples of plain finite numbers; a dict of them by parameter name) is checked here
+        in a few microseconds, since short runs pay it on every call; anything else goes
+        through :meth:`coordinate_array` and :meth:`parameter_array` (same values, and
+        their messages)."""
+        n, names = self.n_dof, self.parameters
+        plain = (float, int, np.float64)    # (v − v == 0: finite; inf − inf and NaN are NaN)
+        arrays = []
+        for values, what in ((q0, "q0"), (qdot0, "qdot0")):
+            if type(values) in (list, tuple) and len(values) == n and all(
+                    type(v) in plain and v - v == 0 for v in values):
+                arrays.append(np.array(values, dtype=float))
+            else:
+                arrays.append(self.coordinate_array(values, what))
+        if type(params) is dict and len(params) == len(names) and all(
+                type(params.get(k)) in plain and params[k] - params[k] == 0 for k in names):
+            arrays.append(np.array([params[k] for k in names], dtype=float))
+        else:
+            arrays.append(self.parameter_array(params))
+        return arrays
 
     def simulate_grid(self, q0, qdot0, t_span, params=None, *, method=None, rtol=1e-9,
                       atol=None, h=None, strobe=None, reference=None, band=None, energy=False,

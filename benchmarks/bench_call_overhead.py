@@ -1,0 +1,179 @@
+"""The fixed cost of one ``simulate`` call: what a short run pays on every call (issue 11, point 8).
+
+Run:  python benchmarks/bench_call_overhead.py [--quick]
+
+Problem: the driven pendulum of ``bench_work_precision.py`` (A = 0.05 m, l = 1 m, 60 Hz,
+from θ = π − 0.1 at rest) for 10 drive periods, rtol = atol = 1e-9, the default method,
+many calls in a row (compile time excluded by a warm-up call).  Printed, per call (best
+of several rounds of ``--calls`` calls):
+
+* ``System.simulate`` as a user calls it (names -> arrays, checks, integration, Trajectory);
+* its split: the argument checks (``System.simulate`` minus
+  ``integrate.simulate_checked`` on ready arrays and options), the compiled calls (every
+  numba function of ``lagrange_core._integrator_kernels`` that the call makes, timed by
+  wrapping them: the integration, its start, the energy along the output), and the rest
+  (Python in ``integrate``: set-up, buffers, the frozen Trajectory);
+* the *fixed cost* = per call minus the compiled integration, and the same for a run of
+  one step (``t_span`` = 1 ms);
+* peers in the same process on the same 10 periods: heyoka's ``taylor_adaptive`` (state
+  reset, ``propagate_until``; tol 1e-9) and scipy's ``solve_ivp`` (DOP853, rtol = atol =
+  1e-9, the compiled right-hand side), with the ratios ours / peer.
+
+Absolute times drift on a shared machine; compare figures from one run.
+"""
+from __future__ import annotations
+
+import argparse
+import functools
+import math
+import sys
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from lagrange_core import _integrator_kernels as kern  # noqa: E402
+from lagrange_core import integrate, problems  # noqa: E402
+
+A, L, G = 0.05, 1.0, 9.81
+OMEGA = 2 * math.pi * 60
+THETA0 = math.pi - 0.1
+PARAMS = dict(A=A, g=G, l=L, m=1.0, omega=OMEGA)
+PERIODS = 10
+RTOL = 1e-9
+
+
+def per_call(fn, calls, rounds):
+    """Best over ``rounds`` of the mean time of ``calls`` calls (s)."""
+    best = float("inf")
+    for _ in range(rounds):
+        t0 = time.perf_counter()
+        for _ in range(calls):
+            fn()
+        best = min(best, (time.perf_counter() - t0) / calls)
+    return best
+
+
+class CompiledClock:
+    """Wraps every numba function of the integrators' kernel module, summing the time
+    spent inside them per name (the wrapper's own ~0.1 µs per call counts as compiled)."""
+
+    def __init__(self):
+        self.seconds = defaultdict(float)
+        self.calls = defaultdict(int)
+        self._saved = {}
+
+    def __enter__(self):
+        for name in dir(kern):
+            obj = getattr(kern, name)
+            if hasattr(obj, "py_func"):          # a numba Dispatcher
+                self._saved[name] = obj
+                setattr(kern, name, self._wrap(name, obj))
+        return self
+
+    def _wrap(self, name, fn):
+        @functools.wraps(fn.py_func)
+        def timed(*args):
+            t0 = time.perf_counter()
+            try:
+                return fn(*args)
+            finally:
+                self.seconds[name] += time.perf_counter() - t0
+                self.calls[name] += 1
+        return timed
+
+    def __exit__(self, *exc):
+        for name, obj in self._saved.items():
+            setattr(kern, name, obj)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="fewer calls and rounds")
+    ap.add_argument("--calls", type=int, default=None)
+    args = ap.parse_args(argv)
+    calls = args.calls or (300 if args.quick else 2000)
+    rounds = 3 if args.quick else 7
+    T = PERIODS * 2 * math.pi / OMEGA
+    system = problems.driven_pendulum()
+    kernels = system.kernels
+    p = system.parameter_array(PARAMS)
+    q0, v0 = np.array([THETA0]), np.array([0.0])
+
+    def user(t1=T):
+        return system.simulate([THETA0], [0.0], (0.0, t1), PARAMS, rtol=RTOL)
+
+    opts = integrate.check_options((0.0, T), rtol=RTOL)
+
+    def ready():
+        return integrate.simulate_checked(kernels, q0, v0, p, opts)
+
+    tr = user()                                    # compile / load everything once
+    user(1e-3)
+    ready()
+    t_user = per_call(user, calls, rounds)
+    t_ready = per_call(ready, calls, rounds)
+    with CompiledClock() as clock:
+        n_clock = calls // 4
+        t_clocked = per_call(user, n_clock, 1)
+    compiled = {k: v / n_clock for k, v in clock.seconds.items()}
+    t_compiled = sum(compiled.values())
+    t_one = per_call(lambda: user(1e-3), calls, rounds)
+    with CompiledClock() as clock1:
+        per_call(lambda: user(1e-3), n_clock, 1)
+    t_one_compiled = sum(clock1.seconds.values()) / n_clock
+    one = user(1e-3)
+
+    print(f"driven pendulum, {PERIODS} drive periods, rtol = atol = {RTOL:g}, method "
+          f"{tr.method!r} ({tr.n_steps} steps, {tr.n_rejected} rejected, {len(tr)} rows); "
+          f"best of {rounds} rounds of {calls} calls")
+    print(f"  System.simulate per call             {t_user * 1e6:8.1f} µs")
+    print(f"    argument checks (names -> arrays)  {(t_user - t_ready) * 1e6:8.1f} µs")
+    print(f"    compiled calls (clocked run: {t_clocked * 1e6:.1f} µs per call)")
+    for name, sec in sorted(compiled.items(), key=lambda kv: -kv[1]):
+        print(f"      {name:<30} {sec * 1e6:8.1f} µs  ({clock.calls[name] // n_clock} per call)")
+    print(f"    Python in integrate (set-up, Trajectory)  "
+          f"{(t_ready - t_compiled) * 1e6:8.1f} µs")
+    print(f"  fixed cost (per call - compiled)     {(t_user - t_compiled) * 1e6:8.1f} µs")
+    print(f"  a run of {one.n_steps} step(s) (1 ms): per call {t_one * 1e6:.1f} µs, "
+          f"fixed cost {(t_one - t_one_compiled) * 1e6:.1f} µs")
+
+    peers = {}
+    try:
+        import heyoka as hy
+        th, v = hy.make_vars("th", "v")
+        rhs = -(G - A * OMEGA**2 * hy.cos(OMEGA * hy.time)) * hy.sin(th) / L
+        ta = hy.taylor_adaptive([(th, v), (v, rhs)], [THETA0, 0.0], tol=RTOL)
+
+        def heyoka_call():
+            ta.time = 0.0
+            ta.state[:] = [THETA0, 0.0]
+            return ta.propagate_until(T)
+        heyoka_call()
+        peers["heyoka taylor_adaptive"] = per_call(heyoka_call, calls, rounds)
+    except ImportError:
+        print("  heyoka not installed: skipped (pip install 'kapitza[bench]')")
+    from scipy.integrate import solve_ivp
+    W = kernels.work_array()
+
+    def f(t, y):
+        out = np.empty(2)
+        kernels.rhs(t, y, p, out, W)
+        return out
+
+    def scipy_call():
+        return solve_ivp(f, (0.0, T), [THETA0, 0.0], method="DOP853", rtol=RTOL, atol=RTOL)
+    scipy_call()
+    peers["scipy solve_ivp DOP853"] = per_call(scipy_call, max(calls // 20, 10), rounds)
+    print("  peers, same run, per call (ratio ours / peer):")
+    for name, sec in peers.items():
+        print(f"    {name:<28} {sec * 1e6:10.1f} µs   {t_user / sec:6.2f}")
+    return t_user, t_user - t_compiled
+
+
+if __name__ == "__main__":
+    main()
