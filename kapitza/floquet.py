@@ -77,11 +77,13 @@ its exact slow frequency is within 0.2 % of the averaging value √(A²ω²/2 �
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
 import time
 from collections.abc import Mapping
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -100,6 +102,28 @@ __all__ = ["floquet_point", "floquet_grid", "stability_map", "monodromy_data", "
            "FloquetGrid", "MonodromyData", "StabilityMap", "ComputationInterrupted"]
 
 # -- J(t) samples over a parameter grid (compiled once, for every system) ------------------
+
+#: compiled calls over fewer grid points than this run on the calling thread alone.  Waking
+#: numba's thread pool for a parallel loop costs 10–60 ms on a loaded machine (the loop
+#: waits at its barrier for a descheduled worker) against 0.03–0.3 ms per point: that
+#: wait, not the dimension, made one Floquet point of the triple pendulum cost 20–28 ms
+#: and sometimes the double pendulum's too (issue 12.5; benchmarks/README.md)
+SERIAL_BELOW = 256
+
+
+@contextlib.contextmanager
+def _threads_for(npts):
+    """Run the parallel kernels called inside on one thread when ``npts`` is small."""
+    if npts >= SERIAL_BELOW:
+        yield
+        return
+    before = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)
+
 
 @njit(cache=True, parallel=True)
 def floquet_sample_jacobian(ka, P, ystar, T, n_samples, out, status):
@@ -348,7 +372,8 @@ def _sample(ka, P, ystar, T, M, progress=False):
     def work(a, b):
         out = np.empty((b - a, M, d, d))
         status = np.zeros(b - a, dtype=np.int64)
-        floquet_sample_jacobian(ka, P[a:b], ystar, T[a:b], M, out, status)
+        with _threads_for(b - a):
+            floquet_sample_jacobian(ka, P[a:b], ystar, T[a:b], M, out, status)
         if np.any(status != 0):
             bad = a + int(np.argmax(status != 0))
             raise ValueError(f"the mass matrix is singular at the equilibrium for parameters "
@@ -544,8 +569,10 @@ def _integrate(prep, idx, tol, order, progress=False):
 
         def work(a, b):
             # reversible (J even in t, no velocity block): integrate half a period
-            _monodromy_grid(Cr[a:b], Sr[a:b], prep["K"], one[a:b], two_pi[a:b], float(tol),
-                            int(order), prep["half"], Mr[a:b], lr[a:b], er[a:b], sr[a:b])
+            with _threads_for(b - a):
+                _monodromy_grid(Cr[a:b], Sr[a:b], prep["K"], one[a:b], two_pi[a:b],
+                                float(tol), int(order), prep["half"], Mr[a:b], lr[a:b],
+                                er[a:b], sr[a:b])
 
         done, stopped = run_in_chunks(work, run.size, progress=progress,
                                       label="Floquet grid")
@@ -752,7 +779,7 @@ def _analyse(Ms, ls, T, liou, err, guard_tol):
         if reduce.size:
             qc, xr = _reduced_polynomial(lam[reduce], n)
             root = np.sqrt(xr * xr - 4.0)
-            lam = lam.copy()
+            lam = lam.astype(complex)        # eigvals is real when every λ of M̃ is real
             lam[reduce] = np.concatenate([0.5 * (xr + root), 0.5 * (xr - root)], axis=1)
     with np.errstate(divide="ignore"):
         logabs = np.log(np.abs(lam)) + ls[:, None]
