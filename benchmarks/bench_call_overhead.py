@@ -35,26 +35,31 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
 
+from bench_work_precision import OMEGA, PARAMS, THETA0, have_heyoka, heyoka_integrator  # noqa: E402
 from lagrange_core import _integrator_kernels as kern  # noqa: E402
 from lagrange_core import integrate, problems  # noqa: E402
 
-A, L, G = 0.05, 1.0, 9.81
-OMEGA = 2 * math.pi * 60
-THETA0 = math.pi - 0.1
-PARAMS = dict(A=A, g=G, l=L, m=1.0, omega=OMEGA)
 PERIODS = 10
 RTOL = 1e-9
 
 
 def per_call(fn, calls, rounds):
     """Best over ``rounds`` of the mean time of ``calls`` calls (s)."""
-    best = float("inf")
+    return per_call_each([fn], calls, rounds)[0]
+
+
+def per_call_each(fns, calls, rounds):
+    """:func:`per_call` of several functions, their rounds interleaved (so that a busy
+    spell of the machine does not fall on one of them only)."""
+    best = [float("inf")] * len(fns)
     for _ in range(rounds):
-        t0 = time.perf_counter()
-        for _ in range(calls):
-            fn()
-        best = min(best, (time.perf_counter() - t0) / calls)
+        for i, fn in enumerate(fns):
+            t0 = time.perf_counter()
+            for _ in range(calls):
+                fn()
+            best[i] = min(best[i], (time.perf_counter() - t0) / calls)
     return best
 
 
@@ -91,6 +96,19 @@ class CompiledClock:
             setattr(kern, name, obj)
 
 
+def clocked(fn, calls, rounds):
+    """Per call, in the round of ``calls`` calls that took least: the time, the seconds
+    inside each compiled function, and how often each was called."""
+    best = (float("inf"), {}, {})
+    for _ in range(rounds):
+        with CompiledClock() as clock:
+            t = per_call(fn, calls, 1)
+        if t < best[0]:
+            best = (t, {k: v / calls for k, v in clock.seconds.items()},
+                    {k: v // calls for k, v in clock.calls.items()})
+    return best
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer calls and rounds")
@@ -115,17 +133,10 @@ def main(argv=None):
     tr = user()                                    # compile / load everything once
     user(1e-3)
     ready()
-    t_user = per_call(user, calls, rounds)
-    t_ready = per_call(ready, calls, rounds)
-    with CompiledClock() as clock:
-        n_clock = calls // 4
-        t_clocked = per_call(user, n_clock, 1)
-    compiled = {k: v / n_clock for k, v in clock.seconds.items()}
+    t_user, t_ready, t_one = per_call_each([user, ready, lambda: user(1e-3)], calls, rounds)
+    t_clocked, compiled, counts = clocked(user, calls // 4, rounds)
     t_compiled = sum(compiled.values())
-    t_one = per_call(lambda: user(1e-3), calls, rounds)
-    with CompiledClock() as clock1:
-        per_call(lambda: user(1e-3), n_clock, 1)
-    t_one_compiled = sum(clock1.seconds.values()) / n_clock
+    t_one_compiled = sum(clocked(lambda: user(1e-3), calls // 4, rounds)[1].values())
     one = user(1e-3)
 
     print(f"driven pendulum, {PERIODS} drive periods, rtol = atol = {RTOL:g}, method "
@@ -135,7 +146,7 @@ def main(argv=None):
     print(f"    argument checks (names -> arrays)  {(t_user - t_ready) * 1e6:8.1f} µs")
     print(f"    compiled calls (clocked run: {t_clocked * 1e6:.1f} µs per call)")
     for name, sec in sorted(compiled.items(), key=lambda kv: -kv[1]):
-        print(f"      {name:<30} {sec * 1e6:8.1f} µs  ({clock.calls[name] // n_clock} per call)")
+        print(f"      {name:<30} {sec * 1e6:8.1f} µs  ({counts[name]} per call)")
     print(f"    Python in integrate (set-up, Trajectory)  "
           f"{(t_ready - t_compiled) * 1e6:8.1f} µs")
     print(f"  fixed cost (per call - compiled)     {(t_user - t_compiled) * 1e6:8.1f} µs")
@@ -143,11 +154,8 @@ def main(argv=None):
           f"fixed cost {(t_one - t_one_compiled) * 1e6:.1f} µs")
 
     peers = {}
-    try:
-        import heyoka as hy
-        th, v = hy.make_vars("th", "v")
-        rhs = -(G - A * OMEGA**2 * hy.cos(OMEGA * hy.time)) * hy.sin(th) / L
-        ta = hy.taylor_adaptive([(th, v), (v, rhs)], [THETA0, 0.0], tol=RTOL)
+    if have_heyoka():
+        ta = heyoka_integrator(RTOL)
 
         def heyoka_call():
             ta.time = 0.0
@@ -155,7 +163,7 @@ def main(argv=None):
             return ta.propagate_until(T)
         heyoka_call()
         peers["heyoka taylor_adaptive"] = per_call(heyoka_call, calls, rounds)
-    except ImportError:
+    else:
         print("  heyoka not installed: skipped (pip install 'kapitza[bench]')")
     from scipy.integrate import solve_ivp
     W = kernels.work_array()

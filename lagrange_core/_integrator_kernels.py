@@ -65,6 +65,11 @@ HOLD_QUANTILE = 0.2
 HOLD_GROWTH = 5.0
 #: the first block is shorter (a short run reaches the held step sooner)
 HOLD_FIRST = 16
+#: an adaptive RKN step spans at most this fraction of the period of the fastest drive
+#: harmonic: the embedded error estimate is a truncated series in ωh and stops measuring
+#: the error as ωh nears 2π (a step of one period sees the drive at the same phase at
+#: both ends); on the driven pendulum longer steps broke the tolerance (rtol 1e-3: 6e-3)
+DRIVE_STEP = 0.75
 #: a new held step replaces the last one only when it differs by more than this ratio
 HOLD_CHANGE = 1.1
 #: the RKN driver recomputes the drive's cos/sin at least every DRIVE_RESYNC steps (in
@@ -743,7 +748,7 @@ def second_order_stop(ka, family, t, x, hs, q, v, a0, qn, vn, anew, p, c, A, b, 
 # -- the drivers for q̈ = f(q, t): rotations for the drive ------------------------------
 
 @njit(cache=True, inline=INLINE)
-def held_step_record(tv, stats, block, err, hs):
+def held_step_record(tv, stats, block, err, hs, h_max):
     """Record one evaluated step (size hs, scaled error err of the 10th-order estimate,
     so err ∝ hs¹¹) in the block of the held step; at the block's end set the new held step.
 
@@ -753,8 +758,8 @@ def held_step_record(tv, stats, block, err, hs):
     the block is full (``len(block)`` steps; the first block, before any held step,
     ``HOLD_FIRST``) the new held step is the ``HOLD_QUANTILE`` quantile of those ideal
     steps (one power per block: the (1 − q) quantile of r), at most ``HOLD_GROWTH``
-    times the last one; it replaces the last one only if they differ by more than
-    ``HOLD_CHANGE``.  Returns the new held step, or 0.0 when it is unchanged (or the
+    times the last one and at most ``h_max``; it replaces the last one only if they
+    differ by more than ``HOLD_CHANGE``.  Returns the new held step, or 0.0 when it is unchanged (or the
     block not yet full).
     """
     nb = block.shape[0]
@@ -785,6 +790,9 @@ def held_step_record(tv, stats, block, err, hs):
         if old / HOLD_CHANGE <= hold <= old * HOLD_CHANGE:
             return 0.0          # the same within HOLD_CHANGE: keep it (and its rotations)
         hold = min(hold, HOLD_GROWTH * old)
+    hold = min(hold, h_max)
+    if hold == old:
+        return 0.0
     tv[TV_HOLD] = hold
     tv[TV_HREF] = hold
     return hold
@@ -826,6 +834,8 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
     ``len(block)`` evaluated steps the held step is set anew from their errors
     (:func:`held_step_record`).  So the step does not chase the drive's phase, the
     drive's rotations are computed once per step size, and rejections are rare.
+    No adaptive step spans more than ``DRIVE_STEP`` periods of the fastest drive
+    harmonic.
     """
     n = y.shape[0] // 2
     rates = drive_rates(ka, p)
@@ -858,6 +868,13 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
     t = tv[TV_T]
     t_end = tv[TV_END]
     h = tv[TV_H]
+    # adaptive: no step longer than DRIVE_STEP periods of the fastest drive harmonic
+    h_max = np.inf
+    for k in range(nd):
+        if rates[k] != 0.0:
+            h_max = min(h_max, DRIVE_STEP * 2.0 * np.pi / abs(rates[k]))
+    if adaptive:
+        h = min(h, h_max)
     h_rot = -1.0
     rejected = False
     expo = -1.0 / 11.0
@@ -951,7 +968,7 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
                     return STATUS_UNDERFLOW
                 break
             stats[ST_REJECTED] += 1
-            held_step_record(tv, stats, block, err, hs)
+            held_step_record(tv, stats, block, err, hs, h_max)
             h = hs * max(0.2, 0.9 * err ** expo) if finite else 0.2 * hs
             rejected = True
             if h < hmin:
@@ -1014,13 +1031,13 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
                 if rejected:
                     factor = min(1.0, factor)
                 if hold == 0.0:        # the first block: the classic controller
-                    h = max(h, hs * factor) if clipped else hs * factor
+                    h = min(h_max, max(h, hs * factor) if clipped else hs * factor)
                 elif not clipped:      # below the held step: back to it, never further down
                     h = min(hold, hs * max(1.0, factor)) if not rejected else hs
             elif not clipped:
                 h = hold
             rejected = False
-            new_hold = held_step_record(tv, stats, block, err, hs)
+            new_hold = held_step_record(tv, stats, block, err, hs, h_max)
             if new_hold > 0.0 and (h >= hold or h > new_hold):
                 h = new_hold
         tv[TV_H] = h
