@@ -88,6 +88,18 @@ Figures (:mod:`kapitza.plots`; they draw results and compute nothing)
     ince_strutt_figure
         The Ince–Strutt chart.
 
+Scenes and sweeps (:mod:`kapitza.scene`, :mod:`kapitza.scene_file`, :mod:`kapitza.sweep`)
+    Scene
+        A set-up in a TOML file (``Scene.from_toml(path)``): ``.system`` with only the
+        effects it names, ``.run()`` the analyses it asks for, ``.sweep()`` over its grid.
+    SceneResults, SceneError
+        What ``Scene.run`` computed; every problem of a scene file, reported together.
+    SweepResult
+        A sweep's tidy DataFrame and its Parquet dataset (tiles kept on disk, resumable;
+        serial, numba threads or a Dask cluster).
+    example_scenes
+        The scene files that ship with kapitza.
+
 Installation
     warmup
         Compile the integrators and the Floquet and Mathieu kernels once per
@@ -113,6 +125,9 @@ from .pendulum_closed_forms import (multiple_pendulum_upright, pendulum_averaged
                                     pendulum_effective_potential, averaging_window)
 from .plots import effective_potential_figure, ince_strutt_figure, stability_map_figure
 from .warmup import warmup
+from .scene import Scene, SceneResults, example_scenes
+from .scene_file import SceneError
+from .sweep import SweepResult
 from .results import (AveragingPrediction, ComputationInterrupted, EquilibriumPrediction,
                       FloquetGrid, FloquetResult, FloquetWindow, InceStruttChart, MonodromyData,
                       MultiplePendulumPrediction, PendulumAveraging, PeriodicOrbit, SlowModes,
@@ -132,5 +147,6 @@ __all__ = [
     "FloquetWindow", "InceStruttChart", "SlowModes", "AveragingPrediction", "SlowModeSweep",
     "PendulumAveraging", "EquilibriumPrediction", "MultiplePendulumPrediction",
     "stability_map_figure", "effective_potential_figure", "ince_strutt_figure", "warmup",
+    "Scene", "SceneResults", "SceneError", "SweepResult", "example_scenes",
 ]
 __version__ = "0.1.0"

@@ -1,0 +1,942 @@
+"""Scene files: a physical set-up in TOML, read and checked as a whole.
+
+A scene file says what a lecture's figure says — what hangs from the pivot, the
+parameter values, the physics switched on, where the motion starts — and which
+analyses to run.  :func:`read_scene` parses it with the standard library's
+:mod:`tomllib` and checks every key before anything is built; every problem found
+is collected and raised together as one :class:`SceneError`, each naming the file,
+the dotted key and its line, what is allowed, and the nearest allowed key for a
+misspelt one.  :class:`kapitza.Scene` builds the System and runs the analyses.
+
+Schema 1
+--------
+Top level: ``schema = 1`` (required), ``title`` (text, optional) and the tables
+
+``[system]``
+    ``name``: a rig of :data:`lagrange_core.effects.RIGS` ("pendulum",
+    "double_pendulum", "triple_pendulum"), "chain" with ``links = n``, or a user's
+    function ``"package.module:function"`` that returns a
+    :class:`lagrange_core.effects.Rig` (called with the keyword arguments of the
+    optional table ``[system.options]``).
+``[parameters]``
+    The rig's parameters by name (the pendulum: ``l`` (m), ``m`` (kg); a chain ``l1`` …
+    ``ln``, ``m1`` … ``mn``) and ``g`` (m/s²) with gravity on.  Lengths are required;
+    masses default to 1 kg and ``g`` to 9.81 m/s².  A parameter the rig declares
+    positive (lengths, masses) must be > 0; ``g`` ≥ 0.
+``[effects]``
+    Only the effects named here enter the equations (:mod:`lagrange_core.effects`):
+
+    * ``gravity = true``;
+    * ``[effects.drive]``: ``direction`` ("vertical" (default), "horizontal", a vector
+      ``[dx, dy]``, or "elliptic": x = A cos ωt, y = B sin ωt), ``amplitude`` A (m, ≥ 0),
+      ``amplitude_y`` B (m, the ellipse only; its sign sets the sense of rotation),
+      ``frequency_hz`` f (> 0) or ``omega`` (rad/s, > 0), ``harmonics``
+      ``[[k, a_k, phase], ...]`` (A Σ a_k cos(kωt + phase); not for the ellipse);
+    * ``[effects.damping]``: ``gamma`` (1/s, ≥ 0), θ̈ = −γ θ̇ − …;
+    * ``[effects.air_drag]``: ``c`` (kg/m, ≥ 0), −c |v| v on every mass;
+    * ``[effects.spring.<coordinate>]``: ``k`` (> 0), ``rest`` (default 0).
+``[initial]``
+    Initial coordinates by name and velocities ``<coordinate>_dot`` (default 0).
+``[analyses]``
+    Each ``name = true`` or a table of its settings; only those named run
+    (settings: :data:`ANALYSES`).
+``[sweep]``
+    ``[sweep.axes]``: parameters to sweep, each a range ``{start, stop, num, scale =
+    "linear" | "log"}`` or a list of values; several axes form their Cartesian product
+    (the first axis slowest).  An axis is named by a parameter (``A``, ``omega``,
+    ``gamma``, ``l``, …), ``frequency_hz``, an initial value ``initial.theta``, or the
+    scene key that sets it (``effects.drive.amplitude``).  ``analyses``: which of the
+    analyses run at every point (default: every one that can); ``tile_points``: points
+    per tile (default: calibrated, :mod:`kapitza.sweep`).
+``[output]``
+    ``directory`` (relative to the scene file) and ``formats`` (["parquet"], or
+    ["parquet", "csv"]).
+
+Examples
+--------
+>>> spec = read_scene_text('''
+... schema = 1
+... [system]
+... name = "pendulum"
+... [parameters]
+... l = 1.0
+... [effects]
+... gravity = true
+... [effects.drive]
+... amplitude = 0.05
+... frequency_hz = 60.0
+... ''')
+>>> sorted(spec.params.items())
+[('A', 0.05), ('g', 9.81), ('l', 1.0), ('m', 1.0), ('omega', 376.99111843077515)]
+>>> read_scene_text('schema = 1\\n[system]\\nname = "pendulm"\\n')
+Traceback (most recent call last):
+  ...
+kapitza.scene_file.SceneError: scene <text> has 2 errors:
+  <text>:3: system.name: unknown rig 'pendulm'; allowed: pendulum, double_pendulum, triple_pendulum, chain, or "package.module:function". Did you mean 'pendulum'?
+  <text>: parameters: missing table; the rig's parameters go here
+"""
+from __future__ import annotations
+
+import difflib
+import importlib
+import math
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import sympy as sp
+
+from lagrange_core import effects as fx
+from lagrange_core.symbols import t as t_symbol
+
+__all__ = ["SCHEMA", "ANALYSES", "SWEEPABLE", "SceneError", "SceneProblem", "SceneSpec", "Axis",
+           "read_scene", "read_scene_text"]
+
+#: The schema version this module reads.
+SCHEMA = 1
+
+#: Analyses a scene may ask for, and their settings (name → (allowed keys, description)).
+ANALYSES = {
+    "averaging": ("order",),
+    "floquet": ("about", "tol"),
+    "stability_map": ("A", "omega", "frequency_hz", "about", "tol"),
+    "window": ("omega", "frequency_hz", "about"),
+    "measure": ("about", "periods", "band", "rtol"),
+    "simulate": ("periods", "duration", "samples", "method", "rtol"),
+}
+#: Analyses that run at every point of a sweep (the others are grids of their own).
+SWEEPABLE = ("averaging", "floquet", "measure", "simulate")
+
+_TOP = ("schema", "title", "system", "parameters", "effects", "initial", "analyses", "sweep",
+        "output")
+_EFFECTS = ("gravity", "drive", "damping", "air_drag", "spring")
+_DRIVE = ("direction", "amplitude", "amplitude_y", "frequency_hz", "omega", "harmonics")
+_AXIS = ("start", "stop", "num", "scale")
+_ABOUT = ("inverted", "hanging", "auto")
+_UNITS = {"g": "m/s²", "A": "m", "B": "m", "omega": "rad/s", "gamma": "1/s", "c_drag": "kg/m",
+          "frequency_hz": "Hz"}
+#: scene keys that set a parameter (for sweep axes named by the key that sets them)
+_KEY_TARGETS = {"effects.drive.amplitude": "A", "effects.drive.amplitude_y": "B",
+                "effects.drive.omega": "omega", "effects.drive.frequency_hz": "frequency_hz",
+                "effects.damping.gamma": "gamma", "effects.air_drag.c": "c_drag"}
+
+
+# -- errors ---------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class SceneProblem:
+    """One problem of a scene file: the dotted key, its line (None where unknown), what
+    is wrong and what is allowed."""
+
+    key: str
+    line: int | None
+    message: str
+
+    def format(self, source: str) -> str:
+        where = f"{source}:{self.line}" if self.line else source
+        return f"{where}: {self.key}: {self.message}"
+
+
+class SceneError(ValueError):
+    """Every problem found in a scene file, raised together.
+
+    Attributes
+    ----------
+    source : str
+        The file (or "<text>").
+    problems : tuple of SceneProblem
+    """
+
+    def __init__(self, source: str, problems):
+        self.source = str(source)
+        self.problems = tuple(problems)
+        n = len(self.problems)
+        head = f"scene {self.source} has {n} error{'s' if n != 1 else ''}:"
+        super().__init__("\n  ".join([head] + [p.format(self.source) for p in self.problems]))
+
+
+def _key_lines(text: str) -> dict:
+    """The line of every table header and key of a TOML text (dotted key → line number).
+
+    A light scan, not a parser (tomllib has already accepted the text): table headers,
+    ``key =`` lines (dotted keys included) and the keys of inline tables on those lines;
+    the lines inside a multi-line array or string are skipped."""
+    lines: dict = {}
+    table: list = []
+    depth = 0
+    in_string = False
+    key_re = r'(?:[A-Za-z0-9_-]+|"[^"]*"|\'[^\']*\')'
+    for no, raw in enumerate(text.splitlines(), 1):
+        if in_string:
+            if raw.count('"""') % 2 or raw.count("'''") % 2:
+                in_string = False
+            continue
+        s = _strip_comment(raw).strip()
+        if not s:
+            continue
+        if depth > 0:
+            depth += _balance(s)
+            continue
+        m = re.fullmatch(r"\[\[?\s*(" + key_re + r"(?:\s*\.\s*" + key_re + r")*)\s*\]\]?", s)
+        if m:
+            table = _split_key(m.group(1))
+            lines.setdefault(".".join(table), no)
+            continue
+        m = re.match(r"(" + key_re + r"(?:\s*\.\s*" + key_re + r")*)\s*=(.*)", s)
+        if not m:
+            continue
+        key = table + _split_key(m.group(1))
+        lines.setdefault(".".join(key), no)
+        value = m.group(2)
+        for inner in re.finditer(r"[{,]\s*(" + key_re + r")\s*=", value):
+            lines.setdefault(".".join(key + _split_key(inner.group(1))), no)
+        if value.count('"""') % 2 or value.count("'''") % 2:
+            in_string = True
+        depth = max(0, _balance(value))
+    return lines
+
+
+def _strip_comment(line: str) -> str:
+    quote = None
+    for i, ch in enumerate(line):
+        if quote:
+            if ch == quote:
+                quote = None
+        elif ch in "\"'":
+            quote = ch
+        elif ch == "#":
+            return line[:i]
+    return line
+
+
+def _balance(s: str) -> int:
+    s = re.sub(r'"[^"]*"|\'[^\']*\'', "", s)
+    return s.count("[") + s.count("{") - s.count("]") - s.count("}")
+
+
+def _split_key(k: str) -> list:
+    return [p.strip().strip("\"'") for p in re.findall(r'"[^"]*"|\'[^\']*\'|[^.]+', k)]
+
+
+class _Checker:
+    """Collects the problems of one scene file (never raises until :meth:`done`)."""
+
+    def __init__(self, source: str, text: str):
+        self.source = source
+        self.lines = _key_lines(text)
+        self.problems: list = []
+
+    def line(self, key: str):
+        parts = re.sub(r"\[\d+\]", "", key).split(".")
+        while parts:
+            no = self.lines.get(".".join(parts))
+            if no:
+                return no
+            parts.pop()
+        return None
+
+    def error(self, key: str, message: str):
+        self.problems.append(SceneProblem(key, self.line(key), message))
+
+    def unknown(self, key: str, name: str, allowed, what: str = "key", extra: str = ""):
+        allowed = list(allowed)
+        lower = {a.lower(): a for a in allowed}
+        close = difflib.get_close_matches(name.lower(), list(lower), n=1, cutoff=0.6)
+        hint = f". Did you mean {lower[close[0]]!r}?" if close else ""
+        shown = ", ".join(allowed) if allowed else "none"
+        self.error(key, f"unknown {what} {name!r}; allowed: {shown}{extra}{hint}")
+
+    def table(self, value, key: str, allowed, *, what: str = "key"):
+        """``value`` as a dict whose keys are all in ``allowed`` (unknown ones reported);
+        None (reported) if it is not a table."""
+        if not isinstance(value, dict):
+            self.error(key, f"must be a table, got {_kind(value)} {value!r}")
+            return None
+        for k in value:
+            if k not in allowed:
+                self.unknown(f"{key}.{k}" if key else k, k, allowed, what)
+        return value
+
+    def number(self, value, key: str, *, unit: str = "", minimum=None, strict=False,
+               integer=False):
+        """A finite number (an integer where asked) in range, else None (reported)."""
+        unit_s = f" ({unit})" if unit else ""
+        if integer:
+            if isinstance(value, bool) or not isinstance(value, int):
+                self.error(key, f"must be a whole number{unit_s}, got {_kind(value)} {value!r}")
+                return None
+        elif isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not math.isfinite(value):
+            self.error(key, f"must be a finite number{unit_s}, got {_kind(value)} {value!r}")
+            return None
+        if minimum is not None and (value <= minimum if strict else value < minimum):
+            self.error(key, f"must be {'>' if strict else '≥'} {minimum:g}{unit_s}, got {value!r}")
+            return None
+        return value if integer else float(value)
+
+    def one_of(self, table: dict, key: str, names, what: str, required: bool = True):
+        """The one of ``names`` that ``table`` has; a missing (if ``required``) or a second
+        one is reported."""
+        given = [k for k in names if k in table]
+        if len(given) > 1:
+            self.error(f"{key}.{given[1]}", f"give one of {' and '.join(names)}, not both")
+        elif not given and required:
+            self.error(f"{key}.{names[0]}", f"missing; give {what}")
+        return given[0] if len(given) == 1 else None
+
+    def boolean(self, value, key: str):
+        if not isinstance(value, bool):
+            self.error(key, f"must be true or false, got {_kind(value)} {value!r}")
+            return None
+        return value
+
+    def choice(self, value, key: str, allowed):
+        if not isinstance(value, str):
+            self.error(key, f"must be one of {', '.join(map(repr, allowed))}, got "
+                            f"{_kind(value)} {value!r}")
+            return None
+        if value not in allowed:
+            self.unknown(key, value, allowed, what="value")
+            return None
+        return value
+
+    def done(self):
+        if self.problems:
+            raise SceneError(self.source, self.problems)
+
+
+def _kind(value) -> str:
+    return {bool: "a boolean", int: "an integer", float: "a number", str: "text",
+            list: "an array", dict: "a table"}.get(type(value), type(value).__name__)
+
+
+# -- what a scene says ------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Axis:
+    """One swept (or mapped) quantity: its name as written and its values (a tuple)."""
+
+    name: str
+    values: tuple
+    kind: str = "list"          # "linear", "log" or "list"
+
+    def __len__(self):
+        return len(self.values)
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """A checked scene: everything :class:`kapitza.Scene` builds and runs from.
+
+    Attributes
+    ----------
+    source : str
+        The file's path, or "<text>".
+    text : str
+        The TOML text as read.
+    title : str or None
+    rig_name : str
+        As written in ``system.name``.
+    rig : lagrange_core.effects.Rig
+    effects : tuple of effect objects (:mod:`lagrange_core.effects`)
+    params : dict name → float
+        Every parameter of the System, defaults filled in.
+    initial : dict coordinate → float, and ``<coordinate>_dot`` → float
+    analyses : dict name → dict of settings
+        Only the analyses asked for, in the file's order.
+    sweep : dict or None
+        ``axes`` (tuple of :class:`Axis`), ``targets`` (axis name → what it sets),
+        ``analyses`` (tuple), ``tile_points`` (int or None).
+    output : dict
+        ``directory`` (Path or None) and ``formats`` (tuple).
+    data : dict
+        The parsed TOML (for the record).
+    """
+
+    source: str
+    text: str
+    title: str | None
+    rig_name: str
+    rig: object
+    effects: tuple
+    params: dict
+    initial: dict
+    analyses: dict
+    sweep: dict | None
+    output: dict
+    data: dict = field(repr=False, default_factory=dict)
+
+
+def read_scene(path) -> SceneSpec:
+    """Read and check the scene file at ``path`` (see the module docstring).
+
+    Raises
+    ------
+    SceneError
+        Every problem found (a TOML syntax error alone, as it stops the reading).
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as e:
+        raise SceneError(str(path), [SceneProblem("(file)", None, f"cannot be read: {e}")]) \
+            from None
+    return read_scene_text(text, source=str(path))
+
+
+def read_scene_text(text: str, source: str = "<text>") -> SceneSpec:
+    """Read and check a scene given as TOML text; ``source`` names it in messages and sets
+    the directory that ``output.directory`` is relative to (the current one for "<text>")."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        m = re.search(r"line (\d+)", str(e))
+        raise SceneError(source, [SceneProblem("(syntax)", int(m.group(1)) if m else None,
+                                               f"not valid TOML: {e}")]) from None
+    c = _Checker(source, text)
+    c.table(data, "", _TOP, what="table")
+    _check_schema(c, data)
+    title = data.get("title")
+    if title is not None and not isinstance(title, str):
+        c.error("title", f"must be text, got {_kind(title)} {title!r}")
+        title = None
+    rig_name, rig = _check_system(c, data.get("system"))
+    effects, effect_params = _check_effects(c, data.get("effects", {}), rig)
+    params = _check_parameters(c, data.get("parameters"), rig, effects, effect_params)
+    initial = _check_initial(c, data.get("initial", {}), rig)
+    analyses = _check_analyses(c, data.get("analyses", {}), effects)
+    sweep = _check_sweep(c, data.get("sweep"), rig, params, effects, analyses)
+    output = _check_output(c, data.get("output", {}), source)
+    c.done()
+    return SceneSpec(source=source, text=text, title=title, rig_name=rig_name, rig=rig,
+                     effects=tuple(effects), params=params, initial=initial, analyses=analyses,
+                     sweep=sweep, output=output, data=data)
+
+
+def _check_schema(c, data):
+    if "schema" not in data:
+        c.error("schema", f"missing; a scene file starts with `schema = {SCHEMA}`")
+        return
+    v = data["schema"]
+    if isinstance(v, bool) or not isinstance(v, int):
+        c.error("schema", f"must be the whole number {SCHEMA}, got {_kind(v)} {v!r}")
+    elif v != SCHEMA:
+        c.error("schema", f"unsupported schema version {v}; this kapitza reads schema {SCHEMA}")
+
+
+# -- system -------------------------------------------------------------------------------
+
+_CATALOGUE = tuple(fx.RIGS) + ("chain",)
+
+
+def _check_system(c, system):
+    if system is None:
+        c.error("system", "missing table; say what hangs from the pivot, e.g. [system] "
+                          'name = "pendulum"')
+        return None, None
+    system = c.table(system, "system", ("name", "links", "options"))
+    if system is None:
+        return None, None
+    name = system.get("name")
+    if name is None:
+        c.error("system.name", 'missing; a rig of the catalogue (' + ", ".join(_CATALOGUE)
+                + ') or "package.module:function"')
+        return None, None
+    if not isinstance(name, str):
+        c.error("system.name", f"must be text, got {_kind(name)} {name!r}")
+        return None, None
+    options = system.get("options", {})
+    if not isinstance(options, dict):
+        c.error("system.options", f"must be a table of keyword arguments, got {_kind(options)}")
+        options = {}
+    links = system.get("links")
+    if name == "chain":
+        if links is None:
+            c.error("system.links", "missing; a chain needs its number of links, e.g. links = 3")
+            return name, None
+        n = c.number(links, "system.links", integer=True, minimum=1)
+        return (name, fx.n_link_rig(n)) if n is not None else (name, None)
+    if links is not None:
+        c.error("system.links", f"only for name = \"chain\" (system.name is {name!r})")
+    if ":" in name:
+        return name, _user_rig(c, name, options)
+    if name not in fx.RIGS:
+        c.unknown("system.name", name, _CATALOGUE, what="rig",
+                  extra=', or "package.module:function"')
+        return name, None
+    if options:
+        c.error("system.options", "only for a user's rig (\"package.module:function\")")
+    return name, fx.RIGS[name]()
+
+
+def _user_rig(c, name, options):
+    module, _, function = name.partition(":")
+    try:
+        mod = importlib.import_module(module)
+    except Exception as e:      # noqa: BLE001 - any import failure is the user's to see
+        c.error("system.name", f"cannot import module {module!r} ({type(e).__name__}: {e})")
+        return None
+    fn = getattr(mod, function, None)
+    if not callable(fn):
+        c.unknown("system.name", function,
+                  [k for k, v in vars(mod).items() if callable(v) and not k.startswith("_")],
+                  what=f"function of {module}")
+        return None
+    try:
+        rig = fn(**options)
+    except Exception as e:      # noqa: BLE001
+        c.error("system.name", f"{name}(**system.options) raised {type(e).__name__}: {e}")
+        return None
+    if not isinstance(rig, fx.Rig):
+        c.error("system.name", f"{name} must return a lagrange_core.effects.Rig (coordinates "
+                               f"and masses, so that effects can be applied), got "
+                               f"{type(rig).__name__}")
+        return None
+    return rig
+
+
+def _rig_symbols(rig):
+    """(parameters of the rig by name → Symbol, names of its mass parameters)."""
+    coords = set(rig.coordinates)
+    syms, masses = {}, set()
+    for _, m, pos in rig.masses:
+        for expr in (m, *pos(sp.Integer(0), sp.Integer(0))):
+            for s in sp.sympify(expr).free_symbols - coords - {t_symbol}:
+                syms[s.name] = s
+        masses |= {s.name for s in sp.sympify(m).free_symbols}
+    return syms, masses
+
+
+# -- effects ------------------------------------------------------------------------------
+
+#: effects set by one number ≥ 0: table → (effect, key, parameter, unit, what it is)
+_ONE_NUMBER_EFFECTS = {
+    "damping": (fx.Damping, "gamma", "gamma", "1/s",
+                "the damping rate γ (1/s), ≥ 0 (leave the table out for no damping)"),
+    "air_drag": (fx.AirDrag, "c", "c_drag", "kg/m", "c = ½ ρ C_d S (kg/m), ≥ 0"),
+}
+
+
+def _check_effects(c, effects, rig):
+    """The effect objects and the values of their parameters."""
+    out, values = [], {}
+    if c.table(effects, "effects", _EFFECTS, what="effect") is None:
+        return out, values
+    gravity = effects.get("gravity", False)
+    if isinstance(gravity, dict):
+        c.error("effects.gravity", "is `gravity = true` or `false`; its parameter g goes in "
+                                   "[parameters]")
+    elif c.boolean(gravity, "effects.gravity"):
+        out.append(fx.Gravity())
+    if "drive" in effects:
+        drive = _check_drive(c, effects["drive"], values)
+        if drive is not None:
+            out.append(drive)
+    for name, (kind, k, param, unit, what) in _ONE_NUMBER_EFFECTS.items():
+        if name not in effects:
+            continue
+        d = c.table(effects[name], f"effects.{name}", (k,))
+        if d is None:
+            continue
+        if k not in d:
+            c.error(f"effects.{name}.{k}", f"missing; {what}")
+        else:
+            v = c.number(d[k], f"effects.{name}.{k}", unit=unit, minimum=0.0)
+            if v is not None:
+                values[param] = v
+        out.append(kind())
+    if "spring" in effects:
+        springs = effects["spring"]
+        coords = [q.name for q in rig.coordinates] if rig is not None else None
+        if c.table(springs, "effects.spring", coords if coords is not None else springs,
+                   what="coordinate") is not None:
+            for q, s in springs.items():
+                key = f"effects.spring.{q}"
+                if coords is not None and q not in coords:
+                    continue
+                s = c.table(s, key, ("k", "rest"))
+                if s is None:
+                    continue
+                k = c.number(s["k"], f"{key}.k", minimum=0.0, strict=True) if "k" in s \
+                    else c.error(f"{key}.k", "missing; the spring constant (> 0)")
+                rest = c.number(s.get("rest", 0.0), f"{key}.rest")
+                if k is not None:
+                    values[f"k_{q}"] = k
+                out.append(fx.Spring(q, rest=rest if rest is not None else 0.0))
+    return out, values
+
+
+def _check_drive(c, d, values):
+    d = c.table(d, "effects.drive", _DRIVE)
+    if d is None:
+        return None
+    key = "effects.drive"
+    direction = d.get("direction", "vertical")
+    path = None
+    if isinstance(direction, str):
+        path = c.choice(direction, f"{key}.direction", ("vertical", "horizontal", "elliptic"))
+    elif isinstance(direction, list) and len(direction) == 2:
+        v = [c.number(x, f"{key}.direction[{i}]") for i, x in enumerate(direction)]
+        if None not in v:
+            if v[0] == v[1] == 0:
+                c.error(f"{key}.direction", "a direction [dx, dy] must not be zero")
+            else:
+                path = tuple(v)
+    else:
+        c.error(f"{key}.direction", f'must be "vertical", "horizontal", "elliptic" or a vector '
+                                    f"[dx, dy], got {_kind(direction)} {direction!r}")
+    if "amplitude" not in d:
+        c.error(f"{key}.amplitude", "missing; the pivot's amplitude A (m), ≥ 0")
+    else:
+        a = c.number(d["amplitude"], f"{key}.amplitude", unit="m", minimum=0.0)
+        if a is not None:
+            values["A"] = a
+    if path == "elliptic":
+        if "amplitude_y" not in d:
+            c.error(f"{key}.amplitude_y", "missing; the ellipse's y semi-axis B (m) of "
+                                          "y = B sin ωt (negative: clockwise)")
+        else:
+            b = c.number(d["amplitude_y"], f"{key}.amplitude_y", unit="m")
+            if b is not None:
+                values["B"] = b
+    elif "amplitude_y" in d:
+        c.error(f"{key}.amplitude_y", 'only for direction = "elliptic"')
+    k = c.one_of(d, key, ("frequency_hz", "omega"), "the drive's frequency as frequency_hz "
+                                                     "(Hz) or omega (rad/s), > 0")
+    if k is not None:
+        v = c.number(d[k], f"{key}.{k}", unit=_UNITS[k], minimum=0.0, strict=True)
+        if v is not None:
+            values["omega"] = 2 * math.pi * v if k == "frequency_hz" else v
+    harmonics = ((1, 1.0, 0.0),)
+    if "harmonics" in d:
+        h = d["harmonics"]
+        ok = isinstance(h, list) and h and all(
+            isinstance(x, list) and len(x) == 3 for x in h)
+        if not ok:
+            c.error(f"{key}.harmonics", f"must be a list of [k, a_k, phase] (whole k ≥ 1, "
+                                        f"relative amplitude, phase in rad), got {h!r}")
+        else:
+            parsed = []
+            for i, (k, a, ph) in enumerate(h):
+                k = c.number(k, f"{key}.harmonics[{i}]", integer=True, minimum=1)
+                a = c.number(a, f"{key}.harmonics[{i}]")
+                ph = c.number(ph, f"{key}.harmonics[{i}]", unit="rad")
+                parsed.append((k, a, ph))
+            if all(None not in p for p in parsed):
+                harmonics = tuple(parsed)
+            if path == "elliptic":
+                c.error(f"{key}.harmonics", "the elliptic path has no extra harmonics")
+                harmonics = ((1, 1.0, 0.0),)
+    if path is None:
+        return None
+    try:
+        return fx.PivotDrive(path, harmonics)
+    except ValueError as e:
+        c.error(key, str(e))
+        return None
+
+
+# -- parameters, initial state ------------------------------------------------------------------
+
+_OWNERS = {"g": ("gravity", "[effects] gravity = true"),
+           "A": ("drive", "effects.drive.amplitude"), "B": ("drive", "effects.drive.amplitude_y"),
+           "omega": ("drive", "effects.drive.frequency_hz or effects.drive.omega"),
+           "gamma": ("damping", "effects.damping.gamma"), "c_drag": ("air_drag",
+                                                                   "effects.air_drag.c")}
+
+
+def _check_parameters(c, given, rig, effects, effect_params):
+    if given is None:
+        c.error("parameters", "missing table; the rig's parameters go here")
+        return dict(effect_params)
+    if not isinstance(given, dict):
+        c.table(given, "parameters", ())
+        return dict(effect_params)
+    params = dict(effect_params)
+    if rig is None:             # reported already; check the values only
+        for k, v in given.items():
+            c.number(v, f"parameters.{k}")
+        return params
+    syms, masses = _rig_symbols(rig)
+    gravity = any(isinstance(e, fx.Gravity) for e in effects)
+    allowed = sorted(syms) + (["g"] if gravity else [])
+    for k, v in given.items():
+        key = f"parameters.{k}"
+        if k == "g" and not gravity:
+            c.error(key, "g is gravity's parameter, but gravity is off: add `gravity = true` "
+                         "under [effects], or remove g")
+            continue
+        if k in _OWNERS and k != "g" or k.startswith("k_"):
+            where = _OWNERS[k][1] if k in _OWNERS else f"effects.spring.{k[2:]}.k"
+            c.error(key, f"{k} is set by {where}, not in [parameters]")
+            continue
+        if k not in allowed:
+            c.unknown(key, k, allowed, what=f"parameter of the {rig.name}")
+            continue
+        positive = k in syms and bool(syms[k].is_positive)
+        v = c.number(v, key, unit=_UNITS.get(k, "m" if k.startswith("l") else
+                                              "kg" if k in masses else ""),
+                     minimum=0.0 if positive or k == "g" else None, strict=positive)
+        if v is not None:
+            params[k] = v
+    for k in syms:
+        if k not in given:
+            if k in masses:
+                params[k] = 1.0
+            else:
+                c.error(f"parameters.{k}", f"missing; the {rig.name} needs {k}"
+                                           + (" (m), > 0" if k.startswith("l") else ""))
+    if gravity and "g" not in given:
+        params["g"] = 9.81
+    return params
+
+
+def _check_initial(c, initial, rig):
+    if c.table(initial, "initial", initial if rig is None else _state_names(rig),
+               what="coordinate") is None or rig is None:
+        return {}
+    out = {}
+    for k, v in initial.items():
+        if k in _state_names(rig):
+            v = c.number(v, f"initial.{k}", unit="rad/s" if k.endswith("_dot") else "rad")
+            if v is not None:
+                out[k] = v
+    return out
+
+
+def _state_names(rig):
+    names = [q.name for q in rig.coordinates]
+    return names + [f"{q}_dot" for q in names]
+
+
+# -- analyses -----------------------------------------------------------------------------------
+
+def _check_analyses(c, analyses, effects):
+    out = {}
+    if c.table(analyses, "analyses", ANALYSES, what="analysis") is None:
+        return out
+    drive = next((e for e in effects if isinstance(e, fx.PivotDrive)), None)
+    for name, value in analyses.items():
+        if name not in ANALYSES:
+            continue
+        key = f"analyses.{name}"
+        if isinstance(value, bool):
+            if value:
+                out[name] = {}
+            continue
+        s = c.table(value, key, ANALYSES[name], what="setting")
+        if s is None:
+            continue
+        out[name] = _check_settings(c, name, s, key)
+    for name in out:
+        if name in ("averaging", "floquet", "stability_map", "window") and drive is None:
+            c.error(f"analyses.{name}", f"{name} needs a drive: add [effects.drive]")
+        if name in ("stability_map", "window") and drive is not None \
+                and not drive.keeps_vertical_equilibria:
+            c.error(f"analyses.{name}", f"{name} is about an equilibrium, and a "
+                                        f"{drive.path if isinstance(drive.path, str) else 'oblique'}"
+                                        " drive leaves none; sweep floquet over A and omega "
+                                        "instead ([sweep])")
+    return out
+
+
+def _check_settings(c, name, s, key):
+    out = {}
+    for k, v in s.items():
+        if k not in ANALYSES[name]:
+            continue
+        kk = f"{key}.{k}"
+        if k == "about":
+            out[k] = _check_about(c, v, kk)
+        elif k == "order":
+            if v not in (1, 2) or isinstance(v, bool):
+                c.error(kk, f"must be 1 or 2, got {v!r}")
+            else:
+                out[k] = v
+        elif k in ("tol", "rtol", "band", "duration"):
+            out[k] = c.number(v, kk, minimum=0.0, strict=True,
+                              unit={"band": "rad", "duration": "s"}.get(k, ""))
+        elif k in ("periods", "samples"):
+            out[k] = c.number(v, kk, integer=True, minimum=2 if k == "samples" else 1)
+        elif k == "method":
+            from lagrange_core.integrate import METHODS
+            out[k] = c.choice(v, kk, tuple(METHODS))
+        elif k in ("A", "omega", "frequency_hz"):
+            unit = _UNITS[k]
+            out[k] = _check_axis(c, v, kk, k, minimum=0.0, strict=k != "A", unit=unit)
+    if name in ("stability_map", "window"):
+        c.one_of(s, key, ("omega", "frequency_hz"), "the drive frequencies, omega (rad/s) or "
+                                                    "frequency_hz (Hz): a range {start, stop, "
+                                                    "num} or a list")
+    if name == "stability_map" and "A" not in s:
+        c.error(f"{key}.A", "missing; the amplitudes (m): a range {start, stop, num} or a list")
+    if name == "simulate":
+        c.one_of(s, key, ("periods", "duration"), "", required=False)
+    return out
+
+
+def _check_about(c, v, key):
+    if isinstance(v, str):
+        return c.choice(v, key, _ABOUT)
+    if isinstance(v, list) and v:
+        vals = [c.number(x, f"{key}[{i}]", unit="rad") for i, x in enumerate(v)]
+        return tuple(vals) if None not in vals else None
+    c.error(key, f'must be "inverted", "hanging", "auto" or a list of coordinate values, got '
+                 f"{_kind(v)} {v!r}")
+    return None
+
+
+def _check_axis(c, v, key, name, *, minimum=None, strict=False, unit=""):
+    """An axis: a list of numbers, or a range {start, stop, num, scale}."""
+    if isinstance(v, list):
+        if not v:
+            c.error(key, "an empty list; give at least one value")
+            return None
+        vals = [c.number(x, f"{key}[{i}]", unit=unit, minimum=minimum, strict=strict)
+                for i, x in enumerate(v)]
+        return Axis(name, tuple(vals), "list") if None not in vals else None
+    if not isinstance(v, dict):
+        c.error(key, f"must be a list of values or a range {{start, stop, num, scale}}, got "
+                     f"{_kind(v)} {v!r}")
+        return None
+    c.table(v, key, _AXIS)
+    missing = [k for k in ("start", "stop", "num") if k not in v]
+    for k in missing:
+        c.error(f"{key}.{k}", "missing; a range is {start, stop, num} (scale = \"linear\" "
+                              "or \"log\", default linear)")
+    scale = c.choice(v.get("scale", "linear"), f"{key}.scale", ("linear", "log"))
+    if missing or scale is None:
+        return None
+    log = scale == "log"
+    lo = c.number(v["start"], f"{key}.start", unit=unit, minimum=0.0 if log else minimum,
+                  strict=strict or log)
+    hi = c.number(v["stop"], f"{key}.stop", unit=unit, minimum=0.0 if log else minimum,
+                  strict=strict or log)
+    num = c.number(v["num"], f"{key}.num", integer=True, minimum=1)
+    if None in (lo, hi, num):
+        return None
+    import numpy as np
+    vals = np.geomspace(lo, hi, num) if log else np.linspace(lo, hi, num)
+    return Axis(name, tuple(float(x) for x in vals), scale)
+
+
+# -- sweep, output -------------------------------------------------------------------------------
+
+def _flatten_axes(c, axes, key, prefix=()):
+    """Axis specs by dotted name (a nested table is a namespace unless it is a range)."""
+    out = {}
+    for k, v in axes.items():
+        name = prefix + (k,)
+        if isinstance(v, dict) and not (set(v) & set(_AXIS)):
+            out.update(_flatten_axes(c, v, key, name))
+        else:
+            out[".".join(name)] = v
+    return out
+
+
+def _check_sweep(c, sweep, rig, params, effects, analyses):
+    if sweep is None:
+        return None
+    if c.table(sweep, "sweep", ("axes", "analyses", "tile_points")) is None:
+        return None
+    axes_in = sweep.get("axes")
+    if not isinstance(axes_in, dict) or not axes_in:
+        c.error("sweep.axes", "missing; the swept parameters, e.g. [sweep.axes] A = {start = "
+                              "0.0, stop = 0.2, num = 21}")
+        return None
+    targets = _sweep_targets(rig, params)
+    axes, where = [], {}
+    for name, v in _flatten_axes(c, axes_in, "sweep.axes").items():
+        key = f"sweep.axes.{name}"
+        target = targets.get(name)
+        if target is None:
+            c.unknown(key, name, [k for k in targets if "." not in k or k.startswith("initial.")],
+                      what="sweep axis", extra=" (or the scene key that sets one)")
+            continue
+        if target in where.values():
+            c.error(key, f"sweeps {target}, which another axis sweeps already")
+            continue
+        kind, minimum, strict, unit = _axis_range(target, rig)
+        ax = _check_axis(c, v, key, name, minimum=minimum, strict=strict, unit=unit)
+        if ax is not None:
+            axes.append(ax)
+            where[name] = target
+    chosen = sweep.get("analyses")
+    if chosen is None:
+        chosen = [a for a in analyses if a in SWEEPABLE]
+    elif not isinstance(chosen, list) or not all(isinstance(a, str) for a in chosen):
+        c.error("sweep.analyses", f"must be a list of analysis names, got {chosen!r}")
+        chosen = []
+    else:
+        for i, a in enumerate(chosen):
+            if a not in SWEEPABLE:
+                c.unknown(f"sweep.analyses[{i}]", a, SWEEPABLE, what="sweepable analysis")
+            elif a not in analyses:
+                c.error(f"sweep.analyses[{i}]", f"{a} is not asked for in [analyses]")
+    if not chosen:
+        c.error("sweep.analyses", "nothing to sweep: ask for one of "
+                                  + ", ".join(SWEEPABLE) + " in [analyses]")
+    tile = sweep.get("tile_points")
+    if tile is not None:
+        tile = c.number(tile, "sweep.tile_points", integer=True, minimum=1)
+    for name, target in where.items():
+        owner = _OWNERS.get(target if target != "frequency_hz" else "omega")
+        if owner and target not in params and not (target == "frequency_hz" and "omega" in params):
+            c.error(f"sweep.axes.{name}", f"sweeps {target}, but the {owner[0]} effect is off")
+    return {"axes": tuple(axes), "targets": where, "analyses": tuple(chosen),
+            "tile_points": tile}
+
+
+def _sweep_targets(rig, params):
+    """Every name a sweep axis may have → what it sets (a parameter, frequency_hz or an
+    initial value ``initial.<state>``)."""
+    names = set(params) | {"A", "omega", "gamma", "c_drag", "g", "B"}
+    targets = {p: p for p in names}
+    targets["frequency_hz"] = "frequency_hz"
+    targets.update({f"parameters.{p}": p for p in params})
+    targets.update(_KEY_TARGETS)
+    targets.update({f"effects.spring.{p[2:]}.k": p for p in params if p.startswith("k_")})
+    if rig is not None:
+        targets.update({f"initial.{s}": f"initial.{s}" for s in _state_names(rig)})
+    return targets
+
+
+def _axis_range(target, rig):
+    """(kind, minimum, strict, unit) of a swept quantity's physical range."""
+    if target.startswith("initial."):
+        return "state", None, False, "rad/s" if target.endswith("_dot") else "rad"
+    if target in ("omega", "frequency_hz"):
+        return "param", 0.0, True, _UNITS[target]
+    if target in ("A", "gamma", "c_drag", "g"):
+        return "param", 0.0, False, _UNITS[target]
+    if target.startswith("k_"):
+        return "param", 0.0, True, ""
+    if rig is not None:
+        syms, masses = _rig_symbols(rig)
+        if target in syms and syms[target].is_positive:
+            return "param", 0.0, True, "kg" if target in masses else "m"
+    return "param", None, False, _UNITS.get(target, "")
+
+
+def _check_output(c, output, source):
+    out = {"directory": None, "formats": ("parquet",)}
+    if c.table(output, "output", ("directory", "formats")) is None:
+        return out
+    base = Path(source).parent if source != "<text>" else Path.cwd()
+    if "directory" in output:
+        d = output["directory"]
+        if not isinstance(d, str) or not d:
+            c.error("output.directory", f"must be a path (text), got {_kind(d)} {d!r}")
+        else:
+            out["directory"] = (base / d).resolve()
+    if "formats" in output:
+        f = output["formats"]
+        if not isinstance(f, list) or not f:
+            c.error("output.formats", f'must be a list, e.g. ["parquet", "csv"], got {f!r}')
+        else:
+            ok = [c.choice(x, f"output.formats[{i}]", ("parquet", "csv"))
+                  for i, x in enumerate(f)]
+            if None not in ok:
+                out["formats"] = tuple(ok)
+    return out
