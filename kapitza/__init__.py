@@ -38,6 +38,13 @@ Floquet analysis (:mod:`kapitza.floquet`)
         Only the monodromy matrices over a grid.
     stability_map
         Stability of any system's driven equilibrium over an (A, ω) grid.
+    window
+        The exact window of stabilising amplitudes of any system, per ω, with certified
+        edges (roots of smooth margins such as det(M ∓ I)).
+    boundaries
+        The stability boundaries A_k(ω) of any system by continuation, with their kind.
+    adaptive_map
+        A stability map refined only where the classification changes.
 
 Periodic orbits (:mod:`kapitza.periodic_orbit`)
     periodic_orbit
@@ -71,6 +78,8 @@ Results (:mod:`kapitza.results`; frozen dataclasses with ``to_dataframe()``)
     StabilityWindow
         A_min, A_max per ω, exact (``method="floquet"``) or by averaging
         (``method="averaging"``); ``FloquetWindow`` is its old name.
+    BoundaryCurves, AdaptiveMap
+        Exact boundary curves over (A, ω); a map with its continuous margin.
     InceStruttChart
         Stability grid and characteristic curves in the (q, a) plane.
     SlowModes, AveragingPrediction, SlowModeSweep
@@ -116,7 +125,8 @@ True
 True
 """
 from .averaging import AveragedSystem, AveragingValidityWarning, average
-from .floquet import floquet_grid, floquet_point, monodromy_data, stability_map
+from .floquet import (adaptive_map, boundaries, floquet_grid, floquet_point, monodromy_data,
+                      stability_map, window)
 from .mathieu import (characteristic_value, ince_strutt_chart, mathieu_monodromy_trace,
                       mathieu_parameters, pendulum_stability_map, pendulum_stability_window)
 from .pendulum import KapitzaPendulum
@@ -133,12 +143,15 @@ from .results import (AveragingPrediction, ComputationInterrupted, EquilibriumPr
                       MultiplePendulumPrediction, PendulumAveraging, PeriodicOrbit, SlowModes,
                       SlowModeSweep, StabilityMap, StabilityWindow)
 
+from .results import AdaptiveMap, BoundaryCurves
+
 __all__ = [
     "KapitzaPendulum",
     "average", "AveragedSystem", "AveragingValidityWarning",
     "pendulum_effective_potential", "pendulum_averaged", "averaging_window",
     "multiple_pendulum_upright",
     "floquet_point", "floquet_grid", "monodromy_data", "stability_map",
+    "window", "boundaries", "adaptive_map", "BoundaryCurves", "AdaptiveMap",
     "periodic_orbit", "PeriodicOrbit",
     "mathieu_parameters", "characteristic_value", "mathieu_monodromy_trace",
     "pendulum_stability_window", "pendulum_stability_map", "ince_strutt_chart",

@@ -57,6 +57,13 @@ Entry points and results
 :func:`floquet_grid` (a broadcast grid → :class:`~kapitza.results.FloquetGrid`),
 :func:`stability_map` (an (A, ω) grid → :class:`~kapitza.results.StabilityMap`) and
 :func:`monodromy_data` (the matrices only → :class:`~kapitza.results.MonodromyData`).
+Where stability changes, exactly (:mod:`kapitza.floquet_boundaries`: roots of smooth
+margins such as det(M ∓ I), not bisection on the flag): :func:`window` (the stabilising
+amplitudes per ω, certified edges → :class:`~kapitza.results.StabilityWindow`),
+:func:`boundaries` (the curves A_k(ω) by continuation →
+:class:`~kapitza.results.BoundaryCurves`) and :func:`adaptive_map` (a map refined only
+where the classification changes → :class:`~kapitza.results.AdaptiveMap`).
+Grids of fewer than :data:`SERIAL_BELOW` points run on the calling thread.
 The single pendulum's maps and windows go through the Mathieu equation instead
 (:mod:`kapitza.mathieu`), which is faster and exact to rounding.
 
@@ -95,11 +102,16 @@ from lagrange_core.progress import _SIGINT, run_in_chunks  # noqa: F401
 from lagrange_core.progress import defer_ctrl_c as _defer_ctrl_c
 
 from . import arguments
-from .results import (ComputationInterrupted, FloquetGrid, FloquetResult, MonodromyData,
-                      StabilityMap)
+from .floquet_boundaries import KINDS, first_window, refine_map, trace_curves
+from .floquet_boundaries import poly_eval as _poly_eval
+from .floquet_boundaries import reduced_polynomial as _reduced_polynomial
+from .results import (AdaptiveMap, BoundaryCurves, ComputationInterrupted, FloquetGrid,
+                      FloquetResult, MonodromyData, StabilityMap, StabilityWindow)
 
-__all__ = ["floquet_point", "floquet_grid", "stability_map", "monodromy_data", "FloquetResult",
-           "FloquetGrid", "MonodromyData", "StabilityMap", "ComputationInterrupted"]
+__all__ = ["floquet_point", "floquet_grid", "stability_map", "monodromy_data", "window",
+           "boundaries", "adaptive_map", "FloquetResult", "FloquetGrid", "MonodromyData",
+           "StabilityMap", "StabilityWindow", "BoundaryCurves", "AdaptiveMap",
+           "ComputationInterrupted"]
 
 # -- J(t) samples over a parameter grid (compiled once, for every system) ------------------
 
@@ -395,21 +407,27 @@ def _sample(ka, P, ystar, T, M, progress=False):
     return F, scale, tail
 
 
-def _sample_fourier(ka, P, ystar, T, tol, max_samples=256, progress=False):
-    """Fourier coefficients (C, S) of J's lower block L(t) for every grid point."""
+def _sample_fourier(ka, P, ystar, T, tol, max_samples=256, progress=False, samples=None):
+    """Fourier coefficients (C, S) of J's lower block L(t) for every grid point.
+
+    ``samples``: the samples per period to start from (a plan made for the same system
+    on another grid); without it a few probe points decide."""
     npts = P.shape[0]
     thr = max(tol, 1e-13) * 1e-2
-    probe = np.array(sorted({0, npts // 3, npts // 2, (2 * npts) // 3, npts - 1}))
-    M = 16
-    while True:
-        F, scale, tail = _sample(ka, P[probe], ystar, T[probe], M)
-        if np.all(tail <= thr) or M >= max_samples:
-            break
-        M *= 2
-    mags = np.max(np.abs(F[:, 1:]), axis=(0, 2, 3)) / np.max(scale)
-    keep = np.nonzero(mags > 1e-15)[0]
-    K = int(keep[-1]) + 1 if keep.size else 0
-    M = max(4, 1 << int(math.ceil(math.log2(2 * K + 2))))
+    if samples is None:
+        probe = np.array(sorted({0, npts // 3, npts // 2, (2 * npts) // 3, npts - 1}))
+        M = 16
+        while True:
+            F, scale, tail = _sample(ka, P[probe], ystar, T[probe], M)
+            if np.all(tail <= thr) or M >= max_samples:
+                break
+            M *= 2
+        mags = np.max(np.abs(F[:, 1:]), axis=(0, 2, 3)) / np.max(scale)
+        keep = np.nonzero(mags > 1e-15)[0]
+        K = int(keep[-1]) + 1 if keep.size else 0
+        M = max(4, 1 << int(math.ceil(math.log2(2 * K + 2))))
+    else:
+        M = samples
     while True:
         F, scale, tail = _sample(ka, P, ystar, T, M, progress)
         if np.all(tail <= thr) or M >= max_samples:
@@ -426,9 +444,11 @@ def _sample_fourier(ka, P, ystar, T, tol, max_samples=256, progress=False):
     return np.ascontiguousarray(C), np.ascontiguousarray(S), K, M, float(np.max(tail))
 
 
-def _prepare(system, params, about, frequency, tol, progress=False):
+def _prepare(system, params, about, frequency, tol, progress=False, *, samples=None):
     """Validate, broadcast the parameter grid, and sample J's Fourier series.
 
+    ``samples``: a sampling plan from an earlier grid of the same system and
+    equilibrium, whose persistence was checked then (:class:`_Probe`).
     After Ctrl-C during the sampling, the dict has ``stopped`` True and no series."""
     _check_system(system)
     if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (1e-15 <= tol < 1):
@@ -461,10 +481,12 @@ def _prepare(system, params, about, frequency, tol, progress=False):
         C = np.zeros((0, 2, n, 2 * n))
         S, K, samples, alias = C.copy(), 1, 0, 0.0
     else:
-        _check_persists(system, kernels, P, ystar, T, sorted({0, npts // 2, npts - 1}))
+        if samples is None:
+            _check_persists(system, kernels, P, ystar, T, sorted({0, npts // 2, npts - 1}))
         try:
             C, S, K, samples, alias = _sample_fourier(kernels.addresses("jacobian"), P, ystar,
-                                                      T, tol, progress=progress)
+                                                      T, tol, progress=progress,
+                                                      samples=samples)
         except _Stopped:
             return dict(omega=omega, T=T, shape=shape, n=n, params=grid_params, samples=0,
                         liouville=np.full(npts, np.nan), stopped=True)
@@ -662,48 +684,6 @@ def _nothing(prep):
     m, d = prep["T"].size, 2 * prep["n"]
     return (np.full((m, d, d), np.nan), np.zeros(m), np.full(m, np.inf),
             np.zeros(m, dtype=np.int64))
-
-
-def _reduced_polynomial(lam, n):
-    """Undamped (symplectic) monodromies: the palindromic characteristic polynomial from
-    the multipliers ``lam`` (npts, 2n), symmetrised (c_k = c_(2n−k), the projection onto
-    the symplectic structure), written as λ^(−n) p(λ) = Q(x), x = λ + 1/λ.
-
-    Returns Q's coefficients (npts, n + 1; ascending, monic) and its roots x (npts, n):
-    the equilibrium is stable iff every x is real and in [−2, 2].  The coefficients are
-    symmetric functions of the multipliers, accurate to O(ε) where the multipliers
-    themselves, near a collision, are only accurate to O(√ε).
-    """
-    npts, d = lam.shape
-    c = np.zeros((npts, d + 1), dtype=complex)
-    c[:, 0] = 1.0
-    for j in range(d):
-        c[:, 1:] = c[:, 1:] - lam[:, j, None] * c[:, :-1]
-    c = c.real
-    c = 0.5 * (c + c[:, ::-1])
-    # λ^m + λ^(−m) = D_m(x): D_0 = 2, D_1 = x, D_(m+1) = x D_m − D_(m−1)
-    D = [np.array([2.0]), np.array([0.0, 1.0])]
-    for m in range(2, n + 1):
-        D.append(np.concatenate([[0.0], D[-1]]) - np.pad(D[-2], (0, 2)))
-    qc = np.zeros((npts, n + 1))
-    qc[:, 0] = c[:, n]
-    for m in range(1, n + 1):
-        qc[:, :m + 1] += c[:, n - m, None] * D[m][None, :]
-    comp = np.zeros((npts, n, n))
-    comp[:, np.arange(1, n), np.arange(n - 1)] = 1.0
-    comp[:, :, n - 1] = -qc[:, :n] / qc[:, n:]
-    x = np.linalg.eigvals(comp)
-    return qc, x.astype(complex)
-
-
-def _poly_eval(qc, x, deriv=0):
-    """Σ_k qc[:, k] x^k (or its derivative of order ``deriv``) at each root column of x."""
-    k = np.arange(qc.shape[1])
-    w = qc.copy()
-    for _ in range(deriv):
-        w = w[:, 1:] * k[1:w.shape[1] + 1][None, :]
-        k = np.arange(w.shape[1])
-    return np.sum(w[:, None, :] * x[:, :, None] ** k[None, None, :], axis=2)
 
 
 def _reduced_decision(qc, x, rel_err, norm):
@@ -1251,6 +1231,340 @@ def _largest_finite(x):
     """The largest finite entry (0 if none): the error estimate over the integrated points."""
     x = np.asarray(x)[np.isfinite(x)]
     return float(np.max(x)) if x.size else 0.0
+
+
+# -- exact windows, boundary curves and adaptive maps (issue 12) --------------------------
+
+class _Probe:
+    """Monodromies of one system about one equilibrium at any (amplitude, ω) points, the
+    other parameters fixed: the ``evaluate(A, omega, analyse)`` of
+    :mod:`kapitza.floquet_boundaries`.  Margins (``analyse`` False) are evaluated at
+    ``tol`` (with ``paired``, their entries' error measured against a second monodromy),
+    classifications (``analyse`` True) at ``classify_tol``.  The parameters and the
+    persistence of the equilibrium are checked, and J's sampling plan made, on the first
+    call; ``count`` counts the monodromies computed.  Ctrl-C raises KeyboardInterrupt."""
+
+    def __init__(self, system, params, about, amplitude, frequency, tol, order, guard_tol,
+                 paired=False, classify_tol=None):
+        _check_system(system)
+        for name in (amplitude, frequency):
+            if name not in system.parameters:
+                raise ValueError(f"{name!r} is not a parameter of {system!r}; its parameters "
+                                 f"are {list(system.parameters)} (pass amplitude=<name>, "
+                                 "frequency=<name>).")
+        if amplitude == frequency:
+            raise ValueError("the amplitude and the frequency must be different parameters.")
+        self.fixed = {k: v for k, v in params.items() if k not in (amplitude, frequency)}
+        for k, v in self.fixed.items():
+            if np.ndim(v) != 0:
+                raise ValueError(f"the fixed parameters must be scalars; {k!r} is an array.")
+        self.system, self.about = system, about
+        self.amplitude, self.frequency = amplitude, frequency
+        self.tol, self.order, self.guard_tol = tol, order, guard_tol
+        self.paired = paired
+        self.classify_tol = tol if classify_tol is None else classify_tol
+        self.samples = None
+        self.count = 0
+
+    def prepare(self, A, omega, tol=None):
+        p = dict(self.fixed)
+        p[self.amplitude] = np.asarray(A, float).ravel()
+        p[self.frequency] = np.asarray(omega, float).ravel()
+        prep = _prepare(self.system, p, self.about, self.frequency,
+                        self.tol if tol is None else tol, samples=self.samples)
+        if prep["stopped"]:
+            raise KeyboardInterrupt
+        if prep["T"].size:
+            self.samples = prep["samples"]
+        return prep
+
+    def __call__(self, A, omega, analyse=False):
+        tol = self.classify_tol if analyse else self.tol
+        prep = self.prepare(A, omega, tol)
+        n, idx = prep["n"], np.arange(prep["T"].size)
+        Ms, ls, err, _, skip, fin, stopped = _integrate(prep, idx, tol, self.order)
+        if stopped or not fin.all():
+            raise KeyboardInterrupt
+        self.count += idx.size
+        Mb = self._balanced(Ms, prep)
+        out = dict(Mb=Mb, ls=ls, err=err,
+                   undamped=np.abs(prep["liouville"]) <= 1e-12 * np.maximum(1.0, prep["T"]))
+        if self.paired and not analyse:
+            # the entries' error, for the margins: against a second monodromy at 100× the
+            # tolerance (what the coarser one gets wrong bounds the finer one's error);
+            # the Taylor estimate runs 100–1000× above the actual error
+            M2, ls2, *_ = _integrate(prep, idx, min(1e-6, 1e2 * self.tol), self.order)
+            with np.errstate(invalid="ignore"):
+                gap = np.max(np.abs(Mb - self._balanced(M2, prep)), axis=(1, 2))
+                size = np.maximum(1.0, np.max(np.abs(Mb), axis=(1, 2)))
+                out["delta"] = np.where((ls2 == ls) & np.isfinite(gap),
+                                        np.maximum(gap, 16 * np.finfo(float).eps * size),
+                                        err * size)
+        if analyse:
+            res = _analyse_points(prep, idx, Ms, ls, err, skip, fin, self.guard_tol)
+            out.update(stable=res["stable"], label=res["label"])
+        return out
+
+    @staticmethod
+    def _balanced(Ms, prep):
+        """Monodromies in the balanced variables (q, dq/d(ωt)): rows of dq/dt ÷ ω,
+        columns × ω (their determinants and eigenvalues are those of M)."""
+        n, om = prep["n"], prep["omega"][:, None, None]
+        Mb = Ms.copy()
+        Mb[:, n:, :] /= om
+        Mb[:, :, n:] *= om
+        return Mb
+
+    def amplitude_scale(self, omega):
+        """Per ω, the amplitude at which the drive's modulation of J, in the balanced
+        variables, reaches 2 (the single pendulum: A = 2 l, Mathieu q = 4, well past its
+        first window's A = 0.454 l)."""
+        w = np.atleast_1d(np.asarray(omega, float))
+        h = []
+        for a in (0.0, 1.0):
+            prep = self.prepare(np.full(w.size, a), w)
+            C, S = _balanced(prep, np.arange(w.size))
+            h.append(np.sum(np.max(np.abs(C[:, 1:]), axis=(2, 3))
+                            + np.max(np.abs(S[:, 1:]), axis=(2, 3)), axis=1))
+        slope = np.abs(h[1] - h[0])
+        if not np.all(slope > 0):
+            raise ValueError(f"the parameter {self.amplitude!r} does not modulate the "
+                             "linearised drive; pass A_limit= (or A_range=) explicitly.")
+        return 2.0 / slope
+
+
+#: the monodromies' tolerance of the classification scans and side checks of windows and
+#: boundaries (their brackets are then solved on margins at the edges' own tolerance)
+CLASSIFY_TOL = 1e-10
+
+
+def _margin_tol(tol):
+    """The monodromies' tolerance for edges wanted to ``tol`` (relative, in A): 1e-5 tol,
+    at least 1e-15 (each factor 100 costs about 30 % more Taylor steps)."""
+    return float(min(1e-8, max(1e-15, 1e-5 * tol)))
+
+
+def _scan_grid(lo, hi, points):
+    """Ascending amplitudes from lo to hi: ``points`` evenly spaced plus a third as many
+    spaced geometrically towards lo (edges near lo, e.g. at fast drives, are resolved)."""
+    u = np.unique(np.r_[0.0, np.geomspace(1e-4, 1.0, max(2, points // 3)),
+                        np.linspace(0.0, 1.0, points + 1)])
+    return lo + (hi - lo) * u
+
+
+def window(system, params, about, omega, *, amplitude="A", frequency="omega", tol=1e-10,
+           A_limit=None, scan=96, order=16, guard_tol=1e-8) -> StabilityWindow:
+    """The exact window of drive amplitudes A_min < A < A_max that stabilises ``about``,
+    per ω, with certified edges.
+
+    At each ω the amplitudes 0 … ``A_limit`` are classified (``scan`` points, plus
+    geometric ones towards 0) to find the lowest stable interval; each of its edges is
+    then the root of the smooth margin of the boundary's kind — det(M − I) where a
+    multiplier reaches +1 ("T"), det(M + I) at −1 ("2T"), the reduced polynomial's
+    discriminant or the leading log|λ| where a complex pair leaves the circle — found by
+    the Anderson–Björck method in the scan's bracket, with the monodromies integrated to
+    1e-5 tol and their error measured against a second monodromy at 100× that
+    tolerance (:mod:`kapitza.floquet_boundaries`).  Not bisection on the flag "stable":
+    each edge takes about ten monodromies.
+
+    Parameters
+    ----------
+    system : lagrange_core.System
+    params : dict
+        The other parameters (scalars); values of ``amplitude`` and ``frequency`` in
+        it are ignored.
+    about : sequence or dict
+        The driven equilibrium's coordinates (velocities zero).
+    omega : float or 1-d array
+        Drive angular frequencies (rad/s); a scalar gives a window of scalar fields.
+    amplitude, frequency : str
+        The names of the drive's amplitude and angular frequency parameters.
+    tol : float
+        Requested relative accuracy of the edges.
+    A_limit : float, optional
+        The largest amplitude scanned; default, per ω, where the drive's modulation of
+        the linearised equations reaches 2 in the balanced variables (2 l for a pendulum
+        of length l: Mathieu q = 4).
+    scan : int
+        Evenly spaced scan points; a window narrower than A_limit/scan can be missed.
+
+    Returns
+    -------
+    kapitza.results.StabilityWindow
+        ``method="floquet"``: A_min, A_max per ω; NaN where no scanned amplitude is
+        stable; A_min = 0 where the undriven state is already stable (the hanging
+        chain); A_max = inf where the scan ends stable.  ``accuracy``: the larger
+        certified relative accuracy of the two edges.  ``l``, ``g`` are None.
+
+    Examples
+    --------
+    The upright pendulum's window at ω = 60 rad/s agrees with the Mathieu equation's
+    characteristic values (:func:`kapitza.mathieu.pendulum_stability_window`):
+
+    >>> import math
+    >>> from lagrange_core import problems
+    >>> from kapitza.mathieu import pendulum_stability_window
+    >>> win = window(problems.driven_pendulum("vertical"), dict(m=1.0, l=1.0, g=9.81),
+    ...              [math.pi], 60.0)
+    >>> ref = pendulum_stability_window(60.0, l=1.0, g=9.81)
+    >>> print(f"{win.A_min:.10f} {win.A_max:.10f}")
+    0.0739120532 0.4585959178
+    >>> bool(abs(win.A_min / ref.A_min - 1) < 1e-10 and win.accuracy <= 1e-10)
+    True
+    """
+    scalar = np.ndim(omega) == 0
+    w = arguments.grid_axis(frequency, omega, "rad/s", positive=True)
+    _check_tol(tol)
+    probe = _Probe(system, params, about, amplitude, frequency, _margin_tol(tol), order,
+                   guard_tol, paired=True, classify_tol=CLASSIFY_TOL)
+    if w.size == 0:
+        edges = dict(A_min=np.zeros(0), A_max=np.zeros(0), accuracy=np.zeros(0))
+    else:
+        limit = probe.amplitude_scale(w) if A_limit is None else np.full(
+            w.size, float(arguments.grid_axis("A_limit", A_limit, None, positive=True)[0]))
+        grid = np.stack([_scan_grid(0.0, hi, scan) for hi in limit])
+        edges = first_window(probe, w, grid, tol)
+    pick = (lambda x: float(x[0])) if scalar else (lambda x: x)
+    return StabilityWindow(omega=pick(w), A_min=pick(edges["A_min"]),
+                           A_max=pick(edges["A_max"]), method="floquet", about=str(about),
+                           accuracy=pick(edges["accuracy"]), tol=tol)
+
+
+def _check_tol(tol):
+    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (1e-13 <= tol < 1e-2):
+        raise ValueError(f"tol must be a number in [1e-13, 1e-2) (relative, in A), got {tol!r}.")
+
+
+def boundaries(system, params, about, omega, *, A_range=None, amplitude="A",
+               frequency="omega", tol=1e-10, seed_every=10, scan=64, side=1e-6, order=16,
+               guard_tol=1e-8) -> BoundaryCurves:
+    """The stability boundaries A_k(ω) of ``about`` over a frequency grid, by continuation.
+
+    Every ``seed_every``-th frequency (and the last) is scanned over ``A_range`` for
+    changes between stable and unstable; each is solved to ``tol`` on the smooth margin
+    of its kind ("T", "2T", "complex"; see :func:`window`), and followed through the
+    frequencies in between by predictor–corrector continuation (a few monodromies per
+    point), all curves together; finally every point is classified at A(1 ∓ ``side``)
+    and kept only where exactly its stable side is stable
+    (:func:`kapitza.floquet_boundaries.trace_curves`).
+
+    Parameters
+    ----------
+    system, params, about, amplitude, frequency, tol, order, guard_tol
+        As for :func:`window`.
+    omega : 1-d array
+        Drive angular frequencies (rad/s), ascending; the finer, the shorter each
+        continuation step.
+    A_range : (float, float), optional
+        Amplitudes searched; default from 0 to the largest scan limit of :func:`window`.
+    seed_every, scan : int
+        Seed frequencies' spacing (in grid points) and their scans' evenly spaced
+        points (a boundary inside a stable or unstable sliver thinner than the scan's
+        spacing at every seed frequency is not found).
+    side : float
+        Relative offset of the side checks.
+
+    Returns
+    -------
+    kapitza.results.BoundaryCurves
+        ``A`` (curves × ω; NaN where a curve does not bound the stable region),
+        ``accuracy``, ``kind``, ``stable_below``; draw them over a map with
+        ``kapitza.plots.stability_map_figure(map, overlays=[curves])``.
+
+    Examples
+    --------
+    The upright pendulum: the Kapitza limit (a multiplier at +1, stable above) and the
+    first parametric resonance (at −1, stable below), as the Mathieu equation has them:
+
+    >>> import math
+    >>> import numpy as np
+    >>> from lagrange_core import problems
+    >>> from kapitza.mathieu import pendulum_stability_window
+    >>> w = np.linspace(30.0, 60.0, 7)
+    >>> curves = boundaries(problems.driven_pendulum("vertical"),
+    ...                     dict(m=1.0, l=1.0, g=9.81), [math.pi], w, A_range=(0.0, 0.6))
+    >>> curves.kind, curves.stable_below.tolist()
+    (('T', '2T'), [False, True])
+    >>> ref = pendulum_stability_window(w, l=1.0, g=9.81)
+    >>> bool(np.allclose(curves.A, [ref.A_min, ref.A_max], rtol=1e-9))
+    True
+    """
+    t0 = time.perf_counter()
+    w = arguments.grid_axis(frequency, omega, "rad/s", positive=True)
+    if w.size < 2 or not np.all(np.diff(w) > 0):
+        raise ValueError(f"{frequency} must be an ascending grid of at least 2 frequencies.")
+    _check_tol(tol)
+    probe = _Probe(system, params, about, amplitude, frequency, _margin_tol(tol), order,
+                   guard_tol, paired=True, classify_tol=CLASSIFY_TOL)
+    if A_range is None:
+        A_range = (0.0, float(np.max(probe.amplitude_scale(w[[0, -1]]))))
+    lo, hi = (float(x) for x in A_range)
+    if not (0.0 <= lo < hi and math.isfinite(hi)):
+        raise ValueError(f"A_range must be (low, high) with 0 ≤ low < high, got {A_range!r}.")
+    found = trace_curves(probe, w, _scan_grid(lo, hi, scan), tol, seed_every=seed_every,
+                         side=side)
+    return BoundaryCurves(omega=w, A=found["A"], accuracy=found["accuracy"],
+                          kind=tuple(KINDS[int(k)] for k in found["kind"]),
+                          stable_below=found["stable_below"], about=str(about),
+                          params=dict(probe.fixed), A_range=(lo, hi), tol=tol,
+                          seconds=time.perf_counter() - t0, monodromies=probe.count)
+
+
+def adaptive_map(system, A, omega, params, about, *, amplitude="A", frequency="omega",
+                 coarse_step=16, tol=1e-8, guard=0.25, order=16,
+                 guard_tol=1e-6) -> AdaptiveMap:
+    """A stability map over the (A, ω) grid that computes monodromies only where the
+    classification changes.
+
+    Every ``coarse_step``-th row and column are computed first; then each cell whose
+    corners disagree — in label, in the sign of a continuous stability margin, or with
+    a margin closer to zero than ``guard`` × the corners' spread — is split in four,
+    level by level, down to the grid's own spacing
+    (:func:`kapitza.floquet_boundaries.refine_map`).  The labels match a uniform
+    :func:`stability_map` of the same grid wherever no stable or unstable region is
+    thinner than the coarse cells, at a fraction of the monodromies; the margin's zero
+    contour draws the boundaries smoothly.
+
+    Parameters
+    ----------
+    system, params, about, amplitude, frequency, order, guard_tol
+        As for :func:`stability_map`.
+    A, omega : 1-d arrays
+        The full grid's axes.
+    coarse_step : int
+        The coarse grid's spacing in grid points (a power of 2 splits evenly).
+    tol : float
+        Target error of each monodromy.
+
+    Returns
+    -------
+    kapitza.results.AdaptiveMap
+        A :class:`~kapitza.results.StabilityMap` (``trace`` and ``log_growth`` None)
+        with ``margin``, ``computed``, ``monodromies``, ``levels``.
+
+    Examples
+    --------
+    >>> import math
+    >>> import numpy as np
+    >>> from lagrange_core import problems
+    >>> m = adaptive_map(problems.driven_pendulum("vertical"), np.linspace(0, 0.6, 129),
+    ...                  np.linspace(20.0, 120.0, 129), dict(m=1.0, l=1.0, g=9.81), [math.pi])
+    >>> bool(m.monodromies < 129 * 129 / 5), m.stable.shape
+    (True, (129, 129))
+    """
+    t0 = time.perf_counter()
+    A = arguments.grid_axis(amplitude, A, None, positive=None)
+    w = arguments.grid_axis(frequency, omega, "rad/s", positive=True)
+    if isinstance(coarse_step, bool) or not isinstance(coarse_step, int) or coarse_step < 1:
+        raise ValueError(f"coarse_step must be an integer ≥ 1, got {coarse_step!r}.")
+    probe = _Probe(system, params, about, amplitude, frequency, tol, order, guard_tol)
+    out = refine_map(probe, A, w, coarse_step, guard=guard)
+    return AdaptiveMap(A=A, omega=w, stable=out["stable"], label=out["label"], trace=None,
+                       log_growth=None, error_estimate=tol, about=str(about),
+                       method="adaptive monodromy", params=dict(probe.fixed),
+                       seconds=time.perf_counter() - t0, samples=int(probe.samples or 0),
+                       margin=out["margin"], computed=out["computed"],
+                       monodromies=probe.count, levels=out["levels"], coarse_step=coarse_step)
 
 
 # numba's cache does not notice a change of the kernel slots the sampler calls

@@ -25,7 +25,8 @@ import ast
 
 import numpy as np
 
-from .results import InceStruttChart, PendulumAveraging, StabilityMap, StabilityWindow
+from .results import (BoundaryCurves, InceStruttChart, PendulumAveraging, StabilityMap,
+                      StabilityWindow)
 
 __all__ = ["stability_map_figure", "effective_potential_figure", "ince_strutt_figure"]
 
@@ -84,6 +85,23 @@ def _about_text(about) -> str:
     return f"the state q = ({', '.join(parts)})"
 
 
+_CURVE_COLORS = {"T": "#b35806", "2T": "#2166ac", "complex": "#762a83"}
+
+
+def _draw_curves(ax, curves: BoundaryCurves, w_scale, a_scale, handles):
+    """Exact boundary curves as solid lines, one colour and one legend entry per kind."""
+    shown = {h.get_label() for h in handles}
+    for kind, A in zip(curves.kind, np.asarray(curves.A, float)):
+        label = {"T": "exact boundary: multiplier +1 (T)",
+                 "2T": "exact boundary: multiplier −1 (2T)",
+                 "complex": "exact boundary: complex pair"}[kind]
+        line, = ax.plot(np.asarray(curves.omega) * w_scale, A * a_scale, "-",
+                        color=_CURVE_COLORS[kind], lw=1.3, label=label)
+        if label not in shown:
+            handles.append(line)
+            shown.add(label)
+
+
 def stability_map_figure(result: StabilityMap, *, overlays=(), ax=None, title=None,
                          dimensionless=False, l=None, g=None, log_omega=False, log_A=False,
                          boundaries=True):
@@ -95,11 +113,12 @@ def stability_map_figure(result: StabilityMap, *, overlays=(), ax=None, title=No
         From :meth:`kapitza.KapitzaPendulum.stability_map`,
         :func:`kapitza.mathieu.pendulum_stability_map` or
         :func:`kapitza.floquet.stability_map`.
-    overlays : sequence of kapitza.results.StabilityWindow
+    overlays : sequence of kapitza.results.StabilityWindow or BoundaryCurves
         Windows to draw as lines A_min(ω), A_max(ω) (the parts inside the map's A
         range; infinite edges are left out), e.g. the averaging prediction
-        ``KapitzaPendulum.stability_window(omega, method="averaging", order=1)``.
-        Compute them on a fine ω grid for smooth curves.
+        ``KapitzaPendulum.stability_window(omega, method="averaging", order=1)``,
+        and exact boundary curves from :func:`kapitza.floquet.boundaries` (solid,
+        coloured by kind).  Compute them on a fine ω grid for smooth curves.
     ax : matplotlib Axes, optional
         Draw into this axes instead of a new figure.
     title : str, optional
@@ -113,7 +132,9 @@ def stability_map_figure(result: StabilityMap, *, overlays=(), ax=None, title=No
         Logarithmic axes (the hanging state's tongues at ω = 2ω0/n only show on a
         logarithmic ω axis).
     boundaries : bool
-        Draw the boundaries between stable and unstable regions as lines.
+        Draw the boundaries between stable and unstable regions as lines (for an
+        adaptive map, :class:`~kapitza.results.AdaptiveMap`, the zero contour of its
+        continuous margin: smooth at the grid's resolution).
 
     Returns
     -------
@@ -130,8 +151,10 @@ def stability_map_figure(result: StabilityMap, *, overlays=(), ax=None, title=No
     from matplotlib.patches import Patch
     _check("result", result, StabilityMap, "compute one with KapitzaPendulum.stability_map")
     for window in overlays:
-        _check("every overlay", window, StabilityWindow,
-               "compute one with KapitzaPendulum.stability_window")
+        if not isinstance(window, BoundaryCurves):
+            _check("every overlay", window, StabilityWindow,
+                   "compute one with KapitzaPendulum.stability_window or "
+                   "kapitza.floquet.boundaries")
     fig, ax = _axes(ax, (6.4, 4.6))
     labels = np.asarray(result.label)
     present = sorted(set(np.unique(labels).tolist()) | {0})
@@ -153,11 +176,15 @@ def stability_map_figure(result: StabilityMap, *, overlays=(), ax=None, title=No
     ax.pcolormesh(w, A, labels, cmap=cmap, vmin=-0.5, vmax=3.5, shading="nearest",
                   rasterized=True)
     handles = [Patch(color=_COLORS[k], label=_NAMES[k]) for k in present]
+    margin = getattr(result, "margin", None)      # an AdaptiveMap's continuous margin
     if boundaries and 0 < np.count_nonzero(labels == 0) < labels.size:
-        ax.contour(w, A, (labels == 0).astype(float), levels=[0.5], colors="#1b7837",
-                   linewidths=0.9)
+        field, level = ((labels == 0).astype(float), 0.5) if margin is None else (margin, 0.0)
+        ax.contour(w, A, field, levels=[level], colors="#1b7837", linewidths=0.9)
         handles.append(Line2D([], [], color="#1b7837", lw=0.9, label="stability boundary"))
     for k, window in enumerate(overlays):
+        if isinstance(window, BoundaryCurves):
+            _draw_curves(ax, window, w_scale, a_scale, handles)
+            continue
         style = _LINE_STYLES[k % len(_LINE_STYLES)]
         label = _window_label(window)
         for edge in (window.A_min, window.A_max):

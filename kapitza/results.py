@@ -16,7 +16,9 @@ Floquet analysis
     :class:`FloquetResult` (one parameter point), :class:`MonodromyData` and
     :class:`FloquetGrid` (a broadcast grid of points), :class:`StabilityMap` (an (A, ω)
     grid), :class:`StabilityWindow` (the stabilising amplitudes per ω, exact or by
-    averaging), :class:`InceStruttChart` (the Mathieu equation's stability chart).
+    averaging), :class:`InceStruttChart` (the Mathieu equation's stability chart),
+    :class:`BoundaryCurves` (exact boundaries A_k(ω)), :class:`AdaptiveMap` (a map
+    refined where the classification changes).
 Averaging of any system
     :class:`SlowModes`, :class:`AveragingPrediction`, :class:`SlowModeSweep`.
 The driven pendulum and Acheson's chain in closed form
@@ -33,7 +35,8 @@ import numpy as np
 __all__ = ["BOUNDARIES", "scalar_or_array", "FloquetResult", "MonodromyData", "FloquetGrid",
            "StabilityMap", "StabilityWindow", "FloquetWindow", "InceStruttChart", "SlowModes",
            "AveragingPrediction", "SlowModeSweep", "EquilibriumPrediction", "PendulumAveraging",
-           "MultiplePendulumPrediction", "ComputationInterrupted"]
+           "MultiplePendulumPrediction", "ComputationInterrupted", "BoundaryCurves",
+           "AdaptiveMap"]
 
 #: Names of the stability labels 0, 1, 2, 3: stable; unstable in a region bounded by
 #: period-T solutions (multiplier +1); by period-2T solutions (multiplier −1); complex
@@ -932,3 +935,111 @@ class PeriodicOrbit:
                              "q_mean": self.q_mean, "amplitude": self.amplitude,
                              "omega_slow": slow, "period": self.period, "stable": self.stable},
                             index=pd.Index(self.coordinates, name="coordinate"))
+
+
+# ======================================================================================
+# Exact stability boundaries (kapitza.floquet.boundaries, kapitza.floquet.adaptive_map)
+# ======================================================================================
+
+@dataclass(frozen=True)
+class BoundaryCurves:
+    """The stability boundaries A_k(ω) of a driven equilibrium over a frequency grid.
+
+    Built by :func:`kapitza.floquet.boundaries` (continuation in ω of the roots of smooth
+    margins, see :mod:`kapitza.floquet_boundaries`); drawn over a map by
+    :func:`kapitza.plots.stability_map_figure` (``overlays=[curves]``).
+
+    Attributes
+    ----------
+    omega : ndarray (m,)
+        Drive angular frequencies (rad/s).
+    A : ndarray (k, m)
+        Curve k's amplitude at each ω; NaN where it does not bound the stable region
+        there (it does not exist, or both of its sides are unstable).
+    accuracy : ndarray (k, m)
+        Certified relative accuracy of each point (the curve's margin changes sign
+        across A·(1 ± accuracy)).
+    kind : tuple of str
+        Per curve: "T" (a multiplier reaches +1), "2T" (−1) or "complex" (a complex
+        pair leaves the unit circle), as in :data:`BOUNDARIES`.
+    stable_below : bool ndarray (k,)
+        Whether the stable side of curve k is below it (smaller A).
+    about : str
+        The equilibrium's coordinates.
+    params : dict
+        The fixed parameters.
+    A_range : tuple of float
+        The amplitudes searched (m).
+    tol : float
+        The requested relative accuracy.
+    seconds : float
+        Wall time (s).
+    monodromies : int
+        Monodromies computed (seeding scans, continuation and the side checks).
+    """
+
+    omega: np.ndarray
+    A: np.ndarray
+    accuracy: np.ndarray
+    kind: tuple
+    stable_below: np.ndarray
+    about: str
+    params: dict = field(default_factory=dict)
+    A_range: tuple = (math.nan, math.nan)
+    tol: float = math.nan
+    seconds: float = math.nan
+    monodromies: int = 0
+
+    def __post_init__(self):
+        bad = [k for k in self.kind if k not in BOUNDARIES[1:]]
+        if bad:
+            raise ValueError(f"BoundaryCurves: kinds must be among {BOUNDARIES[1:]}, got {bad}.")
+
+    def to_dataframe(self):
+        """Long format: one row per curve point (curve, kind, stable_side, omega, A,
+        accuracy); points where a curve is not a boundary are left out."""
+        import pandas as pd
+        k, i = np.nonzero(np.isfinite(self.A))
+        return pd.DataFrame({
+            "curve": k, "kind": np.asarray(self.kind, dtype=object)[k] if k.size else [],
+            "stable_side": np.where(np.asarray(self.stable_below)[k], "below", "above"),
+            "omega": np.asarray(self.omega)[i], "A": self.A[k, i],
+            "accuracy": self.accuracy[k, i]})
+
+
+@dataclass(frozen=True)
+class AdaptiveMap(StabilityMap):
+    """A stability map computed only where the classification changes.
+
+    Built by :func:`kapitza.floquet.adaptive_map`; a :class:`StabilityMap` on the full
+    grid (labels of cells that were not refined are their corners' label), plus:
+
+    Attributes
+    ----------
+    margin : ndarray (len(A), len(omega))
+        A continuous stability margin (> 0 stable, < 0 unstable; see
+        :func:`kapitza.floquet_boundaries.signed_margin`), computed at the refined points
+        and interpolated bilinearly inside the cells that were not: its zero contour is
+        the boundary, smooth at the grid's full resolution.
+    computed : bool ndarray (len(A), len(omega))
+        The points whose monodromy was computed.
+    monodromies : int
+        Their number (a uniform map computes len(A) × len(omega)).
+    levels : int
+        Refinement levels after the coarse grid.
+    coarse_step : int
+        The coarse grid's step in grid points.
+    """
+
+    margin: np.ndarray | None = None
+    computed: np.ndarray | None = None
+    monodromies: int = 0
+    levels: int = 0
+    coarse_step: int = 0
+
+    def to_dataframe(self):
+        """As :meth:`StabilityMap.to_dataframe`, with the margin and the computed flag."""
+        df = super().to_dataframe()
+        df["margin"] = np.ravel(self.margin)
+        df["computed"] = np.ravel(self.computed)
+        return df

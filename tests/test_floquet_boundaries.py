@@ -1,0 +1,247 @@
+"""Exact windows, boundary curves and adaptive maps of any system (issue 12, points 2–5).
+
+Independent references:
+* Acheson's modal decoupling: linearised about the upright, the N-link chain on a
+  vertically driven pivot splits exactly into N Mathieu equations, mode k a pendulum of
+  effective length λ_k (kapitza.multiple_pendulum_upright, from lagrange_core's hanging
+  normal modes); each mode's exact window comes from Mathieu characteristic values
+  (kapitza.mathieu.pendulum_stability_window, no monodromy), and the chain's window is
+  their intersection.
+* The single pendulum's exact windows, undamped and damped (Mathieu).
+* The sum resonance of two parametrically coupled oscillators, first order:
+  unstable iff |ω − (w1 + w2)| < A / (2 √(w1 w2)).
+* scipy's solve_ivp monodromies (tests/helpers.py) and the point-wise classification of
+  kapitza.floquet.floquet_grid on both sides of every curve; the uniform stability_map.
+"""
+import math
+
+import numpy as np
+import pytest
+import sympy as sp
+from helpers import G, jacobian_monodromy
+
+import lagrange_core as lc
+from kapitza import floquet as fq
+from kapitza import plots
+from kapitza.floquet_boundaries import margin
+from kapitza.mathieu import pendulum_stability_window
+from kapitza.pendulum_closed_forms import multiple_pendulum_upright
+from kapitza.results import AdaptiveMap, BoundaryCurves, StabilityWindow
+from lagrange_core import problems, t
+
+MASSES, LENGTHS = (1.0, 0.5), (1.0, 0.7)            # an unequal double pendulum
+DP = {"g": G, "l1": LENGTHS[0], "l2": LENGTHS[1], "m1": MASSES[0], "m2": MASSES[1]}
+TP = {"g": G, "l1": 1.0, "l2": 1.0, "l3": 1.0, "m1": 1.0, "m2": 1.0, "m3": 1.0}
+
+
+def chain(n):
+    A, w = sp.symbols("A omega", positive=True)
+    return problems.n_link_pendulum(n, pivot=(0, A * sp.cos(w * t)))
+
+
+@pytest.fixture(scope="module")
+def double():
+    return chain(2)
+
+
+@pytest.fixture(scope="module")
+def triple():
+    return chain(3)
+
+
+@pytest.fixture(scope="module")
+def coupled():
+    """x″ + w1² x + A cos(ωt) y = 0, y″ + w2² y + A cos(ωt) x = 0: the equilibrium 0
+    loses stability only to the sum resonance ω ≈ w1 + w2 (complex multipliers)."""
+    (x, y), (xd, yd) = lc.coordinates("x y")
+    A, w, w1, w2 = sp.symbols("A omega w1 w2", positive=True)
+    L = (xd**2 + yd**2) / 2 - (w1**2 * x**2 + w2**2 * y**2) / 2 - A * sp.cos(w * t) * x * y
+    return lc.System([x, y], lagrangian=L)
+
+
+W12 = {"w1": 1.0, "w2": 1.5}
+
+
+def modal_window(omega, masses, lengths, tol=1e-14):
+    """The chain's exact window as the intersection of its modes' Mathieu windows."""
+    lam = multiple_pendulum_upright(masses, lengths, g=G).effective_lengths
+    modes = [pendulum_stability_window(omega, l=lk, g=G, tol=tol) for lk in lam]
+    return (np.max([m.A_min for m in modes], axis=0), np.min([m.A_max for m in modes], axis=0))
+
+
+# -- 2. exact windows ---------------------------------------------------------------------
+
+def test_double_pendulum_window_is_the_intersection_of_its_modes(double):
+    w = np.array([45.0, 60.0, 100.0, 150.0])
+    win = fq.window(double, DP, [math.pi, math.pi], w)
+    assert isinstance(win, StabilityWindow) and win.method == "floquet" and win.tol == 1e-10
+    lo, hi = modal_window(w, MASSES, LENGTHS)
+    assert np.all(lo < hi)
+    np.testing.assert_allclose(win.A_min, lo, rtol=1e-10)
+    np.testing.assert_allclose(win.A_max, hi, rtol=1e-10)
+    assert np.all(win.accuracy <= 1e-10)
+    df = win.to_dataframe()
+    assert df.columns.tolist() == ["omega", "A_min", "A_max", "accuracy"] and len(df) == 4
+
+
+def test_triple_pendulum_window_to_1e_10(triple):
+    win = fq.window(triple, TP, [math.pi] * 3, 100.0)
+    assert np.ndim(win.A_min) == 0 and win.accuracy <= 1e-10
+    lo, hi = modal_window(100.0, [1.0] * 3, [1.0] * 3)
+    assert abs(win.A_min / lo - 1) < 1e-10 and abs(win.A_max / hi - 1) < 1e-10
+    # solve_ivp (DOP853, rtol 1e-12), nothing of kapitza's monodromy: a multiplier crosses
+    # +1 at A_min (det(M − I) changes sign) and −1 at A_max (det(M + I)), 1e-7 either side
+    params = dict(TP, omega=100.0)
+    for edge, shift in ((win.A_min, 1.0), (win.A_max, -1.0)):
+        signs = [np.sign(np.linalg.det(jacobian_monodromy(
+            triple, dict(params, A=edge * s), [math.pi] * 3, rtol=1e-12) - shift * np.eye(6)))
+            for s in (1 - 1e-7, 1 + 1e-7)]
+        assert signs[0] == -signs[1] != 0
+
+
+def test_single_pendulum_windows_undamped_damped_and_hanging():
+    w = np.array([30.0, 80.0])
+    params = dict(m=1.0, l=0.8, g=G)
+    ref = pendulum_stability_window(w, l=0.8, g=G, tol=1e-14)
+    win = fq.window(problems.driven_pendulum("vertical"), params, [math.pi], w)
+    np.testing.assert_allclose([win.A_min, win.A_max], [ref.A_min, ref.A_max], rtol=1e-10)
+    # damped: the edges are |tr M| = 1 + e^(−γT), the Mathieu reference integrates tr M
+    damped = problems.driven_pendulum("vertical", damping=True)
+    ref = pendulum_stability_window(w, l=0.8, g=G, damping=0.6, tol=1e-11)
+    win = fq.window(damped, dict(params, gamma=0.6), [math.pi], w)
+    np.testing.assert_allclose([win.A_min, win.A_max], [ref.A_min, ref.A_max], rtol=1e-9)
+    # the hanging state is stable undriven: A_min = 0, A_max the first parametric tongue
+    ref = pendulum_stability_window(3.0, l=0.8, g=G, about="hanging", tol=1e-14)
+    win = fq.window(problems.driven_pendulum("vertical"), params, [0.0], 3.0)
+    assert win.A_min == 0.0 and win.A_max == pytest.approx(ref.A_max, rel=1e-10)
+
+
+def test_window_without_stable_amplitudes_is_nan(double):
+    win = fq.window(double, DP, [math.pi, math.pi], 10.0)      # too slow to hold it up
+    assert math.isnan(win.A_min) and math.isnan(win.A_max)
+
+
+def test_window_and_boundaries_refuse_bad_input(double):
+    with pytest.raises(ValueError, match="'B' is not a parameter"):
+        fq.window(double, DP, [math.pi, math.pi], 100.0, amplitude="B")
+    with pytest.raises(ValueError, match="tol must be"):
+        fq.window(double, DP, [math.pi, math.pi], 100.0, tol=0.5)
+    with pytest.raises(ValueError, match="ascending"):
+        fq.boundaries(double, DP, [math.pi, math.pi], [100.0, 50.0])
+    with pytest.raises(ValueError, match="A_range"):
+        fq.boundaries(double, DP, [math.pi, math.pi], [50.0, 100.0], A_range=(0.3, 0.1))
+    with pytest.raises(ValueError, match="does not persist"):
+        fq.window(double, DP, [1.0, math.pi], 100.0)
+
+
+def test_margins_have_simple_roots_at_the_edges(triple):
+    """det(M ∓ I) changes sign across each edge, with an error bound far below |g|."""
+    win = fq.window(triple, TP, [math.pi] * 3, 100.0)
+    probe = fq._Probe(triple, TP, [math.pi] * 3, "A", "omega", 1e-15, 16, 1e-8, paired=True)
+    for edge, kind in ((win.A_min, 1), (win.A_max, 2)):
+        A = edge * np.array([1 - 1e-8, 1 + 1e-8])
+        g, bound = margin(probe(A, np.full(2, 100.0)), np.full(2, kind))
+        assert g[0] * g[1] < 0 and np.all(bound < 0.1 * np.abs(g))
+
+
+# -- 3. boundary curves -------------------------------------------------------------------
+
+def _both_sides(system, params, about, curves, side=1e-6):
+    """Point-wise classification (floquet_grid) at A(1 ∓ side) of every curve point:
+    the stable side stable, the other not."""
+    k, i = np.nonzero(np.isfinite(curves.A))
+    A = curves.A[k, i]
+    w = curves.omega[i]
+    grid = fq.floquet_grid(system, dict(params, A=np.r_[A * (1 - side), A * (1 + side)],
+                                        omega=np.r_[w, w]), about, progress=False)
+    below, above = np.split(grid.stable, 2)
+    stable_below = curves.stable_below[k]
+    return np.all(np.where(stable_below, below & ~above, ~below & above)), k.size
+
+
+def test_double_pendulum_boundaries_against_modes_and_both_sides(double):
+    w = np.linspace(20.0, 150.0, 60)
+    curves = fq.boundaries(double, DP, [math.pi, math.pi], w, A_range=(0.0, 0.3), tol=1e-9)
+    assert isinstance(curves, BoundaryCurves)
+    assert curves.kind == ("T", "2T") and curves.stable_below.tolist() == [False, True]
+    lo, hi = modal_window(w, MASSES, LENGTHS)
+    window = lo < hi
+    # every curve point lies on the modal edge, to the tolerance, and is certified
+    for k, ref in ((0, lo), (1, hi)):
+        ok = np.isfinite(curves.A[k])
+        assert np.array_equal(ok, window)               # a boundary exactly where a window is
+        np.testing.assert_allclose(curves.A[k][ok], ref[ok], rtol=1e-9)
+        assert np.all(curves.accuracy[k][ok] <= 1e-9)
+    good, count = _both_sides(double, DP, [math.pi, math.pi], curves)
+    assert good and count == 2 * window.sum()
+    df = curves.to_dataframe()
+    assert len(df) == count and set(df.kind) == {"T", "2T"}
+    assert set(df.stable_side) == {"above", "below"}
+
+
+def test_complex_boundaries_of_the_sum_resonance(coupled):
+    w = np.linspace(2.2, 2.8, 61)
+    curves = fq.boundaries(coupled, W12, [0.0, 0.0], w, A_range=(0.0, 0.6), tol=1e-9)
+    assert curves.kind == ("complex", "complex") and curves.stable_below.all()
+    good, count = _both_sides(coupled, W12, [0.0, 0.0], curves)
+    assert good and count >= 40          # the tongue covers about 2 × 25 of the frequencies
+    # near the tongue's tip, first order: A = 2 √(w1 w2) |ω − (w1 + w2)|
+    sigma = np.abs(w - 2.5)
+    near = (sigma > 0) & (sigma < 0.03)
+    A = np.nanmin(curves.A, axis=0)
+    np.testing.assert_allclose(A[near], 2 * math.sqrt(1.5) * sigma[near], rtol=0.05)
+    # the exact window at one ω is bounded by the same curve
+    win = fq.window(coupled, W12, [0.0, 0.0], w[10])
+    assert win.A_min == 0.0 and win.A_max == pytest.approx(A[10], rel=1e-9)
+
+
+def test_boundaries_drawn_as_lines_over_a_map(double):
+    w = np.linspace(40.0, 150.0, 30)
+    curves = fq.boundaries(double, DP, [math.pi, math.pi], w, A_range=(0.0, 0.3), tol=1e-9)
+    m = fq.stability_map(double, np.linspace(0.0, 0.3, 20), w, DP, [math.pi, math.pi])
+    fig = plots.stability_map_figure(m, overlays=[curves])
+    labels = [line.get_label() for line in fig.axes[0].lines]
+    assert labels == ["exact boundary: multiplier +1 (T)", "exact boundary: multiplier −1 (2T)"]
+    legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert "exact boundary: multiplier −1 (2T)" in legend
+
+
+# -- 4. adaptive maps ---------------------------------------------------------------------
+
+@pytest.mark.parametrize("case", ["double", "coupled"])
+def test_adaptive_map_equals_the_uniform_map_with_10x_fewer_monodromies(case, double, coupled):
+    if case == "double":
+        system, params, about = double, DP, [math.pi, math.pi]
+        A, w = np.linspace(0.0, 0.3, 257), np.linspace(20.0, 150.0, 257)
+    else:
+        system, params, about = coupled, W12, [0.0, 0.0]
+        A, w = np.linspace(0.0, 0.8, 257), np.linspace(2.0, 3.0, 257)
+    m = fq.adaptive_map(system, A, w, params, about, coarse_step=16)
+    uniform = fq.stability_map(system, A, w, params, about)
+    assert isinstance(m, AdaptiveMap) and m.stable.shape == (257, 257)
+    assert np.array_equal(m.label, uniform.label)
+    assert m.monodromies == m.computed.sum() and 10 * m.monodromies <= A.size * w.size
+    # the continuous margin has the map's sign wherever it was computed (it is 0 where
+    # the undriven oscillators' multipliers coincide: ω = w1 + w2, ω = 2 w2 at A = 0)
+    c = m.computed & (m.margin != 0)
+    assert np.all((m.margin[c] > 0) == m.stable[c])
+    fig = plots.stability_map_figure(m)
+    assert fig.axes[0].get_title().endswith("(adaptive monodromy)")
+    df = m.to_dataframe()
+    assert {"margin", "computed"} <= set(df.columns) and len(df) == 257 * 257
+
+
+# -- 5. the cost of one point: small grids stay on the calling thread ---------------------
+
+def test_small_grids_run_on_the_calling_thread_with_the_same_results(triple):
+    import numba
+    before = numba.get_num_threads()
+    # the first chunk (64 points) runs on the calling thread, larger ones in parallel
+    A = np.linspace(0.06, 0.08, 4 * fq.SERIAL_BELOW)
+    big = fq.floquet_grid(triple, dict(TP, A=A, omega=100.0), [math.pi] * 3, progress=False)
+    assert numba.get_num_threads() == before
+    for i in (0, 100, len(A) - 1):
+        one = fq.floquet_point(triple, dict(TP, A=A[i], omega=100.0), [math.pi] * 3)
+        assert one.trace == pytest.approx(big.trace[i], rel=1e-12, abs=1e-12)
+        assert one.stable == big.stable[i]
+    assert numba.get_num_threads() == before
