@@ -299,15 +299,22 @@ class _Plan:
         return f"part-{i:06d}-{key[:16]}.parquet"
 
 
+def _warm(work, axes):
+    """Run the work on one point: it compiles, or loads from the on-disk cache, every
+    kernel it needs (so a cluster's workers find them there)."""
+    first = np.zeros(1, dtype=np.int64)
+    with numba_threads(1):
+        work(tile_columns(axes, first), first)
+
+
 def _calibrate(work, axes, size, tile_seconds) -> int:
     """Points per tile: ``tile_seconds`` of the work on one numba thread, measured on a
     pilot spread over the grid (after one point that loads or compiles the kernels)."""
-    first = np.zeros(1, dtype=np.int64)
+    _warm(work, axes)
     pilot = np.unique(np.linspace(0, size - 1, min(size, _PILOT)).round().astype(np.int64))
     cols = tile_columns(axes, pilot)
     times = []
     with numba_threads(1):
-        work(tile_columns(axes, first), first)
         # a pilot may still load (or compile) code that one point did not need: time it
         # until two runs agree within 30 %, at most 4 times, and take the fastest
         while len(times) < 4 and not (len(times) >= 2 and times[-1] > 0.7 * times[-2]
@@ -334,8 +341,9 @@ def _plan(directory: Path, work, axes, key, fingerprint, tile_points, tile_secon
                              f"tile_points={tile_points} would recompute them. Pass "
                              f"tile_points={saved['tile_points']} (or None), or remove the "
                              "directory.")
-        return _Plan(key, fingerprint, size, int(saved["tile_points"]))
-    if tile_points is None:
+        return _Plan(key, fingerprint, size, int(saved["tile_points"])), False
+    calibrated = tile_points is None
+    if calibrated:
         tile_points = _calibrate(work, axes, size, tile_seconds)
     plan = _Plan(key, fingerprint, size, int(tile_points))
     _write_text(manifest, json.dumps({"key": key, "fingerprint": fingerprint, "size": size,
@@ -343,7 +351,7 @@ def _plan(directory: Path, work, axes, key, fingerprint, tile_points, tile_secon
                                       "axes": {a.name: list(a.values) for a in axes},
                                       "created": time.strftime("%Y-%m-%dT%H:%M:%S%z")},
                                      indent=1))
-    return plan
+    return plan, calibrated
 
 
 def _bar(progress, total, initial, label):
@@ -409,7 +417,7 @@ def run_sweep(work, axes, directory, *, key: str, fingerprint: str, metadata: di
     directory.mkdir(parents=True, exist_ok=True)
     _remove_stray_temporaries(directory)
     mode = _executor_name(executor)
-    plan = _plan(directory, work, axes, key, fingerprint, tile_points, tile_seconds)
+    plan, calibrated = _plan(directory, work, axes, key, fingerprint, tile_points, tile_seconds)
     meta = dict(metadata, fingerprint=fingerprint, versions=package_versions(),
                 tile_points=plan.tile_points, tiles=plan.tiles, size=plan.size,
                 axes={a.name: {"kind": a.kind, "values": list(a.values)} for a in axes})
@@ -428,6 +436,8 @@ def run_sweep(work, axes, directory, *, key: str, fingerprint: str, metadata: di
     try:
         if mode == "dask":
             from . import sweep_dask
+            if todo and not calibrated:
+                _warm(work, axes)       # the workers load the kernels from the disk cache
             sweep_dask.run_tiles(executor, compute_tile, work, axes,
                                  {i: plan.bounds(i) for i in todo}, worker_threads, finish)
         else:
