@@ -19,8 +19,7 @@ from kapitza import ComputationInterrupted, Scene
 from kapitza.scene_file import Axis
 from kapitza.sweep import MANIFEST, compute_tile, run_sweep, tile_columns
 
-#: the Kapitza pendulum simulated over A × θ0: 12 points in tiles of 4
-SCENE = '''\
+_PENDULUM = '''\
 schema = 1
 [system]
 name = "pendulum"
@@ -29,18 +28,29 @@ l = 1.0
 [effects]
 gravity = true
 [effects.drive]
+direction = "{direction}"
 amplitude = 0.05
 omega = 200.0
 [initial]
-theta = 3.0
+theta = {theta}
 [analyses]
-simulate = { periods = 50 }
+{analyses}
 [sweep]
-tile_points = 4
+{sweep}
 [sweep.axes]
-A = { start = 0.0, stop = 0.3, num = 6 }
-initial.theta = [2.9, 3.0]
+{axes}
 '''
+
+
+def pendulum(direction="vertical", theta=3.1, analyses="", axes="", sweep=""):
+    """A pendulum scene on a pivot driven at A = 5 cm, ω = 200 rad/s, swept over ``axes``."""
+    return _PENDULUM.format(direction=direction, theta=theta, analyses=analyses, axes=axes,
+                            sweep=sweep)
+
+
+#: the Kapitza pendulum simulated over A × θ0: 12 points in tiles of 4
+SCENE = pendulum(theta=3.0, analyses="simulate = { periods = 50 }", sweep="tile_points = 4",
+                 axes="A = { start = 0.0, stop = 0.3, num = 6 }\ninitial.theta = [2.9, 3.0]")
 
 
 def slow_scene(points=96, tile=8, periods=2000):
@@ -220,41 +230,18 @@ def test_ctrl_c_keeps_the_finished_tiles(tmp_path):
 
 # -- the analyses over tiles ------------------------------------------------------------------
 
-_PENDULUM = '''\
-schema = 1
-[system]
-name = "pendulum"
-[parameters]
-l = 1.0
-[effects]
-gravity = true
-[effects.drive]
-direction = "{direction}"
-amplitude = 0.05
-omega = 200.0
-[initial]
-theta = {theta}
-[analyses]
-{analyses}
-[sweep]
-[sweep.axes]
-{axes}
-'''
-
-
 def test_floquet_and_averaging_sweeps_agree_with_the_exact_window(tmp_path):
     """The upright pendulum over A at ω = 200 rad/s: Floquet (monodromy) and averaging
     (closed forms) against the exact Mathieu window."""
-    s = Scene.from_text(_PENDULUM.format(
+    s = Scene.from_text(pendulum(
         direction="vertical", theta=3.1, analyses="floquet = true\naveraging = true",
         axes="A = { start = 0.005, stop = 0.5, num = 12 }"))
-    res = s.run(progress=False)
-    fl = res.sweeps["floquet"].to_dataframe()
+    fl = s.sweep("floquet", directory=tmp_path, progress=False).to_dataframe()
     win = kapitza.KapitzaPendulum(l=1.0, g=9.81).stability_window(200.0)
     inside = (fl["A"] > win.A_min) & (fl["A"] < win.A_max)
     assert fl["stable"].tolist() == inside.tolist() and 0 < inside.sum() < 12
     assert {"trace", "boundary", "omega_slow_0", "flags"} <= set(fl.columns)
-    av = res.sweeps["averaging"].to_dataframe()
+    av = s.sweep("averaging", directory=tmp_path, progress=False).to_dataframe()
     up = av[av["equilibrium"] == "inverted"]
     assert up["point"].tolist() == list(range(12))
     np.testing.assert_array_equal(up["stable"], (up["A"] * 200.0) ** 2 > 2 * 9.81)
@@ -263,16 +250,14 @@ def test_floquet_and_averaging_sweeps_agree_with_the_exact_window(tmp_path):
 def test_periodic_orbit_and_general_averaging_sweeps(tmp_path):
     """A horizontal drive: Floquet about the tilted orbit per point; the elliptic pivot's
     averaging through the general path (not the pendulum's closed forms)."""
-    s = Scene.from_text(_PENDULUM.format(direction="horizontal", theta=1.0,
-                                         analyses="floquet = true",
-                                         axes="A = [0.04, 0.06]"))
+    s = Scene.from_text(pendulum(direction="horizontal", theta=1.0, analyses="floquet = true",
+                                 axes="A = [0.04, 0.06]"))
     fl = s.sweep(directory=tmp_path, progress=False).to_dataframe()
     tilt = np.arccos(2 * 9.81 / (fl["A"] * 200.0) ** 2)
     np.testing.assert_allclose(fl["q_mean_theta"], tilt, atol=0.01)
     assert fl["stable"].all() and (fl["error"] == "").all()
-    s = Scene.from_text(_PENDULUM.format(direction="elliptic", theta=0.0,
-                                         analyses="averaging = true",
-                                         axes="gamma = [0.1, 0.5]").replace(
+    s = Scene.from_text(pendulum(direction="elliptic", theta=0.0, analyses="averaging = true",
+                                 axes="gamma = [0.1, 0.5]").replace(
         "amplitude = 0.05", "amplitude = 0.02\namplitude_y = 0.01").replace(
         "[effects]", "[effects.damping]\ngamma = 0.1\n[effects]"))
     av = s.sweep(directory=tmp_path, progress=False).to_dataframe()
@@ -289,7 +274,7 @@ def test_periodic_orbit_and_general_averaging_sweeps(tmp_path):
 
 
 def test_measure_sweep_over_initial_angles(tmp_path):
-    s = Scene.from_text(_PENDULUM.format(
+    s = Scene.from_text(pendulum(
         direction="vertical", theta=3.1, analyses="measure = { periods = 300 }",
         axes="initial.theta = [3.0, 3.1, 0.1]"))
     m = s.sweep(directory=tmp_path, progress=False).to_dataframe()
