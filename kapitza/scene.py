@@ -35,7 +35,10 @@ horizontal (one harmonic) and at most damping, which has closed forms and exact 
     One trajectory (:meth:`lagrange_core.System.simulate`), ``samples`` equally spaced
     output times.
 ``verify``
-    Not wired yet (:mod:`kapitza.verify` is not in this tree).
+    Averaging, Floquet analysis and direct simulation compared over an (A, ω) grid
+    (:func:`kapitza.verify`; the upright plain pendulum: :meth:`KapitzaPendulum.verify`,
+    which adds the next order), :class:`~kapitza.results.Verification`.  ``fit_order =
+    true`` also fits the order of averaging along its default line.
 
 ``about`` (Floquet, maps, windows, measurements): "inverted" (every coordinate π),
 "hanging" (0), a list of coordinate values, or "auto" (the default): the persisting
@@ -548,8 +551,26 @@ def _simulate(scene, s, progress):
                                  method=s.get("method"), rtol=s.get("rtol", 1e-9), t_eval=t_eval)
 
 
+def _verify(scene, s, progress):
+    from .verify import verify
+    A = np.asarray(s["A"].values)[:, None]
+    omega = _frequency_axis(s)[None, :]
+    common = dict(periods=s.get("periods", 1000), tol=s.get("tol", 1e-10),
+                  rtol=s.get("rtol", 1e-9), line=None if s.get("fit_order") else False,
+                  progress=progress)
+    about = s.get("about", "auto")
+    pend = scene.pendulum
+    if pend is not None and _pendulum_state(scene, about) == "inverted" \
+            and "offset" not in s and "band" not in s:
+        near = 0 < abs(scene.q0[0] - math.pi) < math.pi / 2     # released near the upright
+        return pend.verify(A, omega, theta0=scene.q0[0] if near else math.pi - 0.01,
+                           theta_dot0=scene.qdot0[0] if near else 0.0, **common)
+    return verify(scene.system, scene.spec.params, _about(scene, about), A=A, omega=omega,
+                  offset=s.get("offset", 0.01), band=s.get("band", math.pi / 2), **common)
+
+
 _POINT = {"averaging": _averaging, "floquet": _floquet, "stability_map": _stability_map,
-          "window": _window, "measure": _measure, "simulate": _simulate}
+          "window": _window, "measure": _measure, "simulate": _simulate, "verify": _verify}
 
 
 # -- the analyses over a sweep's tile -----------------------------------------------------------

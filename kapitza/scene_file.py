@@ -104,6 +104,8 @@ ANALYSES = {
     "window": ("omega", "frequency_hz", "about"),
     "measure": ("about", "periods", "band", "rtol"),
     "simulate": ("periods", "duration", "samples", "method", "rtol"),
+    "verify": ("A", "omega", "frequency_hz", "about", "periods", "offset", "band", "tol",
+               "rtol", "fit_order"),
 }
 #: Analyses that run at every point of a sweep (the others are grids of their own).
 SWEEPABLE = ("averaging", "floquet", "measure", "simulate")
@@ -730,9 +732,10 @@ def _check_analyses(c, analyses, effects):
             continue
         out[name] = _check_settings(c, name, s, key)
     for name in out:
-        if name in ("averaging", "floquet", "stability_map", "window") and drive is None:
+        if name in ("averaging", "floquet", "stability_map", "window", "verify") \
+                and drive is None:
             c.error(f"analyses.{name}", f"{name} needs a drive: add [effects.drive]")
-        if name in ("stability_map", "window") and drive is not None \
+        if name in ("stability_map", "window", "verify") and drive is not None \
                 and not drive.keeps_vertical_equilibria:
             c.error(f"analyses.{name}", f"{name} is about an equilibrium, and a "
                                         f"{drive.path if isinstance(drive.path, str) else 'oblique'}"
@@ -754,9 +757,11 @@ def _check_settings(c, name, s, key):
                 c.error(kk, f"must be 1 or 2, got {v!r}")
             else:
                 out[k] = v
-        elif k in ("tol", "rtol", "band", "duration"):
+        elif k == "fit_order":
+            out[k] = c.boolean(v, kk)
+        elif k in ("tol", "rtol", "band", "duration", "offset"):
             out[k] = c.number(v, kk, minimum=0.0, strict=True,
-                              unit={"band": "rad", "duration": "s"}.get(k, ""))
+                              unit={"band": "rad", "duration": "s", "offset": "rad"}.get(k, ""))
         elif k in ("periods", "samples"):
             out[k] = c.number(v, kk, integer=True, minimum=2 if k == "samples" else 1)
         elif k == "method":
@@ -765,11 +770,11 @@ def _check_settings(c, name, s, key):
         elif k in ("A", "omega", "frequency_hz"):
             unit = _UNITS[k]
             out[k] = _check_axis(c, v, kk, k, minimum=0.0, strict=k != "A", unit=unit)
-    if name in ("stability_map", "window"):
+    if name in ("stability_map", "window", "verify"):
         c.one_of(s, key, ("omega", "frequency_hz"), "the drive frequencies, omega (rad/s) or "
                                                     "frequency_hz (Hz): a range {start, stop, "
                                                     "num} or a list")
-    if name == "stability_map" and "A" not in s:
+    if name in ("stability_map", "verify") and "A" not in s:
         c.error(f"{key}.A", "missing; the amplitudes (m): a range {start, stop, num} or a list")
     if name == "simulate":
         c.one_of(s, key, ("periods", "duration"), "", required=False)

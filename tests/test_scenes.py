@@ -322,6 +322,8 @@ BAD = {
                             [("analyses.floquet", 12, "must be a table, got an integer 1")]),
     "measure periods": (("floquet = true", "measure = { periods = 0.5 }"),
                         [("analyses.measure.periods", 12, "must be a whole number")]),
+    "verify without axes": (("floquet = true", "verify = { periods = 100 }"),
+                            [("analyses.verify.A", 12, "missing; the amplitudes")]),
     "map without axes": (("floquet = true", "stability_map = { about = \"inverted\" }"),
                          [("analyses.stability_map.omega", 12, "missing; give the drive "
                                                                "frequencies"),
@@ -519,3 +521,17 @@ def test_floquet_follows_the_effects():
             [analyses]
             averaging = { order = 2 }
         ''').run()
+
+
+def test_verify_compares_the_methods_over_a_grid():
+    pytest.importorskip("kapitza.verify")
+    res = Scene.from_text(_GOOD.replace("[analyses]", "[initial]\ntheta = 3.13\n[analyses]")
+                          .replace("floquet = true", "verify = { A = [0.03, 0.05], omega = "
+                                                     "[300.0], periods = 300 }")).run()
+    v = res["verify"]
+    assert type(v).__name__ == "Verification"
+    table = res.to_dataframe("verify")
+    assert len(table) == 2 and table["stable_floquet"].all()
+    assert (table["stable_simulation"] == table["stable_floquet"]).all()
+    assert table["omega_slow_simulation"].to_numpy() == pytest.approx(
+        table["omega_slow_floquet"].to_numpy(), rel=1e-3)
