@@ -51,6 +51,14 @@ Periodic orbits (:mod:`kapitza.periodic_orbit`)
         The T-periodic orbit of any driven system (Newton shooting on the period map) and
         its Floquet multipliers: the slow states of drives that leave no equilibrium.
 
+Measurements from direct simulation (:mod:`kapitza.measure`)
+    measure
+        Simulate one parameter set of any driven system and measure the motion: stayed
+        near ``about`` or fell (when), slow frequencies with error estimates, slow
+        amplitude, mean position, energy drift.
+    measure_grid
+        The same over a broadcast grid, in one compiled parallel integration.
+
 The Mathieu equation of the single pendulum (:mod:`kapitza.mathieu`)
     mathieu_parameters
         The mapping (A, ω, l, g, γ, about) → (a, q, c), written once.
@@ -88,6 +96,9 @@ Results (:mod:`kapitza.results`; frozen dataclasses with ``to_dataframe()``)
         Results of the pendulum's closed forms.
     PeriodicOrbit
         A periodic orbit: state, period mean, fast amplitude, multipliers, stability.
+    Measurement
+        What direct simulation measured, per point (``measure``, ``measure_grid``,
+        ``KapitzaPendulum.measure``).
 
 Figures (:mod:`kapitza.plots`; they draw results and compute nothing)
     stability_map_figure
@@ -129,6 +140,7 @@ from .floquet import (adaptive_map, boundaries, floquet_grid, floquet_point, mon
                       stability_map, window)
 from .mathieu import (characteristic_value, ince_strutt_chart, mathieu_monodromy_trace,
                       mathieu_parameters, pendulum_stability_map, pendulum_stability_window)
+from .measure import measure, measure_grid
 from .pendulum import KapitzaPendulum
 from .periodic_orbit import periodic_orbit
 from .pendulum_closed_forms import (multiple_pendulum_upright, pendulum_averaged,
@@ -139,9 +151,9 @@ from .scene import Scene, SceneResults, example_scenes
 from .scene_file import SceneError
 from .sweep import SweepResult
 from .results import (AveragingPrediction, ComputationInterrupted, EquilibriumPrediction,
-                      FloquetGrid, FloquetResult, FloquetWindow, InceStruttChart, MonodromyData,
-                      MultiplePendulumPrediction, PendulumAveraging, PeriodicOrbit, SlowModes,
-                      SlowModeSweep, StabilityMap, StabilityWindow)
+                      FloquetGrid, FloquetResult, FloquetWindow, InceStruttChart, Measurement,
+                      MonodromyData, MultiplePendulumPrediction, PendulumAveraging,
+                      PeriodicOrbit, SlowModes, SlowModeSweep, StabilityMap, StabilityWindow)
 
 from .results import AdaptiveMap, BoundaryCurves
 
@@ -153,12 +165,13 @@ __all__ = [
     "floquet_point", "floquet_grid", "monodromy_data", "stability_map",
     "window", "boundaries", "adaptive_map", "BoundaryCurves", "AdaptiveMap",
     "periodic_orbit", "PeriodicOrbit",
+    "measure", "measure_grid",
     "mathieu_parameters", "characteristic_value", "mathieu_monodromy_trace",
     "pendulum_stability_window", "pendulum_stability_map", "ince_strutt_chart",
     "ComputationInterrupted", "FloquetResult", "FloquetGrid", "MonodromyData", "StabilityMap",
     "StabilityWindow",
     "FloquetWindow", "InceStruttChart", "SlowModes", "AveragingPrediction", "SlowModeSweep",
-    "PendulumAveraging", "EquilibriumPrediction", "MultiplePendulumPrediction",
+    "PendulumAveraging", "EquilibriumPrediction", "MultiplePendulumPrediction", "Measurement",
     "stability_map_figure", "effective_potential_figure", "ince_strutt_figure", "warmup",
     "Scene", "SceneResults", "SceneError", "SweepResult", "example_scenes",
 ]

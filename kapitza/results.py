@@ -24,6 +24,8 @@ Averaging of any system
 The driven pendulum and Acheson's chain in closed form
     :class:`EquilibriumPrediction`, :class:`PendulumAveraging`,
     :class:`MultiplePendulumPrediction`.
+Direct simulation
+    :class:`Measurement` (what the full motion did, with error estimates).
 """
 from __future__ import annotations
 
@@ -36,7 +38,7 @@ __all__ = ["BOUNDARIES", "scalar_or_array", "FloquetResult", "MonodromyData", "F
            "StabilityMap", "StabilityWindow", "FloquetWindow", "InceStruttChart", "SlowModes",
            "AveragingPrediction", "SlowModeSweep", "EquilibriumPrediction", "PendulumAveraging",
            "MultiplePendulumPrediction", "ComputationInterrupted", "BoundaryCurves",
-           "AdaptiveMap"]
+           "AdaptiveMap", "Measurement"]
 
 #: Names of the stability labels 0, 1, 2, 3: stable; unstable in a region bounded by
 #: period-T solutions (multiplier +1); by period-2T solutions (multiplier −1); complex
@@ -866,6 +868,134 @@ class MultiplePendulumPrediction:
             frames.append(df.assign(mode=k, hanging_frequency=self.hanging_frequencies[k],
                                     effective_length=self.effective_lengths[k]))
         return pd.concat(frames, ignore_index=True)
+
+
+# ======================================================================================
+# Measurements from direct simulation (kapitza.measure)
+# ======================================================================================
+
+#: Measurement fields with one entry per slow mode (ascending frequency) or per coordinate.
+_MODE_FIELDS = ("omega_slow", "omega_slow_error", "refined", "growth_rate")
+_COORDINATE_FIELDS = ("about", "amplitude", "mean_angle", "max_deviation")
+_POINT_FIELDS = ("period", "stayed_up", "fall_time", "fit_residual", "samples",
+                 "energy_drift", "status")
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """What direct integration of the full nonlinear motion measured, point by point.
+
+    Built by :func:`kapitza.measure.measure_grid` (a broadcast grid: every field an array
+    of the grid's shape S, followed by the axis stated), :func:`kapitza.measure.measure`
+    (one point: 0-d fields are Python scalars, and a one-coordinate system's per-mode and
+    per-coordinate fields are floats) and :meth:`kapitza.KapitzaPendulum.measure` /
+    ``measure_grid`` (one coordinate θ: those fields have the grid's shape).  How each
+    number is measured, and what its error estimate covers, is in :mod:`kapitza.measure`.
+
+    Attributes
+    ----------
+    coordinates : tuple of str
+        The system's coordinates, in order.
+    params : dict of str to array
+        Every parameter's value at every point (broadcast to S).
+    about : array (S + (n,))
+        The state the band is centred on: a driven equilibrium (the pendulum's
+        θ = π) or an estimate of a periodic orbit's position (the tilt θ* of the
+        horizontally driven pendulum) (rad for angles).
+    period : array (S)
+        The drive period T = 2π/ω (s); the strobe samples are t0 + kT.
+    periods : int
+        Drive periods simulated (K = periods + 1 strobe samples).
+    stayed_up : bool array (S)
+        The run finished without leaving the band |q_i − about_i| < band_i (for the
+        inverted pendulum: it stayed up, |θ − π| < π/2 throughout); False where it
+        left the band or the integration failed (see ``status``).
+    fall_time : array (S)
+        Time from the start to leaving the band (s); NaN where it did not.
+    omega_slow : array (S + (n,))
+        Slow angular frequencies (rad/s) of the motion, ascending, from the
+        stroboscopic samples up to the stop, folded into [0, ω/2] (aliasing); NaN where
+        a mode is not resolved (too few samples, a real multiplier).
+    omega_slow_error : array (S + (n,))
+        Error estimate of ``omega_slow`` (rad/s): the estimator's error for the
+        simulated motion (the record's two halves, the fit's bias); not the
+        integration error, not the amplitude dependence (see :mod:`kapitza.measure`).
+    refined : bool array (S + (n,))
+        The mode's Ω is its rotation number (else the linear strobe map's value).
+    growth_rate : array (S + (n,))
+        log|λ| / T of each mode's strobe-map eigenvalue (1/s): ≈ 0 for a stable
+        undamped oscillation, ≈ −γ/2 for the damped pendulum, > 0 growing.
+    fit_residual : array (S)
+        Relative residual of the linear strobe map fit: the harmonic content of the
+        slow motion (≈ 0 for small oscillations).
+    amplitude : array (S + (n,))
+        Slow amplitude per coordinate: half the peak-to-peak range of the strobe
+        samples q(t0 + kT) (rad for angles), which hold no fast motion.
+    mean_angle : array (S + (n,))
+        Time average of each coordinate over the run (rad for angles): the mean tilt
+        of the horizontally driven pendulum.
+    max_deviation : array (S + (n,))
+        max |q − about| over the run, the fast motion included.
+    energy_drift : array (S) or None
+        max |E(t) − E(t0)| (J) where the system's energy function is conserved (no
+        drive, forces or dissipation); None for a driven system, which has none.
+    samples : int array (S)
+        Strobe samples recorded (up to a stop).
+    status : str array (S)
+        How each run ended: "finished", "left_band", "underflow", "non_finite",
+        "singular", "max_steps" (:data:`lagrange_core.batch.STATUS_NAMES`).
+    method : str
+        The integration method.
+    rtol : float
+        Its relative tolerance.
+    """
+
+    coordinates: tuple
+    params: dict
+    about: object
+    period: object
+    periods: int
+    stayed_up: object
+    fall_time: object
+    omega_slow: object
+    omega_slow_error: object
+    refined: object
+    growth_rate: object
+    fit_residual: object
+    amplitude: object
+    mean_angle: object
+    max_deviation: object
+    energy_drift: object
+    samples: object
+    status: object
+    method: str
+    rtol: float
+
+    @property
+    def shape(self) -> tuple:
+        """The grid's shape S (() for one point)."""
+        return np.shape(self.stayed_up)
+
+    def to_dataframe(self):
+        """One row per point: the parameters, then every field (per-mode fields as
+        ``omega_slow_0``, ``omega_slow_1``, ... in ascending order, per-coordinate fields
+        as ``amplitude_<coordinate>``)."""
+        import pandas as pd
+        S = self.shape
+        size = int(np.prod(S, dtype=np.int64))
+        data = {k: np.ravel(np.broadcast_to(np.asarray(v), S)) for k, v in self.params.items()}
+        for name in _POINT_FIELDS[:3] + _MODE_FIELDS + _COORDINATE_FIELDS + _POINT_FIELDS[3:]:
+            value = getattr(self, name)
+            if value is None:
+                continue
+            value = np.asarray(value)
+            if value.ndim == len(S):
+                data[name] = value.reshape(size)
+                continue
+            labels = (range(value.shape[-1]) if name in _MODE_FIELDS else self.coordinates)
+            for j, label in enumerate(labels):
+                data[f"{name}_{label}"] = value[..., j].reshape(size)
+        return pd.DataFrame(data)
 
 
 @dataclass(frozen=True, eq=False)
