@@ -14,6 +14,15 @@ Run:  python benchmarks/bench_stability_map.py [--quick]
    against the requested tolerance.
 3. Double pendulum with a vertically driven pivot about its upright state,
    200 × 200 map vs per-point solve_ivp on a sample, extrapolated.
+4. Exact windows and boundaries (issue 12), Acheson's chains, upright:
+   * cost of one Floquet point, double vs triple pendulum, with small grids on the
+     calling thread (today) and through numba's thread pool (before), interleaved;
+   * the triple pendulum's window at ω = 100 rad/s: kapitza.floquet.window vs bisection
+     on floquet_point(...).stable; errors against the modal decoupling (Mathieu
+     characteristic values of each mode, no monodromy);
+   * the double pendulum's boundaries at 200 frequencies vs the uniform 200 × 200 map,
+     both timed here; errors against the modal decoupling;
+   * adaptive maps vs uniform maps of the same grid: monodromies, time, disagreements.
 Timings are the best of a few repetitions after warm-up (numba caches warm);
 the machine has 2 cores and is shared, so absolute numbers move with its load.
 """
@@ -33,6 +42,8 @@ from scipy.integrate import solve_ivp
 
 from kapitza import floquet as fqm
 from kapitza import mathieu as mm
+from kapitza import plots
+from kapitza.pendulum_closed_forms import multiple_pendulum_upright
 from kapitza.pendulum import KapitzaPendulum
 from lagrange_core import problems
 from lagrange_core import t as t_sym
@@ -241,14 +252,126 @@ def section_double(quick):
     print(f"ratio: solve_ivp/kapitza = {t_ivp / t_ours:,.0f}x")
 
 
+def chain(n):
+    Asym, wsym = sp.symbols("A omega", positive=True)
+    params = {"g": G}
+    for k in range(1, n + 1):
+        params[f"l{k}"], params[f"m{k}"] = 1.0, 1.0
+    return problems.n_link_pendulum(n, pivot=(0, Asym * sp.cos(wsym * t_sym))), params
+
+
+def modal_window(omega, n):
+    """The equal n-link chain's exact window: the intersection of its modes' Mathieu
+    windows (Acheson's decoupling; characteristic values, no monodromy)."""
+    lam = multiple_pendulum_upright([1.0] * n, [1.0] * n, g=G).effective_lengths
+    modes = [mm.pendulum_stability_window(omega, l=lk, g=G, tol=1e-14) for lk in lam]
+    return (np.max([m.A_min for m in modes], axis=0), np.min([m.A_max for m in modes], axis=0))
+
+
+def bisect_window(system, params, up, omega, brackets, rtol=1e-10):
+    """Today's user recipe: bisection on floquet_point(...).stable for each edge."""
+    calls, edges = 0, []
+    for lo, hi, stable_low in brackets:
+        while hi - lo > rtol * hi:
+            mid = 0.5 * (lo + hi)
+            calls += 1
+            st = fqm.floquet_point(system, dict(params, A=mid, omega=omega), up).stable
+            lo, hi = (mid, hi) if st == stable_low else (lo, mid)
+        edges.append(0.5 * (lo + hi))
+    return edges, calls
+
+
+def section_boundaries(quick, figure=None):
+    print("\n== 4. exact windows and boundaries (issue 12): upright chains ==")
+    dp, dpar = chain(2)
+    tp, tpar = chain(3)
+    up2, up3 = [math.pi] * 2, [math.pi] * 3
+    # 4a. one Floquet point: thread pool (before) vs calling thread (today), interleaved
+    cases = ((dp, dpar, up2), (tp, tpar, up3))
+    for s_, p_, u_ in cases:
+        fqm.floquet_point(s_, dict(p_, A=0.07, omega=100.0), u_)
+    serial = fqm.SERIAL_BELOW
+    reps = 10 if quick else 30
+    cost = {}
+    for _ in range(3):
+        for mode, below in (("pool", 0), ("thread", serial)):
+            fqm.SERIAL_BELOW = below
+            for s_, p_, u_ in cases:
+                t, _ = best(lambda: fqm.floquet_point(s_, dict(p_, A=0.07, omega=100.0), u_),
+                            reps)
+                key = (mode, s_.n_dof)
+                cost[key] = min(cost.get(key, np.inf), t)
+    fqm.SERIAL_BELOW = serial
+    for mode in ("pool", "thread"):
+        print(f"one Floquet point, {mode:6s}: 4-dim {cost[(mode, 2)] * 1e3:6.2f} ms, 6-dim "
+              f"{cost[(mode, 3)] * 1e3:6.2f} ms, ratio {cost[(mode, 3)] / cost[(mode, 2)]:.2f}")
+    # 4b. the triple pendulum's window at one ω
+    w0 = 100.0
+    lo, hi = modal_window(w0, 3)
+    fqm.window(tp, tpar, up3, w0)
+    t_win, win = best(lambda: fqm.window(tp, tpar, up3, w0), 5)
+    e_win = max(abs(win.A_min / lo - 1), abs(win.A_max / hi - 1))
+    print(f"triple pendulum window, omega = {w0:g}: kapitza.floquet.window {t_win * 1e3:.0f} ms, "
+          f"error {e_win:.1e} (certified {win.accuracy:.1e}); A = [{win.A_min:.12f}, "
+          f"{win.A_max:.12f}] m")
+    t0 = time.perf_counter()
+    (b_lo, b_hi), calls = bisect_window(tp, tpar, up3, w0, [(0.05, 0.0705, False),
+                                                             (0.0705, 0.1, True)])
+    t_bis = time.perf_counter() - t0
+    e_bis = max(abs(b_lo / lo - 1), abs(b_hi / hi - 1))
+    print(f"bisection on floquet_point(...).stable to 1e-10: {t_bis * 1e3:.0f} ms, {calls} "
+          f"calls, error {e_bis:.1e}; ratio {t_bis / t_win:.1f}x")
+    # 4c. the double pendulum's boundaries at 200 ω vs the uniform 200 x 200 map
+    n = 200
+    A = np.linspace(0.0, 0.3, n)
+    w = np.linspace(10.0, 150.0, n)
+    fqm.boundaries(dp, dpar, up2, w[:20], A_range=(0.0, 0.3), tol=1e-9)
+    rows = {}
+    for _ in range(2 if quick else 3):
+        for name, f in (("map 1e-6", lambda: fqm.stability_map(dp, A, w, dpar, up2, tol=1e-6,
+                                                                progress=False)),
+                        ("boundaries", lambda: fqm.boundaries(dp, dpar, up2, w,
+                                                              A_range=(0.0, 0.3), tol=1e-9))):
+            t, out = best(f, 1)
+            if t < rows.get(name, (np.inf,))[0]:
+                rows[name] = (t, out)
+    t_map, m = rows["map 1e-6"]
+    t_b, curves = rows["boundaries"]
+    ref_lo, ref_hi = modal_window(w, 2)
+    err = max(np.nanmax(np.abs(curves.A[0] / ref_lo - 1)),
+              np.nanmax(np.abs(curves.A[1] / ref_hi - 1)))
+    print(f"double pendulum, 200 frequencies: boundaries {t_b:.2f} s ({curves.monodromies} "
+          f"monodromies, kinds {curves.kind}), uniform 200 x 200 map at tol 1e-6 {t_map:.2f} s "
+          f"(40000); ratio map/boundaries {t_map / t_b:.1f}x")
+    print(f"  boundary error vs modal decoupling {err:.1e} (certified "
+          f"{np.nanmax(curves.accuracy):.1e}); the map resolves A to {A[1] - A[0]:.1e} m")
+    # 4d. adaptive vs uniform maps
+    for N in ((129, 257) if quick else (257, 513)):
+        A = np.linspace(0.0, 0.3, N)
+        w = np.linspace(10.0, 150.0, N)
+        t_u, uni = best(lambda: fqm.stability_map(dp, A, w, dpar, up2, progress=False), 1)
+        t_a, ada = best(lambda: fqm.adaptive_map(dp, A, w, dpar, up2, coarse_step=16), 2)
+        print(f"adaptive map {N} x {N}: {ada.monodromies} monodromies vs {N * N} "
+              f"({N * N / ada.monodromies:.0f}x fewer), {t_a:.2f} s vs {t_u:.2f} s "
+              f"({t_u / t_a:.1f}x), {int(np.sum(ada.label != uni.label))} labels differ")
+    if figure:
+        fig = plots.stability_map_figure(ada, overlays=[curves])
+        fig.savefig(figure, dpi=120)
+        print(f"figure: {figure}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="smaller samples")
+    ap.add_argument("--only-boundaries", action="store_true", help="section 4 only")
+    ap.add_argument("--figure", help="save the adaptive map with the exact boundaries (PNG)")
     args = ap.parse_args()
     print(f"numba threads: {numba.get_num_threads()}")
-    section_single(args.quick)
-    section_tolerance(args.quick)
-    section_double(args.quick)
+    if not args.only_boundaries:
+        section_single(args.quick)
+        section_tolerance(args.quick)
+        section_double(args.quick)
+    section_boundaries(args.quick, args.figure)
 
 
 if __name__ == "__main__":

@@ -473,6 +473,12 @@ def _prepare(system, params, about, frequency, tol, progress=False, *, samples=N
         raise ValueError(f"the drive frequency {frequency!r} must be > 0 (rad/s).")
     T = 2 * np.pi / omega
     ystar = _equilibrium_state(system, about)
+    return _series(system, P, ystar, omega, T, shape, grid_params, tol, progress, samples)
+
+
+def _series(system, P, ystar, omega, T, shape, grid_params, tol, progress=False,
+            samples=None):
+    """:func:`_prepare` after the validation: J's Fourier series over the rows of P."""
     kernels = system.kernels
     npts = P.shape[0]
     n = system.n_dof
@@ -1267,15 +1273,26 @@ class _Probe:
         self.count = 0
 
     def prepare(self, A, omega, tol=None):
-        p = dict(self.fixed)
-        p[self.amplitude] = np.asarray(A, float).ravel()
-        p[self.frequency] = np.asarray(omega, float).ravel()
-        prep = _prepare(self.system, p, self.about, self.frequency,
-                        self.tol if tol is None else tol, samples=self.samples)
+        A = np.asarray(A, float).ravel()
+        w = np.asarray(omega, float).ravel()
+        tol = self.tol if tol is None else tol
+        if self.samples is None:        # the first call checks everything
+            p = dict(self.fixed)
+            p[self.amplitude], p[self.frequency] = A, w
+            prep = _prepare(self.system, p, self.about, self.frequency, tol)
+            if prep["T"].size and not prep["stopped"]:
+                self.samples = prep["samples"]
+                names = self.system.parameters
+                self.row = np.array([self.fixed.get(k, 0.0) for k in names], dtype=float)
+                self.columns = (names.index(self.amplitude), names.index(self.frequency))
+                self.ystar = _equilibrium_state(self.system, self.about)
+        else:                           # then only the two axes change
+            P = np.repeat(self.row[None, :], A.size, axis=0)
+            P[:, self.columns[0]], P[:, self.columns[1]] = A, w
+            prep = _series(self.system, P, self.ystar, w, 2 * np.pi / w, A.shape,
+                           {self.amplitude: A, self.frequency: w}, tol, samples=self.samples)
         if prep["stopped"]:
             raise KeyboardInterrupt
-        if prep["T"].size:
-            self.samples = prep["samples"]
         return prep
 
     def __call__(self, A, omega, analyse=False):
@@ -1335,7 +1352,7 @@ class _Probe:
 
 #: the monodromies' tolerance of the classification scans and side checks of windows and
 #: boundaries (their brackets are then solved on margins at the edges' own tolerance)
-CLASSIFY_TOL = 1e-10
+CLASSIFY_TOL = 1e-8
 
 
 def _margin_tol(tol):

@@ -582,7 +582,10 @@ def _predict(fronts, idx, w):
             continue
         lin = y[-1] + (y[-1] - y[-2]) * (w[i] - x[-1]) / (x[-1] - x[-2])
         if len(h) == 3:
-            quad = np.polyval(np.polyfit(x - x[-1], y, 2), w[i] - x[-1])
+            # the quadratic through the three points (Lagrange form)
+            u = w[i]
+            quad = sum(y[j] * np.prod([(u - x[m]) / (x[j] - x[m]) for m in range(3) if m != j])
+                       for j in range(3))
             pred[k], delta[k] = quad, 2.0 * abs(quad - lin)
         else:
             pred[k], delta[k] = lin, 0.3 * abs(lin - y[-1])
