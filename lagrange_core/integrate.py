@@ -227,7 +227,8 @@ METHODS: dict[str, Method] = {
                   "the 8th-order DOP853 formula at a fixed step h",
                   _LazyTable(_dop853_coefficients), driver="dop853", error_order=7),
     "rkn12": Method("rkn12", "rkn", 12, True, "rkn",
-                    "Dormand–El-Mikkawy–Prince RKN 12(10), adaptive, for q̈ = f(q, t)",
+                    "Dormand–El-Mikkawy–Prince RKN 12(10), adaptive with a held step, "
+                    "for q̈ = f(q, t)",
                     _rkn12_table(), driver="rkn", error_order=10),
     "rkn12-fixed": Method("rkn12-fixed", "rkn", 12, False, "rkn",
                           "the 12th-order RKN formula at a fixed step h", _rkn12_table(),
