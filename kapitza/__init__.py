@@ -59,6 +59,12 @@ Measurements from direct simulation (:mod:`kapitza.measure`)
     measure_grid
         The same over a broadcast grid, in one compiled parallel integration.
 
+Verification (:mod:`kapitza.verify`)
+    verify
+        Averaging, Floquet analysis and direct simulation of any driven equilibrium over
+        an (A, ω) grid, compared point by point: agreement, every disagreement located,
+        the measured order of averaging (``KapitzaPendulum.verify`` for the pendulum).
+
 The Mathieu equation of the single pendulum (:mod:`kapitza.mathieu`)
     mathieu_parameters
         The mapping (A, ω, l, g, γ, about) → (a, q, c), written once.
@@ -99,6 +105,9 @@ Results (:mod:`kapitza.results`; frozen dataclasses with ``to_dataframe()``)
     Measurement
         What direct simulation measured, per point (``measure``, ``measure_grid``,
         ``KapitzaPendulum.measure``).
+    Verification, OrderFit
+        The four methods compared per point, with agreement statistics and located
+        disagreements (``verify``); the measured order of averaging.
 
 Figures (:mod:`kapitza.plots`; they draw results and compute nothing)
     stability_map_figure
@@ -107,6 +116,8 @@ Figures (:mod:`kapitza.plots`; they draw results and compute nothing)
         U_eff(θ) with the averaged equilibria marked (stable / unstable).
     ince_strutt_figure
         The Ince–Strutt chart.
+    verification_figure
+        A verification's map with its disagreements marked, and the order of averaging.
 
 Scenes and sweeps (:mod:`kapitza.scene`, :mod:`kapitza.scene_file`, :mod:`kapitza.sweep`)
     Scene
@@ -145,7 +156,9 @@ from .pendulum import KapitzaPendulum
 from .periodic_orbit import periodic_orbit
 from .pendulum_closed_forms import (multiple_pendulum_upright, pendulum_averaged,
                                     pendulum_effective_potential, averaging_window)
-from .plots import effective_potential_figure, ince_strutt_figure, stability_map_figure
+from .plots import (effective_potential_figure, ince_strutt_figure, stability_map_figure,
+                    verification_figure)
+from .verify import verify
 from .warmup import warmup
 from .scene import Scene, SceneResults, example_scenes
 from .scene_file import SceneError
@@ -154,7 +167,7 @@ from .results import (AveragingPrediction, ComputationInterrupted, EquilibriumPr
                       FloquetGrid, FloquetResult, FloquetWindow, InceStruttChart, Measurement,
                       MonodromyData, MultiplePendulumPrediction, PendulumAveraging,
                       PeriodicOrbit, SlowModes, SlowModeSweep, StabilityMap, StabilityWindow)
-
+from .results import OrderFit, Verification
 from .results import AdaptiveMap, BoundaryCurves
 
 __all__ = [
@@ -166,6 +179,7 @@ __all__ = [
     "window", "boundaries", "adaptive_map", "BoundaryCurves", "AdaptiveMap",
     "periodic_orbit", "PeriodicOrbit",
     "measure", "measure_grid",
+    "verify", "Verification", "OrderFit", "verification_figure",
     "mathieu_parameters", "characteristic_value", "mathieu_monodromy_trace",
     "pendulum_stability_window", "pendulum_stability_map", "ince_strutt_chart",
     "ComputationInterrupted", "FloquetResult", "FloquetGrid", "MonodromyData", "StabilityMap",

@@ -1,4 +1,5 @@
-"""Figures: stability maps with overlays, the effective potential, the Ince–Strutt chart.
+"""Figures: stability maps with overlays, the effective potential, the Ince–Strutt chart,
+verification maps.
 
 Figures compute no physics: each function draws results it is given (the value types
 of :mod:`kapitza.results`) and returns a :class:`matplotlib.figure.Figure` built on the
@@ -22,13 +23,15 @@ A ω = √(2 g l) drawn over it:
 from __future__ import annotations
 
 import ast
+import textwrap
 
 import numpy as np
 
 from .results import (BoundaryCurves, InceStruttChart, PendulumAveraging, StabilityMap,
-                      StabilityWindow)
+                      StabilityWindow, Verification)
 
-__all__ = ["stability_map_figure", "effective_potential_figure", "ince_strutt_figure"]
+__all__ = ["stability_map_figure", "effective_potential_figure", "ince_strutt_figure",
+           "verification_figure"]
 
 _COLORS = {0: "#d9f0d3", 1: "#fdd49e", 2: "#c6dbef", 3: "#e7d4e8"}
 _NAMES = {0: "stable", 1: "unstable, period-T boundary", 2: "unstable, period-2T boundary",
@@ -55,6 +58,16 @@ def _check(name, value, kind, fix):
     if not isinstance(value, kind):
         raise TypeError(f"{name} must be a kapitza.results.{kind.__name__}, got "
                         f"{type(value).__name__}; {fix}.")
+
+
+def _drive_labels(ax, dimensionless, amplitude):
+    """Axis labels of an (ω, A) plane: SI (``amplitude`` names A and its unit) or A/l, ω/ω0."""
+    if dimensionless:
+        ax.set_xlabel("drive frequency ω/ω0  (ω0 = √(g/l))")
+        ax.set_ylabel("drive amplitude A/l")
+    else:
+        ax.set_xlabel("drive angular frequency ω (rad/s)")
+        ax.set_ylabel(f"drive amplitude {amplitude}")
 
 
 def _window_label(window: StabilityWindow) -> str:
@@ -196,12 +209,7 @@ def stability_map_figure(result: StabilityMap, *, overlays=(), ax=None, title=No
                 if not label.startswith("_"):
                     handles.append(line)          # one legend entry per window
                     label = "_" + label
-    if dimensionless:
-        ax.set_xlabel("drive frequency ω/ω0  (ω0 = √(g/l))")
-        ax.set_ylabel("drive amplitude A/l")
-    else:
-        ax.set_xlabel("drive angular frequency ω (rad/s)")
-        ax.set_ylabel("drive amplitude A (m)")
+    _drive_labels(ax, dimensionless, "A (m)")
     ax.set_xscale("log" if log_omega else "linear")
     ax.set_yscale("log" if log_A else "linear")
     ax.set_xlim(w.min(), w.max())
@@ -316,3 +324,122 @@ def ince_strutt_figure(chart: InceStruttChart, *, ax=None):
     ax.set_ylabel("a")
     ax.set_title("Ince–Strutt chart (shaded: stable)")
     return fig
+
+
+#: How each method's disagreements with Floquet are marked: (marker, colour).
+_VERIFY_MARKS = {"simulation": ("s", "#d62728"), "averaging": ("D", "#ff7f0e"),
+                 "averaging_2": ("^", "#9467bd")}
+_VERIFY_NAMES = {"simulation": "simulation", "averaging": "averaging (order 1)",
+                 "averaging_2": "averaging (next order)"}
+
+
+def verification_figure(verification, *, dimensionless=None, title=None):
+    """The verification map with every disagreement marked, and the measured order of
+    averaging.
+
+    Parameters
+    ----------
+    verification : kapitza.results.Verification
+        From :func:`kapitza.verify.verify` or :meth:`kapitza.KapitzaPendulum.verify`.
+    dimensionless : bool, optional
+        Axes A/l and ω/ω0 (the verification's ``length`` and ``omega0``); default: when
+        it has both.
+    title : str, optional
+
+    Left: every grid point, filled where Floquet analysis (the exact linear reference)
+    calls it stable, open where unstable; the Floquet boundaries (the exact window's
+    edges for the pendulum, the located boundary points otherwise); and, per method,
+    the points where it disagrees with Floquet: a large open marker for the
+    classification, a "+" for Ω (disagreements between two other methods are in
+    ``verification.disagreements``).  Right, when ``verification.fits`` is not empty:
+    each averaging order's relative error in Ω against the small parameter on log-log
+    axes (filled: fitted, open: below Floquet's own resolution), the fitted line c ε^p
+    and the theory's slope through the fit's middle.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.lines import Line2D
+    _check("verification", verification, Verification,
+           "compute one with kapitza.verify or KapitzaPendulum.verify")
+    v = verification
+    fits = tuple(v.fits)
+    fig = _figure((11.5, 4.8) if fits else (6.6, 4.8))
+    ax = fig.add_subplot(1, 2, 1) if fits else fig.add_subplot()
+    if dimensionless is None:
+        dimensionless = v.length is not None and v.omega0 is not None
+    if dimensionless and (v.length is None or v.omega0 is None):
+        raise ValueError("dimensionless=True needs the verification's length and omega0; this "
+                         "one has none (pass length= and omega0= to kapitza.verify).")
+    a_scale, w_scale = (1 / v.length, 1 / v.omega0) if dimensionless else (1.0, 1.0)
+    A, w = np.ravel(v.A) * a_scale, np.ravel(v.omega) * w_scale
+    stable = np.ravel(v.stable_floquet)
+    ax.scatter(w[stable], A[stable], s=28, color="#a6dba0", edgecolors="#1b7837", zorder=3)
+    ax.scatter(w[~stable], A[~stable], s=28, color="white", edgecolors="#888888", zorder=3)
+    handles = [Line2D([], [], ls="", marker="o", color="#a6dba0", mec="#1b7837",
+                      label="Floquet: stable"),
+               Line2D([], [], ls="", marker="o", color="white", mec="#888888",
+                      label="Floquet: unstable")]
+    if v.window is not None:
+        for edge in (v.window.A_min, v.window.A_max):
+            ww, Ab = np.asarray(v.window.omega) * w_scale, np.asarray(edge) * a_scale
+            ax.plot(ww, Ab, "-", color="#1b7837", lw=1.1, zorder=2)
+        handles.append(Line2D([], [], color="#1b7837", lw=1.1,
+                              label="Floquet boundary (exact window)"))
+    elif np.size(v.boundary_A):
+        ax.plot(np.asarray(v.boundary_omega) * w_scale, np.asarray(v.boundary_A) * a_scale,
+                "_", color="#1b7837", ms=14, mew=2, zorder=2)
+        handles.append(Line2D([], [], ls="", marker="_", color="#1b7837", ms=14, mew=2,
+                              label="Floquet boundary (located)"))
+    for m in v.methods:
+        if m == "floquet":
+            continue
+        marker, color = _VERIFY_MARKS[m]
+        for quantity, size, mk in (("stability", 120, marker), ("omega_slow", 70, "+")):
+            compared, agree = v.compare(m, "floquet", quantity)
+            bad = np.ravel(compared & ~agree)
+            if not bad.any():
+                continue
+            style = (dict(color=color) if mk == "+"
+                     else dict(facecolors="none", edgecolors=color))
+            ax.scatter(w[bad], A[bad], s=size, marker=mk, linewidths=1.5, zorder=4, **style)
+            what = "stability" if quantity == "stability" else "Ω"
+            handles.append(Line2D([], [], ls="", marker=mk, mfc="none", mec=color, mew=1.5,
+                                  ms=9 if mk != "+" else 8,
+                                  label=f"{_VERIFY_NAMES[m]} ≠ Floquet ({what}): {int(bad.sum())}"))
+    _drive_labels(ax, dimensionless, "A" if v.length is None else "A (m)")
+    for setter, x in ((ax.set_xlim, w), (ax.set_ylim, A)):     # the points' range: lines clip
+        pad = 0.06 * (x.max() - x.min()) or 0.06 * abs(x.max()) or 1.0
+        setter(x.min() - pad, x.max() + pad)
+    ax.set_title(title or f"Verification about {_about_text(v.about)}: {A.size} points, "
+                 f"{v.periods} periods simulated", fontsize=10)
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2,
+              fontsize=7, frameon=False)                 # below the axes: no point hidden
+    if fits:
+        _order_panel(fig.add_subplot(1, 2, 2), fits)
+    return fig
+
+
+def _order_panel(ax, fits):
+    """Relative error of averaging's Ω against ε, log-log, with the fitted and theory slopes."""
+    for k, fit in enumerate(fits):
+        color = ("C0", "C3")[k % 2]
+        eps, err, used = (np.asarray(x) for x in (fit.epsilon, fit.error, fit.used))
+        ax.loglog(eps[used], err[used], "o", color=color, ms=5)
+        ax.loglog(eps[~used], err[~used], "o", color=color, mfc="none", ms=5)
+        if np.isfinite(fit.exponent):
+            e = eps[used]
+            line = np.geomspace(e.min(), e.max(), 50)
+            ax.loglog(line, fit.prefactor * line ** fit.exponent, "-", color=color, lw=1.2,
+                      label=f"order {fit.order}: fitted p = {fit.exponent:.3f} ± "
+                            f"{fit.exponent_error:.3f} (theory {fit.theory:g})")
+            if np.isfinite(fit.theory):
+                mid = np.sqrt(e.min() * e.max())
+                ax.loglog(line, fit.prefactor * mid ** fit.exponent * (line / mid) ** fit.theory,
+                          "--", color="k", lw=0.8, zorder=3)
+    ax.plot([], [], "--", color="k", lw=0.8, label="theory's slope (through the fit's middle)")
+    ax.set_xlabel(textwrap.fill(fits[0].small_parameter, 60), fontsize=9)
+    ax.set_ylabel("relative error of Ω against Floquet")
+    ax.set_title("The order of averaging (filled: fitted)", fontsize=10)
+    ax.legend(loc="lower right", fontsize=7)

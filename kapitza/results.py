@@ -26,6 +26,9 @@ The driven pendulum and Acheson's chain in closed form
     :class:`MultiplePendulumPrediction`.
 Direct simulation
     :class:`Measurement` (what the full motion did, with error estimates).
+Verification
+    :class:`Verification` (the four methods compared point by point, disagreements
+    located), :class:`OrderFit` (the measured order of averaging).
 """
 from __future__ import annotations
 
@@ -37,8 +40,8 @@ import numpy as np
 __all__ = ["BOUNDARIES", "scalar_or_array", "FloquetResult", "MonodromyData", "FloquetGrid",
            "StabilityMap", "StabilityWindow", "FloquetWindow", "InceStruttChart", "SlowModes",
            "AveragingPrediction", "SlowModeSweep", "EquilibriumPrediction", "PendulumAveraging",
-           "MultiplePendulumPrediction", "ComputationInterrupted", "BoundaryCurves",
-           "AdaptiveMap", "Measurement"]
+           "MultiplePendulumPrediction", "ComputationInterrupted", "Measurement",
+           "VERIFICATION_METHODS", "OrderFit", "Verification", "BoundaryCurves", "AdaptiveMap"]
 
 #: Names of the stability labels 0, 1, 2, 3: stable; unstable in a region bounded by
 #: period-T solutions (multiplier +1); by period-2T solutions (multiplier −1); complex
@@ -1065,6 +1068,367 @@ class PeriodicOrbit:
                              "q_mean": self.q_mean, "amplitude": self.amplitude,
                              "omega_slow": slow, "period": self.period, "stable": self.stable},
                             index=pd.Index(self.coordinates, name="coordinate"))
+
+
+# ======================================================================================
+# Verification: the predictions against each other and against simulation (kapitza.verify)
+# ======================================================================================
+
+#: The methods a :class:`Verification` compares: first-order averaging, next-order
+#: averaging, Floquet analysis (exact, linear) and direct simulation (full, nonlinear).
+VERIFICATION_METHODS = ("averaging", "averaging_2", "floquet", "simulation")
+_METHOD_NAMES = {"averaging": "averaging (order 1)", "averaging_2": "averaging (next order)",
+                 "floquet": "Floquet", "simulation": "simulation"}
+#: Simulation statuses that classify a point (the others are failed integrations).
+_CLASSIFIED = ("finished", "left_band")
+
+
+@dataclass(frozen=True)
+class OrderFit:
+    """The order of an averaging approximation, measured: its relative error in Ω
+    against Floquet's exact Ω along a line of drives, fitted as c ε^p.
+
+    Built by :mod:`kapitza.verify`; the line and the small parameter ε are stated in
+    ``small_parameter`` (the default line keeps the drive's velocity A ω fixed, so that
+    the first-order prediction is fixed and ω0/ω and A/l shrink together; see
+    :mod:`kapitza.verify`).
+
+    Attributes
+    ----------
+    order : int
+        1 (first-order averaging) or 2 (next order).
+    small_parameter : str
+        What ε is and along which line, e.g. "ε = ω0/ω along A ω = 2 √(g l)".
+    epsilon, omega, A : ndarray (k,)
+        ε, the drive frequency (rad/s) and amplitude (m) of each point of the line.
+    error : ndarray (k,)
+        |Ω_averaging − Ω_Floquet| / Ω_Floquet (largest over the slow modes).
+    floor : ndarray (k,)
+        Floquet's own relative error bound on Ω (the fit leaves out points whose
+        error is not above ``RESOLVED`` × floor, :mod:`kapitza.verify`).
+    used : bool ndarray (k,)
+        The points fitted.
+    exponent, exponent_error : float
+        p of the least-squares line log error = log c + p log ε, and its standard
+        error (from the residuals); NaN with fewer than 3 points used.
+    prefactor : float
+        c.
+    theory : float
+        The exponent theory predicts (2 for order 1, 4 for order 2; NaN if unknown).
+    """
+
+    order: int
+    small_parameter: str
+    epsilon: np.ndarray
+    omega: np.ndarray
+    A: np.ndarray
+    error: np.ndarray
+    floor: np.ndarray
+    used: np.ndarray
+    exponent: float
+    exponent_error: float
+    prefactor: float
+    theory: float
+
+    def to_dataframe(self):
+        """One row per point of the line: epsilon, omega, A, error, floor, used (and order)."""
+        import pandas as pd
+        return pd.DataFrame({"epsilon": self.epsilon, "omega": self.omega, "A": self.A,
+                             "error": self.error, "floor": self.floor, "used": self.used,
+                             "order": self.order})
+
+
+@dataclass(frozen=True)
+class Verification:
+    """Averaging, Floquet analysis and direct simulation of one driven equilibrium,
+    compared point by point over a broadcast (A, ω) grid.
+
+    Built by :func:`kapitza.verify.verify` (any driven system) and
+    :meth:`kapitza.KapitzaPendulum.verify`; how each number is obtained, and the
+    tolerances, are in :mod:`kapitza.verify`.  Method names:
+    :data:`VERIFICATION_METHODS` ("averaging" is first order, "averaging_2" the next
+    order, absent (None fields) where there is none).
+
+    Per-point fields have the grid's shape S; the slow frequencies and their
+    tolerances have shape S for a system of one coordinate and S + (n,) otherwise
+    (modes in ascending order of Ω).
+
+    Attributes
+    ----------
+    A, omega : ndarray (S)
+        Drive amplitude (units of the amplitude parameter; m for a pivot) and angular
+        frequency (rad/s) of every point.
+    about : str
+        The equilibrium verified ("inverted", or the coordinates as text).
+    length, omega0 : float or None
+        The length and frequency that make A/l and ω/ω0 (the pendulum's l and √(g/l));
+        None where not given.
+    stable_averaging, stable_averaging_2, stable_floquet, stable_simulation : bool ndarray (S)
+        The classification by each method: linear stability of the averaged motion
+        (first and next order), of the exact linearisation (Floquet), and "stayed
+        near the equilibrium" in the full simulation (the band of
+        :func:`kapitza.measure_grid`; for the pendulum |θ − π| < π/2 throughout).
+    omega_slow_averaging, omega_slow_averaging_2, omega_slow_floquet, omega_slow_simulation
+        Ω (rad/s) by each method, NaN where that method finds no stable oscillation
+        (the simulation's Ω is measured up to a fall; it is compared only where the
+        run stayed up).  With damping, the damped slow frequency.
+    tolerance_averaging, tolerance_averaging_2, tolerance_floquet, tolerance_simulation
+        Each method's stated error of its Ω (rad/s; inf: no claim).  Two methods
+        agree on Ω when |Ω_a − Ω_b| ≤ tolerance_a + tolerance_b for every mode.
+    averaging_valid : bool ndarray (S)
+        First-order averaging's own validity flag (``valid`` of its prediction).
+    floquet_margin : ndarray (S)
+        Distance of the Floquet stability test from its threshold in units of its
+        error bound (> 1: certified).
+    simulation_status : str ndarray (S)
+        How each run ended ("finished", "left_band", or a failure, which leaves the
+        point unclassified by simulation).
+    fall_time : ndarray (S)
+        Time to leaving the band (s), NaN where the run stayed.
+    amplitude : ndarray (S)
+        The simulated slow amplitude (largest over the coordinates).
+    boundary_distance : ndarray (S)
+        |A − A_b| / A to the nearest Floquet stability boundary A_b at the point's ω
+        (along A); inf where none was found (see :mod:`kapitza.verify` for where each
+        builder looks), NaN where not located.
+    nearest_boundary : ndarray (S)
+        That A_b (NaN where none).
+    boundary_A, boundary_omega : ndarray (m,)
+        Every boundary located at the grid's frequencies (for the figure).
+    window : StabilityWindow or None
+        The exact window on a fine ω grid over the grid's range (the pendulum), drawn
+        as the boundary lines; None for a general system.
+    fits : tuple of OrderFit
+        The order of averaging, measured (order 1, and 2 where there is a next order);
+        empty if not computed.
+    periods : int
+        Drive periods simulated per point.
+    tol, rtol : float
+        Floquet's tolerance and the simulation's relative tolerance.
+    notes : tuple of str
+        What was not available or not located, said once.
+    figure_function : callable or None
+        What :meth:`figure` draws with (:func:`kapitza.plots.verification_figure`, set
+        by the builder: this module imports no figure code).
+    """
+
+    A: np.ndarray
+    omega: np.ndarray
+    about: str
+    length: float | None
+    omega0: float | None
+    stable_averaging: np.ndarray
+    stable_averaging_2: np.ndarray | None
+    stable_floquet: np.ndarray
+    stable_simulation: np.ndarray
+    omega_slow_averaging: np.ndarray
+    omega_slow_averaging_2: np.ndarray | None
+    omega_slow_floquet: np.ndarray
+    omega_slow_simulation: np.ndarray
+    tolerance_averaging: np.ndarray
+    tolerance_averaging_2: np.ndarray | None
+    tolerance_floquet: np.ndarray
+    tolerance_simulation: np.ndarray
+    averaging_valid: np.ndarray
+    floquet_margin: np.ndarray
+    simulation_status: np.ndarray
+    fall_time: np.ndarray
+    amplitude: np.ndarray
+    boundary_distance: np.ndarray
+    nearest_boundary: np.ndarray
+    boundary_A: np.ndarray
+    boundary_omega: np.ndarray
+    window: StabilityWindow | None
+    fits: tuple
+    periods: int
+    tol: float
+    rtol: float
+    notes: tuple = ()
+    figure_function: object = field(default=None, repr=False, compare=False)
+
+    @property
+    def shape(self) -> tuple:
+        """The grid's shape S."""
+        return np.shape(self.stable_floquet)
+
+    @property
+    def methods(self) -> tuple:
+        """The methods present (next-order averaging only where there is one)."""
+        return tuple(m for m in VERIFICATION_METHODS if getattr(self, f"stable_{m}") is not None)
+
+    @property
+    def exponent(self) -> float:
+        """The fitted order of first-order averaging's relative error in Ω (NaN if not fitted)."""
+        return self._fit(1, "exponent")
+
+    @property
+    def exponent_error(self) -> float:
+        """Standard error of :attr:`exponent`."""
+        return self._fit(1, "exponent_error")
+
+    @property
+    def exponent_theory(self) -> float:
+        """The exponent theory gives for first-order averaging (2)."""
+        return self._fit(1, "theory")
+
+    def _fit(self, order, name):
+        for f in self.fits:
+            if f.order == order:
+                return getattr(f, name)
+        return math.nan
+
+    def _modes(self, name):
+        """A slow-frequency field with a mode axis: S + (n,)."""
+        x = np.asarray(getattr(self, name), dtype=float)
+        return x[..., None] if x.ndim == len(self.shape) else x
+
+    def compare(self, first: str, second: str, quantity: str = "stability"):
+        """Which points two methods were compared on, and which of them agree.
+
+        Parameters
+        ----------
+        first, second : str
+            Method names (:data:`VERIFICATION_METHODS`).
+        quantity : {"stability", "omega_slow"}
+            The classification (compared wherever both methods classified the point;
+            simulation failures are not), or Ω (compared where both call the point
+            stable and give a finite Ω for some mode; agree when |Ω_a − Ω_b| ≤
+            tolerance_a + tolerance_b for every such mode).
+
+        Returns
+        -------
+        compared, agree : bool ndarray (S)
+        """
+        for m in (first, second):
+            if m not in self.methods:
+                raise ValueError(f"no method {m!r} in this verification; it has "
+                                 f"{list(self.methods)}.")
+        if quantity not in ("stability", "omega_slow"):
+            raise ValueError(f"quantity must be 'stability' or 'omega_slow', got {quantity!r}.")
+        sa, sb = (np.asarray(getattr(self, f"stable_{m}"), bool) for m in (first, second))
+        compared = np.ones(self.shape, bool)
+        if "simulation" in (first, second):
+            compared &= np.isin(self.simulation_status, _CLASSIFIED)
+        if quantity == "stability":
+            return compared, ~compared | (sa == sb)
+        wa, wb = (self._modes(f"omega_slow_{m}") for m in (first, second))
+        ta, tb = (self._modes(f"tolerance_{m}") for m in (first, second))
+        both = np.isfinite(wa) & np.isfinite(wb)
+        with np.errstate(invalid="ignore"):
+            close = ~both | (np.abs(wa - wb) <= ta + tb)
+        compared &= sa & sb & both.any(axis=-1)
+        return compared, ~compared | close.all(axis=-1)
+
+    def _pairs(self):
+        ms = self.methods
+        return [(a, b) for i, a in enumerate(ms) for b in ms[i + 1:]]
+
+    @property
+    def agreement(self):
+        """Agreement statistics: one row per pair of methods and quantity ("stability",
+        "omega_slow") with the points compared, agreeing, disagreeing and the fraction
+        agreeing (NaN where none was compared)."""
+        import pandas as pd
+        rows = []
+        for a, b in self._pairs():
+            for quantity in ("stability", "omega_slow"):
+                compared, agree = self.compare(a, b, quantity)
+                n, k = int(compared.sum()), int((compared & agree).sum())
+                rows.append({"first": a, "second": b, "quantity": quantity, "compared": n,
+                             "agreeing": k, "disagreeing": n - k,
+                             "fraction": k / n if n else math.nan})
+        return pd.DataFrame(rows)
+
+    def _location(self) -> dict:
+        """Per-point columns that locate a point (flat, C order)."""
+        cols = {"A": np.ravel(self.A), "omega": np.ravel(self.omega)}
+        if self.length is not None:
+            cols["A_over_l"] = np.ravel(self.A) / self.length
+        if self.omega0 is not None:
+            cols["omega_over_omega0"] = np.ravel(self.omega) / self.omega0
+        cols.update(boundary_distance=np.ravel(self.boundary_distance),
+                    nearest_boundary=np.ravel(self.nearest_boundary))
+        return cols
+
+    @property
+    def disagreements(self):
+        """Every disagreement, located: one row per point, pair of methods and quantity
+        that disagree, with the point's A, ω (A/l, ω/ω0), distance to the nearest Floquet
+        boundary, both methods' classifications and Ω (the mode that differs most,
+        relative to the tolerance), the tolerance, first-order averaging's validity and
+        the simulation's status."""
+        import pandas as pd
+        where = self._location()
+        frames = []
+        for a, b in self._pairs():
+            for quantity in ("stability", "omega_slow"):
+                compared, agree = self.compare(a, b, quantity)
+                bad = np.flatnonzero(np.ravel(compared & ~agree))
+                if not bad.size:
+                    continue
+                wa, wb = (self._modes(f"omega_slow_{m}").reshape(-1, self._modes(
+                    f"omega_slow_{m}").shape[-1])[bad] for m in (a, b))
+                tt = (self._modes(f"tolerance_{a}") + self._modes(f"tolerance_{b}"))
+                tt = tt.reshape(-1, tt.shape[-1])[bad]
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    score = np.where(np.isfinite(wa) & np.isfinite(wb),
+                                     np.abs(wa - wb) / tt, -np.inf)
+                j = np.argmax(score, axis=1)[:, None]
+                take = (lambda x: np.take_along_axis(x, j, axis=1)[:, 0])   # noqa: E731
+                frame = {"point": bad, **{k: v[bad] for k, v in where.items()},
+                         "quantity": quantity, "first": a, "second": b,
+                         "first_stable": np.ravel(getattr(self, f"stable_{a}"))[bad],
+                         "second_stable": np.ravel(getattr(self, f"stable_{b}"))[bad],
+                         "first_omega_slow": take(wa), "second_omega_slow": take(wb),
+                         "tolerance": take(tt) if quantity == "omega_slow" else math.nan,
+                         "averaging_valid": np.ravel(self.averaging_valid)[bad],
+                         "simulation_status": np.ravel(self.simulation_status)[bad]}
+                frames.append(pd.DataFrame(frame))
+        if not frames:
+            return pd.DataFrame(columns=["point", *where, "quantity", "first", "second",
+                                         "first_stable", "second_stable", "first_omega_slow",
+                                         "second_omega_slow", "tolerance", "averaging_valid",
+                                         "simulation_status"])
+        return pd.concat(frames, ignore_index=True)
+
+    def to_dataframe(self):
+        """One row per point: A, omega (A_over_l, omega_over_omega0), boundary_distance,
+        nearest_boundary, then per method stable_<method>, omega_slow_<method> and
+        tolerance_<method> (``_0``, ``_1``, ... per mode for several coordinates), then
+        averaging_valid, floquet_margin, simulation_status, fall_time, amplitude and
+        disagreements (the pairs of methods that disagree at the point, "; "-joined)."""
+        import pandas as pd
+        data = self._location()
+        for m in self.methods:
+            data[f"stable_{m}"] = np.ravel(getattr(self, f"stable_{m}"))
+            for name in (f"omega_slow_{m}", f"tolerance_{m}"):
+                x = np.asarray(getattr(self, name), dtype=float)
+                if x.ndim == len(self.shape):
+                    data[name] = np.ravel(x)
+                else:
+                    for k in range(x.shape[-1]):
+                        data[f"{name}_{k}"] = x[..., k].ravel()
+        data.update(averaging_valid=np.ravel(self.averaging_valid),
+                    floquet_margin=np.ravel(self.floquet_margin),
+                    simulation_status=np.ravel(self.simulation_status),
+                    fall_time=np.ravel(self.fall_time), amplitude=np.ravel(self.amplitude))
+        labels = [[] for _ in range(int(np.prod(self.shape, dtype=np.int64)))]
+        for a, b in self._pairs():
+            for quantity in ("stability", "omega_slow"):
+                compared, agree = self.compare(a, b, quantity)
+                for i in np.flatnonzero(np.ravel(compared & ~agree)):
+                    labels[i].append(f"{a}≠{b} ({quantity})")
+        data["disagreements"] = ["; ".join(x) for x in labels]
+        return pd.DataFrame(data)
+
+    def figure(self, **options):
+        """The verification map with every disagreement marked, and the measured order
+        of averaging: :func:`kapitza.plots.verification_figure` (``options`` go to it).
+        Returns a :class:`matplotlib.figure.Figure`."""
+        if self.figure_function is None:
+            raise TypeError("this Verification carries no figure function; draw it with "
+                            "kapitza.plots.verification_figure(verification).")
+        return self.figure_function(self, **options)
 
 
 # ======================================================================================

@@ -61,6 +61,7 @@ import importlib
 import json
 import math
 import pkgutil
+import threading
 import time
 from dataclasses import dataclass, field
 from importlib import resources
@@ -422,7 +423,7 @@ def _write_tables(scene, results, directory, formats):
                                               dict(meta, analysis=name)))
         if "csv" in formats:
             path = directory / f"{name}.csv"
-            sweeps._write_text(path, frame.to_csv(index=False))
+            sweeps.write_text(path, frame.to_csv(index=False))
             written.append(path)
     return written
 
@@ -575,6 +576,9 @@ _POINT = {"averaging": _averaging, "floquet": _floquet, "stability_map": _stabil
 
 # -- the analyses over a sweep's tile -----------------------------------------------------------
 
+_BUILD_LOCK = threading.Lock()
+
+
 @functools.lru_cache(maxsize=8)
 def _cached_scene(text, source):
     return Scene(read_scene_text(text, source))
@@ -590,7 +594,9 @@ class _SweepWork:
     analysis: str
 
     def __call__(self, columns, points):
-        scene = _cached_scene(self.text, self.source)
+        with _BUILD_LOCK:           # a worker's threads build the scene and load its kernels once
+            scene = _cached_scene(self.text, self.source)
+            scene.system.kernels
         params, q0, qdot0 = _tile_inputs(scene, columns, len(points))
         settings = scene.spec.analyses.get(self.analysis, {})
         frame = _GRID[self.analysis](scene, settings, params, q0, qdot0)

@@ -38,8 +38,24 @@ Top level: ``schema = 1`` (required), ``title`` (text, optional) and the tables
 ``[initial]``
     Initial coordinates by name and velocities ``<coordinate>_dot`` (default 0).
 ``[analyses]``
-    Each ``name = true`` or a table of its settings; only those named run
-    (settings: :data:`ANALYSES`).
+    Each ``name = true`` or a table of its settings; only those named run (how each is
+    computed: :mod:`kapitza.scene`).  An *axis* is a list of values or a range
+    ``{start, stop, num, scale = "linear" | "log"}``; ``about`` is "inverted",
+    "hanging", "auto" (default) or a list of coordinate values.
+
+    ================  ===============================================================
+    ``averaging``     ``order`` (1, or 2 for the plain pendulum)
+    ``floquet``       ``about``, ``tol``
+    ``stability_map`` ``A`` (axis, m), ``omega`` (axis, rad/s) or ``frequency_hz``,
+                      ``about``, ``tol``
+    ``window``        ``omega`` or ``frequency_hz`` (axis), ``about``
+    ``measure``       ``about``, ``periods`` (1000), ``band`` (π/2 rad), ``rtol``
+    ``simulate``      ``periods`` (100) or ``duration`` (s), ``samples`` (1001),
+                      ``method``, ``rtol``
+    ``verify``        ``A``, ``omega`` or ``frequency_hz`` (axes), ``about``,
+                      ``periods``, ``offset``, ``band``, ``tol``, ``rtol``,
+                      ``fit_order`` (false)
+    ================  ===============================================================
 ``[sweep]``
     ``[sweep.axes]``: parameters to sweep, each a range ``{start, stop, num, scale =
     "linear" | "log"}`` or a list of values; several axes form their Cartesian product

@@ -71,7 +71,7 @@ from lagrange_core.progress import defer_ctrl_c, interrupt_requested
 from .results import ComputationInterrupted
 
 __all__ = ["SweepResult", "run_sweep", "grid_size", "tile_columns", "numba_threads",
-           "package_versions", "write_table", "MANIFEST"]
+           "package_versions", "write_table", "write_text", "MANIFEST"]
 
 #: The plan of a dataset directory (tile size, points, keys), written before the first tile.
 MANIFEST = "_sweep.json"
@@ -257,7 +257,8 @@ def _storable(frame):
     return pd.DataFrame(out, index=frame.index)
 
 
-def _write_text(path: Path, text: str):
+def write_text(path: Path, text: str):
+    """Write ``text`` at ``path`` atomically (a temporary file, then ``os.replace``)."""
     tmp = _tmp_name(path.parent, path.suffix)
     try:
         tmp.write_text(text)
@@ -346,7 +347,7 @@ def _plan(directory: Path, work, axes, key, fingerprint, tile_points, tile_secon
     if calibrated:
         tile_points = _calibrate(work, axes, size, tile_seconds)
     plan = _Plan(key, fingerprint, size, int(tile_points))
-    _write_text(manifest, json.dumps({"key": key, "fingerprint": fingerprint, "size": size,
+    write_text(manifest, json.dumps({"key": key, "fingerprint": fingerprint, "size": size,
                                       "tile_points": plan.tile_points, "tiles": plan.tiles,
                                       "axes": {a.name: list(a.values) for a in axes},
                                       "created": time.strftime("%Y-%m-%dT%H:%M:%S%z")},
@@ -503,7 +504,7 @@ def _result(directory, plan, meta, skipped, computed, start_time, mode, *, csv,
             if tmp.exists():
                 tmp.unlink()
         if csv:
-            _write_text(directory.parent / f"{directory.name}.csv", frame.to_csv(index=False))
+            write_text(directory.parent / f"{directory.name}.csv", frame.to_csv(index=False))
     return SweepResult(path=directory, frame=frame, metadata=meta, size=plan.size,
                        tile_points=plan.tile_points, tiles=plan.tiles, computed=len(computed),
                        skipped=skipped, seconds=time.perf_counter() - start_time, executor=mode)
