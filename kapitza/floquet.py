@@ -360,9 +360,11 @@ def _check_persists(system, kernels, P, ystar, T, idx):
             if not np.all(np.abs(dydt) <= 1e-9 * scale):
                 raise ValueError(
                     f"the state q = {ystar[:n].tolist()} does not persist under the drive: q̈ = "
-                    f"{dydt[n:].tolist()} at t = {t:.4g} s. Floquet analysis needs an "
+                    f"{dydt[n:].tolist()} at t = {t:.4g} s. Floquet analysis here needs an "
                     "equilibrium of the driven system (e.g. the inverted pendulum θ = π for a "
-                    "vertical drive).")
+                    "vertical drive); for a state that moves with the drive (a horizontal or "
+                    "elliptic pivot) use kapitza.periodic_orbit(system, params, guess), which "
+                    "finds the periodic orbit and its multipliers.")
 
 
 class _Stopped(Exception):
