@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -159,11 +160,15 @@ except kapitza.ComputationInterrupted as stop:
 
 
 def _child(tmp_path, text):
+    """The sweep in a child process that imports this kapitza (same code, same keys)."""
     (tmp_path / "scene.toml").write_text(text)
     (tmp_path / "child.py").write_text(_CHILD)
+    here = str(Path(kapitza.__file__).resolve().parents[1])
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        p for p in (here, os.environ.get("PYTHONPATH")) if p))
     return subprocess.Popen([sys.executable, str(tmp_path / "child.py"),
                              str(tmp_path / "scene.toml"), str(tmp_path / "out")],
-                            stdout=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, text=True, env=env)
 
 
 def _wait_for_parts(directory, count, timeout=120):
@@ -195,6 +200,7 @@ def test_a_killed_sweep_resumes_to_the_same_dataset(tmp_path):
     kept = {name: (path / name).read_bytes() for name in parts(path)}
     assert 3 <= len(kept) < tiles, "the sweep was not killed between its tiles"
     resumed = s.sweep(directory=tmp_path / "out", progress=False)
+    assert resumed.path == path
     assert (resumed.skipped, resumed.computed) == (len(kept), tiles - len(kept))
     assert all((path / name).read_bytes() == data for name, data in kept.items())
     assert not list(path.glob(".tmp-*"))
