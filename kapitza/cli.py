@@ -1,20 +1,40 @@
 """The ``kapitza`` command line.
 
-``kapitza summary`` (the default) derives, compiles and integrates every
-problem of the catalogue and prints one table: how long each stage took and
-how well the first integrals were kept.  Later issues add the report.
+Commands (``kapitza COMMAND --help`` shows each one's options and an example):
+
+  predict   averaging and Floquet analysis at one drive (A, ω)
+  window    the exact window of stabilising amplitudes per ω, the averaging one beside it
+  map       the exact (A, ω) stability map: a PNG and the data (CSV or Parquet)
+  measure   simulate the full nonlinear motion at one drive and measure it
+  verify    averaging, Floquet and simulation compared over a grid (exit 1: disagreement)
+  run       run the analyses a scene file asks for
+  sweep     run a scene's [sweep] over its grid, in resumable tiles
+  warmup    compile what every analysis needs, once per installation
+  summary   derive, compile and integrate the catalogue (the default: ``kapitza --rtol 1e-6``)
+
+Drive parameters are SI numbers (``--A`` m, ``--omega`` rad/s or ``--f`` Hz) or
+dimensionless ratios (``--A-over-l``, ``--omega-over-omega0`` with ω0 = √(g/l)).
+``--json`` writes the results as JSON on stdout; messages and progress go to stderr.
+Exit codes: 0 success, 1 a verification found disagreement beyond the methods'
+tolerances (or a catalogue problem failed), 2 a usage or scene error, 130 interrupted.
 """
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import json
 import math
+import os
 import sys
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 __all__ = ["main", "catalogue_summary"]
+
+EXIT_OK, EXIT_DISAGREEMENT, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
 @dataclass(frozen=True)
@@ -90,40 +110,567 @@ def catalogue_summary(rtol: float = 1e-10, progress=None):
     return pd.DataFrame(rows)
 
 
+# -- output ---------------------------------------------------------------------------------
+
+class UsageError(Exception):
+    """A command's arguments are wrong (exit code 2); the message names what."""
+
+
+def _plain(x):
+    """``x`` in JSON's terms: arrays as lists, NaN and ±inf as null, complex as [re, im]."""
+    if dataclasses.is_dataclass(x) and not isinstance(x, type):
+        return {f.name: _plain(getattr(x, f.name)) for f in dataclasses.fields(x)
+                if f.repr and not callable(getattr(x, f.name))}
+    if isinstance(x, dict):
+        return {str(k): _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _plain(x.tolist())
+    if isinstance(x, np.generic):
+        return _plain(x.item())
+    if isinstance(x, bool) or x is None or isinstance(x, (int, str)):
+        return x
+    if isinstance(x, float):
+        return x if math.isfinite(x) else None
+    if isinstance(x, complex):
+        return [_plain(x.real), _plain(x.imag)]
+    if isinstance(x, Path):
+        return str(x)
+    return str(x)
+
+
+def _records(frame):
+    """A DataFrame as a list of JSON rows."""
+    return _plain(frame.to_dict(orient="records"))
+
+
+def _emit(args, data: dict, text: str) -> None:
+    """Results on stdout: JSON with ``--json``, else ``text``."""
+    if args.json:
+        json.dump(_plain(data), sys.stdout, indent=1, allow_nan=False)
+        sys.stdout.write("\n")
+    else:
+        print(text)
+    sys.stdout.flush()
+
+
+def _say(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)
+
+
+def _table(frame) -> str:
+    import pandas as pd
+    with pd.option_context("display.width", 200, "display.max_columns", 30,
+                           "display.max_rows", 60, "display.float_format", "{:.6g}".format):
+        return frame.to_string(index=False)
+
+
+# -- parameters: SI numbers or dimensionless ratios -----------------------------------------
+
+def _pendulum(args):
+    from .pendulum import KapitzaPendulum
+    return KapitzaPendulum(l=args.l, g=args.g, damping=args.damping, drive=args.drive)
+
+
+def _number_list(text: str, name: str) -> np.ndarray:
+    """``"0.05"``, ``"0.01,0.03,0.1"`` or ``"START:STOP:NUM"`` (NUM points, linear)."""
+    try:
+        if ":" in text:
+            parts = text.split(":")
+            if len(parts) != 3:
+                raise ValueError
+            start, stop, num = float(parts[0]), float(parts[1]), int(parts[2])
+            if num < 1:
+                raise ValueError
+            return np.linspace(start, stop, num)
+        values = np.array([float(v) for v in text.split(",") if v.strip()])
+        if not values.size:
+            raise ValueError
+        return values
+    except ValueError:
+        raise UsageError(f"{name}: expected a number, a comma-separated list or START:STOP:NUM, "
+                         f"got {text!r}.") from None
+
+
+def _geometric(text: str, name: str) -> np.ndarray:
+    """As :func:`_number_list`, but START:STOP:NUM spaced geometrically (for ω)."""
+    values = _number_list(text, name)
+    if ":" in text and len(values) > 1:
+        if values[0] <= 0 or values[-1] <= 0:
+            raise UsageError(f"{name}: a logarithmic range needs positive ends, got {text!r}.")
+        values = np.geomspace(values[0], values[-1], len(values))
+    return values
+
+
+def _amplitude(args, grid: bool = False):
+    """Drive amplitude (m) from --A or --A-over-l (times l)."""
+    text = args.A if args.A is not None else args.A_over_l
+    if text is None:
+        raise UsageError("give the drive amplitude: --A (m) or --A-over-l.")
+    name = "--A" if args.A is not None else "--A-over-l"
+    values = _number_list(text, name)
+    if args.A is None:
+        values = values * args.l
+    if not grid:
+        if values.size != 1:
+            raise UsageError(f"{name}: one value here, got {text!r}.")
+        return float(values[0])
+    return values
+
+
+def _frequency(args, grid: bool = False):
+    """Drive angular frequency (rad/s) from --omega, --f (Hz) or --omega-over-omega0."""
+    given = [(n, getattr(args, k)) for n, k in (("--omega", "omega"), ("--f", "f"),
+                                                 ("--omega-over-omega0", "omega_over_omega0"))
+             if getattr(args, k) is not None]
+    if not given:
+        raise UsageError("give the drive frequency: --omega (rad/s), --f (Hz) or "
+                         "--omega-over-omega0.")
+    name, text = given[0]
+    log = getattr(args, "log_omega", False)
+    values = _geometric(text, name) if log else _number_list(text, name)
+    if name == "--f":
+        values = 2 * math.pi * values
+    elif name == "--omega-over-omega0":
+        values = values * math.sqrt(args.g / args.l)
+    if not grid:
+        if values.size != 1:
+            raise UsageError(f"{name}: one value here, got {text!r}.")
+        return float(values[0])
+    return values
+
+
+def _point(args, A, omega) -> dict:
+    omega0 = math.sqrt(args.g / args.l)
+    return {"A": A, "omega": omega, "A_over_l": np.asarray(A) / args.l,
+            "omega_over_omega0": np.asarray(omega) / omega0,
+            "pendulum": {"l": args.l, "g": args.g, "damping": args.damping,
+                         "drive": args.drive, "omega0": omega0}}
+
+
+# -- the commands -----------------------------------------------------------------------------
+
+def _predict(args) -> int:
+    pend = _pendulum(args)
+    A, omega = _amplitude(args), _frequency(args)
+    avg = pend.averaged(A, omega, order=args.order, warn=False)
+    about = args.about or ("tilted" if args.drive == "horizontal" else "inverted")
+    if args.drive == "horizontal" and about == "tilted" and (A * omega) ** 2 <= 2 * args.g * args.l:
+        about = "hanging"
+        _say("predict: (Aω)² ≤ 2gl, no tilted state; the Floquet analysis is about the "
+             "orbit near θ = 0.")
+    exact = pend.floquet(A, omega, about=about, tol=args.tol)
+    equilibria = {e.name: _plain(e) for e in avg.equilibria}
+    if args.drive == "horizontal":
+        floquet = {"about": about, "kind": "periodic orbit", "stable": bool(exact.stable),
+                   "omega_slow": exact.omega_slow, "theta_mean": float(exact.q_mean[0]),
+                   "multipliers_abs": np.abs(exact.multipliers),
+                   "error_estimate": exact.error_estimate}
+    else:
+        floquet = {"about": about, "kind": "equilibrium", "stable": bool(exact.stable),
+                   "omega_slow": exact.omega_slow, "trace": exact.trace,
+                   "multipliers_abs": np.abs(exact.multipliers),
+                   "boundary": exact.boundary, "error_estimate": exact.error_estimate}
+    data = {**_point(args, A, omega), "averaging": {"order": args.order, **equilibria},
+            "floquet": floquet}
+    lines = [f"drive {args.drive}: A = {A:.6g} m (A/l = {A / args.l:.6g}), ω = {omega:.6g} rad/s "
+             f"(ω/ω0 = {omega / math.sqrt(args.g / args.l):.6g}), l = {args.l:g} m, "
+             f"g = {args.g:g} m/s², γ = {args.damping:g} 1/s",
+             f"averaging (order {args.order}):"]
+    for e in avg.equilibria:
+        lines.append(f"  {e.name:9s} θ = {float(e.theta):.6g} rad  exists {bool(e.exists)}  "
+                     f"stable {bool(e.stable)}  Ω = {float(e.omega_slow):.6g} rad/s  "
+                     f"valid {bool(e.valid)}")
+    lines.append(f"Floquet about {about} ({floquet['kind']}): stable {floquet['stable']}  "
+                 f"Ω = {float(np.max(exact.omega_slow)):.6g} rad/s")
+    _emit(args, data, "\n".join(lines))
+    return EXIT_OK
+
+
+def _window(args) -> int:
+    pend = _pendulum(args)
+    omega = _frequency(args, grid=True)
+    exact = pend.stability_window(omega, about=args.about, tol=args.tol)
+    frame = exact.to_dataframe()
+    frame.insert(1, "omega_over_omega0", frame["omega"] / pend.omega0)
+    frame["A_min_over_l"] = frame["A_min"] / args.l
+    frame["A_max_over_l"] = frame["A_max"] / args.l
+    if args.about == "inverted":
+        approx = pend.stability_window(omega, method="averaging", order=args.order)
+        frame["A_min_averaging"] = np.ravel(np.broadcast_to(approx.A_min, np.shape(omega)))
+        frame["A_max_averaging"] = np.ravel(np.broadcast_to(approx.A_max, np.shape(omega)))
+        frame["averaging_valid"] = np.ravel(np.broadcast_to(approx.valid, np.shape(omega)))
+    data = {"pendulum": _point(args, 0.0, 0.0)["pendulum"], "about": args.about,
+            "averaging_order": args.order if args.about == "inverted" else None,
+            "rows": _records(frame)}
+    _emit(args, data, f"window of stabilising amplitudes about {args.about} (exact, Floquet"
+          + (f"; averaging order {args.order} beside it" if args.about == "inverted" else "")
+          + "):\n" + _table(frame))
+    return EXIT_OK
+
+
+def _write_frame(frame, path: Path, metadata: dict | None = None) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if path.suffix == ".parquet":
+        frame.to_parquet(path, index=False)
+    else:
+        frame.to_csv(path, index=False)
+    return path
+
+
+def _map_outputs(args, result, pend, partial=False):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from .plots import stability_map_figure
+
+    png = Path(args.out)
+    data_path = Path(args.data) if args.data else png.with_suffix(".csv")
+    frame = result.to_dataframe()
+    _write_frame(frame, data_path)
+    overlays = []
+    if args.about == "inverted" and not partial:
+        fine = np.geomspace(result.omega.min(), result.omega.max(), 200) \
+            if result.omega.min() > 0 else np.linspace(result.omega.min(), result.omega.max(), 200)
+        fine = fine[fine > 0]
+        if fine.size:
+            overlays.append(pend.stability_window(fine, method="averaging", order=1))
+    fig = stability_map_figure(result, overlays=overlays, dimensionless=args.dimensionless,
+                               log_omega=args.log_omega)
+    png.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(png, dpi=120)
+    plt.close(fig)
+    return png, data_path, frame
+
+
+def _map(args) -> int:
+    from .results import ComputationInterrupted
+    pend = _pendulum(args)
+    A = _amplitude(args, grid=True)
+    omega = _frequency(args, grid=True)
+    if Path(args.data or args.out).suffix not in (".csv", ".parquet", ".png") or \
+            (args.data and Path(args.data).suffix not in (".csv", ".parquet")):
+        raise UsageError(f"--data must end in .csv or .parquet, got {args.data!r}.")
+    try:
+        result = pend.stability_map(A, omega, about=args.about, trace=args.trace, tol=args.tol)
+    except ComputationInterrupted as stop:
+        png, data_path, _ = _map_outputs(args, stop.result, pend, partial=True)
+        _say(f"map: interrupted; {int(stop.computed.sum())} of {stop.computed.size} points "
+             f"finished, saved (the others NaN) in {data_path} and {png}.")
+        return EXIT_INTERRUPTED
+    png, data_path, frame = _map_outputs(args, result, pend)
+    stable = np.asarray(result.stable, bool)
+    data = {"pendulum": _point(args, 0.0, 0.0)["pendulum"], "about": args.about,
+            "method": result.method, "shape": list(stable.shape),
+            "stable_points": int(stable.sum()), "points": int(stable.size),
+            "error_estimate": result.error_estimate, "figure": png, "data": data_path,
+            "A": result.A, "omega": result.omega}
+    _emit(args, data, f"stability map about {args.about} ({result.method}): "
+          f"{int(stable.sum())} of {stable.size} points stable\nfigure: {png}\ndata: {data_path}")
+    return EXIT_OK
+
+
+def _measure(args) -> int:
+    pend = _pendulum(args)
+    A, omega = _amplitude(args), _frequency(args)
+    about = args.about
+    m = pend.measure(A, omega, theta0=args.theta0, theta_dot0=args.theta_dot0,
+                     periods=args.periods, about=about, rtol=args.rtol)
+    fields = {k: getattr(m, k) for k in ("stayed_up", "fall_time", "omega_slow",
+                                         "omega_slow_error", "amplitude", "mean_angle",
+                                         "growth_rate", "max_deviation", "about", "period",
+                                         "periods", "status", "method", "rtol")}
+    data = {**_point(args, A, omega), "theta0": args.theta0, "theta_dot0": args.theta_dot0,
+            "measurement": fields}
+    _emit(args, data, f"released at θ0 = {args.theta0:.6g} rad, θ̇0 = {args.theta_dot0:g} rad/s, "
+          f"{args.periods} periods of A = {A:.6g} m, ω = {omega:.6g} rad/s:\n"
+          f"  stayed up {bool(m.stayed_up)}  fall time {m.fall_time:.6g} s\n"
+          f"  Ω = {m.omega_slow:.6g} ± {m.omega_slow_error:.2g} rad/s  "
+          f"slow amplitude {m.amplitude:.4g} rad  mean angle {m.mean_angle:.6g} rad\n"
+          f"  status {m.status}")
+    return EXIT_OK
+
+
+def _verify(args) -> int:
+    pend = _pendulum(args)
+    A = _amplitude(args, grid=True)
+    omega = _frequency(args, grid=True)
+    v = pend.verify(A[:, None], omega[None, :], theta0=args.theta0, periods=args.periods,
+                    tol=args.tol, rtol=args.rtol, line=None if args.fit_order else False)
+    agreement, bad = v.agreement, v.disagreements
+    if args.data:
+        _write_frame(v.to_dataframe(), Path(args.data))
+    data = {"pendulum": _point(args, 0.0, 0.0)["pendulum"], "A": A, "omega": omega,
+            "points": int(np.prod(v.shape)), "methods": list(v.methods),
+            "agreement": _records(agreement), "disagreements": _records(bad),
+            "exponent": v.exponent, "exponent_error": v.exponent_error,
+            "notes": list(v.notes), "data": args.data, "agree": bool(len(bad) == 0)}
+    text = [f"verification over {len(A)} amplitudes × {len(omega)} frequencies "
+            f"({int(np.prod(v.shape))} points):", _table(agreement)]
+    if args.fit_order:
+        text.append(f"order of first-order averaging: {v.exponent:.3f} ± "
+                    f"{v.exponent_error:.3f} (theory 2)")
+    if len(bad):
+        text += [f"{len(bad)} disagreement(s) beyond the methods' tolerances:", _table(bad)]
+    else:
+        text.append("all methods agree within their tolerances.")
+    _emit(args, data, "\n".join(text))
+    if len(bad):
+        _say(f"verify: {len(bad)} disagreement(s) beyond tolerance (exit code 1).")
+        return EXIT_DISAGREEMENT
+    return EXIT_OK
+
+
+def _scene(path):
+    from .scene import Scene
+    if not Path(path).is_file():
+        raise UsageError(f"no scene file {path!r}.")
+    return Scene.from_toml(path)
+
+
+_MAX_JSON_ROWS = 1000
+
+
+def _run(args) -> int:
+    scene = _scene(args.scene)
+    _say(f"run: {scene.spec.source}: {scene.system.name}; analyses {list(scene.analyses)}")
+    res = scene.run(write=not args.no_write)
+    tables = res.tables()
+    data = {"scene": scene.spec.source, "system": scene.system.name, "seconds": res.seconds,
+            "written": list(res.written), "analyses": {}}
+    text = []
+    for name, frame in tables.items():
+        if len(frame) <= _MAX_JSON_ROWS:
+            data["analyses"][name] = _records(frame)
+        else:
+            data["analyses"][name] = {"rows": len(frame), "columns": list(frame.columns)}
+        text += [f"== {name} ({len(frame)} rows)", _table(frame.head(20))]
+    if res.written:
+        text.append("written: " + ", ".join(str(p) for p in res.written))
+    _emit(args, data, "\n".join(text))
+    return EXIT_OK
+
+
+def _sweep(args) -> int:
+    from .results import ComputationInterrupted
+    scene = _scene(args.scene)
+    try:
+        result = scene.sweep(args.analysis, directory=args.directory,
+                             tile_points=args.tile_points)
+    except ComputationInterrupted as stop:
+        partial = stop.result
+        where = getattr(partial, "path", "the sweep's directory")
+        _say(f"sweep: interrupted; the finished tiles are saved in {where}; run the same "
+             "command again to resume.")
+        return EXIT_INTERRUPTED
+    frame = result.to_dataframe()
+    data = {"scene": scene.spec.source, "path": result.path, "size": result.size,
+            "tiles": result.tiles, "computed": result.computed, "skipped": result.skipped,
+            "seconds": result.seconds, "columns": list(frame.columns)}
+    _emit(args, data, f"sweep: {result.size} points in {result.tiles} tiles "
+          f"({result.computed} computed, {result.skipped} already on disk), "
+          f"{result.seconds:.1f} s\ndataset: {result.path}")
+    return EXIT_OK
+
+
+def _warmup(args) -> int:
+    from .warmup import warmup
+    _say("warmup: compiling (or loading from the cache) what the analyses need ...")
+    seconds = warmup(verbose=False)
+    _emit(args, {"seconds": seconds}, f"warmup done in {seconds:.1f} s")
+    return EXIT_OK
+
+
 def _summary(args) -> int:
     import pandas as pd
 
-    print("kapitza: deriving, compiling and integrating the lecture's problems "
-          f"(rtol = {args.rtol:g}); compiled kernels are cached on disk, so a second run is fast.",
-          flush=True)
-    df = catalogue_summary(args.rtol, progress=lambda s: print("  " + s, flush=True))
-    with pd.option_context("display.width", 200, "display.max_columns", 20,
-                           "display.float_format", "{:.3g}".format):
-        print()
-        print(df.to_string(index=False))
+    if not (0 < args.rtol < 1):
+        raise UsageError(f"--rtol must be in (0, 1), got {args.rtol}")
+    _say("kapitza: deriving, compiling and integrating the lecture's problems "
+         f"(rtol = {args.rtol:g}); compiled kernels are cached on disk, so a second run is fast.")
+    df = catalogue_summary(args.rtol, progress=lambda s: _say("  " + s))
+    if args.json:
+        _emit(args, {"rtol": args.rtol, "problems": _records(df)}, "")
+    else:
+        with pd.option_context("display.width", 200, "display.max_columns", 20,
+                               "display.float_format", "{:.3g}".format):
+            print()
+            print(df.to_string(index=False))
     failed = df["status"].astype(str).str.startswith("error")
     if failed.any():
-        print(f"\n{int(failed.sum())} problem(s) failed.", file=sys.stderr)
+        _say(f"\n{int(failed.sum())} problem(s) failed.")
         return 1
     return 0
 
 
+# -- the parser ---------------------------------------------------------------------------
+
+_EXAMPLES = {
+    "predict": ["kapitza predict --A 0.05 --f 60",
+                "kapitza predict --A-over-l 0.05 --omega-over-omega0 120.4 --json",
+                "kapitza predict --drive horizontal --A 0.05 --omega 377"],
+    "window": ["kapitza window --omega 100,200,400",
+               "kapitza window --omega-over-omega0 10:1000:30 --log-omega --json"],
+    "map": ["kapitza map --A 0:0.5:101 --omega 20:2000:100 --log-omega --out map.png",
+            "kapitza map --A-over-l 0:0.5:51 --omega-over-omega0 5:500:60 --log-omega "
+            "--data map.parquet --dimensionless"],
+    "measure": ["kapitza measure --A 0.05 --f 60 --theta0 3.13",
+                "kapitza measure --A 0.05 --omega 377 --drive horizontal --theta0 1.0 --json"],
+    "verify": ["kapitza verify --A 0.01,0.03,0.1 --f 40 --periods 400",
+               "kapitza verify --A 0.01:0.3:10 --omega 50:500:5 --log-omega --data v.csv --json"],
+    "run": ["kapitza run kapitza/scenes/kapitza_pendulum.toml",
+            "kapitza run my_scene.toml --json --no-write"],
+    "sweep": ["kapitza sweep kapitza/scenes/kapitza_pendulum_map.toml",
+              "kapitza sweep scene.toml --analysis measure --directory out/"],
+    "warmup": ["kapitza warmup"],
+    "summary": ["kapitza summary --rtol 1e-8", "kapitza --rtol 1e-6"],
+}
+
+
+def _epilog(name):
+    return "examples:\n" + "\n".join(f"  {e}" for e in _EXAMPLES[name])
+
+
+def _common(json_only=False):
+    p = argparse.ArgumentParser(add_help=False)
+    p.add_argument("--json", action="store_true",
+                   help="write the results as JSON on stdout (messages go to stderr)")
+    if json_only:
+        return p
+    g = p.add_argument_group("the pendulum")
+    g.add_argument("--l", type=float, default=1.0, help="length l (m; default 1)")
+    g.add_argument("--g", type=float, default=9.81, help="gravity g (m/s²; default 9.81)")
+    g.add_argument("--damping", type=float, default=0.0, help="damping rate γ (1/s; default 0)")
+    g.add_argument("--drive", choices=("vertical", "horizontal"), default="vertical",
+                   help="direction of the pivot's oscillation A cos ωt (default vertical)")
+    d = p.add_argument_group("the drive (SI numbers or dimensionless ratios; grids as "
+                             "a,b,c or START:STOP:NUM where a command takes several)")
+    a = d.add_mutually_exclusive_group()
+    a.add_argument("--A", metavar="A", help="amplitude A (m)")
+    a.add_argument("--A-over-l", dest="A_over_l", metavar="A/l", help="amplitude as A/l")
+    f = d.add_mutually_exclusive_group()
+    f.add_argument("--omega", metavar="ω", help="angular frequency ω (rad/s)")
+    f.add_argument("--f", metavar="Hz", help="frequency f = ω/2π (Hz)")
+    f.add_argument("--omega-over-omega0", dest="omega_over_omega0", metavar="ω/ω0",
+                   help="ω as a ratio to ω0 = √(g/l)")
+    return p
+
+
+def _parser() -> argparse.ArgumentParser:
+    from . import __version__
+    raw = argparse.RawDescriptionHelpFormatter
+    parser = argparse.ArgumentParser(prog="kapitza", description=__doc__, formatter_class=raw)
+    parser.add_argument("--version", action="version", version=f"kapitza {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    pend, plain = _common(), _common(json_only=True)
+
+    def add(name, helptext, parents):
+        return sub.add_parser(name, help=helptext, description=helptext, parents=parents,
+                              epilog=_epilog(name), formatter_class=raw)
+
+    p = add("predict", "averaging and Floquet analysis at one drive (A, ω)", [pend])
+    p.add_argument("--about", help="Floquet about: inverted (default) or hanging; horizontal "
+                   "drive: tilted (default), tilted-, hanging, inverted")
+    p.add_argument("--order", type=int, choices=(1, 2), default=1, help="order of averaging")
+    p.add_argument("--tol", type=float, default=1e-10, help="Floquet tolerance (default 1e-10)")
+    p.set_defaults(run=_predict)
+
+    p = add("window", "the exact window A_min < A < A_max per ω (vertical drive), the "
+            "averaging window beside it", [pend])
+    p.add_argument("--about", choices=("inverted", "hanging"), default="inverted")
+    p.add_argument("--order", type=int, choices=(1, 2), default=1,
+                   help="order of the averaging window (default 1)")
+    p.add_argument("--tol", type=float, default=1e-10, help="relative accuracy of the edges")
+    p.add_argument("--log-omega", action="store_true", help="START:STOP:NUM of ω geometric")
+    p.set_defaults(run=_window)
+
+    p = add("map", "the exact (A, ω) stability map (vertical drive): a PNG and its data",
+            [pend])
+    p.add_argument("--about", choices=("inverted", "hanging"), default="inverted")
+    p.add_argument("--out", default="kapitza-map.png", help="figure (default kapitza-map.png)")
+    p.add_argument("--data", help="data file, .csv or .parquet (default: the figure's name "
+                   "with .csv)")
+    p.add_argument("--trace", action="store_true", help="compute the monodromy trace everywhere")
+    p.add_argument("--tol", type=float, default=1e-10)
+    p.add_argument("--log-omega", action="store_true",
+                   help="START:STOP:NUM of ω geometric, and a logarithmic ω axis")
+    p.add_argument("--dimensionless", action="store_true", help="axes A/l and ω/ω0")
+    p.set_defaults(run=_map)
+
+    p = add("measure", "simulate the full nonlinear motion at one drive and measure it", [pend])
+    p.add_argument("--theta0", type=float, default=math.pi - 0.01,
+                   help="release angle from the downward vertical (rad; default π − 0.01)")
+    p.add_argument("--theta-dot0", dest="theta_dot0", type=float, default=0.0)
+    p.add_argument("--periods", type=int, default=None, help="drive periods simulated")
+    p.add_argument("--about", help="inverted, hanging, tilted or an angle (default: inverted "
+                   "for the vertical drive, tilted for the horizontal)")
+    p.add_argument("--rtol", type=float, default=1e-9)
+    p.set_defaults(run=_measure)
+
+    p = add("verify", "averaging, Floquet and simulation of the upright pendulum compared "
+            "over an A × ω grid; exit code 1 where they disagree beyond tolerance", [pend])
+    p.add_argument("--theta0", type=float, default=math.pi - 0.01)
+    p.add_argument("--periods", type=int, default=None)
+    p.add_argument("--tol", type=float, default=1e-10)
+    p.add_argument("--rtol", type=float, default=1e-9)
+    p.add_argument("--fit-order", action="store_true",
+                   help="also fit the order of averaging along A ω = 2√(gl)")
+    p.add_argument("--data", help="write the per-point table (.csv or .parquet)")
+    p.add_argument("--log-omega", action="store_true", help="START:STOP:NUM of ω geometric")
+    p.set_defaults(run=_verify)
+
+    p = add("run", "run the analyses a scene file (TOML) asks for", [plain])
+    p.add_argument("scene", metavar="SCENE.toml")
+    p.add_argument("--no-write", action="store_true", help="do not write [output] tables")
+    p.set_defaults(run=_run)
+
+    p = add("sweep", "run a scene's [sweep] over its grid in resumable tiles", [plain])
+    p.add_argument("scene", metavar="SCENE.toml")
+    p.add_argument("--analysis", help="the swept analysis (default: the only one)")
+    p.add_argument("--directory", help="where the dataset goes (default: the scene's output)")
+    p.add_argument("--tile-points", dest="tile_points", type=int)
+    p.set_defaults(run=_sweep)
+
+    p = add("warmup", "compile what every analysis needs, once per installation", [plain])
+    p.set_defaults(run=_warmup)
+
+    p = add("summary", "derive, compile and integrate the catalogue (the default)", [plain])
+    p.add_argument("--rtol", type=float, default=1e-10,
+                   help="integration tolerance (default 1e-10)")
+    p.set_defaults(run=_summary)
+    return parser
+
+
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="kapitza", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = parser.add_subparsers(dest="command")
-    p = sub.add_parser("summary", help="derive, compile and integrate the catalogue (default)")
-    p.add_argument("--rtol", type=float, default=1e-10, help="integration tolerance (default 1e-10)")
-    args = parser.parse_args(argv)
-    if args.command is None:
-        args = parser.parse_args(["summary", *(argv or [])])
-    if not (0 < args.rtol < 1):
-        parser.error(f"--rtol must be in (0, 1), got {args.rtol}")
+    """Run ``kapitza`` with ``argv`` (default ``sys.argv[1:]``); the exit code."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = _parser()
+    if (not argv or argv[0].startswith("-")) and not {"-h", "--help", "--version"} & set(argv):
+        argv = ["summary", *argv]               # the default command takes its options
     try:
-        return _summary(args)
+        args = parser.parse_args(argv)
+    except SystemExit as stop:                  # --help, --version (0) or a usage error (2)
+        return int(stop.code or 0)
+    name = f"kapitza {args.command}"
+    try:
+        if getattr(args, "periods", 1) is None:
+            from .measure import DEFAULT_PERIODS
+            args.periods = DEFAULT_PERIODS
+        return args.run(args)
+    except UsageError as e:
+        _say(f"{name}: error: {e}")
+        return EXIT_USAGE
+    except BrokenPipeError:                     # stdout closed early (| head): not an error
+        sys.stdout = open(os.devnull, "w")
+        return EXIT_OK
     except KeyboardInterrupt:
-        print("\ninterrupted; compiled kernels computed so far stay cached.", file=sys.stderr)
-        return 130
+        _say(f"\n{name}: interrupted; nothing further was saved (compiled kernels stay "
+             "cached).")
+        return EXIT_INTERRUPTED
+    except (ValueError, FileNotFoundError) as e:      # SceneError is a ValueError
+        _say(f"{name}: error: {e}")
+        return EXIT_USAGE
 
 
 if __name__ == "__main__":
