@@ -310,7 +310,17 @@ def _window(args) -> int:
     return EXIT_OK
 
 
-def _write_frame(frame, path: Path, metadata: dict | None = None) -> Path:
+def _data_path(text):
+    """A data file's path: .csv or .parquet."""
+    if text is None:
+        return None
+    path = Path(text)
+    if path.suffix not in (".csv", ".parquet"):
+        raise UsageError(f"--data must end in .csv or .parquet, got {text!r}.")
+    return path
+
+
+def _write_frame(frame, path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     if path.suffix == ".parquet":
         frame.to_parquet(path, index=False)
@@ -326,7 +336,7 @@ def _map_outputs(args, result, pend, partial=False):
     from .plots import stability_map_figure
 
     png = Path(args.out)
-    data_path = Path(args.data) if args.data else png.with_suffix(".csv")
+    data_path = _data_path(args.data) or png.with_suffix(".csv")
     frame = result.to_dataframe()
     _write_frame(frame, data_path)
     overlays = []
@@ -349,9 +359,7 @@ def _map(args) -> int:
     pend = _pendulum(args)
     A = _amplitude(args, grid=True)
     omega = _frequency(args, grid=True)
-    if Path(args.data or args.out).suffix not in (".csv", ".parquet", ".png") or \
-            (args.data and Path(args.data).suffix not in (".csv", ".parquet")):
-        raise UsageError(f"--data must end in .csv or .parquet, got {args.data!r}.")
+    _data_path(args.data)
     try:
         result = pend.stability_map(A, omega, about=args.about, trace=args.trace, tol=args.tol)
     except ComputationInterrupted as stop:
@@ -396,11 +404,12 @@ def _verify(args) -> int:
     pend = _pendulum(args)
     A = _amplitude(args, grid=True)
     omega = _frequency(args, grid=True)
+    data_path = _data_path(args.data)
     v = pend.verify(A[:, None], omega[None, :], theta0=args.theta0, periods=args.periods,
                     tol=args.tol, rtol=args.rtol, line=None if args.fit_order else False)
     agreement, bad = v.agreement, v.disagreements
-    if args.data:
-        _write_frame(v.to_dataframe(), Path(args.data))
+    if data_path:
+        _write_frame(v.to_dataframe(), data_path)
     data = {"pendulum": _point(args, 0.0, 0.0)["pendulum"], "A": A, "omega": omega,
             "points": int(np.prod(v.shape)), "methods": list(v.methods),
             "agreement": _records(agreement), "disagreements": _records(bad),
@@ -664,9 +673,13 @@ def main(argv=None) -> int:
     except BrokenPipeError:                     # stdout closed early (| head): not an error
         sys.stdout = open(os.devnull, "w")
         return EXIT_OK
-    except KeyboardInterrupt:
-        _say(f"\n{name}: interrupted; nothing further was saved (compiled kernels stay "
-             "cached).")
+    except KeyboardInterrupt as stop:           # ComputationInterrupted too
+        done = getattr(stop, "computed", None)
+        finished = (f" after {int(done.sum())} of {done.size} points" if done is not None
+                    and done.size else "")
+        kept = ("tables already written and finished sweep tiles are kept (run it again to "
+                "resume the sweep)" if args.command == "run" else "nothing was written")
+        _say(f"\n{name}: interrupted{finished}; {kept}. Compiled kernels stay cached.")
         return EXIT_INTERRUPTED
     except (ValueError, FileNotFoundError) as e:      # SceneError is a ValueError
         _say(f"{name}: error: {e}")

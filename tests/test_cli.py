@@ -186,6 +186,15 @@ def test_ctrl_c_exits_130(monkeypatch, capsys):
     assert "interrupted" in capsys.readouterr().err
 
 
+def test_interrupted_grid_says_how_far_it_got(monkeypatch, capsys):
+    def stop(self, *a, **k):
+        raise ComputationInterrupted(None, np.array([True, False, False]))
+
+    monkeypatch.setattr(KapitzaPendulum, "verify", stop)
+    assert cli.main(["verify", "--A", "0.01,0.03,0.1", "--f", "40"]) == 130
+    assert "after 1 of 3 points" in capsys.readouterr().err
+
+
 # -- measure, verify ----------------------------------------------------------------------------
 
 def test_measure_json_equals_the_api(capsys):
