@@ -541,12 +541,13 @@ def _epilog(name):
     return "examples:\n" + "\n".join(f"  {e}" for e in _EXAMPLES[name])
 
 
-def _common(json_only=False):
-    p = argparse.ArgumentParser(add_help=False)
+def _common(p, json_only=False):
+    """The options every command shares (added to each parser: argparse's ``parents``
+    would lose the drive's group title in the help)."""
     p.add_argument("--json", action="store_true",
                    help="write the results as JSON on stdout (messages go to stderr)")
     if json_only:
-        return p
+        return
     g = p.add_argument_group("the pendulum")
     g.add_argument("--l", type=float, default=1.0, help="length l (m; default 1)")
     g.add_argument("--g", type=float, default=9.81, help="gravity g (m/s²; default 9.81)")
@@ -563,7 +564,6 @@ def _common(json_only=False):
     f.add_argument("--f", metavar="Hz", help="frequency f = ω/2π (Hz)")
     f.add_argument("--omega-over-omega0", dest="omega_over_omega0", metavar="ω/ω0",
                    help="ω as a ratio to ω0 = √(g/l)")
-    return p
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -572,13 +572,15 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="kapitza", description=__doc__, formatter_class=raw)
     parser.add_argument("--version", action="version", version=f"kapitza {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    pend, plain = _common(), _common(json_only=True)
+    pend, plain = False, True
 
-    def add(name, helptext, parents):
-        return sub.add_parser(name, help=helptext, description=helptext, parents=parents,
-                              epilog=_epilog(name), formatter_class=raw)
+    def add(name, helptext, json_only):
+        p = sub.add_parser(name, help=helptext, description=helptext, epilog=_epilog(name),
+                           formatter_class=raw)
+        _common(p, json_only)
+        return p
 
-    p = add("predict", "averaging and Floquet analysis at one drive (A, ω)", [pend])
+    p = add("predict", "averaging and Floquet analysis at one drive (A, ω)", pend)
     p.add_argument("--about", help="Floquet about: inverted (default) or hanging; horizontal "
                    "drive: tilted (default), tilted-, hanging, inverted")
     p.add_argument("--order", type=int, choices=(1, 2), default=1, help="order of averaging")
@@ -586,7 +588,7 @@ def _parser() -> argparse.ArgumentParser:
     p.set_defaults(run=_predict)
 
     p = add("window", "the exact window A_min < A < A_max per ω (vertical drive), the "
-            "averaging window beside it", [pend])
+            "averaging window beside it", pend)
     p.add_argument("--about", choices=("inverted", "hanging"), default="inverted")
     p.add_argument("--order", type=int, choices=(1, 2), default=1,
                    help="order of the averaging window (default 1)")
@@ -595,56 +597,61 @@ def _parser() -> argparse.ArgumentParser:
     p.set_defaults(run=_window)
 
     p = add("map", "the exact (A, ω) stability map (vertical drive): a PNG and its data",
-            [pend])
+            pend)
     p.add_argument("--about", choices=("inverted", "hanging"), default="inverted")
     p.add_argument("--out", default="kapitza-map.png", help="figure (default kapitza-map.png)")
     p.add_argument("--data", help="data file, .csv or .parquet (default: the figure's name "
                    "with .csv)")
     p.add_argument("--trace", action="store_true", help="compute the monodromy trace everywhere")
-    p.add_argument("--tol", type=float, default=1e-10)
+    p.add_argument("--tol", type=float, default=1e-10, help="Floquet tolerance (with --trace "
+                   "or damping)")
     p.add_argument("--log-omega", action="store_true",
                    help="START:STOP:NUM of ω geometric, and a logarithmic ω axis")
     p.add_argument("--dimensionless", action="store_true", help="axes A/l and ω/ω0")
     p.set_defaults(run=_map)
 
-    p = add("measure", "simulate the full nonlinear motion at one drive and measure it", [pend])
+    p = add("measure", "simulate the full nonlinear motion at one drive and measure it", pend)
     p.add_argument("--theta0", type=float, default=math.pi - 0.01,
                    help="release angle from the downward vertical (rad; default π − 0.01)")
-    p.add_argument("--theta-dot0", dest="theta_dot0", type=float, default=0.0)
-    p.add_argument("--periods", type=int, default=None, help="drive periods simulated")
+    p.add_argument("--theta-dot0", dest="theta_dot0", type=float, default=0.0,
+                   help="release angular velocity (rad/s; default 0)")
+    p.add_argument("--periods", type=int, default=None,
+                   help="drive periods simulated (default: measure's)")
     p.add_argument("--about", help="inverted, hanging, tilted or an angle (default: inverted "
                    "for the vertical drive, tilted for the horizontal)")
-    p.add_argument("--rtol", type=float, default=1e-9)
+    p.add_argument("--rtol", type=float, default=1e-9, help="integration tolerance")
     p.set_defaults(run=_measure)
 
     p = add("verify", "averaging, Floquet and simulation of the upright pendulum compared "
-            "over an A × ω grid; exit code 1 where they disagree beyond tolerance", [pend])
-    p.add_argument("--theta0", type=float, default=math.pi - 0.01)
-    p.add_argument("--periods", type=int, default=None)
-    p.add_argument("--tol", type=float, default=1e-10)
-    p.add_argument("--rtol", type=float, default=1e-9)
+            "over an A × ω grid; exit code 1 where they disagree beyond tolerance", pend)
+    p.add_argument("--theta0", type=float, default=math.pi - 0.01,
+                   help="the simulations' release angle (rad; default π − 0.01)")
+    p.add_argument("--periods", type=int, default=None,
+                   help="drive periods simulated per point (default: measure's)")
+    p.add_argument("--tol", type=float, default=1e-10, help="Floquet tolerance")
+    p.add_argument("--rtol", type=float, default=1e-9, help="integration tolerance")
     p.add_argument("--fit-order", action="store_true",
                    help="also fit the order of averaging along A ω = 2√(gl)")
     p.add_argument("--data", help="write the per-point table (.csv or .parquet)")
     p.add_argument("--log-omega", action="store_true", help="START:STOP:NUM of ω geometric")
     p.set_defaults(run=_verify)
 
-    p = add("run", "run the analyses a scene file (TOML) asks for", [plain])
+    p = add("run", "run the analyses a scene file (TOML) asks for", plain)
     p.add_argument("scene", metavar="SCENE.toml")
     p.add_argument("--no-write", action="store_true", help="do not write [output] tables")
     p.set_defaults(run=_run)
 
-    p = add("sweep", "run a scene's [sweep] over its grid in resumable tiles", [plain])
+    p = add("sweep", "run a scene's [sweep] over its grid in resumable tiles", plain)
     p.add_argument("scene", metavar="SCENE.toml")
     p.add_argument("--analysis", help="the swept analysis (default: the only one)")
     p.add_argument("--directory", help="where the dataset goes (default: the scene's output)")
     p.add_argument("--tile-points", dest="tile_points", type=int)
     p.set_defaults(run=_sweep)
 
-    p = add("warmup", "compile what every analysis needs, once per installation", [plain])
+    p = add("warmup", "compile what every analysis needs, once per installation", plain)
     p.set_defaults(run=_warmup)
 
-    p = add("summary", "derive, compile and integrate the catalogue (the default)", [plain])
+    p = add("summary", "derive, compile and integrate the catalogue (the default)", plain)
     p.add_argument("--rtol", type=float, default=1e-10,
                    help="integration tolerance (default 1e-10)")
     p.set_defaults(run=_summary)
