@@ -18,8 +18,10 @@ time mean of q     ``QM[i]`` (n)          ∫q dt / (t − t0); per step the cor
 max deviation      ``DEV[i]`` (n)         max of |q − q_ref| at t0 and step ends (``OBS_REF``)
 band exit          ``EXIT[i]``,           first time a coordinate leaves [lo, hi]: located in
                    ``EXITC[i]``           the step by the cubic Hermite interpolant of (q, q̇)
-                                          (error O(h⁴)); the trajectory stops there, its final
-                                          state is the interpolant's (``OBS_BAND``)
+                                          (error O(h⁴)), refined for RKN 12 by re-stepping
+                                          from the step's start (the method's own accuracy);
+                                          the trajectory stops there, its final state is
+                                          that point's (``OBS_BAND``)
 energy drift       ``EDRIFT[i]``          max over step ends of |h(t) − h(t0)| (``OBS_ENERGY``)
 counts             ``COUNTS[i]``          accepted steps, rejected steps, kernel evaluations
 error estimate     ``ERR[i]``             sum of the local error estimates (as ``simulate``)
@@ -34,6 +36,20 @@ stopped; the other points are not affected.  The loops are the drivers of
 by rotations; DOP853 on the generic right-hand side, with projection onto the
 constraints), compiled once per installation and reaching the system's kernels by
 address (``ka``).
+
+RKN 12(10) also runs on *lanes* (:func:`grid_rkn_lanes`, what ``simulate_grid`` uses
+for "rkn12" and "rkn12-fixed"): a thread advances LANES points together, their state in
+arrays with the lane as last axis, so the stage sums, the drive's rotations and the
+system's accelerations (the drive kernel's ``fast_accel_lanes``, one call per stage for
+every lane, sin/cos from :mod:`lagrange_core._lane_math`) are loops over lanes that LLVM
+vectorises, and the lanes' independent dependency chains fill each other's latencies.
+The per-step bookkeeping that is the same for every lane (accept, advance, observe) is
+vectorised too; what is particular to a lane (a rejection, a band exit, a strobe
+sample, an end and the next point) runs for that lane alone.  Why: a lone trajectory
+waits on latencies (sin q near π ~36 ns, a call through the kernel's address ~25–47 ns,
+the stage sums' chains of fused multiply-adds); on lanes a stage of the driven pendulum
+costs about 6 ns per trajectory instead of ~50 (benchmarks/README.md, "Batch
+simulation").
 """
 import math
 import sys
@@ -41,9 +57,13 @@ import sys
 import numpy as np
 from numba import njit, prange
 
-from ._integrator_kernels import (FAST_MATH, INLINE, drive_rates, project_constraints,
-                                  starting_step)
-from ._kernel_calls import ENERGY, FAST_ACCEL, RHS, call_energy, call_fast_accel, call_rhs
+from ._integrator_kernels import (DRIVE_STEP, FAST_MATH, INLINE, ST_BLOCK, STATS_SIZE, TV_HOLD,
+                                  TV_HREF, TV_SIZE, drive_rates, held_step_record,
+                                  project_constraints, starting_step)
+from ._kernel_calls import (DRIVE_RATES, ENERGY, FAST_ACCEL, FAST_ACCEL_LANES, MAX_DRIVE_RATES,
+                            RHS, call_drive_rates, call_energy, call_fast_accel,
+                            call_fast_accel_lanes, call_rhs)
+from ._lane_math import lane_sincos_rows
 
 #: per-point status (``GridTrajectories.status``)
 GRID_FINISHED, GRID_LEFT_BAND, GRID_UNDERFLOW, GRID_NON_FINITE, GRID_SINGULAR, \
@@ -165,20 +185,162 @@ def _next_stop(t1, T, k_next, t0, flags):
 
 # -- q̈ = f(q, t): RKN 12(10) (family 0) and the symplectic composition (family 1) ----------
 
+@njit(cache=True, inline=INLINE)
+def _longest_step(rates):
+    """The longest adaptive RKN step: DRIVE_STEP periods of the fastest drive harmonic."""
+    h_max = np.inf
+    for k in range(rates.shape[0]):
+        if rates[k] != 0.0:
+            h_max = min(h_max, DRIVE_STEP * 2.0 * np.pi / abs(rates[k]))
+    return h_max
+
+
+@njit(cache=True, inline=INLINE)
+def _next_step(tv, stats, block, h, hs, err, clipped, rejected, h_max):
+    """The step after an accepted step of size hs with error ratio err: ``simulate``'s
+    "rkn12" rule (:func:`lagrange_core._integrator_kernels.fast_rkn_chunk`): the classic
+    controller until the held step exists, then the held step (grown back to after a
+    rejection), set anew every ``len(block)`` steps by :func:`held_step_record`."""
+    hold = tv[TV_HOLD]
+    if hold == 0.0 or hs < hold:
+        factor = 5.0 if err == 0.0 else min(5.0, 0.9 * err ** (-1.0 / 11.0))
+        if rejected:
+            factor = min(1.0, factor)
+        if hold == 0.0:
+            h = min(h_max, max(h, hs * factor) if clipped else hs * factor)
+        elif not clipped:
+            h = min(hold, hs * max(1.0, factor)) if not rejected else hs
+    elif not clipped:
+        h = hold
+    new_hold = held_step_record(tv, stats, block, err, hs, h_max)
+    if new_hold > 0.0 and (h >= hold or h > new_hold):
+        h = new_hold
+    return h
+
+
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+def _rkn_partial_step(ka, t, hx, q, v, a0, p, c, A, b, bp, rates, K, qs, css, Wn, yq, yv):
+    """One RKN 12 step of size hx from (q, v) at t (first stage a0), the drive from cos/sin
+    at each stage: (yq, yv) at t + hx.  Returns the kernel's status."""
+    n = q.shape[0]
+    ns = c.shape[0]
+    for i in range(n):
+        K[0, i] = a0[i]
+    for s in range(1, ns):
+        ch = c[s] * hx
+        for i in range(n):
+            acc = 0.0
+            for j in range(s):
+                acc += A[s, j] * K[j, i]
+            qs[i] = q[i] + ch * v[i] + hx * hx * acc
+        for k in range(rates.shape[0]):
+            css[2 * k] = np.cos(rates[k] * (t + ch))
+            css[2 * k + 1] = np.sin(rates[k] * (t + ch))
+        st = call_fast_accel(ka[FAST_ACCEL], qs, t + ch, css, p, K[s], Wn)
+        if st != 0:
+            return st
+    for i in range(n):
+        accq = 0.0
+        accv = 0.0
+        for j in range(ns):
+            accq += b[j] * K[j, i]
+            accv += bp[j] * K[j, i]
+        yq[i] = q[i] + hx * v[i] + hx * hx * accq
+        yv[i] = v[i] + hx * accv
+    return 0
+
+
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+def _rkn_band_exit(ka, t, h, q, v, a0, qn, vn, p, lo, hi, c, A, b, bp, rates, y):
+    """Where an RKN 12 step from (q, v) at t to (qn, vn) at t + h first leaves [lo, hi]:
+    (fraction x of the step, coordinate, kernel evaluations); (2.0, −1, 0) if it does not.
+
+    The cubic Hermite estimate (:func:`_band_exit`) starts an Illinois iteration whose
+    trial points are RKN steps of size x·h from the step's start (the method's own
+    solution, as ``simulate`` locates events), to a few ulps of x; ``y`` gets [q, q̇] at
+    the exit.  A coordinate found outside at that point left earlier and is located in
+    turn.  (Hermite's error, O(h⁴) and growing with the drive's ω⁴, reached 1e-4 s in
+    exit time on a held step of 3/4 of a drive period.)"""
+    x, j = _band_exit(q, v, qn, vn, h, lo, hi)
+    if j < 0:
+        return 2.0, -1, 0
+    n = q.shape[0]
+    ns = c.shape[0]
+    K = np.empty((ns, n))
+    qs = np.empty(n)
+    css = np.empty(max(2 * rates.shape[0], 1))
+    Wn = np.zeros((n, n + 1))
+    yq = np.empty(n)
+    yv = np.empty(n)
+    evals = 0
+    xb = 1.0
+    for i in range(n):
+        y[i] = qn[i]
+        y[n + i] = vn[i]
+    for attempt in range(n):
+        bound = hi[j] if y[j] > hi[j] else lo[j]
+        xa = 0.0
+        fa = q[j] - bound
+        fb = y[j] - bound
+        side = 0
+        guess = x if 0.0 < x < xb else 0.5 * xb
+        for it in range(60):
+            if xb - xa <= 4 * _EPS:
+                break
+            xt = guess if it == 0 else (xa * fb - xb * fa) / (fb - fa)
+            if not (xa < xt < xb):
+                xt = 0.5 * (xa + xb)
+            if _rkn_partial_step(ka, t, xt * h, q, v, a0, p, c, A, b, bp, rates, K, qs, css,
+                                 Wn, yq, yv) != 0:
+                break
+            evals += ns - 1
+            ft = yq[j] - bound
+            if ft == 0.0 or (ft > 0.0) == (fb > 0.0):
+                if side == -1:
+                    fa *= 0.5
+                xb, fb, side = xt, ft, -1
+                for i in range(n):
+                    y[i] = yq[i]
+                    y[n + i] = yv[i]
+                if ft == 0.0:
+                    break
+            else:
+                if side == 1:
+                    fb *= 0.5
+                xa, fa, side = xt, ft, 1
+        # a coordinate outside at this point left the band earlier: locate it instead
+        k_out = -1
+        for i in range(n):
+            if i != j and not (lo[i] <= y[i] <= hi[i]):
+                k_out = i
+        if k_out < 0:
+            break
+        j = k_out
+        x = 0.5 * xb
+    return xb, j, evals
+
+
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, flags, rtol,
                        atol, max_steps, c, A, b, bp, bh, bph, w, yf, sq, qsum, dev, counts,
-                       hbuf):
+                       hbuf, block):
     """Integrate one point of a q̈ = f(q, t) system (drive kernel) from y0 at t0 to t1.
 
     family 0: RKN 12(10), adaptive (``adaptive``) or at the fixed step ``h0``;
     family 1: the symmetric composition of velocity Verlet with weights ``w`` at ``h0``.
-    Observables as in the module docstring.  A non-empty ``hbuf`` records the accepted
-    steps (a pilot run; observables off).  Returns (status, t, exit coordinate, energy
-    drift, error estimate, steps recorded in hbuf).
+    The adaptive step is controlled as by ``simulate``'s "rkn12"
+    (:func:`lagrange_core._integrator_kernels.fast_rkn_chunk`): at most DRIVE_STEP periods
+    of the fastest drive harmonic, and *held* (:func:`held_step_record`) once the first
+    block of ``block`` is complete; an empty ``block`` gives the classic controller (the
+    pilot of "rkn12-fixed").  Observables as in the module docstring.  A non-empty
+    ``hbuf`` records the accepted steps (a pilot run; observables off).  Returns (status,
+    t, exit coordinate, energy drift, error estimate, steps recorded in hbuf).
     """
     n = y0.shape[0] // 2
     rates = drive_rates(ka, p)
+    h_max = _longest_step(rates)
+    tvh = np.zeros(TV_SIZE)
+    sth = np.zeros(STATS_SIZE, dtype=np.int64)
     nd = rates.shape[0]
     ns = c.shape[0] if family == 0 else w.shape[0] + 1
     K = np.empty((ns, n))
@@ -222,6 +384,9 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
     if call_fast_accel(ka[FAST_ACCEL], q, t, cs0, p, a0, Wn) != 0:
         return GRID_SINGULAR, t, -1, 0.0, 0.0, 0
     counts[CNT_EVALS] += 1
+    for i in range(n):          # no step can start (nor a starting step be estimated)
+        if not np.isfinite(a0[i]):
+            return GRID_NON_FINITE, t, -1, 0.0, 0.0, 0
     e0 = call_energy(ka[ENERGY], q, v, t, p) if flags & OBS_ENERGY else 0.0
     drift = 0.0
     if flags & OBS_STROBE:
@@ -238,6 +403,8 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
         h = starting_step(ka, t, y0, f, p, rtol, atol, W, np.empty(2 * n), np.empty(2 * n),
                           1.0 / 11.0)
         counts[CNT_EVALS] += 2
+    if adaptive:
+        h = min(h, h_max)
     h_rot = -1.0
     t_carry = 0.0
     err_sum = 0.0
@@ -354,6 +521,7 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
             if (not adaptive) or (finite and err < 1.0):
                 break
             counts[CNT_REJECTED] += 1
+            held_step_record(tvh, sth, block, err, hs, h_max)
             h = hs * max(0.2, 0.9 * err ** expo) if np.isfinite(err) else 0.2 * hs
             rejected = True
             if h < hmin:
@@ -389,6 +557,15 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
                 status = GRID_SINGULAR
                 break
             counts[CNT_EVALS] += 1
+        if family == 0 and (flags & OBS_BAND):     # leaving the band: where, exactly
+            x, jx, ev = _rkn_band_exit(ka, t, hs, q, v, a0, qn, vn, p, lo, hi, c, A, b, bp,
+                                       rates, yf)
+            counts[CNT_EVALS] += ev
+            if jx >= 0:
+                _accumulate_mean(qsum, q, v, yf[:n], yf[n:], x * hs)
+                t = t + x * hs
+                status = GRID_LEFT_BAND
+                break
         x, jx, drift = _observe(ka, t, hs, q, v, qn, vn, p, flags, ref, lo, hi, dev, qsum, e0,
                                 drift, yf)
         if jx >= 0:
@@ -409,10 +586,7 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
                     sq[k_next, n + i] = v[i]
             k_next += 1
         if adaptive:
-            factor = 5.0 if err == 0.0 else min(5.0, 0.9 * err ** expo)
-            if rejected:
-                factor = min(1.0, factor)
-            h = max(h, hs * factor) if clipped else hs * factor
+            h = _next_step(tvh, sth, block, h, hs, err, clipped, rejected, h_max)
             rejected = False
     if jx < 0:
         for i in range(n):
@@ -435,7 +609,8 @@ def pilot_step(ka, y0, p, t0, t1, T, rtol, atol, c, A, b, bp, bh, bph, counts):
     inf = np.full(n, np.inf)
     out = point_second_order(ka, 0, True, y0, p, t0, t0 + span / 50.0, 0.0, 0.0, z, -inf, inf,
                              0, rtol, atol, 1 << 40, c, A, b, bp, bh, bph, np.zeros(1), yf,
-                             np.empty((1, 2 * n)), np.zeros(n), np.zeros(n), counts, hbuf)
+                             np.empty((1, 2 * n)), np.zeros(n), np.zeros(n), counts, hbuf,
+                             np.zeros(0))
     m = out[5]
     if m == 0:
         return span
@@ -446,14 +621,16 @@ def pilot_step(ka, y0, p, t0, t1, T, rtol, atol, c, A, b, bp, bh, bph, counts):
 
 
 @njit(cache=True, parallel=True)
-def grid_second_order(ka, family, adaptive, pilot, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
-                      rtol, atol, max_steps, c, A, b, bp, bh, bph, w, YF, TF, SQ, QM, DEV, EXIT,
-                      EXITC, EDRIFT, COUNTS, ERR, STATUS):
+def grid_second_order(ka, family, adaptive, pilot, hold_block, idx, Y0, P, TS, H, TSTR, REF, LO,
+                      HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, w, YF, TF, SQ, QM,
+                      DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS):
     """Every point ``idx[k]`` with :func:`point_second_order` (``pilot``: the fixed step of
-    each point from :func:`pilot_step`)."""
+    each point from :func:`pilot_step`; ``hold_block``: steps per block of the adaptive
+    held step)."""
     nb = np.zeros(0)
     for k in prange(idx.shape[0]):
         i = idx[k]
+        block = np.empty(hold_block if adaptive else 0)
         h0 = H[i]
         if pilot:
             h0 = pilot_step(ka, Y0[i], P[i], TS[i, 0], TS[i, 1], TSTR[i], rtol, atol, c, A, b,
@@ -461,7 +638,7 @@ def grid_second_order(ka, family, adaptive, pilot, idx, Y0, P, TS, H, TSTR, REF,
         st, t, jx, drift, err, nh = point_second_order(
             ka, family, adaptive, Y0[i], P[i], TS[i, 0], TS[i, 1], h0, TSTR[i], REF[i], LO[i],
             HI[i], flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, w, YF[i], SQ[i], QM[i],
-            DEV[i], COUNTS[i], nb)
+            DEV[i], COUNTS[i], nb, block)
         STATUS[i] = st
         TF[i] = t
         EXITC[i] = jx
@@ -470,282 +647,630 @@ def grid_second_order(ka, family, adaptive, pilot, idx, Y0, P, TS, H, TSTR, REF,
         ERR[i] = err
 
 
-# -- RKN 12 at a fixed step, several trajectories interleaved per thread --------------------
+# -- RKN 12(10) on lanes: many trajectories per thread, vectorised across them ------------
 
-#: trajectories a thread advances together in :func:`grid_rkn_lanes`
-LANES = 8
+#: trajectories a thread advances together in :func:`grid_rkn_lanes` (a multiple of the
+#: SIMD width; enough independent vectors to hide the latency of the sine's polynomial)
+LANES = 64
+#: accepted steps a pilot records (as :func:`pilot_step`)
+PILOT_STEPS = 4096
+#: grid_rkn_lanes modes
+LANES_ADAPTIVE, LANES_FIXED, LANES_PILOT = range(3)
+# what a lane is doing
+_IDLE, _PILOT, _ADAPTIVE, _FIXED = range(4)
 
 
-@njit(cache=True)
-def _lane_start(ka, l, i, Y0, P, TS, H, TSTR, REF, DEV, flags, pilot, rtol, atol, c, A, b, bp,
-                bh, bph, q, v, a0, cq, cv, t, h, hrot, tcar, kn, e0, drift, err, rates, nrates,
-                cs, Wn, YF, SQ, COUNTS):
-    """Load point i into lane l: state, drive rates, acceleration, step (given or from a
-    pilot); returns 0, or the point's status when it cannot start (singular at t0)."""
-    n = q.shape[1]
+@njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
+def _lanes_load(ka, l, i, phase, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, q, v, K,
+                cq, cv, Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl,
+                e0, drift, errsum, rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh, sth):
+    """Start point i in lane l in ``phase`` (_PILOT: the pilot over the first 1/50 of the
+    span, observing nothing; _ADAPTIVE or _FIXED: the run itself, with ``h[l]`` set by
+    the caller for _FIXED).  ``scr`` (7, ≥ max(2n, MAX_DRIVE_RATES)) and ``Wn`` (n, n + 1)
+    are scratch.  Returns 0, or the point's status when it cannot start: GRID_SINGULAR
+    (the acceleration at the start cannot be evaluated), GRID_NON_FINITE (it is not
+    finite)."""
+    n = q.shape[0]
     p = P[i]
-    if pilot:
-        h[l] = pilot_step(ka, Y0[i], p, TS[i, 0], TS[i, 1], TSTR[i], rtol, atol, c, A, b, bp,
-                          bh, bph, COUNTS[i])
-    else:
-        h[l] = H[i]
-    r = drive_rates(ka, p)
-    nrates[l] = r.shape[0]
-    for k in range(r.shape[0]):
-        rates[l, k] = r[k]
-    t[l] = TS[i, 0]
+    qv = scr[0, :n]
+    a0 = scr[1, :n]
+    cs = scr[2, :max(2 * nd, 1)]
+    r = scr[3]
+    f = scr[4, :2 * n]
+    y1 = scr[5, :2 * n]
+    f1 = scr[6, :2 * n]
+    for k in range(p.shape[0]):
+        Pl[k, l] = p[k]
+    call_drive_rates(ka[DRIVE_RATES], p, r)
+    for k in range(nd):
+        R[k, l] = r[k]
+    hmax[l] = _longest_step(r[:nd])
+    tvh[l, :] = 0.0
+    sth[l, :] = 0
+    t0 = TS[i, 0]
+    t[l] = t0
     for j in range(n):
-        q[l, j] = Y0[i, j]
-        v[l, j] = Y0[i, n + j]
-        cq[l, j] = 0.0
-        cv[l, j] = 0.0
-        YF[i, j] = Y0[i, j]
-        YF[i, n + j] = Y0[i, n + j]
-        if flags & OBS_REF:
-            DEV[i, j] = abs(Y0[i, j] - REF[i, j])
-    for k in range(nrates[l]):
-        cs[2 * k] = np.cos(rates[l, k] * t[l])
-        cs[2 * k + 1] = np.sin(rates[l, k] * t[l])
-    if call_fast_accel(ka[FAST_ACCEL], q[l], t[l], cs, p, a0[l], Wn) != 0:
+        qv[j] = Y0[i, j]
+        q[j, l] = Y0[i, j]
+        v[j, l] = Y0[i, n + j]
+        cq[j, l] = 0.0
+        cv[j, l] = 0.0
+        QMl[j, l] = 0.0
+        DEVl[j, l] = 0.0
+        REFl[j, l] = REF[i, j] if (flags & OBS_REF) and phase != _PILOT else q[j, l]
+        LOl[j, l] = LO[i, j] if (flags & OBS_BAND) and phase != _PILOT else -np.inf
+        HIl[j, l] = HI[i, j] if (flags & OBS_BAND) and phase != _PILOT else np.inf
+    for k in range(nd):
+        cs[2 * k] = np.cos(r[k] * t0)
+        cs[2 * k + 1] = np.sin(r[k] * t0)
+    if call_fast_accel(ka[FAST_ACCEL], qv, t0, cs, p, a0, Wn) != 0:
         return GRID_SINGULAR
     COUNTS[i, CNT_EVALS] += 1
-    e0[l] = call_energy(ka[ENERGY], q[l], v[l], t[l], p) if flags & OBS_ENERGY else 0.0
-    drift[l] = 0.0
-    err[l] = 0.0
-    if flags & OBS_STROBE:
-        for j in range(2 * n):
-            SQ[i, 0, j] = Y0[i, j]
-    kn[l] = 1
+    for j in range(n):
+        if not math.isfinite(a0[j]):
+            return GRID_NON_FINITE
+    for j in range(n):
+        K[0, j, l] = a0[j]
+        for m in range(1, K.shape[0]):
+            K[m, j, l] = 0.0
+    tc[l] = 0.0
     hrot[l] = -1.0
-    tcar[l] = 0.0
+    t0l[l] = t0
+    kn[l] = 1.0
+    drift[l] = 0.0
+    errsum[l] = 0.0
+    rejected[l] = False
+    nh[l] = 0
+    ph[l] = phase
+    if phase == _PILOT:
+        t1l[l] = t0 + (TS[i, 1] - t0) / 50.0
+        Tl[l] = 0.0
+    else:
+        t1l[l] = TS[i, 1]
+        Tl[l] = TSTR[i] if flags & OBS_STROBE else 0.0
+        for j in range(2 * n):
+            YF[i, j] = Y0[i, j]
+            if flags & OBS_STROBE:
+                SQ[i, 0, j] = Y0[i, j]
+        if flags & OBS_REF:
+            for j in range(n):
+                DEVl[j, l] = abs(Y0[i, j] - REF[i, j])
+        e0[l] = call_energy(ka[ENERGY], qv, Y0[i, n:], t0, p) if flags & OBS_ENERGY else 0.0
+    if phase == _PILOT or (phase == _ADAPTIVE and not H[i] > 0.0):
+        for j in range(n):
+            f[j] = Y0[i, n + j]
+            f[n + j] = a0[j]
+        h[l] = starting_step(ka, t0, Y0[i], f, p, rtol, atol, Wn, y1, f1, 1.0 / 11.0)
+        COUNTS[i, CNT_EVALS] += 2
+    elif phase == _ADAPTIVE:
+        h[l] = H[i]
+    if phase != _FIXED:
+        h[l] = min(h[l], hmax[l])
     return 0
 
 
-@njit(cache=True, parallel=True, error_model="numpy", fastmath=FAST_MATH)
-def grid_rkn_lanes(ka, pilot, idx, block, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol,
-                   max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT,
-                   COUNTS, ERR, STATUS):
-    """RKN 12 at a fixed step over the points ``idx``: each thread takes blocks of ``block``
-    points and advances :data:`LANES` of them together, stage by stage, refilling a lane
-    from its block when its trajectory ends.
+@njit(cache=True, inline="always", fastmath=FAST_MATH, error_model="numpy")
+def _acc4(x, a, K, m, j, l):
+    x += a[m] * K[m, j, l]
+    x += a[m + 1] * K[m + 1, j, l]
+    x += a[m + 2] * K[m + 2, j, l]
+    x += a[m + 3] * K[m + 3, j, l]
+    return x
 
-    Why: one trajectory's stages form a chain (each needs the last one's sin θ), so a
-    lone trajectory waits on latencies; independent lanes fill those waits (the CPU
-    overlaps them), about doubling the throughput.  Same results as
-    :func:`point_second_order` at the same step (the arithmetic per lane is the same).
+
+@njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
+def _weighted_sums(b, bp, db, dbp, K, j, acc, L):
+    """acc[0..3, l] = Σ_m (b, b', b − b̂, b' − b̂')[m] K[m, j, l]: the step's increments and
+    error estimates, summed in point_second_order's order.  (Unrolled into registers as
+    the stage sums are, it measured slower: four chains of 17 exceed the registers.)"""
+    for l in range(L):
+        acc[0, l] = 0.0
+        acc[1, l] = 0.0
+        acc[2, l] = 0.0
+        acc[3, l] = 0.0
+    for m in range(K.shape[0]):
+        bm = b[m]
+        bpm = bp[m]
+        dbm = db[m]
+        dbpm = dbp[m]
+        for l in range(L):
+            km = K[m, j, l]
+            acc[0, l] += bm * km
+            acc[1, l] += bpm * km
+            acc[2, l] += dbm * km
+            acc[3, l] += dbpm * km
+
+
+@njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
+def _stage_positions(s, A, c, K, q, v, hs, qs, acc, L):
+    """qs = q + c_s h v + h² Σ_{m<s} A[s, m] K[m] for every lane.
+
+    Up to 16 earlier stages (RKN 12(10) has 17 stages) the sum runs in registers over
+    whole blocks of four: A is strictly lower triangular, so the terms m ≥ s add
+    fma(0, K[m], x) = x exactly (the lanes keep K finite: a lane's K is cleared when a
+    step of it was not finite and when it takes a new point); the order of the sum is
+    point_second_order's, so the rounding is too.  Beyond 16, partial sums in ``acc``."""
+    n = q.shape[0]
+    a = A[s]
+    cs_ = c[s]
+    nb = (s + 3) // 4
+    for j in range(n):
+        if nb == 1:
+            for l in range(L):
+                hh = hs[l]
+                qs[j, l] = q[j, l] + cs_ * hh * v[j, l] + hh * hh * _acc4(0.0, a, K, 0, j, l)
+        elif nb == 2:
+            for l in range(L):
+                hh = hs[l]
+                x = _acc4(_acc4(0.0, a, K, 0, j, l), a, K, 4, j, l)
+                qs[j, l] = q[j, l] + cs_ * hh * v[j, l] + hh * hh * x
+        elif nb == 3:
+            for l in range(L):
+                hh = hs[l]
+                x = _acc4(_acc4(_acc4(0.0, a, K, 0, j, l), a, K, 4, j, l), a, K, 8, j, l)
+                qs[j, l] = q[j, l] + cs_ * hh * v[j, l] + hh * hh * x
+        elif nb == 4:
+            for l in range(L):
+                hh = hs[l]
+                x = _acc4(_acc4(_acc4(_acc4(0.0, a, K, 0, j, l), a, K, 4, j, l), a, K, 8, j, l),
+                          a, K, 12, j, l)
+                qs[j, l] = q[j, l] + cs_ * hh * v[j, l] + hh * hh * x
+        else:
+            for l in range(L):
+                acc[0, l] = 0.0
+            for m in range(s):
+                am = a[m]
+                for l in range(L):
+                    acc[0, l] += am * K[m, j, l]
+            for l in range(L):
+                hh = hs[l]
+                qs[j, l] = q[j, l] + cs_ * hh * v[j, l] + hh * hh * acc[0, l]
+
+
+@njit(cache=True, parallel=True, error_model="numpy", fastmath=FAST_MATH)
+def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
+                   rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT, EXITC,
+                   EDRIFT, COUNTS, ERR, STATUS):
+    """RKN 12(10) over the points ``idx`` on *lanes*: each thread takes blocks of ``block``
+    points and advances :data:`LANES` of them together, refilling a lane from its block
+    when its trajectory ends.
+
+    ``mode``: LANES_ADAPTIVE ("rkn12": the step control of :func:`point_second_order`,
+    held in blocks of ``hold_block`` steps), LANES_FIXED (the step ``H``), LANES_PILOT (the
+    step of each point from an adaptive pilot over the first 1/50 of its span, as
+    :func:`pilot_step`; the pilot runs on the lanes too).  Same algorithm, statuses,
+    counts and observables as :func:`point_second_order` (and :func:`pilot_step`), to
+    rounding: the arithmetic is the same except that sin and cos are the lane
+    polynomials of :mod:`lagrange_core._lane_math` (within 2 ulp) and stage sums are
+    grouped by four.
+
+    Why lanes: one trajectory is a chain of dependent evaluations (each stage needs the
+    last one's sin q), so alone it waits on latencies, and a call through the kernel's
+    address costs more than its arithmetic.  Here every array has the lane as its last
+    axis and every loop over lanes is innermost: the stage sums, the drive rotations
+    and the kernel itself (``fast_accel_lanes``, one call for all lanes) vectorise, and
+    the lanes' independent chains fill each other's latencies.  A lane that fails
+    (singular, non-finite) gets its status alone; an idle lane keeps a finite state.
     """
     N = idx.shape[0]
     nblocks = (N + block - 1) // block
     ns = c.shape[0]
     n = Y0.shape[1] // 2
+    npar = P.shape[1]
+    nd = drive_rates(ka, P[idx[0]]).shape[0] if N > 0 else 0     # the same for every point
+    ncs = max(2 * nd, 1)
+    expo = -1.0 / 11.0
+    energy = (flags & OBS_ENERGY) != 0
+    db = b - bh
+    dbp = bp - bph
     for blk in prange(nblocks):
         lo_b = blk * block
         hi_b = min(N, lo_b + block)
-        L = LANES
-        ndm = max(drive_rates(ka, P[idx[lo_b]]).shape[0], 1)   # the same for every point
+        L = min(LANES, hi_b - lo_b)
         pt = np.full(L, -1, dtype=np.int64)
-        q = np.empty((L, n))
-        v = np.empty((L, n))
-        a0 = np.empty((L, n))
-        qn = np.empty((L, n))
-        vn = np.empty((L, n))
-        cq = np.zeros((L, n))
-        cv = np.zeros((L, n))
-        cqn = np.zeros((L, n))
-        cvn = np.zeros((L, n))
-        K = np.empty((L, ns, n))
-        qs = np.empty(n)
-        Wn = np.zeros((n, n + 1))
+        ph = np.zeros(L, dtype=np.int64)
+        q = np.zeros((n, L))
+        v = np.zeros((n, L))
+        cq = np.zeros((n, L))
+        cv = np.zeros((n, L))
+        qn = np.zeros((n, L))
+        vn = np.zeros((n, L))
+        cqn = np.zeros((n, L))
+        cvn = np.zeros((n, L))
+        qs = np.zeros((n, L))
+        an = np.zeros((n, L))
+        K = np.zeros((ns, n, L))
+        QMl = np.zeros((n, L))
+        DEVl = np.zeros((n, L))
+        REFl = np.zeros((n, L))
+        LOl = np.full((n, L), -np.inf)
+        HIl = np.full((n, L), np.inf)
+        Pl = np.ones((max(npar, 1), L))
+        R = np.zeros((max(nd, 1), L))
+        rot = np.zeros((ns, ncs, L))
+        cs0 = np.zeros((ncs, L))
+        css = np.zeros((ncs, L))
+        work = np.zeros((1 + n * (n + 1), L))
+        acc = np.zeros((4, L))
+        x = np.zeros(L)
+        sx = np.zeros(L)
+        cx = np.zeros(L)
         t = np.zeros(L)
+        tc = np.zeros(L)
         h = np.zeros(L)
         hs = np.zeros(L)
         hrot = np.zeros(L)
-        tcar = np.zeros(L)
-        ttar = np.zeros(L)
-        clip = np.zeros(L, dtype=np.bool_)
-        kn = np.zeros(L, dtype=np.int64)
+        tar = np.zeros(L)
+        tnew = np.zeros(L)
+        tcn = np.zeros(L)
+        ts = np.zeros(L)
+        t0l = np.zeros(L)
+        t1l = np.zeros(L)
+        Tl = np.zeros(L)
+        kn = np.zeros(L)
+        e2 = np.zeros(L)
+        est = np.zeros(L)
         e0 = np.zeros(L)
         drift = np.zeros(L)
-        err = np.zeros(L)
-        rates = np.zeros((L, ndm))
-        nrates = np.zeros(L, dtype=np.int64)
-        rot = np.empty((L, ns, ndm, 2))
-        cs0 = np.empty((L, 2 * ndm))
-        css = np.empty(2 * ndm)
+        errsum = np.zeros(L)
+        clip = np.zeros(L, dtype=np.bool_)
+        rr = np.zeros(L, dtype=np.bool_)
+        fin = np.zeros(L, dtype=np.bool_)
+        sing = np.zeros(L, dtype=np.bool_)
+        rejected = np.zeros(L, dtype=np.bool_)
+        inside = np.zeros(L, dtype=np.bool_)
+        good = np.zeros(L, dtype=np.bool_)
+        upd = np.zeros(L, dtype=np.bool_)
+        special = np.zeros(L, dtype=np.bool_)
+        errl = np.zeros(L)
+        nh = np.zeros(L, dtype=np.int64)
+        nst = np.zeros(L, dtype=np.int64)
+        nrej = np.zeros(L, dtype=np.int64)
+        nev = np.zeros(L, dtype=np.int64)
+        ridx = np.zeros(L, dtype=np.int64)
+        hmax = np.zeros(L)
+        tvh = np.zeros((L, TV_SIZE))
+        sth = np.zeros((L, STATS_SIZE), dtype=np.int64)
+        blk = np.empty((L, hold_block if mode == LANES_ADAPTIVE else 0))
+        hbuf = np.empty((L, PILOT_STEPS if mode == LANES_PILOT else 0))
+        scr = np.zeros((7, max(2 * n, MAX_DRIVE_RATES)))
+        Wn = np.zeros((n, n + 1))
+        q1 = np.empty(n)
+        v1 = np.empty(n)
+        a1 = np.empty(n)
+        q2 = np.empty(n)
+        v2 = np.empty(n)
+        first = _PILOT if mode == LANES_PILOT else (_FIXED if mode == LANES_FIXED else _ADAPTIVE)
         nxt = lo_b
         active = 0
         for l in range(L):
             while nxt < hi_b and pt[l] < 0:
                 i = idx[nxt]
                 nxt += 1
-                st = _lane_start(ka, l, i, Y0, P, TS, H, TSTR, REF, DEV, flags, pilot, rtol,
-                                 atol, c, A, b, bp, bh, bph, q, v, a0, cq, cv, t, h, hrot, tcar,
-                                 kn, e0, drift, err, rates, nrates, css, Wn, YF, SQ, COUNTS)
+                h[l] = H[i]
+                st = _lanes_load(ka, l, i, first, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol,
+                                 atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl,
+                                 kn, QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum, rejected, nh,
+                                 ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh, sth)
                 if st != 0:
                     STATUS[i] = st
                     TF[i] = TS[i, 0]
+                    YF[i] = Y0[i]
+                    EDRIFT[i] = 0.0
+                    ERR[i] = 0.0
                 else:
                     pt[l] = i
                     active += 1
+            if pt[l] < 0:
+                ph[l] = _IDLE
         while active > 0:
-            # the step of every lane: its length, its drive rotations, the first stage
+            # the step of every lane: its length (shortened to land on t1 or a strobe time)
+            any_adaptive = False
             for l in range(L):
-                i = pt[l]
-                if i < 0:
-                    continue
+                any_adaptive |= ph[l] == _PILOT or ph[l] == _ADAPTIVE
                 tt = t[l]
-                tar = _next_stop(TS[i, 1], TSTR[i], kn[l], TS[i, 0], flags)
-                ttar[l] = tar
+                tg = t1l[l]
+                ts_k = t0l[l] + kn[l] * Tl[l]
+                tg = ts_k if (Tl[l] > 0.0 and ts_k < tg) else tg
+                tar[l] = tg
                 hh = h[l]
-                clip[l] = False
-                if tt + hh * (1.0 + 1e-10) >= tar:
-                    hh = tar - tt
-                    clip[l] = True
+                grow = 1.0 + 1e-10 if ph[l] == _FIXED else 1.0
+                cl = tt + hh * grow >= tg
+                hh = tg - tt if cl else hh
+                hh = 0.0 if ph[l] == _IDLE else hh
+                clip[l] = cl
                 hs[l] = hh
-                nd = nrates[l]
-                if abs(hh - hrot[l]) > 4.0 * _EPS * max(abs(tt), abs(tar)):
-                    for s in range(ns):
-                        for k in range(nd):
-                            rot[l, s, k, 0] = np.cos(rates[l, k] * c[s] * hh)
-                            rot[l, s, k, 1] = np.sin(rates[l, k] * c[s] * hh)
-                    hrot[l] = hh
-                for k in range(nd):
-                    cs0[l, 2 * k] = np.cos(rates[l, k] * tt)
-                    cs0[l, 2 * k + 1] = np.sin(rates[l, k] * tt)
-                for j in range(n):
-                    K[l, 0, j] = a0[l, j]
-            # the stages, lane by lane (independent chains: their latencies overlap)
-            for s in range(1, ns):
-                for l in range(L):
-                    i = pt[l]
-                    if i < 0:
-                        continue
-                    hh = hs[l]
-                    ch = c[s] * hh
-                    for j in range(n):
-                        acc0 = 0.0
-                        acc1 = 0.0
-                        for m in range(0, s - 1, 2):
-                            acc0 += A[s, m] * K[l, m, j]
-                            acc1 += A[s, m + 1] * K[l, m + 1, j]
-                        if s % 2 == 1:
-                            acc0 += A[s, s - 1] * K[l, s - 1, j]
-                        qs[j] = q[l, j] + ch * v[l, j] + hh * hh * (acc0 + acc1)
-                    for k in range(nrates[l]):
-                        cr = rot[l, s, k, 0]
-                        sr = rot[l, s, k, 1]
-                        css[2 * k] = cs0[l, 2 * k] * cr - cs0[l, 2 * k + 1] * sr
-                        css[2 * k + 1] = cs0[l, 2 * k + 1] * cr + cs0[l, 2 * k] * sr
-                    if call_fast_accel(ka[FAST_ACCEL], qs, t[l] + ch, css, P[i], K[l, s],
-                                       Wn) != 0:
-                        STATUS[i] = GRID_SINGULAR      # finished below
-            # the new state of every lane; end, or go on
+                # a step shortened by rounding only keeps its rotations (as point_second_order)
+                rr[l] = abs(hh - hrot[l]) > 4.0 * _EPS * max(abs(tt), abs(tg))
+            nr = 0
             for l in range(L):
+                if rr[l]:
+                    ridx[nr] = l
+                    nr += 1
+            if nr > 0:                  # the drive's rotations over the stages of new steps
+                for s in range(ns):
+                    for k in range(nd):
+                        for u in range(nr):
+                            x[u] = R[k, ridx[u]] * c[s] * hs[ridx[u]]
+                        lane_sincos_rows(x, sx, cx, nr)
+                        for u in range(nr):
+                            rot[s, 2 * k, ridx[u]] = cx[u]
+                            rot[s, 2 * k + 1, ridx[u]] = sx[u]
+                for u in range(nr):
+                    hrot[ridx[u]] = hs[ridx[u]]
+            for k in range(nd):         # the drive at the step's start, exactly
+                for l in range(L):
+                    x[l] = R[k, l] * t[l]
+                lane_sincos_rows(x, sx, cx, L)
+                for l in range(L):
+                    cs0[2 * k, l] = cx[l]
+                    cs0[2 * k + 1, l] = sx[l]
+            for l in range(L):
+                sing[l] = False
+            # the stages: q + c h v + h² Σ A K, the drive rotated, one call for all lanes
+            for s in range(1, ns):
+                cs_ = c[s]
+                _stage_positions(s, A, c, K, q, v, hs, qs, acc, L)
+                for k in range(nd):
+                    for l in range(L):
+                        cr = rot[s, 2 * k, l]
+                        sr = rot[s, 2 * k + 1, l]
+                        css[2 * k, l] = cs0[2 * k, l] * cr - cs0[2 * k + 1, l] * sr
+                        css[2 * k + 1, l] = cs0[2 * k + 1, l] * cr + cs0[2 * k, l] * sr
+                for l in range(L):
+                    ts[l] = t[l] + cs_ * hs[l]
+                if call_fast_accel_lanes(ka[FAST_ACCEL_LANES], qs, ts, css, Pl, K[s], work,
+                                         L) > 0:
+                    for l in range(L):
+                        if work[0, l] != 0.0:
+                            sing[l] = True
+            # the new state (compensated sums), the error estimate, finiteness, the band
+            for l in range(L):
+                e2[l] = 0.0
+                est[l] = 0.0
+                fin[l] = True
+                inside[l] = True
+            for j in range(n):
+                _weighted_sums(b, bp, db, dbp, K, j, acc, L)
+                for l in range(L):
+                    hh = hs[l]
+                    q_ = q[j, l]
+                    v_ = v[j, l]
+                    yq = hh * v_ + hh * hh * acc[0, l] - cq[j, l]
+                    qn_ = q_ + yq
+                    qn[j, l] = qn_
+                    cqn[j, l] = (qn_ - q_) - yq
+                    yv = hh * acc[1, l] - cv[j, l]
+                    vn_ = v_ + yv
+                    vn[j, l] = vn_
+                    cvn[j, l] = (vn_ - v_) - yv
+                    dq = acc[2, l] * hh * hh
+                    dv = acc[3, l] * hh
+                    est[l] = max(est[l], abs(dq), abs(dv))
+                    fin[l] = fin[l] & math.isfinite(qn_) & math.isfinite(vn_)
+                    inside[l] = inside[l] & (LOl[j, l] <= qn_) & (qn_ <= HIl[j, l])
+                    acc[2, l] = dq
+                    acc[3, l] = dv
+                if any_adaptive:        # the scaled error norm (the fixed step needs none)
+                    for l in range(L):
+                        dq = acc[2, l]
+                        dv = acc[3, l]
+                        sq_ = atol + rtol * max(abs(q[j, l]), abs(qn[j, l]))
+                        sv_ = atol + rtol * max(abs(v[j, l]), abs(vn[j, l]))
+                        e2[l] += (dq / sq_) ** 2 + (dv / sv_) ** 2
+            # FSAL: the acceleration at the step's end (every lane; kept where accepted)
+            for l in range(L):
+                yk = hs[l] - tc[l]
+                tk = t[l] + yk
+                tnew[l] = tar[l] if clip[l] else tk
+                tcn[l] = 0.0 if clip[l] else (tk - t[l]) - yk
+            for k in range(nd):
+                for l in range(L):
+                    cr = rot[ns - 1, 2 * k, l]
+                    sr = rot[ns - 1, 2 * k + 1, l]
+                    css[2 * k, l] = cs0[2 * k, l] * cr - cs0[2 * k + 1, l] * sr
+                    css[2 * k + 1, l] = cs0[2 * k + 1, l] * cr + cs0[2 * k, l] * sr
+            if call_fast_accel_lanes(ka[FAST_ACCEL_LANES], qn, tnew, css, Pl, an, work, L) == 0:
+                for l in range(L):
+                    work[0, l] = 0.0
+            # the common case for every lane at once: an accepted step that stays in the band
+            for l in range(L):
+                err = math.sqrt(e2[l] / (2 * n))
+                errl[l] = err
+                ok = (fin[l] & (not sing[l]) & (work[0, l] == 0.0) & (ph[l] != _IDLE)
+                      & ((ph[l] == _FIXED) | (err < 1.0)))
+                good[l] = ok
+                upd[l] = ok & inside[l]
+            for j in range(n):
+                for l in range(L):
+                    u = upd[l]
+                    hh = hs[l]
+                    q_ = q[j, l]
+                    qn_ = qn[j, l]
+                    mean = 0.5 * hh * (q_ + qn_) + hh * hh * (v[j, l] - vn[j, l]) / 12.0
+                    QMl[j, l] += mean if u else 0.0
+                    d = abs(qn_ - REFl[j, l])
+                    DEVl[j, l] = d if (u and d > DEVl[j, l]) else DEVl[j, l]
+                    q[j, l] = qn_ if u else q_
+                    v[j, l] = vn[j, l] if u else v[j, l]
+                    cq[j, l] = cqn[j, l] if u else cq[j, l]
+                    cv[j, l] = cvn[j, l] if u else cv[j, l]
+                    K[0, j, l] = an[j, l] if u else K[0, j, l]
+            for l in range(L):
+                u = upd[l]
+                t[l] = tnew[l] if u else t[l]
+                tc[l] = tcn[l] if u else tc[l]
+                nst[l] += 1 if good[l] else 0
+                nev[l] += ns if good[l] else ns - 1
+                errsum[l] += est[l] if good[l] else 0.0
+                special[l] = (pt[l] >= 0) & ((not u) | clip[l] | (t[l] >= t1l[l])
+                                             | (ph[l] != _FIXED) | (nst[l] >= max_steps)
+                                             | energy)
+            if mode == LANES_ADAPTIVE:  # a held step that stays held needs no lane-by-lane
+                for l in range(L):      # work: record its error ratio (held_step_record)
+                    hold = tvh[l, TV_HOLD]
+                    k_ = sth[l, ST_BLOCK]
+                    if (special[l] and upd[l] and ph[l] == _ADAPTIVE and hold > 0.0
+                            and hs[l] >= hold and not clip[l] and k_ + 1 < hold_block
+                            and t[l] < t1l[l] and nst[l] < max_steps and not energy):
+                        xr = tvh[l, TV_HREF] / hs[l]
+                        x2 = xr * xr
+                        x4 = x2 * x2
+                        blk[l, k_] = errl[l] * (x4 * x4 * x2 * xr)
+                        sth[l, ST_BLOCK] = k_ + 1
+                        special[l] = False
+            # the rest, lane by lane: rejections, failures, band exits, strobe samples,
+            # step-size control, ends (an ended lane takes the block's next point)
+            for l in range(L):
+                if not special[l]:
+                    continue
                 i = pt[l]
-                if i < 0:
-                    continue
-                COUNTS[i, CNT_EVALS] += ns - 1
+                phase = ph[l]
+                adaptive = phase != _FIXED
+                observe = phase != _PILOT
                 hh = hs[l]
-                st = -1
-                if STATUS[i] == GRID_SINGULAR:
-                    st = GRID_SINGULAR
-                est = 0.0
-                finite = True
-                for j in range(n):
-                    accq = 0.0
-                    accv = 0.0
-                    dq = 0.0
-                    dv = 0.0
-                    for m in range(ns):
-                        km = K[l, m, j]
-                        accq += b[m] * km
-                        accv += bp[m] * km
-                        dq += (b[m] - bh[m]) * km
-                        dv += (bp[m] - bph[m]) * km
-                    yq = hh * v[l, j] + hh * hh * accq - cq[l, j]
-                    qn[l, j] = q[l, j] + yq
-                    cqn[l, j] = (qn[l, j] - q[l, j]) - yq
-                    yv = hh * accv - cv[l, j]
-                    vn[l, j] = v[l, j] + yv
-                    cvn[l, j] = (vn[l, j] - v[l, j]) - yv
-                    est = max(est, abs(dq * hh * hh), abs(dv * hh))
-                    if not (np.isfinite(qn[l, j]) and np.isfinite(vn[l, j])):
-                        finite = False
                 tt = t[l]
-                if st < 0 and not finite:
-                    st = GRID_NON_FINITE
-                if st < 0:
-                    COUNTS[i, CNT_STEPS] += 1
-                    err[l] += est
-                    if clip[l]:
-                        t_new = ttar[l]
-                        tcar[l] = 0.0
-                    else:
-                        yk = hh - tcar[l]
-                        t_new = tt + yk
-                        tcar[l] = (t_new - tt) - yk
-                    for k in range(nrates[l]):
-                        cr = rot[l, ns - 1, k, 0]
-                        sr = rot[l, ns - 1, k, 1]
-                        css[2 * k] = cs0[l, 2 * k] * cr - cs0[l, 2 * k + 1] * sr
-                        css[2 * k + 1] = cs0[l, 2 * k + 1] * cr + cs0[l, 2 * k] * sr
-                    if call_fast_accel(ka[FAST_ACCEL], qn[l], t_new, css, P[i], a0[l], Wn) != 0:
+                st = -1
+                jx = -1
+                if not good[l]:
+                    if not fin[l]:      # a non-finite stage must not reach the next sums
+                        for j in range(n):
+                            for m in range(1, ns):
+                                K[m, j, l] = 0.0
+                    if sing[l]:
                         st = GRID_SINGULAR
-                    else:
-                        COUNTS[i, CNT_EVALS] += 1
-                        x, jx, dr = _observe(ka, tt, hh, q[l], v[l], qn[l], vn[l], P[i], flags,
-                                             REF[i], LO[i], HI[i], DEV[i], QM[i], e0[l],
-                                             drift[l], YF[i])
-                        drift[l] = dr
-                        if jx >= 0:
-                            st = GRID_LEFT_BAND
-                            t[l] = tt + x * hh
-                            EXITC[i] = jx
-                            EXIT[i] = t[l]
+                    elif adaptive and not (fin[l] and errl[l] < 1.0):
+                        err = errl[l]
+                        nrej[l] += 1
+                        held_step_record(tvh[l], sth[l], blk[l] if phase == _ADAPTIVE
+                                         else blk[l, :0], err, hh, hmax[l])
+                        h[l] = hh * max(0.2, 0.9 * err ** expo) if math.isfinite(err) else 0.2 * hh
+                        rejected[l] = True
+                        if h[l] < 16.0 * _EPS * max(abs(tt), abs(t1l[l])):
+                            st = GRID_NON_FINITE if not fin[l] else GRID_UNDERFLOW
                         else:
+                            continue
+                    elif not fin[l]:
+                        st = GRID_NON_FINITE
+                    else:               # the acceleration at the step's end failed
+                        nst[l] += 1
+                        errsum[l] += est[l]
+                        if phase == _PILOT and nh[l] < PILOT_STEPS and not clip[l]:
+                            hbuf[l, nh[l]] = hh
+                            nh[l] += 1
+                        st = GRID_SINGULAR
+                else:
+                    if phase == _PILOT and nh[l] < PILOT_STEPS and not clip[l]:
+                        hbuf[l, nh[l]] = hh
+                        nh[l] += 1
+                    if not upd[l]:      # left the band inside the step: stop there
+                        for j in range(n):
+                            q1[j] = q[j, l]
+                            v1[j] = v[j, l]
+                            q2[j] = qn[j, l]
+                            v2[j] = vn[j, l]
+                            a1[j] = K[0, j, l]
+                        xf, jx, ev = _rkn_band_exit(ka, tt, hh, q1, v1, a1, q2, v2, P[i], LO[i],
+                                                    HI[i], c, A, b, bp, R[:nd, l].copy(), YF[i])
+                        nev[l] += ev
+                        for j in range(n):
+                            QMl[j, l] += (0.5 * xf * hh * (q1[j] + YF[i, j]) + xf * hh * xf
+                                          * hh * (v1[j] - YF[i, n + j]) / 12.0)
+                        t[l] = tt + xf * hh
+                        st = GRID_LEFT_BAND
+                    else:
+                        if observe and energy:
                             for j in range(n):
-                                q[l, j] = qn[l, j]
-                                v[l, j] = vn[l, j]
-                                cq[l, j] = cqn[l, j]
-                                cv[l, j] = cvn[l, j]
-                            t[l] = t_new
-                            if clip[l] and (flags & OBS_STROBE) and \
-                                    t_new == TS[i, 0] + kn[l] * TSTR[i]:
-                                if kn[l] < SQ.shape[1]:
-                                    for j in range(n):
-                                        SQ[i, kn[l], j] = q[l, j]
-                                        SQ[i, kn[l], n + j] = v[l, j]
-                                kn[l] += 1
-                            if t_new >= TS[i, 1]:
-                                st = GRID_FINISHED
-                            elif COUNTS[i, CNT_STEPS] >= max_steps:
-                                st = GRID_MAX_STEPS
+                                q1[j] = q[j, l]
+                                v1[j] = v[j, l]
+                            d = abs(call_energy(ka[ENERGY], q1, v1, t[l], P[i]) - e0[l])
+                            if d > drift[l]:
+                                drift[l] = d
+                        if clip[l] and Tl[l] > 0.0 and t[l] == t0l[l] + kn[l] * Tl[l]:
+                            k_ = int(kn[l])
+                            if k_ < SQ.shape[1]:
+                                for j in range(n):
+                                    SQ[i, k_, j] = q[j, l]
+                                    SQ[i, k_, n + j] = v[j, l]
+                            kn[l] += 1.0
+                        if t[l] >= t1l[l]:
+                            st = GRID_FINISHED
+                        elif observe and nst[l] >= max_steps:
+                            st = GRID_MAX_STEPS
+                        elif adaptive:
+                            h[l] = _next_step(tvh[l], sth[l], blk[l] if phase == _ADAPTIVE
+                                              else blk[l, :0], h[l], hh, errl[l], clip[l],
+                                              rejected[l], hmax[l])
+                            rejected[l] = False
                 if st < 0:
                     continue
-                # the lane's point ends: record it, load the next point of the block
+                if phase == _PILOT:     # the pilot ends (however): the run itself begins
+                    m_ = nh[l]
+                    span = TS[i, 1] - TS[i, 0]
+                    hf = span
+                    if m_ > 0:
+                        steps = np.sort(hbuf[l, :m_])
+                        period = TSTR[i] if TSTR[i] > 0.0 else span
+                        hf = period / math.ceil(period / steps[int(0.2 * (m_ - 1))])
+                    h[l] = hf
+                    st = _lanes_load(ka, l, i, _FIXED, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
+                                     rtol, atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l,
+                                     t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum,
+                                     rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh, sth)
+                    if st == 0 and nst[l] < max_steps:
+                        continue
+                    if st == 0:         # the pilot used the whole step budget
+                        st = GRID_MAX_STEPS
+                # the point ends: record it, take the next point of the block
                 STATUS[i] = st
                 TF[i] = t[l]
                 EDRIFT[i] = drift[l]
-                ERR[i] = err[l]
-                if st != GRID_LEFT_BAND:
-                    for j in range(n):
-                        YF[i, j] = q[l, j]
-                        YF[i, n + j] = v[l, j]
+                ERR[i] = errsum[l]
+                EXITC[i] = jx
+                EXIT[i] = t[l] if jx >= 0 else np.nan
+                COUNTS[i, CNT_STEPS] += nst[l]
+                COUNTS[i, CNT_REJECTED] += nrej[l]
+                COUNTS[i, CNT_EVALS] += nev[l]
+                for j in range(n):
+                    QM[i, j] = QMl[j, l]
+                    DEV[i, j] = DEVl[j, l]
+                    if jx < 0:
+                        YF[i, j] = q[j, l]
+                        YF[i, n + j] = v[j, l]
                 pt[l] = -1
                 active -= 1
                 while nxt < hi_b and pt[l] < 0:
                     i2 = idx[nxt]
                     nxt += 1
-                    st2 = _lane_start(ka, l, i2, Y0, P, TS, H, TSTR, REF, DEV, flags, pilot,
-                                      rtol, atol, c, A, b, bp, bh, bph, q, v, a0, cq, cv, t, h,
-                                      hrot, tcar, kn, e0, drift, err, rates, nrates, css, Wn, YF,
-                                      SQ, COUNTS)
+                    h[l] = H[i2]
+                    nst[l] = 0
+                    nrej[l] = 0
+                    nev[l] = 0
+                    st2 = _lanes_load(ka, l, i2, first, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
+                                      rtol, atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot,
+                                      t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift,
+                                      errsum, rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh, sth)
                     if st2 != 0:
                         STATUS[i2] = st2
                         TF[i2] = TS[i2, 0]
+                        YF[i2] = Y0[i2]
+                        EDRIFT[i2] = 0.0
+                        ERR[i2] = 0.0
                     else:
                         pt[l] = i2
                         active += 1
+                if pt[l] < 0:           # idle: a finite state that no longer moves
+                    ph[l] = _IDLE
+                    h[l] = 0.0
+                    hrot[l] = 0.0
+                    for j in range(n):
+                        if not (math.isfinite(q[j, l]) and math.isfinite(v[j, l])):
+                            q[j, l] = 0.0
+                            v[j, l] = 0.0
+                        cq[j, l] = 0.0
+                        cv[j, l] = 0.0
+                        for m in range(ns):
+                            K[m, j, l] = 0.0
 
 
 # -- any system: DOP853 on the right-hand side, with projection onto the constraints -----
@@ -931,7 +1456,7 @@ def grid_dop853(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rt
 
 
 # numba's cache does not notice changes to the kernels these call
-from . import _integrator_kernels, _kernel_calls, _linalg  # noqa: E402
+from . import _integrator_kernels, _kernel_calls, _lane_math, _linalg  # noqa: E402
 from .module_store import guard_numba_cache  # noqa: E402
 
-guard_numba_cache(sys.modules[__name__], _integrator_kernels, _kernel_calls, _linalg)
+guard_numba_cache(sys.modules[__name__], _integrator_kernels, _kernel_calls, _lane_math, _linalg)

@@ -19,14 +19,30 @@ What can be observed (each only when asked; see the kernel module for how)
 Methods
 -------
 The names of :data:`lagrange_core.integrate.METHODS` that run compiled: ``"rkn12"``
-(adaptive RKN 12(10)), ``"rkn12-fixed"`` (its 12th-order formula at a fixed step: ``h``,
-or per point from an adaptive pilot over the first 1/50 of the span, shortened so a
-whole number of steps spans the strobe period), ``"yoshida6"`` (symplectic, ``h``
-required), for q̈ = f(q, t); ``"dop853"`` and ``"rk8"`` (``h`` required) for any system,
-constrained ones included.  ``method=None`` takes "rkn12" when the statement has the
-form q̈ = f(q, t) and "dop853" otherwise (the rule of :func:`lagrange_core.integrate.simulate`).
-Steps are shortened to land on every strobe time, so the samples are the method's
-own solution, not an interpolation.
+(adaptive RKN 12(10), the step control of ``simulate``'s "rkn12": held in blocks of 64
+steps, at most 3/4 of the fastest drive period), ``"rkn12-fixed"`` (its 12th-order
+formula at a fixed step: ``h``, or per point from an adaptive pilot over the first 1/50
+of the span, shortened so a whole number of steps spans the strobe period),
+``"yoshida6"`` (symplectic, ``h`` required), for q̈ = f(q, t); ``"dop853"`` and ``"rk8"``
+(``h`` required) for any system, constrained ones included.  Steps are shortened to
+land on every strobe time, so the samples are the method's own solution, not an
+interpolation.
+
+``method=None`` follows the rule of :func:`lagrange_core.integrate.simulate`: "rkn12"
+when the statement has the form q̈ = f(q, t), "dop853" otherwise.  Why "rkn12" and not
+"rkn12-fixed", though a fixed step needs no error norm: on the issue's sweep
+(benchmarks/README.md, "Batch simulation") the held step costs about what the piloted
+fixed step costs at the same rtol (faster at rtol 1e-3: 24.5k against 18.0k points per
+second, slower at 1e-9: 5.5k against 7.6k), and it is checked at every step, so a
+point whose motion speeds up after the pilot's window keeps its tolerance.  Name
+"rkn12-fixed" for a sweep of periodic drives at tight tolerance.
+
+Both RKN 12 methods run on *lanes* (:func:`lagrange_core._batch_kernels.grid_rkn_lanes`):
+each thread advances 64 points together with every loop over them vectorised and one
+call of the drive kernel's ``fast_accel_lanes`` per stage for all of them; the results
+equal those of the per-point loop (:func:`~lagrange_core._batch_kernels.point_second_order`)
+to rounding (sin and cos are the lanes' own polynomials, within 2 ulp of libm), with
+the same steps at a given fixed step.  ``"yoshida6"`` and ``"dop853"`` run per point.
 
 Failure is per point
 --------------------
@@ -63,8 +79,12 @@ __all__ = ["GridTrajectories", "GridInterrupted", "simulate_grid", "STATUS_NAMES
 STATUS_NAMES = ("finished", "left_band", "underflow", "non_finite", "singular", "max_steps",
                 "not_run")
 
-#: points per block of the interleaved RKN kernel (a thread takes one block at a time)
-_BLOCK = 32
+#: fewest points per block of the RKN lanes kernel (a thread takes one block at a time and
+#: runs it on _bk.LANES lanes, refilling a lane when its point ends); a chunk is cut into
+#: 2 blocks per thread, no smaller: large blocks keep the lanes full (their tail, when
+#: fewer points than lanes are left, runs part-empty), two per thread balance the threads
+_BLOCK = 64
+#: RKN 12(10) (adaptive, fixed, piloted) runs on lanes (_bk.grid_rkn_lanes), not per point
 _USE_LANES = True
 
 _GRID_METHODS = {"rkn12": ("second_order", 0, True), "rkn12-fixed": ("second_order", 0, False),
@@ -430,8 +450,9 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
     slots = {"rhs", "energy"} if energy else {"rhs"}
     if m:
         slots |= {"constraint_residual", "constraint_jacobian"}
+    lanes = family == "second_order" and sub == 0 and _USE_LANES
     if family == "second_order":
-        load_drive_kernel(kernels)
+        load_drive_kernel(kernels, lanes=lanes)
     ka = kernels.addresses(*sorted(slots))
 
     YF = np.full((N, 2 * n), np.nan)
@@ -453,19 +474,25 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
     outs = (YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS)
     order = np.arange(N, dtype=np.int64)
 
+    import numba
+    from .integrate import _HOLD_BLOCK
+    lane_mode = (_bk.LANES_ADAPTIVE if adaptive else _bk.LANES_PILOT if pilot
+                 else _bk.LANES_FIXED)
+
     def work(a, b):
         idx = order[a:b]
-        if method == "rkn12-fixed" and _USE_LANES:
-            _bk.grid_rkn_lanes(ka, pilot, idx, _BLOCK, *common, tab["c"], tab["A"], tab["b"],
-                               tab["bp"], tab["bh"], tab["bph"], *outs)
+        if lanes:
+            block = max(_BLOCK, -(-(b - a) // (2 * numba.get_num_threads())))
+            _bk.grid_rkn_lanes(ka, lane_mode, _HOLD_BLOCK, idx, block, *common, tab["c"],
+                               tab["A"], tab["b"], tab["bp"], tab["bh"], tab["bph"], *outs)
         elif family == "second_order":
-            _bk.grid_second_order(ka, sub, adaptive, pilot, idx, *common, tab["c"], tab["A"],
-                                  tab["b"], tab["bp"], tab["bh"], tab["bph"], tab["w"], *outs)
+            _bk.grid_second_order(ka, sub, adaptive, pilot, _HOLD_BLOCK, idx, *common, tab["c"],
+                                  tab["A"], tab["b"], tab["bp"], tab["bh"], tab["bph"], tab["w"],
+                                  *outs)
         else:
             _bk.grid_dop853(ka, m, adaptive, idx, *common, tab["A"], tab["B"], tab["C"],
                             tab["E3"], tab["E5"], *outs)
 
-    import numba
     with defer_ctrl_c(), numba.parallel_chunksize(1):
         done, interrupted = run_in_chunks(work, N, progress=progress, label="simulate_grid",
                                           first=8 * numba.get_num_threads())

@@ -36,7 +36,7 @@ import textwrap
 import numba
 import sympy as sp
 
-from ._kernel_calls import FAST_ACCEL, MAX_DRIVE_RATES, SIGNATURES
+from ._kernel_calls import FAST_ACCEL, FAST_ACCEL_LANES, MAX_DRIVE_RATES, SIGNATURES
 from .module_store import content_key, load_generated, source_fingerprint
 
 __all__ = ["load_drive_kernel"]
@@ -116,46 +116,131 @@ def _generated_source(eq) -> str:
                          "method='dop853'.")
     ren = {}
     loads = []
+    lane_loads = []
     for i, s in enumerate(system.q):
         ren[s] = sp.Symbol(f"_q{i}")
         loads.append(f"_q{i} = q[{i}]")
+        lane_loads.append(f"_q{i} = q[{i}, l]")
     for i, s in enumerate(system.parameter_symbols):
         ren[s] = sp.Symbol(f"_p{i}")
         loads.append(f"_p{i} = p[{i}]")
+        lane_loads.append(f"_p{i} = p[{i}, l]")
     for k in range(len(alphas)):
         loads.append(f"_C{k} = cs[{2 * k}]")
         loads.append(f"_S{k} = cs[{2 * k + 1}]")
+        lane_loads.append(f"_C{k} = cs[{2 * k}, l]")
+        lane_loads.append(f"_S{k} = cs[{2 * k + 1}, l]")
+    lane_loads.append("t = tl[l]")
     ren[t_sym] = sp.Symbol("t")
     exprs = [e.xreplace(ren) for e in exprs]
     reps, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("_x"))
-    body = list(loads) + [f"{_print(s)} = {_print(e)}" for s, e in reps]
+    terms = [f"{_print(s)} = {_print(e)}" for s, e in reps]
+    results = [_print(r) for r in reduced]
+    body = list(loads) + terms
     if n == 1:
-        body.append(f"out[0] = {_print(reduced[0])}")
+        body.append(f"out[0] = {results[0]}")
     else:
-        k = 0
-        for i in range(n):
-            for j in range(i, n):
-                body.append(f"Wn[{i}, {j}] = {_print(reduced[k])}")
-                if j != i:
-                    body.append(f"Wn[{j}, {i}] = Wn[{i}, {j}]")
-                k += 1
-        for i in range(n):
-            body.append(f"Wn[{i}, {n}] = {_print(reduced[k + i])}")
+        body += _augmented_entries(n, results, lambda i, j: f"Wn[{i}, {j}]")
         body.append(f"status = solve_augmented(Wn, {n})")
         body += [f"out[{i}] = Wn[{i}, {n}]" for i in range(n)]
         body.append("return status")
     if n == 1:
         body.append("return 0")
     src = [f"N_DOF = {n}", f"N_DRIVE = {len(alphas)}",
-           f"N_PARAMETERS = {len(system.parameter_symbols)}", "", "",
-           _JIT, "def fast_accel(q, t, cs, p, out, Wn):",
+           f"N_PARAMETERS = {len(system.parameter_symbols)}", f"WORK_ROWS = {1 + n * (n + 1)}",
+           "", "", _JIT, "def fast_accel(q, t, cs, p, out, Wn):",
            textwrap.indent("\n".join(body), "    "), "", "",
            "@njit(cache=True)", "def drive_rates(p, out):"]
     rl = [f"_p{i} = p[{i}]" for i in range(len(system.parameter_symbols))]
     rl += [f"out[{k}] = {_print(a.xreplace(ren))}" for k, a in enumerate(alphas)]
     rl.append("return 0")
     src.append(textwrap.indent("\n".join(rl), "    "))
+    src += ["", "", _lanes_source(n, lane_loads, terms, results)]
     return "\n".join(src) + "\n"
+
+
+def _augmented_entries(n, results, cell):
+    """Lines that fill [M | F] (n > 1) from ``results`` (M's upper triangle row by row, then
+    F), mirroring M; ``cell(i, j)`` names entry (i, j) of the target."""
+    lines = []
+    k = 0
+    for i in range(n):
+        for j in range(i, n):
+            lines.append(f"{cell(i, j)} = {results[k]}")
+            if j != i:
+                lines.append(f"{cell(j, i)} = {cell(i, j)}")
+            k += 1
+    lines += [f"{cell(i, n)} = {results[k + i]}" for i in range(n)]
+    return lines
+
+
+def _lane_code(line):
+    """A generated line with sin/cos on the lane functions (vectorisable; NaN beyond
+    their range, which sends the lane to the scalar kernel)."""
+    return line.replace("math.sin(", "lane_sin(").replace("math.cos(", "lane_cos(")
+
+
+def _lanes_source(n, lane_loads, terms, results):
+    """``fast_accel_lanes``: the same formulas in a loop over lanes (the contract in
+    :mod:`lagrange_core._kernel_calls`).  One system of L lanes per call; the loop body has
+    no calls, so LLVM vectorises it.  n > 1: M and F go to ``work`` and
+    :func:`lagrange_core._lane_math.lane_solve` solves every lane at once.  A lane whose
+    result is not finite (an argument beyond the lane sine's range, a pivot too small
+    for elimination without pivoting, a state that is not finite) is computed again by
+    the scalar ``fast_accel`` (libm, partial pivoting), whose status it gets."""
+    w = n + 1
+    loop = list(lane_loads) + [_lane_code(line) for line in terms]
+    if n == 1:
+        loop.append(f"out[0, l] = {_lane_code(results[0])}")
+        solve = []
+    else:
+        loop += _augmented_entries(n, [_lane_code(r) for r in results],
+                                   lambda i, j: f"work[{1 + i * w + j}, l]")
+        solve = [f"lane_solve(work, {n}, L)", "for l in range(L):"]
+        solve += [f"    out[{i}, l] = work[{1 + i * w + n}, l]" for i in range(n)]
+    check = ["bad = False", "for l in range(L):"]
+    check += [f"    bad |= not math.isfinite(out[{i}, l])" for i in range(n)]
+    if n > 1:
+        check.append("    bad |= work[0, l] != 0.0")
+    check += ["if not bad:", "    return 0",
+              f"return _lanes_again(q, tl, cs, p, out, work, L, {n > 1})"]
+    body = ["for l in range(L):", textwrap.indent("\n".join(loop), "    ")] + solve + check
+    return "\n".join([_JIT, "def fast_accel_lanes(q, tl, cs, p, out, work, L):",
+                      textwrap.indent("\n".join(body), "    ")]) + _LANES_AGAIN
+
+
+_LANES_AGAIN = """
+
+
+@njit(cache=True)
+def _lanes_again(q, tl, cs, p, out, work, L, solved):
+    qv = np.empty(N_DOF)
+    cv = np.empty(cs.shape[0])
+    pv = np.empty(N_PARAMETERS)
+    ov = np.empty(N_DOF)
+    Wn = np.zeros((N_DOF, N_DOF + 1))
+    failed = 0
+    for l in range(L):
+        ok = not (solved and work[0, l] != 0.0)
+        for i in range(N_DOF):
+            if not math.isfinite(out[i, l]):
+                ok = False
+        work[0, l] = 0.0
+        if ok:
+            continue
+        for i in range(N_DOF):
+            qv[i] = q[i, l]
+        for i in range(cv.shape[0]):
+            cv[i] = cs[i, l]
+        for i in range(N_PARAMETERS):
+            pv[i] = p[i, l]
+        st = fast_accel(qv, tl[l], cv, pv, ov, Wn)
+        for i in range(N_DOF):
+            out[i, l] = ov[i]
+        work[0, l] = float(st)
+        if st != 0:
+            failed += 1
+    return failed"""
 
 
 _HEADER = """\
@@ -163,6 +248,7 @@ _HEADER = """\
 import math
 import numpy as np
 from numba import carray, njit
+from lagrange_core._lane_math import lane_cos, lane_sin, lane_solve
 from lagrange_core._linalg import solve_augmented
 
 """
@@ -180,24 +266,33 @@ def c_fast_accel(q, t, cs, p, out, Wn):
 def c_drive_rates(p, out):
     drive_rates(carray(p, (N_PARAMETERS,)), carray(out, (max(N_DRIVE, 1),)))
     return N_DRIVE
+
+
+def c_fast_accel_lanes(q, t, cs, p, out, work, L):
+    return fast_accel_lanes(carray(q, (N_DOF, L)), carray(t, (L,)),
+                            carray(cs, (max(2 * N_DRIVE, 1), L)), carray(p, (N_PARAMETERS, L)),
+                            carray(out, (N_DOF, L)), carray(work, (WORK_ROWS, L)), L)
 """
 
 
 @functools.cache
 def _generator_fingerprint() -> str:
-    from . import _linalg
-    return source_fingerprint(sys.modules[__name__], _linalg)
+    from . import _lane_math, _linalg
+    return source_fingerprint(sys.modules[__name__], _linalg, _lane_math)
 
 
-def load_drive_kernel(kernels) -> None:
+def load_drive_kernel(kernels, *, lanes: bool = False) -> None:
     """Generate (or load from the store) the drive kernel of an RKN-form system and put its
-    C entry points into ``kernels``' address table (slots ``fast_accel``, ``drive_rates``).
+    C entry points into ``kernels``' address table (slots ``fast_accel``, ``drive_rates``,
+    and with ``lanes`` also ``fast_accel_lanes``, which compiles only when asked for).
 
     Parameters
     ----------
     kernels : lagrange_core.codegen.Kernels
         Of a system with ``kernels.rkn_form`` true; the equations are derived (by
         ``kernels.equations()``) only when the store has no drive kernel for the statement.
+    lanes : bool
+        Also the entry point for many trajectories per call (the batch integrator's).
 
     Raises
     ------
@@ -208,11 +303,15 @@ def load_drive_kernel(kernels) -> None:
     if not kernels.rkn_form:
         raise ValueError(f"{kernels.label} is not of the form q̈ = f(q, t): "
                          f"{kernels.rkn_reason}.")
-    if kernels.addresses()[FAST_ACCEL]:
+    table = kernels.addresses()
+    names = [name for name, slot in (("fast_accel", FAST_ACCEL), ("drive_rates", FAST_ACCEL),
+                                     ("fast_accel_lanes", FAST_ACCEL_LANES))
+             if not table[slot] and (lanes or slot != FAST_ACCEL_LANES)]
+    if not names:
         return
     key = content_key(_generator_fingerprint(), kernels.statement_key)
     module = load_generated("_lcdrive", key, lambda: _HEADER.format(label=repr(kernels.label))
                             + _generated_source(kernels.equations()) + _ENTRY_POINTS)
-    for name in ("fast_accel", "drive_rates"):
+    for name in names:
         kernels.set_address(name, numba.cfunc(SIGNATURES[name], cache=True)(
             getattr(module, f"c_{name}")))
