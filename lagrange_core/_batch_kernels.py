@@ -59,7 +59,7 @@ from numba import njit, prange
 
 from ._integrator_kernels import (DRIVE_STEP, FAST_MATH, INLINE, ST_BLOCK, STATS_SIZE, TV_HOLD,
                                   TV_HREF, TV_SIZE, drive_rates, held_step_record,
-                                  project_constraints, starting_step)
+                                  project_constraints, second_order_step, starting_step)
 from ._kernel_calls import (DRIVE_RATES, ENERGY, FAST_ACCEL, FAST_ACCEL_LANES, MAX_DRIVE_RATES,
                             RHS, call_drive_rates, call_energy, call_fast_accel,
                             call_fast_accel_lanes, call_rhs)
@@ -219,38 +219,6 @@ def _next_step(tv, stats, block, h, hs, err, clipped, rejected, h_max):
 
 
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
-def _rkn_partial_step(ka, t, hx, q, v, a0, p, c, A, b, bp, rates, K, qs, css, Wn, yq, yv):
-    """One RKN 12 step of size hx from (q, v) at t (first stage a0), the drive from cos/sin
-    at each stage: (yq, yv) at t + hx.  Returns the kernel's status."""
-    n = q.shape[0]
-    ns = c.shape[0]
-    for i in range(n):
-        K[0, i] = a0[i]
-    for s in range(1, ns):
-        ch = c[s] * hx
-        for i in range(n):
-            acc = 0.0
-            for j in range(s):
-                acc += A[s, j] * K[j, i]
-            qs[i] = q[i] + ch * v[i] + hx * hx * acc
-        for k in range(rates.shape[0]):
-            css[2 * k] = np.cos(rates[k] * (t + ch))
-            css[2 * k + 1] = np.sin(rates[k] * (t + ch))
-        st = call_fast_accel(ka[FAST_ACCEL], qs, t + ch, css, p, K[s], Wn)
-        if st != 0:
-            return st
-    for i in range(n):
-        accq = 0.0
-        accv = 0.0
-        for j in range(ns):
-            accq += b[j] * K[j, i]
-            accv += bp[j] * K[j, i]
-        yq[i] = q[i] + hx * v[i] + hx * hx * accq
-        yv[i] = v[i] + hx * accv
-    return 0
-
-
-@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def _rkn_band_exit(ka, t, h, q, v, a0, qn, vn, p, lo, hi, c, A, b, bp, rates, y):
     """Where an RKN 12 step from (q, v) at t to (qn, vn) at t + h first leaves [lo, hi]:
     (fraction x of the step, coordinate, kernel evaluations); (2.0, −1, 0) if it does not.
@@ -272,6 +240,7 @@ def _rkn_band_exit(ka, t, h, q, v, a0, qn, vn, p, lo, hi, c, A, b, bp, rates, y)
     Wn = np.zeros((n, n + 1))
     yq = np.empty(n)
     yv = np.empty(n)
+    w0 = np.zeros(1)
     evals = 0
     xb = 1.0
     for i in range(n):
@@ -290,8 +259,8 @@ def _rkn_band_exit(ka, t, h, q, v, a0, qn, vn, p, lo, hi, c, A, b, bp, rates, y)
             xt = guess if it == 0 else (xa * fb - xb * fa) / (fb - fa)
             if not (xa < xt < xb):
                 xt = 0.5 * (xa + xb)
-            if _rkn_partial_step(ka, t, xt * h, q, v, a0, p, c, A, b, bp, rates, K, qs, css,
-                                 Wn, yq, yv) != 0:
+            if second_order_step(ka, 0, t, q, v, a0, xt * h, p, c, A, b, bp, w0, K, yq, yv, qs,
+                                 rates, css, Wn) != 0:
                 break
             evals += ns - 1
             ft = yq[j] - bound
