@@ -47,8 +47,8 @@ The per-step bookkeeping that is the same for every lane (accept, advance, obser
 vectorised too; what is particular to a lane (a rejection, a band exit, a strobe
 sample, an end and the next point) runs for that lane alone.  Why: a lone trajectory
 waits on latencies (sin q near π ~36 ns, a call through the kernel's address ~25–47 ns,
-the stage sums' chains of fused multiply-adds); on lanes a stage of the driven pendulum
-costs about 6 ns per trajectory instead of ~50 (benchmarks/README.md, "Batch
+the stage sums' chains of fused multiply-adds); on lanes an evaluation of the driven
+pendulum costs about 6 ns per trajectory instead of 39 (benchmarks/README.md, "Batch
 simulation").
 """
 import math
@@ -1218,7 +1218,8 @@ def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO
                     st2 = _lanes_load(ka, l, i2, first, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
                                       rtol, atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot,
                                       t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift,
-                                      errsum, rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh, sth)
+                                      errsum, rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax,
+                                      tvh, sth)
                     if st2 != 0:
                         STATUS[i2] = st2
                         TF[i2] = TS[i2, 0]

@@ -9,8 +9,8 @@ below instead: branch-free, inlined, and vectorised with the rest of the loop.
 
 :func:`lane_sin`, :func:`lane_cos`
     Cody–Waite reduction by π in three parts (π split into 32 + 32 + 53 bits, so each
-    product k·P is exact for |k| < 2²⁰), x = r + kπ with |r| ≤ π/2 (cos: x = r + (k + ½)π),
-    then the Taylor polynomial of sin r to degree 21 (truncation below 1.3e-18) and the
+    product k·P is exact for |k| < 2²⁰), x = r + kπ with |r| ≤ π/2 (cos:
+    x = r + (k + ½)π), then the Taylor polynomial of sin r to degree 21 (truncation below 1.3e-18) and the
     sign (−1)^k: 20 floating-point operations, no branch, no table.  Within 2 ulp of
     glibc's sin and cos (measured over |x| < 10⁶ and at multiples of π/2: at most 2
     ulp, 0.3 on average; zeros of sin and cos keep their relative accuracy, since r is
@@ -20,8 +20,9 @@ below instead: branch-free, inlined, and vectorised with the rest of the loop.
 :func:`lane_solve`
     M X = F for every lane at once (Gaussian elimination without pivoting, the lane
     innermost).  Mass matrices are symmetric positive definite, for which elimination
-    without pivoting is stable; a lane whose pivot is not clearly positive-definite-sized
-    is flagged and solved again by the caller with pivoting (the scalar kernel).
+    without pivoting is stable; a lane with a pivot below ``SINGULAR_RTOL`` times its
+    largest |M| entry (or a non-finite one) is flagged, and the caller solves it again
+    with pivoting (the scalar kernel), which also decides whether it is singular.
 """
 import math
 

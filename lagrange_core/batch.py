@@ -32,10 +32,10 @@ interpolation.
 when the statement has the form q̈ = f(q, t), "dop853" otherwise.  Why "rkn12" and not
 "rkn12-fixed", though a fixed step needs no error norm: on the issue's sweep
 (benchmarks/README.md, "Batch simulation") the held step costs about what the piloted
-fixed step costs at the same rtol (faster at rtol 1e-3: 24.5k against 18.0k points per
-second, slower at 1e-9: 5.5k against 7.6k), and it is checked at every step, so a
-point whose motion speeds up after the pilot's window keeps its tolerance.  Name
-"rkn12-fixed" for a sweep of periodic drives at tight tolerance.
+fixed step costs at the same rtol (at rtol 1e-3 24.7k against 25.2k points per second,
+at 1e-9 7.2k against 9.6k), and it is checked at every step, so a point whose motion
+speeds up after the pilot's window keeps its tolerance.  Name "rkn12-fixed" for a
+sweep of periodic drives at tight tolerance.
 
 Both RKN 12 methods run on *lanes* (:func:`lagrange_core._batch_kernels.grid_rkn_lanes`):
 each thread advances 64 points together with every loop over them vectorised and one
