@@ -810,8 +810,7 @@ def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO
     :func:`pilot_step`; the pilot runs on the lanes too).  Same algorithm, statuses,
     counts and observables as :func:`point_second_order` (and :func:`pilot_step`), to
     rounding: the arithmetic is the same except that sin and cos are the lane
-    polynomials of :mod:`lagrange_core._lane_math` (within 2 ulp) and stage sums are
-    grouped by four.
+    polynomials of :mod:`lagrange_core._lane_math` (within 2 ulp).
 
     Why lanes: one trajectory is a chain of dependent evaluations (each stage needs the
     last one's sin q), so alone it waits on latencies, and a call through the kernel's
@@ -823,424 +822,434 @@ def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO
     """
     N = idx.shape[0]
     nblocks = (N + block - 1) // block
+    for blk in prange(nblocks):
+        lo_b = blk * block
+        _lanes_block(ka, mode, hold_block, idx, lo_b, min(N, lo_b + block), Y0, P, TS, H, TSTR,
+                     REF, LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF,
+                     SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS)
+
+
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
+                 rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT, EXITC,
+                 EDRIFT, COUNTS, ERR, STATUS):
+    """The points idx[lo_b:hi_b] of :func:`grid_rkn_lanes` on one thread's lanes (a
+    function of its own, so that numba's parallel pass sees a small loop body)."""
     ns = c.shape[0]
     n = Y0.shape[1] // 2
     npar = P.shape[1]
-    nd = drive_rates(ka, P[idx[0]]).shape[0] if N > 0 else 0     # the same for every point
+    nd = drive_rates(ka, P[idx[lo_b]]).shape[0]      # the same for every point
     ncs = max(2 * nd, 1)
     expo = -1.0 / 11.0
     energy = (flags & OBS_ENERGY) != 0
     db = b - bh
     dbp = bp - bph
-    for blk in prange(nblocks):
-        lo_b = blk * block
-        hi_b = min(N, lo_b + block)
-        L = min(LANES, hi_b - lo_b)
-        pt = np.full(L, -1, dtype=np.int64)
-        ph = np.zeros(L, dtype=np.int64)
-        q = np.zeros((n, L))
-        v = np.zeros((n, L))
-        cq = np.zeros((n, L))
-        cv = np.zeros((n, L))
-        qn = np.zeros((n, L))
-        vn = np.zeros((n, L))
-        cqn = np.zeros((n, L))
-        cvn = np.zeros((n, L))
-        qs = np.zeros((n, L))
-        an = np.zeros((n, L))
-        K = np.zeros((ns, n, L))
-        QMl = np.zeros((n, L))
-        DEVl = np.zeros((n, L))
-        REFl = np.zeros((n, L))
-        LOl = np.full((n, L), -np.inf)
-        HIl = np.full((n, L), np.inf)
-        Pl = np.ones((max(npar, 1), L))
-        R = np.zeros((max(nd, 1), L))
-        rot = np.zeros((ns, ncs, L))
-        cs0 = np.zeros((ncs, L))
-        css = np.zeros((ncs, L))
-        work = np.zeros((1 + n * (n + 1), L))
-        acc = np.zeros((4, L))
-        x = np.zeros(L)
-        sx = np.zeros(L)
-        cx = np.zeros(L)
-        t = np.zeros(L)
-        tc = np.zeros(L)
-        h = np.zeros(L)
-        hs = np.zeros(L)
-        hrot = np.zeros(L)
-        tar = np.zeros(L)
-        tnew = np.zeros(L)
-        tcn = np.zeros(L)
-        ts = np.zeros(L)
-        t0l = np.zeros(L)
-        t1l = np.zeros(L)
-        Tl = np.zeros(L)
-        kn = np.zeros(L)
-        e2 = np.zeros(L)
-        est = np.zeros(L)
-        e0 = np.zeros(L)
-        drift = np.zeros(L)
-        errsum = np.zeros(L)
-        clip = np.zeros(L, dtype=np.bool_)
-        rr = np.zeros(L, dtype=np.bool_)
-        fin = np.zeros(L, dtype=np.bool_)
-        sing = np.zeros(L, dtype=np.bool_)
-        rejected = np.zeros(L, dtype=np.bool_)
-        inside = np.zeros(L, dtype=np.bool_)
-        good = np.zeros(L, dtype=np.bool_)
-        upd = np.zeros(L, dtype=np.bool_)
-        special = np.zeros(L, dtype=np.bool_)
-        errl = np.zeros(L)
-        nh = np.zeros(L, dtype=np.int64)
-        nst = np.zeros(L, dtype=np.int64)
-        nrej = np.zeros(L, dtype=np.int64)
-        nev = np.zeros(L, dtype=np.int64)
-        ridx = np.zeros(L, dtype=np.int64)
-        hmax = np.zeros(L)
-        tvh = np.zeros((L, TV_SIZE))
-        sth = np.zeros((L, STATS_SIZE), dtype=np.int64)
-        blk = np.empty((L, hold_block if mode == LANES_ADAPTIVE else 0))
-        hbuf = np.empty((L, PILOT_STEPS if mode == LANES_PILOT else 0))
-        scr = np.zeros((7, max(2 * n, MAX_DRIVE_RATES)))
-        Wn = np.zeros((n, n + 1))
-        q1 = np.empty(n)
-        v1 = np.empty(n)
-        a1 = np.empty(n)
-        q2 = np.empty(n)
-        v2 = np.empty(n)
-        first = _PILOT if mode == LANES_PILOT else (_FIXED if mode == LANES_FIXED else _ADAPTIVE)
-        nxt = lo_b
-        active = 0
+    L = min(LANES, hi_b - lo_b)
+    pt = np.full(L, -1, dtype=np.int64)
+    ph = np.zeros(L, dtype=np.int64)
+    q = np.zeros((n, L))
+    v = np.zeros((n, L))
+    cq = np.zeros((n, L))
+    cv = np.zeros((n, L))
+    qn = np.zeros((n, L))
+    vn = np.zeros((n, L))
+    cqn = np.zeros((n, L))
+    cvn = np.zeros((n, L))
+    qs = np.zeros((n, L))
+    an = np.zeros((n, L))
+    K = np.zeros((ns, n, L))
+    QMl = np.zeros((n, L))
+    DEVl = np.zeros((n, L))
+    REFl = np.zeros((n, L))
+    LOl = np.full((n, L), -np.inf)
+    HIl = np.full((n, L), np.inf)
+    Pl = np.ones((max(npar, 1), L))
+    R = np.zeros((max(nd, 1), L))
+    rot = np.zeros((ns, ncs, L))
+    cs0 = np.zeros((ncs, L))
+    css = np.zeros((ncs, L))
+    work = np.zeros((1 + n * (n + 1), L))
+    acc = np.zeros((4, L))
+    x = np.zeros(L)
+    sx = np.zeros(L)
+    cx = np.zeros(L)
+    t = np.zeros(L)
+    tc = np.zeros(L)
+    h = np.zeros(L)
+    hs = np.zeros(L)
+    hrot = np.zeros(L)
+    tar = np.zeros(L)
+    tnew = np.zeros(L)
+    tcn = np.zeros(L)
+    ts = np.zeros(L)
+    t0l = np.zeros(L)
+    t1l = np.zeros(L)
+    Tl = np.zeros(L)
+    kn = np.zeros(L)
+    e2 = np.zeros(L)
+    est = np.zeros(L)
+    e0 = np.zeros(L)
+    drift = np.zeros(L)
+    errsum = np.zeros(L)
+    clip = np.zeros(L, dtype=np.bool_)
+    rr = np.zeros(L, dtype=np.bool_)
+    fin = np.zeros(L, dtype=np.bool_)
+    sing = np.zeros(L, dtype=np.bool_)
+    rejected = np.zeros(L, dtype=np.bool_)
+    inside = np.zeros(L, dtype=np.bool_)
+    good = np.zeros(L, dtype=np.bool_)
+    upd = np.zeros(L, dtype=np.bool_)
+    special = np.zeros(L, dtype=np.bool_)
+    errl = np.zeros(L)
+    nh = np.zeros(L, dtype=np.int64)
+    nst = np.zeros(L, dtype=np.int64)
+    nrej = np.zeros(L, dtype=np.int64)
+    nev = np.zeros(L, dtype=np.int64)
+    ridx = np.zeros(L, dtype=np.int64)
+    hmax = np.zeros(L)
+    tvh = np.zeros((L, TV_SIZE))
+    sth = np.zeros((L, STATS_SIZE), dtype=np.int64)
+    blk = np.empty((L, hold_block if mode == LANES_ADAPTIVE else 0))
+    hbuf = np.empty((L, PILOT_STEPS if mode == LANES_PILOT else 0))
+    scr = np.zeros((7, max(2 * n, MAX_DRIVE_RATES)))
+    Wn = np.zeros((n, n + 1))
+    q1 = np.empty(n)
+    v1 = np.empty(n)
+    a1 = np.empty(n)
+    q2 = np.empty(n)
+    v2 = np.empty(n)
+    first = _PILOT if mode == LANES_PILOT else (_FIXED if mode == LANES_FIXED else _ADAPTIVE)
+    nxt = lo_b
+    active = 0
+    for l in range(L):
+        while nxt < hi_b and pt[l] < 0:
+            i = idx[nxt]
+            nxt += 1
+            h[l] = H[i]
+            st = _lanes_load(ka, l, i, first, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol,
+                             atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl,
+                             kn, QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum, rejected, nh,
+                             ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh, sth)
+            if st != 0:
+                STATUS[i] = st
+                TF[i] = TS[i, 0]
+                YF[i] = Y0[i]
+                EDRIFT[i] = 0.0
+                ERR[i] = 0.0
+            else:
+                pt[l] = i
+                active += 1
+        if pt[l] < 0:
+            ph[l] = _IDLE
+    while active > 0:
+        # the step of every lane: its length (shortened to land on t1 or a strobe time)
+        any_adaptive = False
         for l in range(L):
-            while nxt < hi_b and pt[l] < 0:
-                i = idx[nxt]
-                nxt += 1
-                h[l] = H[i]
-                st = _lanes_load(ka, l, i, first, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol,
-                                 atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl,
-                                 kn, QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum, rejected, nh,
-                                 ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh, sth)
-                if st != 0:
-                    STATUS[i] = st
-                    TF[i] = TS[i, 0]
-                    YF[i] = Y0[i]
-                    EDRIFT[i] = 0.0
-                    ERR[i] = 0.0
-                else:
-                    pt[l] = i
-                    active += 1
-            if pt[l] < 0:
-                ph[l] = _IDLE
-        while active > 0:
-            # the step of every lane: its length (shortened to land on t1 or a strobe time)
-            any_adaptive = False
-            for l in range(L):
-                any_adaptive |= ph[l] == _PILOT or ph[l] == _ADAPTIVE
-                tt = t[l]
-                tg = t1l[l]
-                ts_k = t0l[l] + kn[l] * Tl[l]
-                tg = ts_k if (Tl[l] > 0.0 and ts_k < tg) else tg
-                tar[l] = tg
-                hh = h[l]
-                grow = 1.0 + 1e-10 if ph[l] == _FIXED else 1.0
-                cl = tt + hh * grow >= tg
-                hh = tg - tt if cl else hh
-                hh = 0.0 if ph[l] == _IDLE else hh
-                clip[l] = cl
-                hs[l] = hh
-                # a step shortened by rounding only keeps its rotations (as point_second_order)
-                rr[l] = abs(hh - hrot[l]) > 4.0 * _EPS * max(abs(tt), abs(tg))
-            nr = 0
-            for l in range(L):
-                if rr[l]:
-                    ridx[nr] = l
-                    nr += 1
-            if nr > 0:                  # the drive's rotations over the stages of new steps
-                for s in range(ns):
-                    for k in range(nd):
-                        for u in range(nr):
-                            x[u] = R[k, ridx[u]] * c[s] * hs[ridx[u]]
-                        lane_sincos_rows(x, sx, cx, nr)
-                        for u in range(nr):
-                            rot[s, 2 * k, ridx[u]] = cx[u]
-                            rot[s, 2 * k + 1, ridx[u]] = sx[u]
-                for u in range(nr):
-                    hrot[ridx[u]] = hs[ridx[u]]
-            for k in range(nd):         # the drive at the step's start, exactly
-                for l in range(L):
-                    x[l] = R[k, l] * t[l]
-                lane_sincos_rows(x, sx, cx, L)
-                for l in range(L):
-                    cs0[2 * k, l] = cx[l]
-                    cs0[2 * k + 1, l] = sx[l]
-            for l in range(L):
-                sing[l] = False
-            # the stages: q + c h v + h² Σ A K, the drive rotated, one call for all lanes
-            for s in range(1, ns):
-                cs_ = c[s]
-                _stage_positions(s, A, c, K, q, v, hs, qs, acc, L)
+            any_adaptive |= ph[l] == _PILOT or ph[l] == _ADAPTIVE
+            tt = t[l]
+            tg = t1l[l]
+            ts_k = t0l[l] + kn[l] * Tl[l]
+            tg = ts_k if (Tl[l] > 0.0 and ts_k < tg) else tg
+            tar[l] = tg
+            hh = h[l]
+            grow = 1.0 + 1e-10 if ph[l] == _FIXED else 1.0
+            cl = tt + hh * grow >= tg
+            hh = tg - tt if cl else hh
+            hh = 0.0 if ph[l] == _IDLE else hh
+            clip[l] = cl
+            hs[l] = hh
+            # a step shortened by rounding only keeps its rotations (as point_second_order)
+            rr[l] = abs(hh - hrot[l]) > 4.0 * _EPS * max(abs(tt), abs(tg))
+        nr = 0
+        for l in range(L):
+            if rr[l]:
+                ridx[nr] = l
+                nr += 1
+        if nr > 0:                  # the drive's rotations over the stages of new steps
+            for s in range(ns):
                 for k in range(nd):
-                    for l in range(L):
-                        cr = rot[s, 2 * k, l]
-                        sr = rot[s, 2 * k + 1, l]
-                        css[2 * k, l] = cs0[2 * k, l] * cr - cs0[2 * k + 1, l] * sr
-                        css[2 * k + 1, l] = cs0[2 * k + 1, l] * cr + cs0[2 * k, l] * sr
-                for l in range(L):
-                    ts[l] = t[l] + cs_ * hs[l]
-                if call_fast_accel_lanes(ka[FAST_ACCEL_LANES], qs, ts, css, Pl, K[s], work,
-                                         L) > 0:
-                    for l in range(L):
-                        if work[0, l] != 0.0:
-                            sing[l] = True
-            # the new state (compensated sums), the error estimate, finiteness, the band
+                    for u in range(nr):
+                        x[u] = R[k, ridx[u]] * c[s] * hs[ridx[u]]
+                    lane_sincos_rows(x, sx, cx, nr)
+                    for u in range(nr):
+                        rot[s, 2 * k, ridx[u]] = cx[u]
+                        rot[s, 2 * k + 1, ridx[u]] = sx[u]
+            for u in range(nr):
+                hrot[ridx[u]] = hs[ridx[u]]
+        for k in range(nd):         # the drive at the step's start, exactly
             for l in range(L):
-                e2[l] = 0.0
-                est[l] = 0.0
-                fin[l] = True
-                inside[l] = True
-            for j in range(n):
-                _weighted_sums(b, bp, db, dbp, K, j, acc, L)
-                for l in range(L):
-                    hh = hs[l]
-                    q_ = q[j, l]
-                    v_ = v[j, l]
-                    yq = hh * v_ + hh * hh * acc[0, l] - cq[j, l]
-                    qn_ = q_ + yq
-                    qn[j, l] = qn_
-                    cqn[j, l] = (qn_ - q_) - yq
-                    yv = hh * acc[1, l] - cv[j, l]
-                    vn_ = v_ + yv
-                    vn[j, l] = vn_
-                    cvn[j, l] = (vn_ - v_) - yv
-                    dq = acc[2, l] * hh * hh
-                    dv = acc[3, l] * hh
-                    est[l] = max(est[l], abs(dq), abs(dv))
-                    fin[l] = fin[l] & math.isfinite(qn_) & math.isfinite(vn_)
-                    inside[l] = inside[l] & (LOl[j, l] <= qn_) & (qn_ <= HIl[j, l])
-                    acc[2, l] = dq
-                    acc[3, l] = dv
-                if any_adaptive:        # the scaled error norm (the fixed step needs none)
-                    for l in range(L):
-                        dq = acc[2, l]
-                        dv = acc[3, l]
-                        sq_ = atol + rtol * max(abs(q[j, l]), abs(qn[j, l]))
-                        sv_ = atol + rtol * max(abs(v[j, l]), abs(vn[j, l]))
-                        e2[l] += (dq / sq_) ** 2 + (dv / sv_) ** 2
-            # FSAL: the acceleration at the step's end (every lane; kept where accepted)
+                x[l] = R[k, l] * t[l]
+            lane_sincos_rows(x, sx, cx, L)
             for l in range(L):
-                yk = hs[l] - tc[l]
-                tk = t[l] + yk
-                tnew[l] = tar[l] if clip[l] else tk
-                tcn[l] = 0.0 if clip[l] else (tk - t[l]) - yk
+                cs0[2 * k, l] = cx[l]
+                cs0[2 * k + 1, l] = sx[l]
+        for l in range(L):
+            sing[l] = False
+        # the stages: q + c h v + h² Σ A K, the drive rotated, one call for all lanes
+        for s in range(1, ns):
+            cs_ = c[s]
+            _stage_positions(s, A, c, K, q, v, hs, qs, acc, L)
             for k in range(nd):
                 for l in range(L):
-                    cr = rot[ns - 1, 2 * k, l]
-                    sr = rot[ns - 1, 2 * k + 1, l]
+                    cr = rot[s, 2 * k, l]
+                    sr = rot[s, 2 * k + 1, l]
                     css[2 * k, l] = cs0[2 * k, l] * cr - cs0[2 * k + 1, l] * sr
                     css[2 * k + 1, l] = cs0[2 * k + 1, l] * cr + cs0[2 * k, l] * sr
-            if call_fast_accel_lanes(ka[FAST_ACCEL_LANES], qn, tnew, css, Pl, an, work, L) == 0:
-                for l in range(L):
-                    work[0, l] = 0.0
-            # the common case for every lane at once: an accepted step that stays in the band
             for l in range(L):
-                err = math.sqrt(e2[l] / (2 * n))
-                errl[l] = err
-                ok = (fin[l] & (not sing[l]) & (work[0, l] == 0.0) & (ph[l] != _IDLE)
-                      & ((ph[l] == _FIXED) | (err < 1.0)))
-                good[l] = ok
-                upd[l] = ok & inside[l]
-            for j in range(n):
+                ts[l] = t[l] + cs_ * hs[l]
+            if call_fast_accel_lanes(ka[FAST_ACCEL_LANES], qs, ts, css, Pl, K[s], work,
+                                     L) > 0:
                 for l in range(L):
-                    u = upd[l]
-                    hh = hs[l]
-                    q_ = q[j, l]
-                    qn_ = qn[j, l]
-                    mean = 0.5 * hh * (q_ + qn_) + hh * hh * (v[j, l] - vn[j, l]) / 12.0
-                    QMl[j, l] += mean if u else 0.0
-                    d = abs(qn_ - REFl[j, l])
-                    DEVl[j, l] = d if (u and d > DEVl[j, l]) else DEVl[j, l]
-                    q[j, l] = qn_ if u else q_
-                    v[j, l] = vn[j, l] if u else v[j, l]
-                    cq[j, l] = cqn[j, l] if u else cq[j, l]
-                    cv[j, l] = cvn[j, l] if u else cv[j, l]
-                    K[0, j, l] = an[j, l] if u else K[0, j, l]
+                    if work[0, l] != 0.0:
+                        sing[l] = True
+        # the new state (compensated sums), the error estimate, finiteness, the band
+        for l in range(L):
+            e2[l] = 0.0
+            est[l] = 0.0
+            fin[l] = True
+            inside[l] = True
+        for j in range(n):
+            _weighted_sums(b, bp, db, dbp, K, j, acc, L)
+            for l in range(L):
+                hh = hs[l]
+                q_ = q[j, l]
+                v_ = v[j, l]
+                yq = hh * v_ + hh * hh * acc[0, l] - cq[j, l]
+                qn_ = q_ + yq
+                qn[j, l] = qn_
+                cqn[j, l] = (qn_ - q_) - yq
+                yv = hh * acc[1, l] - cv[j, l]
+                vn_ = v_ + yv
+                vn[j, l] = vn_
+                cvn[j, l] = (vn_ - v_) - yv
+                dq = acc[2, l] * hh * hh
+                dv = acc[3, l] * hh
+                est[l] = max(est[l], abs(dq), abs(dv))
+                fin[l] = fin[l] & math.isfinite(qn_) & math.isfinite(vn_)
+                inside[l] = inside[l] & (LOl[j, l] <= qn_) & (qn_ <= HIl[j, l])
+                acc[2, l] = dq
+                acc[3, l] = dv
+            if any_adaptive:        # the scaled error norm (the fixed step needs none)
+                for l in range(L):
+                    dq = acc[2, l]
+                    dv = acc[3, l]
+                    sq_ = atol + rtol * max(abs(q[j, l]), abs(qn[j, l]))
+                    sv_ = atol + rtol * max(abs(v[j, l]), abs(vn[j, l]))
+                    e2[l] += (dq / sq_) ** 2 + (dv / sv_) ** 2
+        # FSAL: the acceleration at the step's end (every lane; kept where accepted)
+        for l in range(L):
+            yk = hs[l] - tc[l]
+            tk = t[l] + yk
+            tnew[l] = tar[l] if clip[l] else tk
+            tcn[l] = 0.0 if clip[l] else (tk - t[l]) - yk
+        for k in range(nd):
+            for l in range(L):
+                cr = rot[ns - 1, 2 * k, l]
+                sr = rot[ns - 1, 2 * k + 1, l]
+                css[2 * k, l] = cs0[2 * k, l] * cr - cs0[2 * k + 1, l] * sr
+                css[2 * k + 1, l] = cs0[2 * k + 1, l] * cr + cs0[2 * k, l] * sr
+        if call_fast_accel_lanes(ka[FAST_ACCEL_LANES], qn, tnew, css, Pl, an, work, L) == 0:
+            for l in range(L):
+                work[0, l] = 0.0
+        # the common case for every lane at once: an accepted step that stays in the band
+        for l in range(L):
+            err = math.sqrt(e2[l] / (2 * n))
+            errl[l] = err
+            ok = (fin[l] & (not sing[l]) & (work[0, l] == 0.0) & (ph[l] != _IDLE)
+                  & ((ph[l] == _FIXED) | (err < 1.0)))
+            good[l] = ok
+            upd[l] = ok & inside[l]
+        for j in range(n):
             for l in range(L):
                 u = upd[l]
-                t[l] = tnew[l] if u else t[l]
-                tc[l] = tcn[l] if u else tc[l]
-                nst[l] += 1 if good[l] else 0
-                nev[l] += ns if good[l] else ns - 1
-                errsum[l] += est[l] if good[l] else 0.0
-                special[l] = (pt[l] >= 0) & ((not u) | clip[l] | (t[l] >= t1l[l])
-                                             | (ph[l] != _FIXED) | (nst[l] >= max_steps)
-                                             | energy)
-            if mode == LANES_ADAPTIVE:  # a held step that stays held needs no lane-by-lane
-                for l in range(L):      # work: record its error ratio (held_step_record)
-                    hold = tvh[l, TV_HOLD]
-                    k_ = sth[l, ST_BLOCK]
-                    if (special[l] and upd[l] and ph[l] == _ADAPTIVE and hold > 0.0
-                            and hs[l] >= hold and not clip[l] and k_ + 1 < hold_block
-                            and t[l] < t1l[l] and nst[l] < max_steps and not energy):
-                        xr = tvh[l, TV_HREF] / hs[l]
-                        x2 = xr * xr
-                        x4 = x2 * x2
-                        blk[l, k_] = errl[l] * (x4 * x4 * x2 * xr)
-                        sth[l, ST_BLOCK] = k_ + 1
-                        special[l] = False
-            # the rest, lane by lane: rejections, failures, band exits, strobe samples,
-            # step-size control, ends (an ended lane takes the block's next point)
-            for l in range(L):
-                if not special[l]:
-                    continue
-                i = pt[l]
-                phase = ph[l]
-                adaptive = phase != _FIXED
-                observe = phase != _PILOT
                 hh = hs[l]
-                tt = t[l]
-                st = -1
-                jx = -1
-                if not good[l]:
-                    if not fin[l]:      # a non-finite stage must not reach the next sums
-                        for j in range(n):
-                            for m in range(1, ns):
-                                K[m, j, l] = 0.0
-                    if sing[l]:
-                        st = GRID_SINGULAR
-                    elif adaptive and not (fin[l] and errl[l] < 1.0):
-                        err = errl[l]
-                        nrej[l] += 1
-                        held_step_record(tvh[l], sth[l], blk[l] if phase == _ADAPTIVE
-                                         else blk[l, :0], err, hh, hmax[l])
-                        h[l] = hh * max(0.2, 0.9 * err ** expo) if math.isfinite(err) else 0.2 * hh
-                        rejected[l] = True
-                        if h[l] < 16.0 * _EPS * max(abs(tt), abs(t1l[l])):
-                            st = GRID_NON_FINITE if not fin[l] else GRID_UNDERFLOW
-                        else:
-                            continue
-                    elif not fin[l]:
-                        st = GRID_NON_FINITE
-                    else:               # the acceleration at the step's end failed
-                        nst[l] += 1
-                        errsum[l] += est[l]
-                        if phase == _PILOT and nh[l] < PILOT_STEPS and not clip[l]:
-                            hbuf[l, nh[l]] = hh
-                            nh[l] += 1
-                        st = GRID_SINGULAR
-                else:
+                q_ = q[j, l]
+                qn_ = qn[j, l]
+                mean = 0.5 * hh * (q_ + qn_) + hh * hh * (v[j, l] - vn[j, l]) / 12.0
+                QMl[j, l] += mean if u else 0.0
+                d = abs(qn_ - REFl[j, l])
+                DEVl[j, l] = d if (u and d > DEVl[j, l]) else DEVl[j, l]
+                q[j, l] = qn_ if u else q_
+                v[j, l] = vn[j, l] if u else v[j, l]
+                cq[j, l] = cqn[j, l] if u else cq[j, l]
+                cv[j, l] = cvn[j, l] if u else cv[j, l]
+                K[0, j, l] = an[j, l] if u else K[0, j, l]
+        for l in range(L):
+            u = upd[l]
+            t[l] = tnew[l] if u else t[l]
+            tc[l] = tcn[l] if u else tc[l]
+            nst[l] += 1 if good[l] else 0
+            nev[l] += ns if good[l] else ns - 1
+            errsum[l] += est[l] if good[l] else 0.0
+            special[l] = (pt[l] >= 0) & ((not u) | clip[l] | (t[l] >= t1l[l])
+                                         | (ph[l] != _FIXED) | (nst[l] >= max_steps)
+                                         | energy)
+        if mode == LANES_ADAPTIVE:  # a held step that stays held needs no lane-by-lane
+            for l in range(L):      # work: record its error ratio (held_step_record)
+                hold = tvh[l, TV_HOLD]
+                k_ = sth[l, ST_BLOCK]
+                if (special[l] and upd[l] and ph[l] == _ADAPTIVE and hold > 0.0
+                        and hs[l] >= hold and not clip[l] and k_ + 1 < hold_block
+                        and t[l] < t1l[l] and nst[l] < max_steps and not energy):
+                    xr = tvh[l, TV_HREF] / hs[l]
+                    x2 = xr * xr
+                    x4 = x2 * x2
+                    blk[l, k_] = errl[l] * (x4 * x4 * x2 * xr)
+                    sth[l, ST_BLOCK] = k_ + 1
+                    special[l] = False
+        # the rest, lane by lane: rejections, failures, band exits, strobe samples,
+        # step-size control, ends (an ended lane takes the block's next point)
+        for l in range(L):
+            if not special[l]:
+                continue
+            i = pt[l]
+            phase = ph[l]
+            adaptive = phase != _FIXED
+            observe = phase != _PILOT
+            hh = hs[l]
+            tt = t[l]
+            st = -1
+            jx = -1
+            if not good[l]:
+                if not fin[l]:      # a non-finite stage must not reach the next sums
+                    for j in range(n):
+                        for m in range(1, ns):
+                            K[m, j, l] = 0.0
+                if sing[l]:
+                    st = GRID_SINGULAR
+                elif adaptive and not (fin[l] and errl[l] < 1.0):
+                    err = errl[l]
+                    nrej[l] += 1
+                    held_step_record(tvh[l], sth[l], blk[l] if phase == _ADAPTIVE
+                                     else blk[l, :0], err, hh, hmax[l])
+                    h[l] = hh * max(0.2, 0.9 * err ** expo) if math.isfinite(err) else 0.2 * hh
+                    rejected[l] = True
+                    if h[l] < 16.0 * _EPS * max(abs(tt), abs(t1l[l])):
+                        st = GRID_NON_FINITE if not fin[l] else GRID_UNDERFLOW
+                    else:
+                        continue
+                elif not fin[l]:
+                    st = GRID_NON_FINITE
+                else:               # the acceleration at the step's end failed
+                    nst[l] += 1
+                    errsum[l] += est[l]
                     if phase == _PILOT and nh[l] < PILOT_STEPS and not clip[l]:
                         hbuf[l, nh[l]] = hh
                         nh[l] += 1
-                    if not upd[l]:      # left the band inside the step: stop there
+                    st = GRID_SINGULAR
+            else:
+                if phase == _PILOT and nh[l] < PILOT_STEPS and not clip[l]:
+                    hbuf[l, nh[l]] = hh
+                    nh[l] += 1
+                if not upd[l]:      # left the band inside the step: stop there
+                    for j in range(n):
+                        q1[j] = q[j, l]
+                        v1[j] = v[j, l]
+                        q2[j] = qn[j, l]
+                        v2[j] = vn[j, l]
+                        a1[j] = K[0, j, l]
+                    xf, jx, ev = _rkn_band_exit(ka, tt, hh, q1, v1, a1, q2, v2, P[i], LO[i],
+                                                HI[i], c, A, b, bp, R[:nd, l].copy(), YF[i])
+                    nev[l] += ev
+                    for j in range(n):
+                        QMl[j, l] += (0.5 * xf * hh * (q1[j] + YF[i, j]) + xf * hh * xf
+                                      * hh * (v1[j] - YF[i, n + j]) / 12.0)
+                    t[l] = tt + xf * hh
+                    st = GRID_LEFT_BAND
+                else:
+                    if observe and energy:
                         for j in range(n):
                             q1[j] = q[j, l]
                             v1[j] = v[j, l]
-                            q2[j] = qn[j, l]
-                            v2[j] = vn[j, l]
-                            a1[j] = K[0, j, l]
-                        xf, jx, ev = _rkn_band_exit(ka, tt, hh, q1, v1, a1, q2, v2, P[i], LO[i],
-                                                    HI[i], c, A, b, bp, R[:nd, l].copy(), YF[i])
-                        nev[l] += ev
-                        for j in range(n):
-                            QMl[j, l] += (0.5 * xf * hh * (q1[j] + YF[i, j]) + xf * hh * xf
-                                          * hh * (v1[j] - YF[i, n + j]) / 12.0)
-                        t[l] = tt + xf * hh
-                        st = GRID_LEFT_BAND
-                    else:
-                        if observe and energy:
+                        d = abs(call_energy(ka[ENERGY], q1, v1, t[l], P[i]) - e0[l])
+                        if d > drift[l]:
+                            drift[l] = d
+                    if clip[l] and Tl[l] > 0.0 and t[l] == t0l[l] + kn[l] * Tl[l]:
+                        k_ = int(kn[l])
+                        if k_ < SQ.shape[1]:
                             for j in range(n):
-                                q1[j] = q[j, l]
-                                v1[j] = v[j, l]
-                            d = abs(call_energy(ka[ENERGY], q1, v1, t[l], P[i]) - e0[l])
-                            if d > drift[l]:
-                                drift[l] = d
-                        if clip[l] and Tl[l] > 0.0 and t[l] == t0l[l] + kn[l] * Tl[l]:
-                            k_ = int(kn[l])
-                            if k_ < SQ.shape[1]:
-                                for j in range(n):
-                                    SQ[i, k_, j] = q[j, l]
-                                    SQ[i, k_, n + j] = v[j, l]
-                            kn[l] += 1.0
-                        if t[l] >= t1l[l]:
-                            st = GRID_FINISHED
-                        elif observe and nst[l] >= max_steps:
-                            st = GRID_MAX_STEPS
-                        elif adaptive:
-                            h[l] = _next_step(tvh[l], sth[l], blk[l] if phase == _ADAPTIVE
-                                              else blk[l, :0], h[l], hh, errl[l], clip[l],
-                                              rejected[l], hmax[l])
-                            rejected[l] = False
-                if st < 0:
-                    continue
-                if phase == _PILOT:     # the pilot ends (however): the run itself begins
-                    m_ = nh[l]
-                    span = TS[i, 1] - TS[i, 0]
-                    hf = span
-                    if m_ > 0:
-                        steps = np.sort(hbuf[l, :m_])
-                        period = TSTR[i] if TSTR[i] > 0.0 else span
-                        hf = period / math.ceil(period / steps[int(0.2 * (m_ - 1))])
-                    h[l] = hf
-                    st = _lanes_load(ka, l, i, _FIXED, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
-                                     rtol, atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l,
-                                     t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum,
-                                     rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh, sth)
-                    if st == 0 and nst[l] < max_steps:
-                        continue
-                    if st == 0:         # the pilot used the whole step budget
+                                SQ[i, k_, j] = q[j, l]
+                                SQ[i, k_, n + j] = v[j, l]
+                        kn[l] += 1.0
+                    if t[l] >= t1l[l]:
+                        st = GRID_FINISHED
+                    elif observe and nst[l] >= max_steps:
                         st = GRID_MAX_STEPS
-                # the point ends: record it, take the next point of the block
-                STATUS[i] = st
-                TF[i] = t[l]
-                EDRIFT[i] = drift[l]
-                ERR[i] = errsum[l]
-                EXITC[i] = jx
-                EXIT[i] = t[l] if jx >= 0 else np.nan
-                COUNTS[i, CNT_STEPS] += nst[l]
-                COUNTS[i, CNT_REJECTED] += nrej[l]
-                COUNTS[i, CNT_EVALS] += nev[l]
+                    elif adaptive:
+                        h[l] = _next_step(tvh[l], sth[l], blk[l] if phase == _ADAPTIVE
+                                          else blk[l, :0], h[l], hh, errl[l], clip[l],
+                                          rejected[l], hmax[l])
+                        rejected[l] = False
+            if st < 0:
+                continue
+            if phase == _PILOT:     # the pilot ends (however): the run itself begins
+                m_ = nh[l]
+                span = TS[i, 1] - TS[i, 0]
+                hf = span
+                if m_ > 0:
+                    steps = np.sort(hbuf[l, :m_])
+                    period = TSTR[i] if TSTR[i] > 0.0 else span
+                    hf = period / math.ceil(period / steps[int(0.2 * (m_ - 1))])
+                h[l] = hf
+                st = _lanes_load(ka, l, i, _FIXED, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
+                                 rtol, atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l,
+                                 t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum,
+                                 rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh, sth)
+                if st == 0 and nst[l] < max_steps:
+                    continue
+                if st == 0:         # the pilot used the whole step budget
+                    st = GRID_MAX_STEPS
+            # the point ends: record it, take the next point of the block
+            STATUS[i] = st
+            TF[i] = t[l]
+            EDRIFT[i] = drift[l]
+            ERR[i] = errsum[l]
+            EXITC[i] = jx
+            EXIT[i] = t[l] if jx >= 0 else np.nan
+            COUNTS[i, CNT_STEPS] += nst[l]
+            COUNTS[i, CNT_REJECTED] += nrej[l]
+            COUNTS[i, CNT_EVALS] += nev[l]
+            for j in range(n):
+                QM[i, j] = QMl[j, l]
+                DEV[i, j] = DEVl[j, l]
+                if jx < 0:
+                    YF[i, j] = q[j, l]
+                    YF[i, n + j] = v[j, l]
+            pt[l] = -1
+            active -= 1
+            while nxt < hi_b and pt[l] < 0:
+                i2 = idx[nxt]
+                nxt += 1
+                h[l] = H[i2]
+                nst[l] = 0
+                nrej[l] = 0
+                nev[l] = 0
+                st2 = _lanes_load(ka, l, i2, first, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
+                                  rtol, atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot,
+                                  t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift,
+                                  errsum, rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax,
+                                  tvh, sth)
+                if st2 != 0:
+                    STATUS[i2] = st2
+                    TF[i2] = TS[i2, 0]
+                    YF[i2] = Y0[i2]
+                    EDRIFT[i2] = 0.0
+                    ERR[i2] = 0.0
+                else:
+                    pt[l] = i2
+                    active += 1
+            if pt[l] < 0:           # idle: a finite state that no longer moves
+                ph[l] = _IDLE
+                h[l] = 0.0
+                hrot[l] = 0.0
                 for j in range(n):
-                    QM[i, j] = QMl[j, l]
-                    DEV[i, j] = DEVl[j, l]
-                    if jx < 0:
-                        YF[i, j] = q[j, l]
-                        YF[i, n + j] = v[j, l]
-                pt[l] = -1
-                active -= 1
-                while nxt < hi_b and pt[l] < 0:
-                    i2 = idx[nxt]
-                    nxt += 1
-                    h[l] = H[i2]
-                    nst[l] = 0
-                    nrej[l] = 0
-                    nev[l] = 0
-                    st2 = _lanes_load(ka, l, i2, first, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
-                                      rtol, atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot,
-                                      t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift,
-                                      errsum, rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax,
-                                      tvh, sth)
-                    if st2 != 0:
-                        STATUS[i2] = st2
-                        TF[i2] = TS[i2, 0]
-                        YF[i2] = Y0[i2]
-                        EDRIFT[i2] = 0.0
-                        ERR[i2] = 0.0
-                    else:
-                        pt[l] = i2
-                        active += 1
-                if pt[l] < 0:           # idle: a finite state that no longer moves
-                    ph[l] = _IDLE
-                    h[l] = 0.0
-                    hrot[l] = 0.0
-                    for j in range(n):
-                        if not (math.isfinite(q[j, l]) and math.isfinite(v[j, l])):
-                            q[j, l] = 0.0
-                            v[j, l] = 0.0
-                        cq[j, l] = 0.0
-                        cv[j, l] = 0.0
-                        for m in range(ns):
-                            K[m, j, l] = 0.0
+                    if not (math.isfinite(q[j, l]) and math.isfinite(v[j, l])):
+                        q[j, l] = 0.0
+                        v[j, l] = 0.0
+                    cq[j, l] = 0.0
+                    cv[j, l] = 0.0
+                    for m in range(ns):
+                        K[m, j, l] = 0.0
 
 
 # -- any system: DOP853 on the right-hand side, with projection onto the constraints -----
