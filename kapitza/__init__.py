@@ -51,7 +51,7 @@ Periodic orbits (:mod:`kapitza.periodic_orbit`)
         The T-periodic orbit of any driven system (Newton shooting on the period map) and
         its Floquet multipliers: the slow states of drives that leave no equilibrium.
 
-Measurements from direct simulation (:mod:`kapitza.measure`)
+Measurements from direct simulation (:mod:`kapitza.measurement`)
     measure
         Simulate one parameter set of any driven system and measure the motion: stayed
         near ``about`` or fell (when), slow frequencies with error estimates, slow
@@ -151,7 +151,7 @@ from .floquet import (adaptive_map, boundaries, floquet_grid, floquet_point, mon
                       stability_map, window)
 from .mathieu import (characteristic_value, ince_strutt_chart, mathieu_monodromy_trace,
                       mathieu_parameters, pendulum_stability_map, pendulum_stability_window)
-from .measure import measure, measure_grid
+from .measurement import measure, measure_grid
 from .pendulum import KapitzaPendulum
 from .periodic_orbit import periodic_orbit
 from .pendulum_closed_forms import (multiple_pendulum_upright, pendulum_averaged,

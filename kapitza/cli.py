@@ -671,7 +671,7 @@ def main(argv=None) -> int:
     name = f"kapitza {args.command}"
     try:
         if getattr(args, "periods", 1) is None:
-            from .measure import DEFAULT_PERIODS
+            from .measurement import DEFAULT_PERIODS
             args.periods = DEFAULT_PERIODS
         return args.run(args)
     except UsageError as e:

@@ -24,8 +24,8 @@ from lagrange_core.checks import real_array
 
 from . import arguments, mathieu, pendulum_closed_forms
 from .floquet import floquet_point
-from .measure import DEFAULT_PERIODS, pendulum_about, point, squeeze
-from .measure import measure_grid as measure_system_grid
+from .measurement import DEFAULT_PERIODS, pendulum_about, point, squeeze
+from .measurement import measure_grid as measure_system_grid
 from .periodic_orbit import periodic_orbit
 from .verify import line_argument, pendulum_verification
 from .results import (FloquetResult, Measurement, PendulumAveraging, StabilityMap,
@@ -314,7 +314,7 @@ class KapitzaPendulum:
                                     self.params(float(A), float(omega)), method=method,
                                     rtol=rtol, t_eval=t_eval, **options)
 
-    # -- measurements from direct integration (kapitza.measure) --------------------------
+    # -- measurements from direct integration (kapitza.measurement) --------------------------
     def measure(self, A: float, omega: float, theta0: float, theta_dot0: float = 0.0, *,
                 periods: int = DEFAULT_PERIODS, about=None, band=math.pi / 2,
                 method=None, rtol: float = 1e-9, t0: float = 0.0) -> Measurement:
@@ -350,7 +350,7 @@ class KapitzaPendulum:
             ``omega_slow_error``, ``amplitude`` (slow, rad), ``mean_angle`` (time mean,
             rad: the measured tilt of the horizontal drive), ``growth_rate``, ...;
             ``energy_drift`` is None (a driven pendulum has no conserved energy).
-            The estimator and what its error covers: :mod:`kapitza.measure`.
+            The estimator and what its error covers: :mod:`kapitza.measurement`.
 
         Examples
         --------

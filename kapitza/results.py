@@ -874,7 +874,7 @@ class MultiplePendulumPrediction:
 
 
 # ======================================================================================
-# Measurements from direct simulation (kapitza.measure)
+# Measurements from direct simulation (kapitza.measurement)
 # ======================================================================================
 
 #: Measurement fields with one entry per slow mode (ascending frequency) or per coordinate.
@@ -888,12 +888,12 @@ _POINT_FIELDS = ("period", "stayed_up", "fall_time", "fit_residual", "samples",
 class Measurement:
     """What direct integration of the full nonlinear motion measured, point by point.
 
-    Built by :func:`kapitza.measure.measure_grid` (a broadcast grid: every field an array
-    of the grid's shape S, followed by the axis stated), :func:`kapitza.measure.measure`
+    Built by :func:`kapitza.measurement.measure_grid` (a broadcast grid: every field an array
+    of the grid's shape S, followed by the axis stated), :func:`kapitza.measurement.measure`
     (one point: 0-d fields are Python scalars, and a one-coordinate system's per-mode and
     per-coordinate fields are floats) and :meth:`kapitza.KapitzaPendulum.measure` /
     ``measure_grid`` (one coordinate θ: those fields have the grid's shape).  How each
-    number is measured, and what its error estimate covers, is in :mod:`kapitza.measure`.
+    number is measured, and what its error estimate covers, is in :mod:`kapitza.measurement`.
 
     Attributes
     ----------
@@ -922,7 +922,7 @@ class Measurement:
     omega_slow_error : array (S + (n,))
         Error estimate of ``omega_slow`` (rad/s): the estimator's error for the
         simulated motion (the record's two halves, the fit's bias); not the
-        integration error, not the amplitude dependence (see :mod:`kapitza.measure`).
+        integration error, not the amplitude dependence (see :mod:`kapitza.measurement`).
     refined : bool array (S + (n,))
         The mode's Ω is its rotation number (else the linear strobe map's value).
     growth_rate : array (S + (n,))

@@ -531,7 +531,7 @@ def _window(scene, s, progress):
 
 
 def _measure(scene, s, progress):
-    from .measure import measure
+    from .measurement import measure
     return measure(scene.system, scene.spec.params, _about(scene, s.get("about")), scene.q0,
                    scene.qdot0, periods=s.get("periods", 1000), band=s.get("band", math.pi / 2),
                    rtol=s.get("rtol", 1e-9), progress=progress)
@@ -649,7 +649,7 @@ def _grid_simulate(scene, s, params, q0, qdot0):
 
 
 def _grid_measure(scene, s, params, q0, qdot0):
-    from .measure import measure_grid
+    from .measurement import measure_grid
     about = s.get("about")
     if about in (None, "auto") and scene.capabilities["floquet"] != "equilibrium":
         about = np.array([_averaged_state(scene, _point_params(params, i), q0[i])

@@ -35,7 +35,7 @@ Each method states an error for its Ω, and two methods agree on Ω when
 * Floquet: a pair of multipliers e^(±iΩT) whose monodromy is in error by
   δ = error_estimate · max(1, ‖M‖) turns by about δ / |sin ΩT| (first-order
   perturbation; √δ where sin ΩT → 0): tol = δ / (T max(|sin ΩT|, √δ)).
-* Simulation: the measurement's ``omega_slow_error`` (:mod:`kapitza.measure`), plus the
+* Simulation: the measurement's ``omega_slow_error`` (:mod:`kapitza.measurement`), plus the
   two errors it states it leaves out: the integration's, rtol·|q|/(a T) (|q| =
   max(1, |about|), a the slow amplitude), and the amplitude's own shift of a finite
   oscillation from the linear Ω, O(a²).  The pendulum: |3 β a² / (8 Ω)| with
@@ -116,7 +116,7 @@ from . import arguments
 from .averaging import average
 from .floquet import floquet_grid
 from .mathieu import mathieu_parameters, pendulum_stability_window
-from .measure import DEFAULT_PERIODS, measure_grid
+from .measurement import DEFAULT_PERIODS, measure_grid
 from .pendulum_closed_forms import pendulum_averaged
 from .plots import verification_figure
 from .results import OrderFit, Verification

@@ -1,4 +1,4 @@
-"""Measurements from direct simulation (issue 11, points 2, 3 and 5): kapitza.measure.
+"""Measurements from direct simulation (issue 11, points 2, 3 and 5): kapitza.measurement.
 
 The estimator first, on strobe sequences whose slow frequencies are known exactly
 (linear maps, nonlinear invariant curves and tori with chosen rotation numbers); then
@@ -26,7 +26,7 @@ from scipy.optimize import fsolve
 
 import kapitza
 from kapitza import averaging as av
-from kapitza.measure import slow_frequencies
+from kapitza.measurement import slow_frequencies
 from lagrange_core import Particle, System, coordinates, problems
 from lagrange_core import t as t_sym
 
