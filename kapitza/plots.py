@@ -31,7 +31,7 @@ from .results import (BoundaryCurves, InceStruttChart, PendulumAveraging, Stabil
                       StabilityWindow, Verification)
 
 __all__ = ["stability_map_figure", "effective_potential_figure", "ince_strutt_figure",
-           "verification_figure"]
+           "verification_figure", "work_precision_figure"]
 
 _COLORS = {0: "#d9f0d3", 1: "#fdd49e", 2: "#c6dbef", 3: "#e7d4e8"}
 _NAMES = {0: "stable", 1: "unstable, period-T boundary", 2: "unstable, period-2T boundary",
@@ -443,3 +443,68 @@ def _order_panel(ax, fits):
     ax.set_ylabel("relative error of Ω against Floquet")
     ax.set_title("The order of averaging (filled: fitted)", fontsize=10)
     ax.legend(loc="lower right", fontsize=7)
+
+
+def work_precision_figure(result, *, ax=None):
+    """Error at the final time against wall time, log-log, one line per method (a
+    :class:`lagrange_core.work_precision.WorkPrecision`).
+
+    Each point is one tolerance, labelled with its exponent (``-6``: rtol = 1e-6).  The
+    system's default method is drawn thick, our other methods in colour, the peers (scipy,
+    heyoka) dashed in grey tones; hollow markers are errors not resolved by the reference
+    (within ten times its own error, the dotted line).  Down and left is better.
+    """
+    from lagrange_core.work_precision import RESOLVED_FACTOR, WorkPrecision
+    if not isinstance(result, WorkPrecision):
+        raise TypeError(f"result must be a lagrange_core.work_precision.WorkPrecision, got "
+                        f"{type(result).__name__}; make one with "
+                        f"lagrange_core.work_precision.work_precision(...).")
+    fig, ax = _axes(ax, (6.4, 4.6))
+    positive = result.error[result.error > 0]
+    floor = 0.5 * positive.min() if positive.size else 1e-16
+    ours = [m for m in result.methods if m in set(result.method[result.kind == "ours"])]
+    peer_colors = iter(("0.45", "#8c6d31", "0.2", "#7b4173", "0.6"))
+    for name in result.methods:
+        sel = result.method == name
+        order = np.argsort(-result.rtol[sel])
+        sec, err = result.seconds[sel][order], np.maximum(result.error[sel][order], floor)
+        rtol, res = result.rtol[sel][order], result.resolved[sel][order]
+        default = name == result.default_method
+        if name in ours:
+            color, ls = f"C{ours.index(name)}", "-"
+        else:
+            color, ls = next(peer_colors, "0.5"), "--"
+        label = f"{name} (default)" if default else name
+        ax.loglog(sec, err, ls, color=color, lw=2.6 if default else 1.2,
+                  zorder=4 if default else 3, label=label)
+        ax.loglog(sec[res], err[res], "o", color=color, ms=6 if default else 4, zorder=5)
+        ax.loglog(sec[~res], err[~res], "o", mfc="white", mec=color, ms=6 if default else 4,
+                  zorder=5)
+        steps = result.steps[sel][order]
+        k = 0
+        while k < len(sec):           # tolerances that gave the same run share one label
+            j = k
+            while j + 1 < len(sec) and steps[j + 1] == steps[k] and err[j + 1] == err[k]:
+                j += 1
+            text = _exponent(rtol[k]) + ("" if j == k else f"…{_exponent(rtol[j])}")
+            ax.annotate(text, (sec[k], err[k]), textcoords="offset points", xytext=(4, 3),
+                        fontsize=6.5, color=color)
+            k = j + 1
+    if result.reference_error > 0:
+        ax.axhline(RESOLVED_FACTOR * result.reference_error, color="k", ls=":", lw=0.8,
+                   label=f"{RESOLVED_FACTOR:g} × the reference's own error "
+                         f"({result.reference_error:.1e})")
+    ax.set_xlabel("wall time per run (s), best of repeats, compile excluded")
+    ax.set_ylabel("error at the final time, max |q(t₁) − q_ref(t₁)|")
+    t0, t1 = result.t_span
+    ax.set_title(textwrap.fill(f"{result.system}, t = {t0:g}…{t1:.4g} s: what accuracy costs "
+                               "(point labels: log₁₀ rtol)", 70), fontsize=9)
+    ax.grid(True, which="major", lw=0.4, alpha=0.5)
+    ax.legend(fontsize=7, loc="best")
+    return fig
+
+
+def _exponent(rtol):
+    """'-6' for 1e-6, else '2e-07'."""
+    e = np.log10(rtol)
+    return f"{e:.0f}" if abs(e - round(e)) < 1e-9 else f"{rtol:.0e}"

@@ -24,6 +24,9 @@ effects
     springs), built into a System with only those terms (:mod:`lagrange_core.effects`).
 warmup
     Compile the integrators once per installation (:mod:`lagrange_core.warmup`).
+work_precision, WorkPrecision
+    What accuracy costs in time: error at the final time against wall time, per method
+    and tolerance, with scipy and heyoka as peers (:mod:`lagrange_core.work_precision`).
 """
 from . import effects, fields, problems
 from .codegen import Kernels, compile_kernels
@@ -35,12 +38,14 @@ from .bodies import RigidBody, rotation_matrix
 from .symbols import coordinates, t
 from .systems import Particle, System
 from .warmup import warmup
+from .work_precision import WorkPrecision, work_precision
 
 __all__ = ["System", "Particle", "RigidBody", "rotation_matrix", "coordinates", "t", "derive",
            "Equations", "compile_kernels", "Kernels", "Linearization", "problems", "fields",
            "effects",
            "Trajectory", "METHODS", "Event", "turning_point", "crossing", "multiplier_zero",
-           "SimulationInterrupted", "GridTrajectories", "GridInterrupted", "warmup"]
+           "SimulationInterrupted", "GridTrajectories", "GridInterrupted", "warmup",
+           "work_precision", "WorkPrecision"]
 __version__ = "0.1.0"
 
 
