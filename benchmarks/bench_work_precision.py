@@ -5,17 +5,18 @@ Problem: ``lagrange_core.problems.driven_pendulum()`` (vertical drive), A = 0.05
 l = 1 m, g = 9.81 m/s², ω = 2π·60 rad/s, from θ = π − 0.1 at rest, for 2000 drive
 periods (33.3 s).  Error = |θ(T) − θ_ref(T)| (rad) at the final time.
 
+The measurement is ``lagrange_core.work_precision.work_precision`` (this script adds the
+peers' tolerance grids, the fixed-step ``yoshida6`` and the printed ratios).
 Reference: heyoka's Taylor integrator in long double at tol 1e-18, cross-checked
-against our RKN 12 at a fixed step 4x finer than any timed run (the script prints
-the difference and refuses to continue if the two disagree by more than 1e-11;
-float64 rounding over ~10⁵ steps alone is ~1e-12).
-Without heyoka the reference is our RKN 12 cross-checked with DOP853 at rtol 1e-13.
+against our RKN 12 at rtol 1e-14 (the script prints the difference and refuses to
+continue if the two disagree by more than 1e-11).
+Without heyoka the reference is our RKN 12 at rtol 1e-14 cross-checked with DOP853 at 1e-14.
 
 Ours: ``default`` is ``simulate(..., method=None, rtol=tol, atol=tol)``, what a user
 gets without naming a method (``"rkn12"`` for this system); ``rkn12-fixed`` (its
 step chosen from the tolerance), ``dop853`` and ``yoshida6`` by name.  The default,
-``rkn12-fixed`` and heyoka run at three tolerances per decade (1, 2, 5), the others
-at one, so the time to reach a level is not decided by where a decade's grid falls.
+``rkn12-fixed``, ``dop853`` and heyoka run at three tolerances per decade (1, 2, 5), the
+scipy peers at one, so the time to reach a level is not decided by where a decade's grid falls.
 
 Each configuration is timed as the best of ``--repeat`` runs (after a warm-up run,
 so compile time is excluded), and the compiled ones (ours, heyoka) in ``--rounds``
@@ -37,38 +38,25 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from lagrange_core import problems  # noqa: E402
+from lagrange_core.work_precision import best_time, work_precision  # noqa: E402
 
 A, L, G = 0.05, 1.0, 9.81
 OMEGA = 2 * math.pi * 60
 THETA0 = math.pi - 0.1
 PARAMS = dict(A=A, g=G, l=L, m=1.0, omega=OMEGA)
 LEVELS = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12]
-
-
-def best_time(fn, repeat, clock=time.perf_counter):
-    """Best of ``repeat`` runs, and of more (up to 5x) while they total under 0.5 s: the
-    machine is shared, and the minimum is the least disturbed measurement.  ``clock``:
-    the wall clock, or ``time.process_time`` (``--cpu``: this process's CPU time, which a
-    busy shared machine disturbs less; every run timed here is single-threaded)."""
-    best, out, total, k = float("inf"), None, 0.0, 0
-    while k < repeat or (total < 0.5 and k < 5 * repeat):
-        t0 = clock()
-        out = fn()
-        dt = clock() - t0
-        best, total, k = min(best, dt), total + dt, k + 1
-    return best, out
 
 
 def heyoka_integrator(tol, long_double=False):
@@ -109,107 +97,62 @@ def main(argv=None):
     T = periods * 2 * math.pi / OMEGA
     system = problems.driven_pendulum()
     q0, v0 = [THETA0], [0.0]
+    reference = "heyoka" if have_heyoka() else None
+    if reference is None:
+        print("  heyoka not installed: skipped (pip install 'kapitza[bench]')")
 
-    def ours(method, **kw):
-        method = None if method == "default" else method
-        return lambda: system.simulate(q0, v0, (0.0, T), PARAMS, method=method, stride=10**9, **kw)
-
-    # warm-up (compile / load every kernel once)
-    for m in ("rkn12", "rkn12-fixed", "dop853"):
-        system.simulate(q0, v0, (0.0, 0.01), PARAMS, method=m, h=1e-3 if "fixed" in m else None)
+    # three tolerances per decade for the contenders (1e-3, 5e-4, 2e-4, 1e-4, ...), so the
+    # time to reach a level is not decided by where a decade's grid falls
+    fine = [1e-5, 1e-7, 1e-9, 1e-11, 1e-13] if args.quick else \
+        [float(f"{m}e-{k + (m != 1)}") for k in range(3, 13) for m in (1, 5, 2)] + [1e-13, 1e-14]
+    # the compiled runs, ours and heyoka, timed in rounds (lagrange_core.work_precision)
+    common = dict(reference=reference, cpu_time=args.cpu, progress=True)
+    fast = work_precision(system, q0, v0, (0.0, T), PARAMS, methods=("rkn12", "rkn12-fixed",
+                          "dop853"), rtols=fine, repeat=repeat, rounds=rounds,
+                          peers=("heyoka",), max_seconds=None, **common)
+    print(f"driven pendulum, {periods} periods (T = {T:.4f} s); reference θ(T) = "
+          f"{fast.reference_q[0]:.16f} ({fast.reference}); cross-check difference "
+          f"{fast.reference_error:.2e}")
+    if fast.reference_error > 1e-11:
+        raise SystemExit(f"reference and cross-check disagree by {fast.reference_error:.2e} "
+                         "> 1e-11; not timing.")
+    # the slow peers (scipy on the same compiled right-hand side), one run each, stopping
+    # once a run takes longer than the budget
+    slow = work_precision(system, q0, v0, (0.0, T), PARAMS, methods=(),
+                          rtols=[1e-4, 1e-6] if args.quick else [10.0**-k for k in range(4, 11)],
+                          repeat=1, peers=("scipy:DOP853", "scipy:LSODA", "scipy:Radau"),
+                          max_seconds=budget, **common)
+    df = pd.concat([fast.to_dataframe(), slow.to_dataframe()], ignore_index=True)
+    df["error"] = np.abs(df["error"])
+    df.loc[df.method == fast.default_method, "method"] = "default"
+    # yoshida6 has a fixed step and no tolerance: timed here, by the same best-of rule
+    ref = fast.reference_q[0]
     system.simulate(q0, v0, (0.0, 0.01), PARAMS, method="yoshida6", h=1e-3)
-
-    # reference
-    finest_h = T / (periods * 20) / 4
-    own = system.simulate(q0, v0, (0.0, T), PARAMS, method="rkn12-fixed", h=finest_h,
-                          stride=10**9)
-    if have_heyoka():
-        ta = heyoka_integrator(1e-18, long_double=True)
-        ta.propagate_until(np.longdouble(T))
-        ref = float(ta.state[0])
-        ref_name = "heyoka long double, tol 1e-18"
-    else:
-        ref = float(own.q[-1, 0])
-        ref_name = "rkn12-fixed, h = T/(80 per period)"
-        chk = system.simulate(q0, v0, (0.0, T), PARAMS, method="dop853", rtol=1e-13, atol=1e-13,
-                              stride=10**9)
-        own = chk
-    cross = abs(float(own.q[-1, 0]) - ref)
-    print(f"driven pendulum, {periods} periods (T = {T:.4f} s); reference θ(T) = {ref:.16f} "
-          f"({ref_name}); cross-check difference {cross:.2e}")
-    if cross > 1e-11:
-        raise SystemExit(f"reference and cross-check disagree by {cross:.2e} > 1e-11; not timing.")
-
     rows = []
-
-    def record(name, tol, seconds, theta, steps, nrhs):
-        err = abs(theta - ref)
-        rows.append(dict(method=name, tol=tol, error=err, time_s=seconds, steps=steps, rhs=nrhs))
-        print(f"  {name:<14} tol {tol:8.1e}  error {err:9.2e}  time {seconds * 1e3:10.2f} ms  "
-              f"steps {steps}")
-
-    tols = [1e-5, 1e-7, 1e-9, 1e-11, 1e-13] if args.quick else \
-        [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13]
-    # three per decade for the contenders: 1e-3, 5e-4, 2e-4, 1e-4, ...
-    fine = tols if args.quick else [float(f"{m}e-{k + (m != 1)}") for k in range(3, 13)
-                                    for m in (1, 5, 2)] + [1e-13]
-    # the compiled runs (ours and heyoka): (name, tol, run, result -> (θ(T), steps, rhs))
-    configs = []
-    for method in ("default", "rkn12-fixed", "dop853"):
-        for tol in (fine if method != "dop853" else tols):
-            configs.append((method, tol, ours(method, rtol=tol, atol=tol),
-                            lambda tr: (float(tr.q[-1, 0]), tr.n_steps, tr.n_rhs)))
     for per_period in ([20, 60] if args.quick else [20, 40, 80, 160]):
         h = T / (periods * per_period)
-        configs.append(("yoshida6", h, ours("yoshida6", h=h),
-                        lambda tr: (float(tr.q[-1, 0]), tr.n_steps, tr.n_rhs)))
-    if have_heyoka():
-        for tol in ([1e-5, 1e-8, 1e-11, 1e-14] if args.quick else fine + [1e-14]):
-            ta = heyoka_integrator(tol)
-
-            def run(ta=ta):
-                ta.time = 0.0
-                ta.state[:] = [THETA0, 0.0]
-                return ta, ta.propagate_until(T)
-            run()
-            configs.append(("heyoka", tol, run,
-                            lambda out: (float(out[0].state[0]), int(out[1][3]), -1)))
-    else:
-        print("  heyoka not installed: skipped (pip install 'kapitza[bench]')")
-    # rounds: every configuration is timed once per round, the rounds one after the
-    # other, and keeps its best; a busy spell of the shared machine then costs one
-    # configuration one round, not its figure
-    best = {}
-    for _ in range(rounds):
-        for k, (name, tol, fn, extract) in enumerate(configs):
-            sec, out = best_time(fn, repeat, clock)
-            if k not in best or sec < best[k][0]:
-                best[k] = (sec, extract(out))
-    for k, (name, tol, fn, extract) in enumerate(configs):
-        sec, (theta, steps, nrhs) = best[k]
-        record(name, tol, sec, theta, steps, nrhs)
-    for name in ("scipy:DOP853", "scipy:LSODA", "scipy:Radau"):
-        for tol in ([1e-4, 1e-6] if args.quick else [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10]):
-            sec, tr = best_time(ours(name, rtol=tol, atol=tol), 1, clock)
-            record(name, tol, sec, float(tr.q[-1, 0]), tr.n_steps, tr.n_rhs)
-            if sec > budget:
-                break
+        sec, tr = best_time(lambda: system.simulate(q0, v0, (0.0, T), PARAMS, method="yoshida6",
+                                                    h=h, stride=10**9), repeat, clock)
+        rows.append(dict(method="yoshida6", kind="ours", rtol=h, error=abs(tr.q[-1, 0] - ref),
+                         seconds=sec, steps=tr.n_steps, evaluations=tr.n_rhs))
+    df = pd.concat([df, pd.DataFrame(rows)], ignore_index=True)
+    for r in df.itertuples():
+        print(f"  {r.method:<14} tol {r.rtol:8.1e}  error {r.error:9.2e}  time "
+              f"{r.seconds * 1e3:10.2f} ms  steps {r.steps}")
 
     out_dir = ROOT / "benchmarks" / "results"
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "work_precision.csv"
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    df.rename(columns=dict(rtol="tol", seconds="time_s", evaluations="rhs"))[
+        ["method", "tol", "error", "time_s", "steps", "rhs"]].to_csv(path, index=False)
     print(f"\nwrote {path}")
 
     # time to reach each error level: the fastest run with error ≤ level
-    names = list(dict.fromkeys(r["method"] for r in rows))
+    names = list(dict.fromkeys(df.method))
 
     def cost(name, level):
-        ts = [r["time_s"] for r in rows if r["method"] == name and r["error"] <= level]
-        return min(ts) if ts else float("nan")
+        ts = df.seconds[(df.method == name) & (df.error <= level)]
+        return ts.min() if len(ts) else float("nan")
 
     ours_names = [n for n in names if n in ("default", "rkn12-fixed", "dop853", "yoshida6")]
     print(f"\n{'CPU' if args.cpu else 'wall-clock'} time (ms) to reach |Δθ(T)| ≤ level "
@@ -224,7 +167,7 @@ def main(argv=None):
         cells = " ".join(f"{v * 1e3:13.2f}" if v == v else f"{'-':>13}" for v in vals)
         print(f"{level:8.0e} {cells}   {cost('default', level) / hey:16.2f}   "
               f"{best_ours / hey:18.2f}")
-    return rows
+    return df
 
 
 if __name__ == "__main__":
