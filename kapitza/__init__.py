@@ -119,6 +119,11 @@ Figures (:mod:`kapitza.plots`; they draw results and compute nothing)
     verification_figure
         A verification's map with its disagreements marked, and the order of averaging.
 
+Animation (:mod:`kapitza.animation`)
+    pendulum_animation
+        A looping GIF of the stabilised inverted pendulum beside one that falls, drawn
+        from the simulation in stated slow motion; returns an ``Animation``.
+
 Scenes and sweeps (:mod:`kapitza.scene`, :mod:`kapitza.scene_file`, :mod:`kapitza.sweep`)
     Scene
         A set-up in a TOML file (``Scene.from_toml(path)``): ``.system`` with only the
@@ -159,6 +164,7 @@ from .pendulum_closed_forms import (multiple_pendulum_upright, pendulum_averaged
 from .plots import (effective_potential_figure, ince_strutt_figure, stability_map_figure,
                     verification_figure)
 from .verify import verify
+from .animation import Animation, pendulum_animation
 from .warmup import warmup
 from .scene import Scene, SceneResults, example_scenes
 from .scene_file import SceneError
@@ -188,5 +194,6 @@ __all__ = [
     "PendulumAveraging", "EquilibriumPrediction", "MultiplePendulumPrediction", "Measurement",
     "stability_map_figure", "effective_potential_figure", "ince_strutt_figure", "warmup",
     "Scene", "SceneResults", "SceneError", "SweepResult", "example_scenes",
+    "pendulum_animation", "Animation",
 ]
 __version__ = "0.1.0"

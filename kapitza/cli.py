@@ -7,6 +7,7 @@ Commands (``kapitza COMMAND --help`` shows each one's options and an example):
   map       the exact (A, ω) stability map: a PNG and the data (CSV or Parquet)
   measure   simulate the full nonlinear motion at one drive and measure it
   verify    averaging, Floquet and simulation compared over a grid (exit 1: disagreement)
+  animate   a GIF of the stabilised inverted pendulum beside one that falls
   run       run the analyses a scene file asks for
   sweep     run a scene's [sweep] over its grid, in resumable tiles
   warmup    compile what every analysis needs, once per installation
@@ -431,6 +432,55 @@ def _verify(args) -> int:
     return EXIT_OK
 
 
+def _animate(args) -> int:
+    from .animation import pendulum_animation
+    if args.scene is not None:
+        given = [n for n, k in (("--A", "A"), ("--A-over-l", "A_over_l"), ("--omega", "omega"),
+                                ("--f", "f"), ("--omega-over-omega0", "omega_over_omega0"))
+                 if getattr(args, k) is not None]
+        if given:
+            raise UsageError(f"{', '.join(given)}: the scene {args.scene} sets the drive; "
+                             "give either the scene or the drive options.")
+        scene = _scene(args.scene)
+        pend, p = scene.pendulum, scene.params
+        if pend is None or pend.drive != "vertical":
+            raise UsageError(f"{args.scene}: animate needs a plain pendulum scene with a "
+                             "vertical drive ([system] name = \"pendulum\", "
+                             "[effects.drive] direction = \"vertical\").")
+        A, omega, theta0 = float(p["A"]), float(p["omega"]), float(scene.q0[0])
+        l, g, damping = pend.l, pend.g, pend.damping
+    else:
+        if args.drive != "vertical":
+            raise UsageError("--drive: animate shows the vertical drive only.")
+        A, omega, theta0 = _amplitude(args), _frequency(args), args.theta0
+        l, g, damping = args.l, args.g, args.damping
+    try:
+        anim = pendulum_animation(args.out, A=A, omega=omega, l=l, g=g, damping=damping,
+                                  theta0=theta0, A_fall=args.A_fall, duration=args.duration,
+                                  fps=args.fps, frames_per_period=args.frames_per_period,
+                                  width=args.width, max_frames=args.max_frames)
+    except KeyboardInterrupt:
+        _say(f"kapitza animate: interrupted; the frames finished are in {args.out}.")
+        return EXIT_INTERRUPTED
+    data = {"path": anim.path, "frames": anim.frames, "width": anim.width,
+            "height": anim.height, "bytes": anim.bytes, "fps": anim.fps,
+            "slow_motion": anim.slow_motion, "frames_per_period": anim.frames_per_period,
+            "duration": float(anim.t[-1]), "A": anim.A[0], "A_fall": anim.A[1],
+            "omega": omega, "A_over_l": anim.A[0] / l,
+            "omega_over_omega0": omega / math.sqrt(g / l),
+            "pendulum": {"l": l, "g": g, "damping": damping, "omega0": math.sqrt(g / l)},
+            "theta0": theta0, "window": anim.window, "floquet_stable": anim.floquet_stable,
+            "stayed_up": anim.stayed_up, "fall_time": anim.fall_time,
+            "seconds": anim.seconds}
+    fate = ["stays up" if up else f"falls at t = {t:.3g} s"
+            for up, t in zip(anim.stayed_up, anim.fall_time)]
+    _emit(args, data, f"{anim.path}: {anim.frames} frames, {anim.width}×{anim.height} px, "
+          f"{anim.bytes / 1e6:.2f} MB, slow motion ×{anim.slow_motion:.3g}\n"
+          f"  shaken A = {A:.4g} m (window {anim.window[0]:.4g} < A < {anim.window[1]:.4g} m): "
+          f"{fate[0]}\n  A = {anim.A[1]:.4g} m: {fate[1]}")
+    return EXIT_OK
+
+
 def _scene(path):
     from .scene import Scene
     if not Path(path).is_file():
@@ -528,6 +578,9 @@ _EXAMPLES = {
                 "kapitza measure --A 0.05 --omega 377 --drive horizontal --theta0 1.0 --json"],
     "verify": ["kapitza verify --A 0.01,0.03,0.1 --f 40 --periods 400",
                "kapitza verify --A 0.01:0.3:10 --omega 50:500:5 --log-omega --data v.csv --json"],
+    "animate": ["kapitza animate --A-over-l 0.25 --omega-over-omega0 10 --out pendulum.gif",
+                "kapitza animate --A 0.2 --omega 40 --A-fall 0.05 --duration 3 --json",
+                "kapitza animate kapitza/scenes/report.toml --out report.gif"],
     "run": ["kapitza run kapitza/scenes/kapitza_pendulum.toml",
             "kapitza run my_scene.toml --json --no-write"],
     "sweep": ["kapitza sweep kapitza/scenes/kapitza_pendulum_map.toml",
@@ -635,6 +688,26 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--data", help="write the per-point table (.csv or .parquet)")
     p.add_argument("--log-omega", action="store_true", help="START:STOP:NUM of ω geometric")
     p.set_defaults(run=_verify)
+
+    p = add("animate", "a looping GIF of the stabilised inverted pendulum beside one that "
+            "falls (vertical drive, slow motion)", pend)
+    p.add_argument("scene", metavar="SCENE.toml", nargs="?",
+                   help="take l, g, damping, the drive and θ0 from a pendulum scene")
+    p.add_argument("--theta0", type=float, default=math.pi - 0.1,
+                   help="release angle of both (rad from the downward vertical; default "
+                   "π − 0.1)")
+    p.add_argument("--A-fall", dest="A_fall", type=float, default=0.0,
+                   help="drive amplitude of the falling one (m; default 0, undriven; "
+                   "must lie outside the window)")
+    p.add_argument("--duration", type=float, default=4.0, help="simulated time (s; default 4)")
+    p.add_argument("--fps", type=float, default=20.0, help="playback frames/s (default 20)")
+    p.add_argument("--frames-per-period", dest="frames_per_period", type=int, default=8,
+                   help="frames per drive period, ≥ 4 (default 8; sets the slow motion)")
+    p.add_argument("--width", type=int, default=720, help="frame width (px; default 720)")
+    p.add_argument("--max-frames", dest="max_frames", type=int, default=600,
+                   help="refuse to render more frames (default 600)")
+    p.add_argument("--out", default="pendulum.gif", help="the GIF (default pendulum.gif)")
+    p.set_defaults(run=_animate)
 
     p = add("run", "run the analyses a scene file (TOML) asks for", plain)
     p.add_argument("scene", metavar="SCENE.toml")

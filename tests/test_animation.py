@@ -1,0 +1,162 @@
+"""The animation (issue 14, point 2's GIF and point 1's ``kapitza animate``).
+
+One small GIF (ω/ω0 = 10, A/l = 0.25, 4 frames per drive period, 300 px wide, 1.6 s) is
+written once per module; the tests read it back with Pillow and check the drawn state
+against an independent simulation, the classifications against ``measure`` and Floquet.
+"""
+import json
+import math
+
+import numpy as np
+import pytest
+from matplotlib.colors import to_rgb
+from PIL import Image
+from scipy.integrate import quad
+
+import kapitza
+from kapitza import KapitzaPendulum, cli
+from kapitza.animation import _Stage, bob_position
+
+L, G = 1.0, 9.81
+W0 = math.sqrt(G / L)
+OMEGA = 10 * W0                 # window 0.142 < A/l < 0.471 here
+A = 0.25
+THETA0 = math.pi - 0.1
+SMALL = dict(duration=1.6, frames_per_period=4, width=300, fps=20)
+
+
+@pytest.fixture(scope="module")
+def anim(tmp_path_factory):
+    path = tmp_path_factory.mktemp("anim") / "pendulum.gif"
+    return kapitza.pendulum_animation(path, A=A, omega=OMEGA, l=L, g=G, theta0=THETA0,
+                                      progress=False, **SMALL)
+
+
+def test_the_gif_has_the_stated_frames_size_rate_and_loops(anim):
+    period = 2 * math.pi / OMEGA
+    expected = math.floor(1.6 / (period / 4)) + 1
+    assert anim.frames == expected == len(anim.t)
+    with Image.open(anim.path) as im:
+        assert im.format == "GIF"
+        assert im.n_frames == anim.frames
+        assert im.size == (anim.width, anim.height) == (300, 210)
+        assert im.info["loop"] == 0                         # loops forever
+        assert im.info["duration"] == 50                    # 20 frames/s
+    assert anim.bytes == anim.path.stat().st_size < 2e6
+    # frames at t_k = k T/n: 4 phases of every drive period, so the slow motion is n/(T fps)
+    np.testing.assert_allclose(np.diff(anim.t), period / 4, rtol=1e-12)
+    assert anim.slow_motion == pytest.approx(4 / (period * 20), rel=1e-12)
+
+
+def test_the_drawn_angles_are_an_independent_simulation(anim):
+    pend = KapitzaPendulum(l=L, g=G)
+    for i, amp in enumerate((A, 0.0)):
+        ref = pend.simulate(THETA0, 0.0, (0.0, anim.t[-1]), amp, OMEGA, rtol=1e-11,
+                            t_eval=anim.t)
+        np.testing.assert_allclose(anim.theta[i], ref.q[:, 0], atol=1e-7)
+        np.testing.assert_allclose(anim.pivot[i], amp * np.cos(OMEGA * anim.t), atol=1e-15)
+    # the artists show exactly those states: rod from the pivot to l (sin θ, −cos θ)
+    scene = dict(l=L, g=G, damping=0.0, omega=OMEGA, omega0=W0, amps=anim.A,
+                 window=anim.window, stayed=anim.stayed_up, fall=anim.fall_time,
+                 floquet=anim.floquet_stable, tilt0=0.1, slow=anim.slow_motion,
+                 frames_per_period=4)
+    stage = _Stage(scene, anim.t, anim.theta, anim.pivot, 300)
+    gif = Image.open(anim.path)
+    try:
+        for k in (0, anim.frames // 2, anim.frames - 1):
+            stage.draw(k)
+            gif.seek(k)
+            pixels = np.asarray(gif.convert("RGB"), float)
+            for i in range(2):
+                x, y = stage.rods[i].get_data()
+                yp = anim.A[i] * math.cos(OMEGA * anim.t[k])
+                assert (x[0], y[0]) == (0.0, pytest.approx(yp, abs=1e-15))
+                th = anim.theta[i, k]
+                np.testing.assert_allclose([x[1], y[1]], [L * math.sin(th), yp - L * math.cos(th)],
+                                           atol=1e-15)
+                assert np.allclose(stage.bobs[i].get_data(), ([x[1]], [y[1]]))
+                # and the GIF's frame k has the bob's colour at that point
+                px, py = stage.bobs[i].axes.transData.transform((x[1], y[1]))
+                colour = np.array(to_rgb(stage.colours[i])) * 255
+                seen = pixels[int(round(stage.height - py)), int(round(px))]
+                assert np.abs(seen - colour).max() < 40, (k, i, seen, colour)
+                assert f"{anim.t[k]:5.3f} s" in stage.clock.get_text()
+    finally:
+        gif.close()
+        stage.close()
+    frame = anim.to_dataframe()
+    assert len(frame) == anim.frames
+    x, y = bob_position(anim.theta[1], anim.pivot[1], L)
+    np.testing.assert_array_equal(frame["falling_bob_x"], x)
+    np.testing.assert_array_equal(frame["stable_theta"], anim.theta[0])
+
+
+def test_driven_stays_up_the_other_falls_as_measure_and_floquet_say(anim):
+    pend = KapitzaPendulum(l=L, g=G)
+    assert anim.stayed_up == (True, False)
+    assert anim.floquet_stable == (True, False)
+    assert pend.floquet(A, OMEGA).stable and not pend.floquet(0.0, OMEGA).stable
+    # the driven one stays within a small band of upright: its slow amplitude ~ the tilt
+    assert anim.max_tilt[0] < 0.2 and anim.max_tilt[1] > math.pi / 2
+    # measure (the compiled batch integrator, the band located between samples) agrees,
+    # and the fall time lies within one frame interval before the frame that shows it
+    periods = int(anim.t[-1] / (2 * math.pi / OMEGA))
+    up = pend.measure(A, OMEGA, THETA0, periods=periods)
+    down = pend.measure(0.0, OMEGA, THETA0, periods=periods)
+    assert up.stayed_up and not down.stayed_up
+    dt = anim.t[1] - anim.t[0]
+    assert anim.fall_time[1] - dt <= down.fall_time <= anim.fall_time[1]
+    # the undriven fall from rest at φ0 = 0.1 rad from the top to the horizontal, by
+    # quadrature of energy conservation φ̇² = 2ω0²(cos φ0 − cos φ), independent of any
+    # integrator (φ = φ0 + u² removes the 1/√ singularity at the release)
+    phi0 = 0.1
+    u1 = math.sqrt(math.pi / 2 - phi0)
+    t_fall = quad(lambda u: 2 * u / math.sqrt(2 * W0**2 * (math.cos(phi0)
+                                                           - math.cos(phi0 + u * u)))
+                  if u > 0 else 2 / math.sqrt(2 * W0**2 * math.sin(phi0)), 0, u1,
+                  epsabs=1e-12, epsrel=1e-12)[0]
+    assert down.fall_time == pytest.approx(t_fall, rel=1e-6)
+
+
+def test_bad_inputs_name_the_argument_and_the_fix(tmp_path):
+    gif = tmp_path / "x.gif"
+    with pytest.raises(ValueError, match=r"A = 0\.05 m is outside the window.*A_min = "
+                       r"0\.142.*choose A between"):
+        kapitza.pendulum_animation(gif, A=0.05, omega=OMEGA, **SMALL)
+    with pytest.raises(ValueError, match=r"A = 0\.6 m is outside the window.*A_max"):
+        kapitza.pendulum_animation(gif, A=0.6, omega=OMEGA, **SMALL)
+    with pytest.raises(ValueError, match=r"A_fall = 0\.3 m lies inside the window.*A_fall = 0"):
+        kapitza.pendulum_animation(gif, A=A, omega=OMEGA, A_fall=0.3, **SMALL)
+    with pytest.raises(ValueError, match=r"duration must be a finite number > 0 \(s\), got -1"):
+        kapitza.pendulum_animation(gif, A=A, omega=OMEGA, duration=-1)
+    with pytest.raises(ValueError, match=r"frames_per_period must be an integer.*alias"):
+        kapitza.pendulum_animation(gif, A=A, omega=OMEGA, frames_per_period=2)
+    with pytest.raises(ValueError, match=r"path must end in \.gif"):
+        kapitza.pendulum_animation(tmp_path / "x.png", A=A, omega=OMEGA)
+    with pytest.raises(ValueError, match=r"more than max_frames = 600; shorten duration"):
+        kapitza.pendulum_animation(gif, A=0.05, omega=2 * math.pi * 60, duration=4)
+    with pytest.raises(ValueError, match=r"theta0 must be released near the upright"):
+        kapitza.pendulum_animation(gif, A=A, omega=OMEGA, theta0=0.3)
+    assert not gif.exists()
+
+
+def test_cli_writes_the_gif_and_json(tmp_path, capsys):
+    out = tmp_path / "cli.gif"
+    code = cli.main(["animate", "--A-over-l", "0.25", "--omega-over-omega0", "10",
+                     "--duration", "1.2", "--frames-per-period", "4", "--width", "300",
+                     "--out", str(out), "--json"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    data = json.loads(captured.out)
+    with Image.open(out) as im:
+        assert im.n_frames == data["frames"] and im.size == (300, 210)
+    assert data["path"] == str(out) and data["A"] == pytest.approx(0.25)
+    assert data["omega_over_omega0"] == pytest.approx(10)
+    assert data["floquet_stable"] == [True, False] and data["stayed_up"][0] is True
+    # outside the window: exit 2, the message names A and the window
+    code = cli.main(["animate", "--A", "0.05", "--omega-over-omega0", "10",
+                     "--out", str(tmp_path / "bad.gif")])
+    err = capsys.readouterr().err
+    assert code == 2 and "A = 0.05 m is outside the window" in err
+    assert cli.main(["animate", "--help"]) == 0
+    assert "kapitza animate" in capsys.readouterr().out
