@@ -62,6 +62,7 @@ class Page:
     scroll_height: int
     client_width: int   # CSS px of the viewport (the window less its frame)
     client_height: int
+    overflowing: list   # the outermost elements reaching past the viewport's right edge
     screenshot: Path
 
 
@@ -70,6 +71,7 @@ const img = Array.from(document.images).map(i => ({
     src: i.currentSrc || i.src, complete: i.complete, naturalWidth: i.naturalWidth,
     naturalHeight: i.naturalHeight, width: i.getBoundingClientRect().width,
     height: i.getBoundingClientRect().height, alt: i.alt}));
+const over = e => e.getBoundingClientRect().right > document.documentElement.clientWidth + 0.5;
 const anchors = Array.from(document.querySelectorAll('a[href]'));
 return {
     images: img,
@@ -81,7 +83,11 @@ return {
     scroll_width: document.documentElement.scrollWidth,
     scroll_height: document.documentElement.scrollHeight,
     client_width: document.documentElement.clientWidth,
-    client_height: document.documentElement.clientHeight};
+    client_height: document.documentElement.clientHeight,
+    overflowing: Array.from(document.body.querySelectorAll('*'))
+        .filter(e => over(e) && !(e.parentElement && over(e.parentElement)))
+        .map(e => e.tagName.toLowerCase() + ' ' + Math.round(e.getBoundingClientRect().width)
+             + ' px wide: ' + (e.getAttribute('src') || e.textContent).trim().slice(0, 80))};
 """
 
 
@@ -152,6 +158,14 @@ def outside_resources(page, root):
     root = Path(root).resolve()
     return [u for u in page.resources
             if (p := _local_path(u)) is None or root not in p.resolve().parents]
+
+
+def layout_problems(page):
+    """Why a reader of ``page`` has to scroll sideways in a WIDTH px window (empty: no need)."""
+    if page.scroll_width <= page.client_width:
+        return []
+    return [f"{page.scroll_width} px wide for a {page.client_width} px viewport, because of: "
+            + "; ".join(page.overflowing)]
 
 
 def screenshot_problems(page):
@@ -252,8 +266,7 @@ def test_console_clean_and_nothing_loaded_from_outside(report_page, report_dir):
 
 
 def test_layout_fits_the_window(report_page):
-    assert report_page.scroll_width <= report_page.client_width, (
-        f"the page scrolls sideways at {WIDTH} px: {report_page.scroll_width} px wide")
+    assert layout_problems(report_page) == []
 
 
 def test_full_page_screenshot(report_page):
@@ -292,6 +305,8 @@ def handmade(browser, tmp_path_factory):
         "broken_links": '<img src="good.png" alt="map"><a href="data/missing.csv">gone</a>'
                         '<a href="/data.csv">root-absolute</a><a href="#nowhere">anchor</a>'
                         '<a href="../outside.csv">outside</a>',
+        "wide_table": '<p>text</p><table><tr>' + "<td>a_long_column_name</td>" * 80
+                      + "</tr></table>",
         "blank": "",
     }
     (root.parent / "outside.csv").write_text("x\n1\n")
@@ -308,7 +323,7 @@ def test_the_checks_pass_a_good_page(browser, handmade):
     page = _open(browser, handmade, "good")
     assert len(page.images) == 2 and broken_images(page) == []
     assert console_problems(page) == [] and unresolved_links(page, handmade) == []
-    assert outside_resources(page, handmade) == []
+    assert outside_resources(page, handmade) == [] and layout_problems(page) == []
     assert screenshot_problems(page) == []
 
 
@@ -347,6 +362,12 @@ def test_broken_links_are_caught(browser, handmade):
     assert any(b.startswith("file:///data.csv") for b in bad)      # root-absolute: not found
     assert any("#nowhere: no element" in b for b in bad)
     assert any("outside.csv: outside the report folder" in b for b in bad)
+
+
+def test_a_page_wider_than_the_window_is_caught(browser, handmade):
+    page = _open(browser, handmade, "wide_table")
+    bad = layout_problems(page)
+    assert len(bad) == 1 and "because of: table" in bad[0], bad
 
 
 def test_a_blank_screenshot_is_caught(browser, handmade):
