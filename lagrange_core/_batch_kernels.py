@@ -59,7 +59,8 @@ from numba import njit, prange
 
 from ._integrator_kernels import (DRIVE_STEP, FAST_MATH, INLINE, ST_BLOCK, STATS_SIZE, TV_HOLD,
                                   TV_HREF, TV_SIZE, drive_rates, held_step_record,
-                                  project_constraints, second_order_step, starting_step)
+                                  project_constraints, rkn_combine, rkn_next_step, rkn_stages,
+                                  second_order_step, starting_step)
 from ._kernel_calls import (DRIVE_RATES, ENERGY, FAST_ACCEL, FAST_ACCEL_LANES, MAX_DRIVE_RATES,
                             RHS, call_drive_rates, call_energy, call_fast_accel,
                             call_fast_accel_lanes, call_rhs)
@@ -193,29 +194,6 @@ def _longest_step(rates):
         if rates[k] != 0.0:
             h_max = min(h_max, DRIVE_STEP * 2.0 * np.pi / abs(rates[k]))
     return h_max
-
-
-@njit(cache=True, inline=INLINE)
-def _next_step(tv, stats, block, h, hs, err, clipped, rejected, h_max):
-    """The step after an accepted step of size hs with error ratio err: ``simulate``'s
-    "rkn12" rule (:func:`lagrange_core._integrator_kernels.fast_rkn_chunk`): the classic
-    controller until the held step exists, then the held step (grown back to after a
-    rejection), set anew every ``len(block)`` steps by :func:`held_step_record`."""
-    hold = tv[TV_HOLD]
-    if hold == 0.0 or hs < hold:
-        factor = 5.0 if err == 0.0 else min(5.0, 0.9 * err ** (-1.0 / 11.0))
-        if rejected:
-            factor = min(1.0, factor)
-        if hold == 0.0:
-            h = min(h_max, max(h, hs * factor) if clipped else hs * factor)
-        elif not clipped:
-            h = min(hold, hs * max(1.0, factor)) if not rejected else hs
-    elif not clipped:
-        h = hold
-    new_hold = held_step_record(tv, stats, block, err, hs, h_max)
-    if new_hold > 0.0 and (h >= hold or h > new_hold):
-        h = new_hold
-    return h
 
 
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
@@ -410,54 +388,12 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
                         rot[s, k, 1] = np.sin(rates[k] * frac * hs)
                 h_rot = hs
             if family == 0:
-                for i in range(n):
-                    K[0, i] = a0[i]
-                for s in range(1, ns):
-                    ch = c[s] * hs
-                    for i in range(n):
-                        acc = 0.0
-                        for j in range(s):
-                            acc += A[s, j] * K[j, i]
-                        qs[i] = q[i] + ch * v[i] + hs * hs * acc
-                    for k in range(nd):
-                        cr = rot[s, k, 0]
-                        sr = rot[s, k, 1]
-                        css[2 * k] = cs0[2 * k] * cr - cs0[2 * k + 1] * sr
-                        css[2 * k + 1] = cs0[2 * k + 1] * cr + cs0[2 * k] * sr
-                    kst = call_fast_accel(ka[FAST_ACCEL], qs, t + ch, css, p, K[s], Wn)
-                    if kst != 0:
-                        break
+                kst = rkn_stages(ka, t, hs, q, v, a0, c, A, rot, cs0, css, K, qs, p, Wn)
                 counts[CNT_EVALS] += ns - 1
                 if kst != 0:
                     break
-                e2 = 0.0
-                est = 0.0
-                for i in range(n):
-                    accq = 0.0
-                    accv = 0.0
-                    dq = 0.0
-                    dv = 0.0
-                    for j in range(ns):
-                        kj = K[j, i]
-                        accq += b[j] * kj
-                        accv += bp[j] * kj
-                        dq += db[j] * kj
-                        dv += dbp[j] * kj
-                    # compensated (Kahan) update, as in fast_rkn_chunk
-                    yq = hs * v[i] + hs * hs * accq - cq[i]
-                    qn[i] = q[i] + yq
-                    cqn[i] = (qn[i] - q[i]) - yq
-                    yv = hs * accv - cv[i]
-                    vn[i] = v[i] + yv
-                    cvn[i] = (vn[i] - v[i]) - yv
-                    dq *= hs * hs
-                    dv *= hs
-                    if adaptive:
-                        sq_ = atol + rtol * max(abs(q[i]), abs(qn[i]))
-                        sv_ = atol + rtol * max(abs(v[i]), abs(vn[i]))
-                        e2 += (dq / sq_) ** 2 + (dv / sv_) ** 2
-                    est = max(est, abs(dq), abs(dv))
-                err = np.sqrt(e2 / (2 * n))
+                err, est, finite = rkn_combine(hs, q, v, K, b, bp, db, dbp, cq, cv, qn, vn,
+                                               cqn, cvn, adaptive, rtol, atol)
             else:
                 for i in range(n):
                     qn[i] = q[i]
@@ -483,10 +419,10 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
                     break
                 err = 0.0
                 est = 0.0
-            finite = True
-            for i in range(n):
-                if not (np.isfinite(qn[i]) and np.isfinite(vn[i])):
-                    finite = False
+                finite = True
+                for i in range(n):
+                    if not (np.isfinite(qn[i]) and np.isfinite(vn[i])):
+                        finite = False
             if (not adaptive) or (finite and err < 1.0):
                 break
             counts[CNT_REJECTED] += 1
@@ -555,7 +491,7 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
                     sq[k_next, n + i] = v[i]
             k_next += 1
         if adaptive:
-            h = _next_step(tvh, sth, block, h, hs, err, clipped, rejected, h_max)
+            h = rkn_next_step(tvh, sth, block, h, hs, err, clipped, rejected, h_max)
             rejected = False
     if jx < 0:
         for i in range(n):
@@ -1176,9 +1112,9 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                     elif observe and nst[l] >= max_steps:
                         st = GRID_MAX_STEPS
                     elif adaptive:
-                        h[l] = _next_step(tvh[l], sth[l], blk[l] if phase == _ADAPTIVE
-                                          else blk[l, :0], h[l], hh, errl[l], clip[l],
-                                          rejected[l], hmax[l])
+                        h[l] = rkn_next_step(tvh[l], sth[l], blk[l] if phase == _ADAPTIVE
+                                             else blk[l, :0], h[l], hh, errl[l], clip[l],
+                                             rejected[l], hmax[l])
                         rejected[l] = False
             if st < 0:
                 continue

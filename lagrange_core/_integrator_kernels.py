@@ -814,6 +814,101 @@ def drive_rates(ka, p):
     return rates[:nd]
 
 
+@njit(cache=True, inline=INLINE)
+def rkn_stages(ka, t, hs, q, v, a0, c, A, rot, cs0, css, K, qs, p, Wn):
+    """The stages of one RKN step of size hs from (t, q, v) with q̈(t) = a0: K[s] for
+    s = 1 … ns − 1 at q + c_s hs v + hs² Σ_j A_sj K_j, the drive at t + c_s hs rotated from
+    its value ``cs0`` at t by ``rot[s]`` (the cos/sin of α_k c_s hs).  Returns the drive
+    kernel's status (0, or the first nonzero one: a singular mass matrix)."""
+    n = q.shape[0]
+    nd = cs0.shape[0] // 2
+    for i in range(n):
+        K[0, i] = a0[i]
+    for s in range(1, c.shape[0]):
+        ch = c[s] * hs
+        for i in range(n):
+            acc = 0.0
+            for j in range(s):
+                acc += A[s, j] * K[j, i]
+            qs[i] = q[i] + ch * v[i] + hs * hs * acc
+        for k in range(nd):
+            cr = rot[s, k, 0]
+            sr = rot[s, k, 1]
+            css[2 * k] = cs0[2 * k] * cr - cs0[2 * k + 1] * sr
+            css[2 * k + 1] = cs0[2 * k + 1] * cr + cs0[2 * k] * sr
+        status = call_fast_accel(ka[FAST_ACCEL], qs, t + ch, css, p, K[s], Wn)
+        if status != 0:
+            return status
+    return 0
+
+
+@njit(cache=True, inline=INLINE)
+def rkn_combine(hs, q, v, K, b, bp, db, dbp, cq, cv, qn, vn, cqn, cvn, adaptive, rtol, atol):
+    """The new state (qn, vn) of an RKN step from its stages K, with compensated (Kahan)
+    updates (carries cq, cv in; cqn, cvn out): over 10⁵ fixed steps plain q += Δq loses
+    ~1e-11 to rounding, more than the method's error at tight tolerances.  The embedded
+    difference (db = b − b̂, dbp = b′ − b̂′) gives the error.  Returns (err, est, finite):
+    err the RMS of the difference scaled by atol + rtol·max(|y|, |y_new|) (0 unless
+    ``adaptive``), est its largest unscaled component, finite whether qn, vn are."""
+    n = q.shape[0]
+    ns = K.shape[0]
+    e2 = 0.0
+    est = 0.0
+    finite = True
+    for i in range(n):
+        accq = 0.0
+        accv = 0.0
+        dq = 0.0
+        dv = 0.0
+        for j in range(ns):
+            kj = K[j, i]
+            accq += b[j] * kj
+            accv += bp[j] * kj
+            dq += db[j] * kj
+            dv += dbp[j] * kj
+        yq = hs * v[i] + hs * hs * accq - cq[i]
+        qn[i] = q[i] + yq
+        cqn[i] = (qn[i] - q[i]) - yq
+        yv = hs * accv - cv[i]
+        vn[i] = v[i] + yv
+        cvn[i] = (vn[i] - v[i]) - yv
+        dq *= hs * hs
+        dv *= hs
+        if not (np.isfinite(qn[i]) and np.isfinite(vn[i])):
+            finite = False
+        if adaptive:
+            sq = atol + rtol * max(abs(q[i]), abs(qn[i]))
+            sv = atol + rtol * max(abs(v[i]), abs(vn[i]))
+            e2 += (dq / sq) ** 2 + (dv / sv) ** 2
+        est = max(est, abs(dq), abs(dv))
+    return np.sqrt(e2 / (2 * n)), est, finite
+
+
+@njit(cache=True, inline=INLINE)
+def rkn_next_step(tv, stats, block, h, hs, err, clipped, rejected, h_max):
+    """The step after an accepted RKN 12(10) step of size hs with error ratio err: the
+    classic controller h·min(5, 0.9·err^(−1/11)) (no growth right after a rejection)
+    until the held step exists; then the held step tv[TV_HOLD] while steps pass, grown
+    back to (by the classic factor, at least 1) after a rejection, never further down;
+    set anew every ``len(block)`` steps by :func:`held_step_record`.  A step clipped to
+    land on an output time keeps the step before it."""
+    hold = tv[TV_HOLD]
+    if hold == 0.0 or hs < hold:
+        factor = 5.0 if err == 0.0 else min(5.0, 0.9 * err ** (-1.0 / 11.0))
+        if rejected:
+            factor = min(1.0, factor)
+        if hold == 0.0:        # the first block: the classic controller
+            h = min(h_max, max(h, hs * factor) if clipped else hs * factor)
+        elif not clipped:      # below the held step: back to it, never further down
+            h = min(hold, hs * max(1.0, factor)) if not rejected else hs
+    elif not clipped:
+        h = hold
+    new_hold = held_step_record(tv, stats, block, err, hs, h_max)
+    if new_hold > 0.0 and (h >= hold or h > new_hold):
+        h = new_hold
+    return h
+
+
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol, atol, max_steps,
                    t_eval, stride, tout, yout, ev_int, ev_val, ev_g, ev_t, ev_k, ev_y, block):
@@ -908,60 +1003,13 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
                         rot[s, k, 0] = np.cos(rates[k] * c[s] * hs)
                         rot[s, k, 1] = np.sin(rates[k] * c[s] * hs)
                 h_rot = hs
-            for i in range(n):
-                K[0, i] = a0[i]
-            status = 0
-            for s in range(1, ns):
-                ch = c[s] * hs
-                for i in range(n):
-                    acc = 0.0
-                    for j in range(s):
-                        acc += A[s, j] * K[j, i]
-                    qs[i] = q[i] + ch * v[i] + hs * hs * acc
-                for k in range(nd):
-                    cr = rot[s, k, 0]
-                    sr = rot[s, k, 1]
-                    css[2 * k] = cs0[2 * k] * cr - cs0[2 * k + 1] * sr
-                    css[2 * k + 1] = cs0[2 * k + 1] * cr + cs0[2 * k] * sr
-                status = call_fast_accel(ka[FAST_ACCEL], qs, t + ch, css, p, K[s], Wn)
-                if status != 0:
-                    break
+            status = rkn_stages(ka, t, hs, q, v, a0, c, A, rot, cs0, css, K, qs, p, Wn)
             stats[ST_RHS] += ns - 1
             if status != 0:
                 tv[TV_T] = t
                 return STATUS_SINGULAR
-            e2 = 0.0
-            est = 0.0
-            finite = True
-            for i in range(n):
-                accq = 0.0
-                accv = 0.0
-                dq = 0.0
-                dv = 0.0
-                for j in range(ns):
-                    kj = K[j, i]
-                    accq += b[j] * kj
-                    accv += bp[j] * kj
-                    dq += db[j] * kj
-                    dv += dbp[j] * kj
-                # compensated (Kahan) update: over 10⁵ fixed steps plain q += Δq loses
-                # ~1e-11 to rounding, more than the method's error at tight tolerances
-                yq = hs * v[i] + hs * hs * accq - cq[i]
-                qn[i] = q[i] + yq
-                cqn[i] = (qn[i] - q[i]) - yq
-                yv = hs * accv - cv[i]
-                vn[i] = v[i] + yv
-                cvn[i] = (vn[i] - v[i]) - yv
-                dq *= hs * hs
-                dv *= hs
-                if not (np.isfinite(qn[i]) and np.isfinite(vn[i])):
-                    finite = False
-                if adaptive:
-                    sq = atol + rtol * max(abs(q[i]), abs(qn[i]))
-                    sv = atol + rtol * max(abs(v[i]), abs(vn[i]))
-                    e2 += (dq / sq) ** 2 + (dv / sv) ** 2
-                est = max(est, abs(dq), abs(dv))
-            err = np.sqrt(e2 / n2)
+            err, est, finite = rkn_combine(hs, q, v, K, b, bp, db, dbp, cq, cv, qn, vn,
+                                           cqn, cvn, adaptive, rtol, atol)
             if (not adaptive) or (finite and err < 1.0):
                 if not finite:
                     tv[TV_T] = t
@@ -1025,21 +1073,8 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
         if fired:
             return STATUS_EVENT
         if adaptive:
-            hold = tv[TV_HOLD]
-            if hold == 0.0 or hs < hold:
-                factor = 5.0 if err == 0.0 else min(5.0, 0.9 * err ** expo)
-                if rejected:
-                    factor = min(1.0, factor)
-                if hold == 0.0:        # the first block: the classic controller
-                    h = min(h_max, max(h, hs * factor) if clipped else hs * factor)
-                elif not clipped:      # below the held step: back to it, never further down
-                    h = min(hold, hs * max(1.0, factor)) if not rejected else hs
-            elif not clipped:
-                h = hold
+            h = rkn_next_step(tv, stats, block, h, hs, err, clipped, rejected, h_max)
             rejected = False
-            new_hold = held_step_record(tv, stats, block, err, hs, h_max)
-            if new_hold > 0.0 and (h >= hold or h > new_hold):
-                h = new_hold
         tv[TV_H] = h
     return STATUS_CHUNK
 
