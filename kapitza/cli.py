@@ -395,10 +395,18 @@ def _measure(args) -> int:
     _emit(args, data, f"released at θ0 = {args.theta0:.6g} rad, θ̇0 = {args.theta_dot0:g} rad/s, "
           f"{args.periods} periods of A = {A:.6g} m, ω = {omega:.6g} rad/s:\n"
           f"  stayed up {bool(m.stayed_up)}  fall time {m.fall_time:.6g} s\n"
-          f"  Ω = {m.omega_slow:.6g} ± {m.omega_slow_error:.2g} rad/s  "
+          f"  Ω = {_with_error(m.omega_slow, m.omega_slow_error)} rad/s  "
           f"slow amplitude {m.amplitude:.4g} rad  mean angle {m.mean_angle:.6g} rad\n"
           f"  status {m.status}")
     return EXIT_OK
+
+
+def _with_error(value, error) -> str:
+    """``value ± error`` with the value's digits down to the error's second digit."""
+    if not (math.isfinite(value) and math.isfinite(error) and error > 0):
+        return f"{value:.6g} ± {error:.2g}"
+    decimals = min(12, max(0, 1 - math.floor(math.log10(error))))
+    return f"{value:.{decimals}f} ± {error:.2g}"
 
 
 def _verify(args) -> int:
