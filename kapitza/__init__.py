@@ -136,6 +136,13 @@ Scenes and sweeps (:mod:`kapitza.scene`, :mod:`kapitza.scene_file`, :mod:`kapitz
     example_scenes
         The scene files that ship with kapitza.
 
+The report (:mod:`kapitza.report`; the CLI's ``kapitza report``)
+    build_report
+        Run a scene (default: a 1 m pendulum shaken vertically) through every analysis
+        and write one folder: index.html, PNG figures, a GIF and the data (Parquet, CSV).
+    Report
+        What it wrote: paths, per-section wall times and status, the headline numbers.
+
 Installation
     warmup
         Compile the integrators and the Floquet and Mathieu kernels once per
@@ -165,6 +172,7 @@ from .plots import (effective_potential_figure, ince_strutt_figure, stability_ma
                     verification_figure)
 from .verify import verify
 from .animation import Animation, pendulum_animation
+from .report import Report, build_report
 from .warmup import warmup
 from .scene import Scene, SceneResults, example_scenes
 from .scene_file import SceneError
@@ -194,6 +202,6 @@ __all__ = [
     "PendulumAveraging", "EquilibriumPrediction", "MultiplePendulumPrediction", "Measurement",
     "stability_map_figure", "effective_potential_figure", "ince_strutt_figure", "warmup",
     "Scene", "SceneResults", "SceneError", "SweepResult", "example_scenes",
-    "pendulum_animation", "Animation",
+    "pendulum_animation", "Animation", "build_report", "Report",
 ]
 __version__ = "0.1.0"

@@ -8,6 +8,7 @@ Commands (``kapitza COMMAND --help`` shows each one's options and an example):
   measure   simulate the full nonlinear motion at one drive and measure it
   verify    averaging, Floquet and simulation compared over a grid (exit 1: disagreement)
   animate   a GIF of the stabilised inverted pendulum beside one that falls
+  report    the whole story in one folder: an HTML page, figures, a GIF and the data
   run       run the analyses a scene file asks for
   sweep     run a scene's [sweep] over its grid, in resumable tiles
   warmup    compile what every analysis needs, once per installation
@@ -489,6 +490,31 @@ def _animate(args) -> int:
     return EXIT_OK
 
 
+def _report(args) -> int:
+    from .report import ReportInterrupted, build_report
+    scene = None if args.scene is None else _scene(args.scene)
+    try:
+        report = build_report(scene, args.out, quick=args.quick)
+    except ReportInterrupted as stop:
+        _say(f"kapitza report: interrupted; {stop.report.index} shows the finished sections "
+             f"(missing: {', '.join(stop.report.missing)}).")
+        return EXIT_INTERRUPTED
+    frame = report.to_dataframe()
+    data = {"out": report.out, "index": report.index, "scene": report.scene,
+            "seconds": report.seconds, "quick": report.quick,
+            "sections": _records(frame.drop(columns=["caption"])),
+            "figures": {k: str(v) for k, v in report.figures.items()},
+            "tables": {k: [str(p) for p in v] for k, v in report.tables.items()},
+            "numbers": report.numbers, "failed": list(report.failed)}
+    lines = [f"{row.section:15s} {row.status:8s} {row.seconds:6.1f} s"
+             + (f"  ({row.reason})" if row.reason else "") for row in frame.itertuples()]
+    _emit(args, data, "\n".join([*lines, f"report: {report.index} ({report.seconds:.1f} s)"]))
+    if report.failed:
+        _say(f"kapitza report: section(s) failed: {', '.join(report.failed)} (see the page).")
+        return EXIT_DISAGREEMENT
+    return EXIT_OK
+
+
 def _scene(path):
     from .scene import Scene
     if not Path(path).is_file():
@@ -589,6 +615,9 @@ _EXAMPLES = {
     "animate": ["kapitza animate --A-over-l 0.25 --omega-over-omega0 10 --out pendulum.gif",
                 "kapitza animate --A 0.2 --omega 40 --A-fall 0.05 --duration 3 --json",
                 "kapitza animate kapitza/scenes/report.toml --out report.gif"],
+    "report": ["kapitza report                      # the default scene, into ./kapitza-report",
+               "kapitza report kapitza/scenes/double_pendulum.toml --out dp-report",
+               "kapitza report --quick --out /tmp/r --json"],
     "run": ["kapitza run kapitza/scenes/kapitza_pendulum.toml",
             "kapitza run my_scene.toml --json --no-write"],
     "sweep": ["kapitza sweep kapitza/scenes/kapitza_pendulum_map.toml",
@@ -716,6 +745,18 @@ def _parser() -> argparse.ArgumentParser:
                    help="refuse to render more frames (default 600)")
     p.add_argument("--out", default="pendulum.gif", help="the GIF (default pendulum.gif)")
     p.set_defaults(run=_animate)
+
+    p = add("report", "the main job: run a scene (default: a 1 m pendulum shaken "
+            "vertically) through every analysis and write a self-contained folder: "
+            "index.html, PNG figures, a GIF and the data (Parquet and CSV); progress on "
+            "stderr, Ctrl-C keeps the finished sections (exit 130), exit 1 if a section "
+            "failed", plain)
+    p.add_argument("scene", metavar="SCENE.toml", nargs="?", default=None,
+                   help="a scene file (default: the embedded kapitza/scenes/report.toml)")
+    p.add_argument("--out", default="kapitza-report",
+                   help="the report folder (default ./kapitza-report)")
+    p.add_argument("--quick", action="store_true", help="small grids and short runs")
+    p.set_defaults(run=_report)
 
     p = add("run", "run the analyses a scene file (TOML) asks for", plain)
     p.add_argument("scene", metavar="SCENE.toml")

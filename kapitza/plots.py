@@ -31,7 +31,9 @@ from .results import (BoundaryCurves, InceStruttChart, PendulumAveraging, Stabil
                       StabilityWindow, Verification)
 
 __all__ = ["stability_map_figure", "effective_potential_figure", "ince_strutt_figure",
-           "verification_figure", "work_precision_figure"]
+           "verification_figure", "work_precision_figure", "spot_check_figure",
+           "slow_frequency_figure", "slow_frequency_line_figure", "tilt_figure",
+           "window_error_figure", "legend_below"]
 
 _COLORS = {0: "#d9f0d3", 1: "#fdd49e", 2: "#c6dbef", 3: "#e7d4e8"}
 _NAMES = {0: "stable", 1: "unstable, period-T boundary", 2: "unstable, period-2T boundary",
@@ -508,3 +510,239 @@ def _exponent(rtol):
     """'-6' for 1e-6, else '2e-07'."""
     e = np.log10(rtol)
     return f"{e:.0f}" if abs(e - round(e)) < 1e-9 else f"{rtol:.0e}"
+
+
+# -- the report's figures (kapitza.report) ----------------------------------------------------
+
+def spot_check_figure(result: StabilityMap, A, omega, stayed_up, agrees, *, overlays=(),
+                      log_omega=False, log_A=False, title=None):
+    """A stability map with direct-simulation spot checks marked on it.
+
+    Parameters
+    ----------
+    result : kapitza.results.StabilityMap
+        The map (as for :func:`stability_map_figure`, with ``overlays``, ``log_omega``,
+        ``log_A``).
+    A, omega : 1-d arrays
+        The simulated points (m, rad/s).
+    stayed_up, agrees : bool arrays
+        Per point: the simulation stayed up (filled circle) or fell (cross); and whether
+        that agrees with Floquet analysis (black edge) or not (red, large).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.lines import Line2D
+    A, omega = np.asarray(A, float), np.asarray(omega, float)
+    stayed_up, agrees = np.asarray(stayed_up, bool), np.asarray(agrees, bool)
+    if not (A.shape == omega.shape == stayed_up.shape == agrees.shape) or A.ndim != 1:
+        raise ValueError(f"A, omega, stayed_up and agrees must be 1-d arrays of one length, "
+                         f"got shapes {A.shape}, {omega.shape}, {stayed_up.shape}, "
+                         f"{agrees.shape}.")
+    fig = stability_map_figure(result, overlays=overlays, log_omega=log_omega, log_A=log_A,
+                               boundaries=not overlays,
+                               title=title or f"Spot checks by direct simulation on the "
+                                              f"Floquet map of {_about_text(result.about)}")
+    ax = fig.axes[0]
+    handles = list(ax.get_legend().legend_handles)
+    for up, marker, text in ((True, "o", "simulation: stayed up"),
+                             (False, "X", "simulation: fell")):
+        for ok, color in ((True, "k"), (False, "#d62728")):
+            sel = (stayed_up == up) & (agrees == ok)
+            if sel.any():
+                ax.scatter(omega[sel], A[sel], marker=marker, s=70 if ok else 130,
+                           facecolors=("#1b7837" if up else "#444444") if ok else "none",
+                           edgecolors=color, linewidths=1.2 if ok else 2.2, zorder=5)
+        if (stayed_up == up).any():
+            handles.append(Line2D([], [], ls="", marker=marker, ms=8, mec="k",
+                                  mfc="#1b7837" if up else "#444444", label=text))
+    if (~agrees).any():
+        handles.append(Line2D([], [], ls="", marker="o", ms=10, mfc="none", mec="#d62728",
+                              mew=2.2, label=f"disagrees with Floquet: {int((~agrees).sum())}"))
+    legend_below(ax, handles)
+    return fig
+
+
+def legend_below(ax, handles=None):
+    """Move ``ax``'s legend (or one of ``handles``) below the axes, two columns, so it
+    hides no part of a map."""
+    if handles is None:
+        handles = list(ax.get_legend().legend_handles)
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2,
+              fontsize=7.5, frameon=False)
+
+
+_SLOW_STYLE = {"floquet": dict(color="k", ls="-", marker="o", ms=4, label="Floquet (exact, linear)"),
+               "averaging": dict(color="C0", ls="--", marker="", label="first-order averaging"),
+               "averaging_2": dict(color="C3", ls=":", marker="", lw=2,
+                                   label="next-order averaging"),
+               "simulation": dict(color="C2", ls="", marker="s", ms=6, mfc="none", mew=1.5,
+                                  label="measured (simulation)")}
+
+
+def slow_frequency_figure(verification, *, title=None):
+    """Predicted against measured slow frequency along a line of amplitudes.
+
+    Parameters
+    ----------
+    verification : kapitza.results.Verification
+        Over a 1-d array of A at one ω (:meth:`kapitza.KapitzaPendulum.verify` or
+        :func:`kapitza.verify` with ``line=False``).
+
+    Left: Ω (rad/s) against A by each method (several modes: one line each); right: each
+    method's relative difference from Floquet's Ω, log scale (where both are finite).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    _check("verification", verification, Verification,
+           "compute one with kapitza.verify or KapitzaPendulum.verify along a line of A")
+    v = verification
+    A = np.ravel(v.A)
+    if np.ndim(v.A) != 1:
+        raise ValueError(f"slow_frequency_figure needs a verification along a 1-d line of "
+                         f"amplitudes, got shape {np.shape(v.A)}; use verification_figure "
+                         "for a grid.")
+    fig = _figure((11.5, 4.4))
+    ax, ax2 = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
+    ref = v._modes("omega_slow_floquet")
+    for m in ("floquet", "averaging", "averaging_2", "simulation"):
+        if m not in v.methods:
+            continue
+        style = dict(_SLOW_STYLE[m])
+        label = style.pop("label")
+        x = v._modes(f"omega_slow_{m}")
+        for k in range(x.shape[-1]):
+            ax.plot(A, x[:, k], label=label if k == 0 else None, **style)
+            if m == "floquet":
+                continue
+            with np.errstate(invalid="ignore", divide="ignore"):
+                rel = np.abs(x[:, k] / ref[:, k] - 1)
+            ok = np.isfinite(rel) & (rel > 0)
+            if ok.any():
+                st = {**style, "marker": style.get("marker") or "."}
+                ax2.semilogy(A[ok], rel[ok], label=label if k == 0 else None, **st)
+    w = float(np.ravel(v.omega)[0])
+    ax.set_xlabel("drive amplitude A (m)" if v.length is not None else "drive amplitude A")
+    ax.set_ylabel("slow angular frequency Ω (rad/s)")
+    ax.set_title(title or f"Slow frequency of {_about_text(v.about)} at ω = {w:.4g} rad/s",
+                 fontsize=10)
+    ax.legend(fontsize=8)
+    ax.set_xlabel("drive amplitude A (m)")
+    ax2.set_xlabel("drive amplitude A (m)")
+    ax2.set_ylabel("|Ω / Ω_Floquet − 1|")
+    ax2.set_title("Relative difference from Floquet", fontsize=10)
+    if ax2.lines:
+        ax2.legend(fontsize=8)
+    return fig
+
+
+def slow_frequency_line_figure(A, curves: dict, *, title=None):
+    """Slow frequencies against A by several methods (e.g. the tilted state of the
+    horizontal drive): ``curves`` maps a label to Ω (rad/s) at each A (m); a label with
+    "measured" is drawn as markers, the others as lines.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    A = np.asarray(A, float)
+    fig, ax = _axes(None, (6.4, 4.4))
+    for k, (label, values) in enumerate(curves.items()):
+        values = np.asarray(values, float)
+        if values.shape != A.shape:
+            raise ValueError(f"curve {label!r} has shape {values.shape}, A has {A.shape}.")
+        style = (dict(ls="", marker="s", mfc="none", mew=1.5, color="C2") if "measured" in label
+                 else dict(ls=("-", "--", ":")[k % 3], marker="o", ms=3, color=f"C{k}"))
+        ax.plot(A, values, label=label, **style)
+    ax.set_xlabel("drive amplitude A (m)")
+    ax.set_ylabel("slow angular frequency Ω (rad/s)")
+    ax.set_title(title or "Slow frequency", fontsize=10)
+    ax.legend(fontsize=8)
+    return fig
+
+
+def tilt_figure(frame, *, l=None, g=None, title=None):
+    """The horizontal drive's tilted state against A: averaging's θ*, the periodic orbit's
+    period mean and the simulation's time mean (rad).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Columns A (m), omega (rad/s), theta_averaging, theta_orbit_mean,
+        theta_measured_mean (rad), stayed_near (bool).
+    l, g : float, optional
+        Length (m) and gravity (m/s²): averaging's tilt is then drawn as a dense curve.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig, ax = _axes(None, (6.4, 4.4))
+    A = np.asarray(frame["A"], float)
+    w = float(np.ravel(frame["omega"])[0])
+    label = "first-order averaging: cos θ* = 2gl/(Aω)²"
+    if l is not None and g is not None:       # the closed form, densely, under the points
+        dense = np.linspace(A.min(), A.max(), 300)
+        ax.plot(dense, np.arccos(np.clip(2 * g * l / (dense * w) ** 2, -1, 1)), "-",
+                color="C0", lw=4, alpha=0.35, label=label)
+    else:
+        ax.plot(A, frame["theta_averaging"], "--", color="C0", label=label)
+    ax.plot(A, frame["theta_orbit_mean"], "o-", ms=4, color="k",
+            label="periodic orbit (Newton shooting): period mean")
+    near = np.asarray(frame["stayed_near"], bool)
+    ax.plot(A[near], np.asarray(frame["theta_measured_mean"])[near], "s", mfc="none", mew=1.5,
+            color="C2", label="simulation: time mean (stayed near)")
+    if (~near).any():
+        ax.plot(A[~near], np.asarray(frame["theta_measured_mean"])[~near], "x", color="C3",
+                label="simulation: left the tilt")
+    ax.set_xlabel("drive amplitude A (m)")
+    ax.set_ylabel("tilt θ from the downward vertical (rad)")
+    ax.set_title(title or f"The tilted state of the horizontal drive, ω = {w:.4g} rad/s",
+                 fontsize=10)
+    ax.legend(fontsize=8)
+    return fig
+
+
+def window_error_figure(exact: StabilityWindow, approximations, *, ax=None, omega0=None):
+    """How far approximate windows' lower edges lie from the exact one, against ω.
+
+    Parameters
+    ----------
+    exact : kapitza.results.StabilityWindow
+        The exact window (``method="floquet"``) on an ω grid.
+    approximations : sequence of StabilityWindow
+        Averaging windows (order 1, 2) on the same ω grid.
+    ax : matplotlib Axes, optional
+    omega0 : float, optional
+        ω0 = √(g/l): the axis is ω/ω0 when given, else ω (rad/s).
+
+    Draws |A_min(approximation)/A_min(exact) − 1| on log-log axes (first-order
+    averaging's error falls as (ω0/ω)², the next order's as (ω0/ω)⁴).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    _check("exact", exact, StabilityWindow, "compute one with KapitzaPendulum.stability_window")
+    fig, ax = _axes(ax, (5.2, 4.4))
+    w = np.atleast_1d(np.asarray(exact.omega, float))
+    x = w / omega0 if omega0 else w
+    lo = np.atleast_1d(np.asarray(exact.A_min, float))
+    for k, window in enumerate(approximations):
+        _check("every approximation", window, StabilityWindow,
+               "compute one with KapitzaPendulum.stability_window(method='averaging')")
+        approx = np.broadcast_to(np.asarray(window.A_min, float), lo.shape)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rel = np.abs(approx / lo - 1)
+        ok = np.isfinite(rel) & (rel > 0)
+        ax.loglog(x[ok], rel[ok], _LINE_STYLES[k % len(_LINE_STYLES)], color="k", lw=1.3,
+                  label=_window_label(window))
+    ax.set_xlabel("drive frequency ω/ω0" if omega0 else "drive angular frequency ω (rad/s)")
+    ax.set_ylabel("|A_min(averaging) / A_min(exact) − 1|")
+    ax.set_title("Error of the averaging window's lower edge", fontsize=10)
+    ax.grid(True, which="major", alpha=0.3)
+    ax.legend(fontsize=8)
+    return fig

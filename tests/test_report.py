@@ -1,0 +1,234 @@
+"""kapitza report (issue 14.2): the folder it writes, checked against independent calls.
+
+The quick report of the default scene is built once per module; its tables are checked
+against references computed here: the exact window against the map's own labels and
+the closed form of first-order averaging, the spot checks' Floquet verdicts and the
+slow frequencies against monodromies integrated by scipy (tests/helpers.py).
+"""
+import html
+import json
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from helpers import G, L, interrupt_child, pendulum_monodromy
+
+from kapitza import KapitzaPendulum
+from kapitza.cli import main
+from kapitza.report import SECTIONS, build_report
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory):
+    out = tmp_path_factory.mktemp("report")
+    lines = []
+    report = build_report(out=out, quick=True, progress=lines.append)
+    return report, lines
+
+
+def _links(page: str):
+    return re.findall(r"""(?:src|href)=['"]([^'"]+)['"]""", page)
+
+
+def test_every_section_written_with_its_files(quick):
+    report, lines = quick
+    assert [s.name for s in report.sections] == list(SECTIONS)
+    assert {s.name: s.status for s in report.sections} == {n: "done" for n in SECTIONS}
+    for s in report.sections:
+        assert (report.out / s.figure).stat().st_size > 10_000, s.name
+        assert s.caption and np.isfinite(s.seconds)
+        for t in s.tables:
+            parquet, csv = report.tables[t]
+            assert pd.read_parquet(parquet).equals(pd.read_parquet(parquet))
+            assert len(pd.read_csv(csv)) == len(pd.read_parquet(parquet)) > 0
+    assert report.section("animation").figure.suffix == ".gif"
+    # progress: one line when each section starts and one when it ends, with times
+    ends = [x for x in lines if re.search(r"\[\d/7\] .*: (done|skipped).* s \(elapsed", x)]
+    assert len(ends) == len(SECTIONS)
+    frame = report.to_dataframe()
+    assert list(frame.section) == list(SECTIONS) and frame.seconds.gt(0).all()
+
+
+def test_page_is_self_contained_and_links_only_written_files(quick):
+    report, _ = quick
+    page = report.index.read_text(encoding="utf-8")
+    links = _links(page)
+    local = [x for x in links if not x.startswith("#")]
+    assert local, "no figure or data link on the page"
+    for x in local:
+        assert "://" not in x and not x.startswith("/"), x
+        assert (report.out / x).is_file(), x
+    for name in report.tables:
+        assert f"data/{name}.parquet" in local and f"data/{name}.csv" in local
+    for path in report.figures.values():
+        assert path.relative_to(report.out).as_posix() in local
+    assert "<script" not in page.lower()
+    for name, title in SECTIONS.items():
+        assert f"id={name}>" in page and title in page
+    assert "Incomplete" not in page and "Still running" not in page
+
+
+def test_map_window_and_averaging_tables_agree_with_independent_values(quick):
+    report, _ = quick
+    win = pd.read_parquet(report.tables["window"][0])
+    pend = KapitzaPendulum(l=L, g=G)
+    # first-order averaging: A ω = √(2 g l) (closed form)
+    assert np.allclose(win.A_min_averaging_1 * win.omega, math.sqrt(2 * G * L), rtol=1e-12)
+    # the exact edges, an independent call at a few frequencies
+    some = win.iloc[::17]
+    again = pend.stability_window(some.omega.to_numpy())
+    assert np.allclose(some.A_min_exact, again.A_min, rtol=1e-9)
+    assert np.allclose(some.A_max_exact, again.A_max, rtol=1e-9)
+    # the map's labels against the window: stable inside, unstable outside (2 % margin)
+    grid = pd.read_parquet(report.tables["stability_map"][0])
+    lo = np.interp(np.log(grid.omega), np.log(win.omega), win.A_min_exact)
+    hi = np.interp(np.log(grid.omega), np.log(win.omega), win.A_max_exact)
+    inside = (grid.A > 1.02 * lo) & (grid.A < 0.98 * hi)
+    outside = (grid.A < 0.98 * lo) | ((grid.A > 1.02 * hi) & (grid.A < 1.2 * hi))
+    assert inside.sum() > 100 and outside.sum() > 100
+    assert grid.stable[inside].all() and not grid.stable[outside].any()
+    # the edges meet the independent reference: |tr M| = 2 just at A_min (scipy monodromy)
+    w = float(win.omega.iloc[len(win) // 2])
+    a_min = float(win.A_min_exact.iloc[len(win) // 2])
+    traces = [abs(np.trace(pendulum_monodromy(a, w, -1))) for a in (0.999 * a_min,
+                                                                       1.001 * a_min)]
+    assert traces[0] > 2 > traces[1]
+
+
+def test_spot_checks_agree_with_scipy_floquet_away_from_boundaries(quick):
+    report, _ = quick
+    spots = pd.read_parquet(report.tables["spot_checks"][0])
+    assert len(spots) >= 5 and spots.stayed_up.any() and (~spots.stayed_up).any()
+    for row in spots.itertuples():
+        stable = abs(np.trace(pendulum_monodromy(row.A, row.omega, -1))) < 2
+        assert stable == row.stable_floquet, row
+        if row.boundary_distance > 0.2:              # far from an edge: the run decides
+            assert row.stayed_up == stable, row
+    # the scene's own drive is one of them, and it holds the pendulum up
+    own = spots[np.isclose(spots.A, 0.2) & np.isclose(spots.omega, 40.0)]
+    assert len(own) == 1 and bool(own.stayed_up.iloc[0])
+
+
+def test_slow_frequencies_agree_with_scipy_floquet(quick):
+    report, _ = quick
+    slow = pd.read_parquet(report.tables["slow_frequency"][0])
+    assert len(slow) >= 4 and slow.stable_floquet.all()
+    for row in slow.itertuples():
+        tr = np.trace(pendulum_monodromy(row.A, row.omega, -1))
+        exact = row.omega / 2 * math.acos(tr / 2) / math.pi      # cos(πβ) = tr/2, Ω = βω/2
+        assert row.omega_slow_floquet == pytest.approx(exact, rel=1e-7)
+        assert row.omega_slow_simulation == pytest.approx(exact, rel=1e-3)
+        # first-order averaging: Ω² = (A ω)²/(2 l²) − g/l
+        assert row.omega_slow_averaging == pytest.approx(
+            math.sqrt((row.A * row.omega) ** 2 / (2 * L**2) - G / L), rel=1e-12)
+    caption = report.section("slow").caption
+    assert "first-order averaging" in caption and "next order" in caption
+
+
+def test_verification_numbers(quick):
+    report, _ = quick
+    n = report.numbers
+    assert n["verification_points"] == 9
+    assert n["floquet_simulation_agreeing"] == n["floquet_simulation_compared"] == 9
+    agreement = pd.read_csv(report.tables["verification_agreement"][1])
+    assert set(agreement.quantity) == {"stability", "omega_slow"}
+    dis = pd.read_parquet(report.tables["verification_disagreements"][0])
+    assert len(dis) == n["verification_disagreements"]
+    assert str(len(dis)) in report.section("verification").caption
+
+
+def test_double_pendulum_scene_says_why_sections_are_skipped(tmp_path):
+    scene = ROOT / "kapitza" / "scenes" / "double_pendulum.toml"
+    report = build_report(scene, tmp_path, quick=True, progress=False)
+    status = {s.name: s.status for s in report.sections}
+    assert status == {"potential": "skipped", "map": "done", "spots": "done", "slow": "done",
+                      "verification": "done", "work_precision": "done",
+                      "animation": "skipped"}
+    page = report.index.read_text(encoding="utf-8")
+    for s in report.sections:
+        if s.status == "skipped":
+            assert len(s.reason) > 30 and html.escape(s.reason) in page
+    # the slow frequencies of both modes: simulation against Floquet
+    slow = pd.read_parquet(report.tables["slow_frequency"][0])
+    for k in (0, 1):
+        assert np.allclose(slow[f"omega_slow_simulation_{k}"], slow[f"omega_slow_floquet_{k}"],
+                           rtol=2e-3)
+    for x in _links(page):
+        assert x.startswith("#") or (tmp_path / x).is_file()
+
+
+def test_cli_horizontal_scene_json(tmp_path, capsys):
+    scene = ROOT / "kapitza" / "scenes" / "horizontal_drive.toml"
+    rc = main(["report", str(scene), "--out", str(tmp_path / "h"), "--quick", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert rc == 0
+    status = {s["section"]: s["status"] for s in out["sections"]}
+    assert status["potential"] == status["spots"] == status["slow"] == "done"
+    assert status["map"] == status["verification"] == status["animation"] == "skipped"
+    tilt = pd.read_csv(out["tables"]["tilt_checks"][1])
+    # cos θ* = 2 g l/(A ω)² (averaging) and the periodic orbit's mean within 0.02 rad
+    assert np.allclose(np.cos(tilt.theta_averaging), 2 * G * L / (tilt.A * tilt.omega) ** 2)
+    assert np.allclose(tilt.theta_orbit_mean, tilt.theta_averaging, atol=0.02)
+
+
+def test_bad_scene_exit_2_with_message(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('schema = 1\n[system]\nname = "pendulum"\n[parameters]\nl = 1.0\n'
+                   '[effects]\ngravity = true\n[effects.drive]\namplitud = 0.1\nomega = 50.0\n')
+    assert main(["report", str(bad), "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err
+    assert "kapitza report: error" in err and "amplitud" in err and "amplitude" in err
+    assert not (tmp_path / "r").exists()
+    assert main(["report", str(tmp_path / "missing.toml")]) == 2
+    assert "no scene file" in capsys.readouterr().err
+
+
+def test_undriven_scene_is_refused(tmp_path):
+    text = ('schema = 1\n[system]\nname = "pendulum"\n[parameters]\nl = 1.0\n'
+            '[effects]\ngravity = true\n[initial]\ntheta = 0.1\n')
+    path = tmp_path / "free.toml"
+    path.write_text(text)
+    with pytest.raises(ValueError, match="driven system.*effects.drive"):
+        build_report(path, tmp_path / "r", quick=True, progress=False)
+
+
+_CHILD = """
+import json, sys, time
+sys.path.insert(0, {root!r})
+from kapitza.report import ReportInterrupted, build_report
+
+
+def progress(message):        # "ready" once the first section is written
+    if message.startswith("[1/7]") and ": done" in message:
+        print("ready", flush=True)
+
+
+try:
+    build_report(out={out!r}, quick=True, progress=progress)
+    print(json.dumps({{"finished": True}}), flush=True)
+except ReportInterrupted as stop:
+    r = stop.report
+    print(json.dumps({{"stopped": time.time(), "missing": list(r.missing),
+                      "done": [s.name for s in r.sections if s.status == "done"],
+                      "page": r.index.read_text()}}), flush=True)
+"""
+
+
+def test_ctrl_c_keeps_the_finished_sections(tmp_path, quick):
+    out = tmp_path / "r"
+    res, sent = interrupt_child(tmp_path, _CHILD.format(root=str(ROOT), out=str(out)),
+                                delay=0.5, timeout=60)
+    assert "finished" not in res, "the report finished before the interrupt"
+    assert res["stopped"] - sent < 1.5
+    assert res["missing"] and res["done"]
+    assert "Incomplete" in res["page"]
+    for name in res["missing"]:
+        assert SECTIONS[name] in res["page"].split("Incomplete")[1].split("</p>")[0]
+    for x in _links(res["page"]):
+        assert x.startswith("#") or (out / x).is_file()
