@@ -78,3 +78,34 @@ def interrupt_child(tmp_path, source, delay, timeout):
         if proc.poll() is None:
             proc.kill()
     return json.loads(out), sent
+
+
+# -- scene files ---------------------------------------------------------------------------
+
+_PENDULUM_SCENE = '''\
+schema = 1
+[system]
+name = "pendulum"
+[parameters]
+l = 1.0
+[effects]
+gravity = true
+[effects.drive]
+direction = "{direction}"
+amplitude = 0.05
+omega = 200.0
+[initial]
+theta = {theta}
+[analyses]
+{analyses}
+[sweep]
+{sweep}
+[sweep.axes]
+{axes}
+'''
+
+
+def pendulum_scene(direction="vertical", theta=3.1, analyses="", axes="", sweep=""):
+    """A pendulum scene on a pivot driven at A = 5 cm, ω = 200 rad/s, swept over ``axes``."""
+    return _PENDULUM_SCENE.format(direction=direction, theta=theta, analyses=analyses,
+                                  axes=axes, sweep=sweep)

@@ -16,6 +16,8 @@ import kapitza
 from kapitza import KapitzaPendulum, cli
 from kapitza.results import ComputationInterrupted
 
+from helpers import pendulum_scene
+
 W60 = 2 * math.pi * 60
 COMMANDS = ["predict", "window", "map", "measure", "verify", "run", "sweep", "warmup",
             "summary"]
@@ -234,29 +236,8 @@ def test_verify_disagreement_exits_1(capsys):
 
 # -- scenes: run, sweep -------------------------------------------------------------------------
 
-_SWEPT = """\
-schema = 1
-[system]
-name = "pendulum"
-[parameters]
-l = 1.0
-g = 9.81
-[effects]
-gravity = true
-[effects.drive]
-direction = "vertical"
-amplitude = 0.05
-omega = 200.0
-[initial]
-theta = 3.0916
-[analyses]
-measure = { periods = 50, about = "inverted" }
-[sweep]
-analyses = ["measure"]
-[sweep.axes]
-A = [0.01, 0.05]
-omega = [100.0, 200.0]
-"""
+_SWEPT = pendulum_scene(theta=3.0916, analyses='measure = { periods = 50, about = "inverted" }',
+                        sweep='analyses = ["measure"]', axes="A = [0.01, 0.05]\nomega = [100.0, 200.0]")
 
 
 def test_run_scene_json_equals_the_api(capsys):

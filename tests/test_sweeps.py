@@ -20,34 +20,7 @@ from kapitza import ComputationInterrupted, Scene
 from kapitza.scene_file import Axis
 from kapitza.sweep import MANIFEST, compute_tile, run_sweep, tile_columns
 
-_PENDULUM = '''\
-schema = 1
-[system]
-name = "pendulum"
-[parameters]
-l = 1.0
-[effects]
-gravity = true
-[effects.drive]
-direction = "{direction}"
-amplitude = 0.05
-omega = 200.0
-[initial]
-theta = {theta}
-[analyses]
-{analyses}
-[sweep]
-{sweep}
-[sweep.axes]
-{axes}
-'''
-
-
-def pendulum(direction="vertical", theta=3.1, analyses="", axes="", sweep=""):
-    """A pendulum scene on a pivot driven at A = 5 cm, ω = 200 rad/s, swept over ``axes``."""
-    return _PENDULUM.format(direction=direction, theta=theta, analyses=analyses, axes=axes,
-                            sweep=sweep)
-
+from helpers import pendulum_scene as pendulum
 
 #: the Kapitza pendulum simulated over A × θ0: 12 points in tiles of 4
 SCENE = pendulum(theta=3.0, analyses="simulate = { periods = 50 }", sweep="tile_points = 4",
