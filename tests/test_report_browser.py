@@ -56,7 +56,8 @@ class Page:
     images: list        # one dict per <img>: src, complete, naturalWidth/Height, width/height, alt
     links: list         # href of every <a href>, resolved
     missing_anchors: list   # '#id' links whose id is not in the page
-    resources: list     # every URL the page loaded (Resource Timing)
+    resources: list     # what the page loads: [src] and <link href>, and every network load
+                        # (Resource Timing lists no file:// loads, so both are needed)
     log: list           # the browser's console log: dicts with level, source, message
     scroll_width: int   # CSS px of the document
     scroll_height: int
@@ -79,7 +80,9 @@ return {
     missing_anchors: anchors.map(a => a.getAttribute('href'))
         .filter(h => h.startsWith('#') && h.length > 1
                 && !document.getElementById(decodeURIComponent(h.slice(1)))),
-    resources: performance.getEntriesByType('resource').map(e => e.name),
+    resources: Array.from(document.querySelectorAll('[src], link[href]'))
+        .map(e => e.src || e.href)
+        .concat(performance.getEntriesByType('resource').map(e => e.name)),
     scroll_width: document.documentElement.scrollWidth,
     scroll_height: document.documentElement.scrollHeight,
     client_width: document.documentElement.clientWidth,
@@ -156,8 +159,8 @@ def outside_resources(page, root):
     """What the page loaded from outside the folder ``root`` (the report must be
     self-contained: the reader may be offline)."""
     root = Path(root).resolve()
-    return [u for u in page.resources
-            if (p := _local_path(u)) is None or root not in p.resolve().parents]
+    return sorted({u for u in page.resources
+                   if (p := _local_path(u)) is None or root not in p.resolve().parents})
 
 
 def layout_problems(page):
@@ -183,7 +186,8 @@ def screenshot_problems(page):
     if w < page.client_width or h < page.client_height:
         bad.append(f"{w}x{h} px, smaller than the viewport "
                    f"{page.client_width}x{page.client_height}")
-    colours = np.unique(pixels.reshape(-1, 3), axis=0)
+    rgb = pixels.reshape(-1, 3).astype(np.uint32)    # one integer per colour: a fast unique
+    colours = np.unique(rgb[:, 0] << 16 | rgb[:, 1] << 8 | rgb[:, 2])
     if len(colours) < 16:
         bad.append(f"{len(colours)} colour(s): a blank page")
     return bad
@@ -201,8 +205,12 @@ def browser(tmp_path_factory):
     if driver_path is None:
         pytest.fail(f"Chromium is installed ({binary}) but chromedriver is not on PATH: "
                     "apt-get install chromium-driver (Debian's driver matches its chromium)")
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
+    try:
+        from selenium import webdriver
+        from selenium.webdriver.chrome.service import Service
+    except ImportError:
+        pytest.fail(f"Chromium is installed ({binary}) but selenium is not: "
+                    'python -m pip install -e ".[test]"')
 
     options = webdriver.ChromeOptions()
     options.binary_location = binary
@@ -307,9 +315,12 @@ def handmade(browser, tmp_path_factory):
                         '<a href="../outside.csv">outside</a>',
         "wide_table": '<p>text</p><table><tr>' + "<td>a_long_column_name</td>" * 80
                       + "</tr></table>",
+        "outside": '<link rel="stylesheet" href="http://127.0.0.1:9/s.css">'   # port 9: Chromium
+                   '<img src="good.png" alt="map"><img src="../outside.png" alt="out">',  # no call
         "blank": "",
     }
     (root.parent / "outside.csv").write_text("x\n1\n")
+    shutil.copy(root / "good.png", root.parent / "outside.png")
     for name, body in pages.items():
         (root / f"{name}.html").write_text(head + body + "</body></html>")
     return root
@@ -368,6 +379,15 @@ def test_a_page_wider_than_the_window_is_caught(browser, handmade):
     page = _open(browser, handmade, "wide_table")
     bad = layout_problems(page)
     assert len(bad) == 1 and "because of: table" in bad[0], bad
+
+
+def test_loads_from_outside_the_folder_are_caught(browser, handmade):
+    # a stylesheet from a server (Chromium refuses port 9 without connecting) and an image
+    # from the folder's parent: both load for the author, neither for the reader of a copy
+    page = _open(browser, handmade, "outside")
+    assert outside_resources(page, handmade) == sorted(
+        ["http://127.0.0.1:9/s.css", (handmade.parent / "outside.png").as_uri()])
+    assert broken_images(page) == []
 
 
 def test_a_blank_screenshot_is_caught(browser, handmade):
