@@ -112,7 +112,7 @@ def averaged_window(lam, ratio, order):
                                                 order=order, warn=False) for lk in lam])
 
 
-def lowest_frequency(window_fn, lo=1.0, hi=1e4):
+def lowest_frequency(window_fn, lo=1.0, hi=1e3):
     """The ω/ω0 below which ``window_fn(ratio)`` has no window (edges cross), by bisection
     on log ω of the gap A_max − A_min of the continued edges."""
     def gap(lr):
@@ -120,7 +120,7 @@ def lowest_frequency(window_fn, lo=1.0, hi=1e4):
         return -1.0 if math.isnan(a) else b - a
     if gap(math.log(lo)) > 0:
         return lo                       # a window already at the lowest frequency searched
-    return math.exp(scipy.optimize.brentq(gap, math.log(lo), math.log(hi), xtol=1e-9))
+    return math.exp(scipy.optimize.brentq(gap, math.log(lo), math.log(hi), xtol=1e-8))
 
 
 def run(out: Path, quick: bool = False) -> dict:
@@ -174,7 +174,7 @@ def run(out: Path, quick: bool = False) -> dict:
         f[f"N{n}_lowest_omega_ratio_exact"] = w_c if n > 1 else math.nan
         if n > 1:
             f[f"N{n}_lowest_omega_ratio_averaging_order2"] = lowest_frequency(
-                lambda r: averaged_window(lam, r, 2))
+                lambda r: averaged_window(lam, r, 2), lo=w_c / 2, hi=w_c * 2)
             # both limits at their high-frequency forms: √2 g/(ω_1 ω) = 0.4540 g/ω_N²
             w1, wn = pred.hanging_frequencies[0], pred.hanging_frequencies[-1]
             f[f"N{n}_lowest_omega_ratio_asymptotic"] = math.sqrt(2) * wn**2 / (A_INF * w1) / W0
