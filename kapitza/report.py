@@ -1037,7 +1037,9 @@ body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;max-width:
 margin:2em auto;padding:0 1em;color:#222;line-height:1.45}
 h1{font-size:1.6em;margin-bottom:.2em}h2{font-size:1.25em;margin-top:2em;
 border-bottom:1px solid #ccc;padding-bottom:.2em}
-table{border-collapse:collapse;font-size:.85em;margin:.6em 0}
+/* a table wider than the column scrolls inside itself, not the page */
+table{border-collapse:collapse;font-size:.85em;margin:.6em 0;
+display:block;max-width:100%;overflow-x:auto}
 td,th{border:1px solid #ddd;padding:.2em .5em;text-align:right}th{background:#f4f4f4}
 td.l,th.l{text-align:left}
 img{max-width:100%;height:auto;border:1px solid #eee}
