@@ -123,6 +123,9 @@ Animation (:mod:`kapitza.animation`)
     pendulum_animation
         A looping GIF of the stabilised inverted pendulum beside one that falls, drawn
         from the simulation in stated slow motion; returns an ``Animation``.
+    system_animation
+        The same for planar chains of particles from scenes, side by side (e.g.
+        Acheson's double pendulum upright vs falling); returns a ``SystemAnimation``.
 
 Scenes and sweeps (:mod:`kapitza.scene`, :mod:`kapitza.scene_file`, :mod:`kapitza.sweep`)
     Scene
@@ -171,7 +174,7 @@ from .pendulum_closed_forms import (multiple_pendulum_upright, pendulum_averaged
 from .plots import (effective_potential_figure, ince_strutt_figure, stability_map_figure,
                     verification_figure)
 from .verify import verify
-from .animation import Animation, pendulum_animation
+from .animation import Animation, SystemAnimation, pendulum_animation, system_animation
 from .report import Report, build_report
 from .warmup import warmup
 from .scene import Scene, SceneResults, example_scenes
@@ -203,5 +206,6 @@ __all__ = [
     "stability_map_figure", "effective_potential_figure", "ince_strutt_figure", "warmup",
     "Scene", "SceneResults", "SceneError", "SweepResult", "example_scenes",
     "pendulum_animation", "Animation", "build_report", "Report",
+    "system_animation", "SystemAnimation",
 ]
 __version__ = "0.1.0"

@@ -32,6 +32,7 @@ The GIF loops (``loop=0``), is 720 px wide by default, and is written with matpl
 from __future__ import annotations
 
 import math
+import sys
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,7 +43,7 @@ from lagrange_core.progress import ProgressLine
 
 from . import arguments
 
-__all__ = ["Animation", "pendulum_animation"]
+__all__ = ["Animation", "SystemAnimation", "pendulum_animation", "system_animation"]
 
 #: The band that decides "stays up": |θ − π| < π/2 (as :meth:`KapitzaPendulum.measure`).
 UPRIGHT_BAND = math.pi / 2
@@ -141,6 +142,79 @@ class Animation:
         return pd.DataFrame(frame)
 
 
+@dataclass(frozen=True)
+class SystemAnimation:
+    """A GIF written by :func:`system_animation`: planar chains side by side.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The GIF.
+    frames, width, height, bytes : int
+        Frame count, frame size (pixels), file size (bytes).
+    t : ndarray (frames,)
+        Simulated time of each frame (s).
+    coordinates : tuple of tuple of str
+        Each panel's coordinates.
+    q, qdot : tuple of ndarray (frames, n)
+        Each panel's simulated coordinates and velocities at ``t`` (SI; angles in rad).
+    anchor : ndarray (panels, frames, 2)
+        The pivot's position in each frame (m).
+    positions : tuple of ndarray (frames, particles, 2)
+        Each particle's (x, y) as drawn (m), from the system's own particle positions.
+    titles : tuple of str
+        The panels' titles.
+    about : ndarray or None
+        The state each panel is classified against (e.g. all angles π: upright).
+    stayed_up : tuple of bool or None
+        Every coordinate within π/2 of ``about`` in every frame (None without ``about``).
+    fall_time : tuple of float
+        First frame time outside that band (s); NaN where it stayed.
+    floquet_stable : tuple of bool or None
+        Linear stability of ``about`` under each panel's drive (Floquet; undriven: the
+        normal modes), None without ``about``.
+    fps, frames_per_period, slow_motion, seconds
+        As for :class:`Animation` (``frames_per_period`` None: real time, no drive).
+    """
+
+    path: Path
+    frames: int
+    width: int
+    height: int
+    bytes: int
+    t: np.ndarray
+    coordinates: tuple
+    q: tuple
+    qdot: tuple
+    anchor: np.ndarray
+    positions: tuple
+    titles: tuple
+    about: object
+    stayed_up: object
+    fall_time: tuple
+    floquet_stable: object
+    fps: float
+    frames_per_period: object
+    slow_motion: float
+    seconds: float
+
+    def to_dataframe(self):
+        """One row per panel and frame: panel, frame, t (s), each coordinate and velocity,
+        the pivot's and each particle's x, y (m)."""
+        import pandas as pd
+        parts = []
+        for i, (names, q, qd, pos) in enumerate(zip(self.coordinates, self.q, self.qdot,
+                                                    self.positions)):
+            cols = {"panel": i, "frame": np.arange(self.frames), "t": self.t,
+                    "pivot_x": self.anchor[i, :, 0], "pivot_y": self.anchor[i, :, 1]}
+            for j, c in enumerate(names):
+                cols[c], cols[f"{c}_dot"] = q[:, j], qd[:, j]
+            for j in range(pos.shape[1]):
+                cols[f"x{j + 1}"], cols[f"y{j + 1}"] = pos[:, j, 0], pos[:, j, 1]
+            parts.append(pd.DataFrame(cols))
+        return pd.concat(parts, ignore_index=True)
+
+
 def bob_position(theta, pivot_y, l):
     """The bob of a pendulum of length l (m) at angle θ (rad, from the downward vertical)
     hanging from the pivot (0, pivot_y): (l sin θ, pivot_y − l cos θ) (m)."""
@@ -160,6 +234,73 @@ def _check(where, name, value, unit, *, minimum=None, strict=True, example=""):
         need = "" if minimum is None else f" {'>' if strict else '≥'} {minimum:g}"
         raise ValueError(f"{where}{name} must be a finite number{need} ({unit}), got "
                          f"{value!r}{'; e.g. ' + example if example else ''}.") from None
+
+
+def _playback(where, duration, fps, rtol, frames_per_period, width, max_frames):
+    """The options every animation shares, checked: (duration, fps, rtol) as floats."""
+    duration = _check(where, "duration", duration, "s", minimum=0.0,
+                      example="duration=4 (simulated seconds)")
+    fps = _check(where, "fps", fps, "frames/s", minimum=0.0, example="fps=20")
+    rtol = _check(where, "rtol", rtol, "", minimum=0.0, example="rtol=1e-10")
+    if not 1 <= fps <= 50:
+        raise ValueError(f"{where}fps must be between 1 and 50 frames/s (GIF viewers show "
+                         f"delays under 20 ms slower), got {fps:g}; e.g. fps=20.")
+    for name, value, low, high in (("frames_per_period", frames_per_period, 4, 10_000),
+                                   ("width", width, 300, 2000),
+                                   ("max_frames", max_frames, 2, 100_000)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
+                or not low <= value <= high:
+            raise ValueError(f"{where}{name} must be an integer from {low} to {high}, got "
+                             f"{value!r}" + ("; fewer than 4 frames a drive period would "
+                                             "alias the drive" if name ==
+                                             "frames_per_period" else "") + ".")
+    return duration, fps, rtol
+
+
+def _frame_times(where, omega, duration, fps, frames_per_period, max_frames, fix):
+    """Frame times t_k = k T/n over ``duration`` (or k/fps, real time, without a drive:
+    ``omega`` None), the frame rate the GIF stores and the slow-motion factor."""
+    # whole-centisecond delays are what a GIF stores: state the rate it really plays at
+    fps_shown = 100.0 / max(1, round(int(1000 / fps) / 10))
+    if omega is None:
+        dt, what = 1 / fps_shown, f"1/fps = {1 / fps_shown:.4g} s"
+    else:
+        period = 2 * math.pi / omega
+        dt, what = period / frames_per_period, f"T/n = {period / frames_per_period:.4g} s"
+    frames = int(math.floor(duration / dt * (1 + 1e-12))) + 1
+    if frames < 2:
+        raise ValueError(f"{where}duration = {duration:g} s is shorter than one frame "
+                         f"interval {what}; use duration ≥ {dt:.4g} s.")
+    if frames > max_frames:
+        per = ("" if omega is None else f" ({frames_per_period} per drive period of "
+               f"{2 * math.pi / omega:.4g} s)")
+        raise ValueError(f"{where}{frames} frames needed{per} over duration = {duration:g} s, "
+                         f"more than max_frames = {max_frames}; shorten duration to ≤ "
+                         f"{(max_frames - 1) * dt:.3g} s, {fix}, or raise max_frames.")
+    return np.arange(frames) * dt, fps_shown, 1 / (dt * fps_shown)
+
+
+def _render(where, stage, path, fps, progress, label):
+    """Draw every frame of ``stage`` into the GIF ``path``; Ctrl-C keeps the frames done."""
+    frames = stage.frames
+    written = 0
+    line = ProgressLine(progress, frames, label, "frames")
+    try:
+        writer = _gif_writer(fps, exact=[*stage.colours, "0.85", "0.6", "0.4", "0.8"])
+        with writer.saving(stage.fig, str(path), dpi=stage.dpi):
+            for k in range(frames):
+                stage.draw(k)
+                writer.grab_frame()
+                written = k + 1
+                line.update(written)
+    except KeyboardInterrupt:
+        line.close()
+        print(f"\n{where}interrupted after {written} of {frames} frames; they are in "
+              f"{path}.", file=sys.stderr, flush=True)
+        raise
+    finally:
+        stage.close()
+    line.close()
 
 
 def pendulum_animation(path, *, A: float, omega: float, l: float = 1.0, g: float = 9.81,
@@ -261,22 +402,8 @@ def pendulum_animation(path, *, A: float, omega: float, l: float = 1.0, g: float
     A_fall = _check(where, "A_fall", A_fall, "m", minimum=0.0, strict=False,
                     example="A_fall=0 (undriven)")
     theta0 = _check(where, "theta0", theta0, "rad", example="theta0=math.pi - 0.1")
-    duration = _check(where, "duration", duration, "s", minimum=0.0,
-                      example="duration=4 (simulated seconds)")
-    fps = _check(where, "fps", fps, "frames/s", minimum=0.0, example="fps=20")
-    rtol = _check(where, "rtol", rtol, "", minimum=0.0, example="rtol=1e-10")
-    if not 1 <= fps <= 50:
-        raise ValueError(f"{where}fps must be between 1 and 50 frames/s (GIF viewers show "
-                         f"delays under 20 ms slower), got {fps:g}; e.g. fps=20.")
-    for name, value, low, high in (("frames_per_period", frames_per_period, 4, 10_000),
-                                   ("width", width, 300, 2000),
-                                   ("max_frames", max_frames, 2, 100_000)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
-                or not low <= value <= high:
-            raise ValueError(f"{where}{name} must be an integer from {low} to {high}, got "
-                             f"{value!r}" + ("; fewer than 4 frames a drive period would "
-                                             "alias the drive" if name ==
-                                             "frames_per_period" else "") + ".")
+    duration, fps, rtol = _playback(where, duration, fps, rtol, frames_per_period, width,
+                                    max_frames)
     tilt0 = float(_tilt(theta0))
     if not 0 < tilt0 < UPRIGHT_BAND:
         raise ValueError(f"{where}theta0 must be released near the upright, 0 < |θ0 − π| < "
@@ -301,24 +428,10 @@ def pendulum_animation(path, *, A: float, omega: float, l: float = 1.0, g: float
                          "pendulum would stay up too; use A_fall = 0 (undriven) or "
                          f"A_fall < {A_min:.4g} m.")
 
-    period = 2 * math.pi / omega
-    dt = period / frames_per_period
-    frames = int(math.floor(duration / dt * (1 + 1e-12))) + 1
-    if frames < 2:
-        raise ValueError(f"{where}duration = {duration:g} s is shorter than one frame "
-                         f"interval T/n = {dt:.4g} s; use duration ≥ {dt:.4g} s.")
-    if frames > max_frames:
-        raise ValueError(
-            f"{where}{frames} frames needed ({frames_per_period} per drive period of "
-            f"{period:.4g} s over duration = {duration:g} s), more than max_frames = "
-            f"{max_frames}; shorten duration to ≤ {(max_frames - 1) * dt:.3g} s, lower "
-            f"omega (ω/ω0 ≈ 10–30 is enough to stabilise), or raise max_frames.")
-    # whole-centisecond delays are what a GIF stores: state the rate it really plays at
-    delay_cs = max(1, round(int(1000 / fps) / 10))
-    fps_shown = 100.0 / delay_cs
-    slow = frames_per_period / (period * fps_shown)
-
-    t = np.arange(frames) * dt
+    t, fps_shown, slow = _frame_times(where, omega, duration, fps, frames_per_period,
+                                      max_frames, fix="lower omega (ω/ω0 ≈ 10–30 is enough "
+                                      "to stabilise)")
+    frames = len(t)
     amps = np.array([A, A_fall])
     theta = np.empty((2, frames))
     theta_dot = np.empty((2, frames))
@@ -344,29 +457,11 @@ def pendulum_animation(path, *, A: float, omega: float, l: float = 1.0, g: float
                       f"{duration:g} s (max tilt {tilt[1].max():.3g} rad); use a longer "
                       "duration.", stacklevel=2)
 
-    scene = dict(l=l, g=g, damping=damping, omega=omega, omega0=pend.omega0, amps=amps,
-                 window=(A_min, A_max), stayed=stayed, fall=fall, floquet=stable,
-                 tilt0=tilt0, slow=slow, frames_per_period=frames_per_period)
-    stage = _Stage(scene, t, theta, pivot, width)
-    written = 0
-    line = ProgressLine(progress, frames, "pendulum_animation", "frames")
-    try:
-        writer = _gif_writer(fps_shown)
-        with writer.saving(stage.fig, str(path), dpi=stage.dpi):
-            for k in range(frames):
-                stage.draw(k)
-                writer.grab_frame()
-                written = k + 1
-                line.update(written)
-    except KeyboardInterrupt:
-        line.close()
-        import sys
-        print(f"\n{where}interrupted after {written} of {frames} frames; they are in "
-              f"{path}.", file=sys.stderr, flush=True)
-        raise
-    finally:
-        stage.close()
-    line.close()
+    stage = _pendulum_stage(t, theta, pivot, amps, l=l, g=g, damping=damping, omega=omega,
+                            window=(A_min, A_max), stayed=stayed, fall=fall, floquet=stable,
+                            tilt0=tilt0, slow=slow, frames_per_period=frames_per_period,
+                            width=width)
+    _render(where, stage, path, fps_shown, progress, "pendulum_animation")
     return Animation(path=path, frames=frames, width=stage.width, height=stage.height,
                      bytes=path.stat().st_size, t=t, theta=theta, theta_dot=theta_dot,
                      pivot=pivot, A=amps, omega=omega, l=l, g=g, damping=damping,
@@ -376,141 +471,395 @@ def pendulum_animation(path, *, A: float, omega: float, l: float = 1.0, g: float
                      seconds=time.perf_counter() - started)
 
 
-def _gif_writer(fps):
+def system_animation(path, scenes, *, about="inverted", titles=None, title=None,
+                     duration: float = 4.0,
+                     fps: float = 20.0, frames_per_period: int = 8, width: int = 720,
+                     max_frames: int = 600, rtol: float = 1e-10,
+                     progress=None) -> SystemAnimation:
+    """Write a looping GIF of planar chains of particles side by side, each from a scene.
+
+    The general form of :func:`pendulum_animation`, e.g. Acheson's double pendulum held
+    upright by a fast drive beside the same chain undriven, falling.  Each scene's system
+    is simulated from its ``[initial]`` state with output at the frame times, and each frame
+    draws the system's own particle positions r_i(q, t) (rods joining the pivot and the
+    particles in order) and the pivot P(t) of the scene's drive.
+
+    Parameters
+    ----------
+    path : str or Path
+        The GIF (``.gif``).
+    scenes : sequence of Scene or str or Path
+        One panel each (1–4), drawn left to right: scenes (:class:`kapitza.Scene`) or their
+        TOML files, of rigs whose particles move in the (x, y) plane.  The driven ones
+        must share one ω (one clock of frames); undriven ones play along.
+    about : "inverted", "hanging", sequence of float or None
+        The state each panel is classified against: the panel says "STAYS UP" while every
+        coordinate stays within π/2 of it, otherwise when it left; and whether it is
+        linearly stable (Floquet under a drive, the normal modes without).  None: no
+        classification.
+    titles : sequence of str, optional
+        The panels' first title lines (default: each scene's title).
+    title : str, optional
+        The figure's title (default: how the chains were released and what "stays up"
+        means).
+    duration, fps, frames_per_period, width, max_frames, rtol, progress
+        As for :func:`pendulum_animation`.  Without any drive the frames are in real time
+        (t_k = k/fps).
+
+    Returns
+    -------
+    SystemAnimation
+        The file, the drawn trajectories and positions, the classifications;
+        ``to_dataframe()``.
+
+    Examples
+    --------
+    >>> import kapitza                                                      # doctest: +SKIP
+    >>> up = kapitza.Scene.from_toml("double_up.toml")                      # doctest: +SKIP
+    >>> down = kapitza.Scene.from_toml("double_undriven.toml")              # doctest: +SKIP
+    >>> kapitza.system_animation("acheson.gif", [up, down]).stayed_up       # doctest: +SKIP
+    (True, False)
+    """
+    import time
+
+    import sympy as sp
+    from lagrange_core.symbols import t as t_symbol
+
+    from .floquet import floquet_point
+    from .scene import Scene
+
+    where = "system_animation: "
+    started = time.perf_counter()
+    path = Path(path)
+    if path.suffix.lower() != ".gif":
+        raise ValueError(f"{where}path must end in .gif, got {str(path)!r}; e.g. "
+                         "'chains.gif'.")
+    duration, fps, rtol = _playback(where, duration, fps, rtol, frames_per_period, width,
+                                    max_frames)
+    if isinstance(scenes, (str, Path, Scene)):
+        scenes = [scenes]
+    scenes = [sc if isinstance(sc, Scene) else Scene.from_toml(sc) for sc in scenes]
+    if not 1 <= len(scenes) <= 4:
+        raise ValueError(f"{where}scenes: give 1 to 4 scenes (one panel each), got "
+                         f"{len(scenes)}.")
+    if titles is None:
+        titles = [sc.spec.title or sc.system.name for sc in scenes]
+    titles = [str(x) for x in titles]
+    if len(titles) != len(scenes):
+        raise ValueError(f"{where}titles: one per scene ({len(scenes)}), got {len(titles)}.")
+    omegas = {float(sc.params["omega"]) for sc in scenes if sc._drive is not None}
+    if len(omegas) > 1:
+        raise ValueError(f"{where}the driven scenes have different drive frequencies "
+                         f"{sorted(omegas)} rad/s; the frames follow one drive period, so give "
+                         "them one omega.")
+    omega = omegas.pop() if omegas else None
+    t, fps_shown, slow = _frame_times(where, omega, duration, fps, frames_per_period,
+                                      max_frames, fix="or a slower drive")
+
+    panels, qs, qds, anchors, positions, stayed, fall, stable = [], [], [], [], [], [], [], []
+    for i, sc in enumerate(scenes):
+        system, params = sc.system, dict(sc.params)
+        names = tuple(system.coordinates)
+        traj = system.simulate(sc.q0, sc.qdot0, (0.0, float(t[-1])), params, rtol=rtol,
+                               t_eval=t)
+        if traj.status != "success" or traj.t.shape != t.shape:
+            raise RuntimeError(f"{where}the simulation of scene {i} ({titles[i]}) stopped: "
+                               f"{traj.status} ({traj.message}).")
+        q, qd = np.asarray(traj.q), np.asarray(traj.qdot)
+        drive = sc._drive
+        pivot = drive.pivot() if drive is not None else (0, 0)
+        exprs = [sp.sympify(c) for c in pivot]
+        for particle in system.particles:
+            if len(particle.position) != 2:
+                raise ValueError(f"{where}scene {i} ({titles[i]}): its particles move in "
+                                 f"{len(particle.position)} dimensions; only planar (x, y) "
+                                 "chains can be drawn.")
+            exprs += [sp.sympify(c) for c in particle.position]
+        values = _evaluate(where, exprs, names, q, t, params, t_symbol)
+        anchor = np.stack(values[:2], 1)
+        pos = np.stack([np.stack(values[2 + 2 * j: 4 + 2 * j], 1)
+                        for j in range(len(system.particles))], 1)
+        if about is None:
+            centre, ok, when, lin = None, None, math.nan, None
+        else:
+            centre = (np.full(len(names), arguments.about_angle(about))
+                      if isinstance(about, str) else np.asarray(about, float))
+            if centre.shape != (len(names),):
+                raise ValueError(f"{where}about must be 'inverted', 'hanging', None or one "
+                                 f"value per coordinate {names}, got {about!r}.")
+            dev = np.abs((q - centre + math.pi) % (2 * math.pi) - math.pi).max(1)
+            out = dev >= UPRIGHT_BAND
+            ok = bool(not out.any())
+            when = float(t[np.argmax(out)]) if out.any() else math.nan
+            if drive is not None:
+                lin = bool(floquet_point(system, params, centre).stable)
+            else:
+                lin = bool(system.linearize(params, about=centre).stable)
+        if drive is not None:
+            amp = float(params["A"])
+            kind = drive.path if isinstance(drive.path, str) else "oblique"
+            sub = f"pivot shaken ({kind}): A = {amp:.3g} m at ω = {omega:.4g} rad/s"
+        else:
+            sub = "pivot still (no drive)"
+        fate = ""
+        if ok is not None:
+            fate = "\n" + ("Floquet" if drive is not None else "normal modes") + \
+                (": stable" if lin else ": unstable") + " → " + \
+                ("STAYS UP" if ok else f"FALLS at t = {when:.2f} s")
+        if centre is None:
+            readout = ["  ".join(f"{n} = {v:+.3f}" for n, v in zip(names, row)) for row in q]
+        else:   # the distance from ``about``, wrapped into [−π, π) (rad)
+            off = (q - centre + math.pi) % (2 * math.pi) - math.pi
+            ref = [n if c == 0 else f"{n} − π" if c == math.pi else f"{n} − {c:.3g}"
+                   for n, c in zip(names, centre)]
+            readout = ["  ".join(f"{r} = {v:+.3f}" for r, v in zip(ref, row)) for row in off]
+        panels.append(_Panel(anchor=anchor, points=pos, colour=_COLOURS[i],
+                             title=f"{titles[i]}\n{sub}{fate}", readout=readout))
+        qs.append(q)
+        qds.append(qd)
+        anchors.append(anchor)
+        positions.append(pos)
+        stayed.append(ok)
+        fall.append(when)
+        stable.append(lin)
+
+    if title is None:
+        title = "Released from each scene's [initial] state" + (
+            f"; STAYS UP: every angle within π/2 of {about}" if isinstance(about, str)
+            else "")
+    stage = _Stage(panels, t, title, slow, frames_per_period if omega else None, width)
+    _render(where, stage, path, fps_shown, progress, "system_animation")
+    return SystemAnimation(
+        path=path, frames=len(t), width=stage.width, height=stage.height,
+        bytes=path.stat().st_size, t=t, coordinates=tuple(tuple(sc.system.coordinates)
+                                                          for sc in scenes),
+        q=tuple(qs), qdot=tuple(qds), anchor=np.stack(anchors), positions=tuple(positions),
+        titles=tuple(p.title for p in panels),
+        about=None if about is None else np.asarray(centre),
+        stayed_up=None if about is None else tuple(stayed), fall_time=tuple(fall),
+        floquet_stable=None if about is None else tuple(stable), fps=fps_shown,
+        frames_per_period=frames_per_period if omega else None, slow_motion=slow,
+        seconds=time.perf_counter() - started)
+
+
+def _evaluate(where, exprs, names, q, t, params, t_symbol):
+    """The expressions (of the coordinates ``names``, time and parameters) at every frame,
+    each an array of t's shape."""
+    import sympy as sp
+    symbols = sorted(set().union(*(e.free_symbols for e in exprs)), key=str)
+    args = []
+    for s in symbols:
+        if s == t_symbol:
+            args.append(t)
+        elif s.name in names:
+            args.append(q[:, names.index(s.name)])
+        elif s.name in params:
+            args.append(float(params[s.name]))
+        else:
+            raise ValueError(f"{where}a particle's position depends on {s.name}, which is "
+                             "neither a coordinate, t nor a parameter of its scene.")
+    f = sp.lambdify(symbols, exprs, "numpy")
+    return [np.broadcast_to(np.asarray(v, float), t.shape) for v in f(*args)]
+
+
+def _gif_writer(fps, exact=()):
     """matplotlib's PillowWriter, writing every frame with one shared palette of 64 colours
-    and no dithering: flat colours compress ~4× better than per-frame dithered palettes."""
+    and no dithering (each pixel its nearest palette colour): flat colours compress ~4×
+    better than the per-frame dithered palettes PillowWriter would write."""
     from matplotlib.animation import PillowWriter
+    from matplotlib.colors import to_rgb
     from PIL import Image
 
     class GifWriter(PillowWriter):
         def finish(self):
             if not self._frames:
                 return
-            rgb = [f.convert("RGB") for f in self._frames]
-            # the palette from a mosaic of first, middle and last frame (every colour drawn)
-            picks = [rgb[0], rgb[len(rgb) // 2], rgb[-1]]
-            mosaic = Image.new("RGB", (sum(f.width for f in picks), picks[0].height))
-            x = 0
-            for f in picks:
-                mosaic.paste(f, (x, 0))
-                x += f.width
-            palette = mosaic.quantize(colors=64, method=Image.Quantize.MEDIANCUT,
-                                      dither=Image.Dither.NONE)
-            # median cut averages its boxes: make the entry nearest white pure white again
-            colours = np.array(palette.getpalette()[:192], float).reshape(-1, 3)
-            white = int(np.argmin(np.abs(colours - 255).sum(1)))
-            colours[white] = 255
-            palette.putpalette(colours.astype(np.uint8).ravel().tolist())
-            frames = [f.quantize(palette=palette, dither=Image.Dither.NONE) for f in rgb]
+            rgb = [np.asarray(f.convert("RGB")) for f in self._frames]
+            # the palette from first, middle and last frame side by side (every colour drawn)
+            mosaic = Image.fromarray(np.hstack([rgb[0], rgb[len(rgb) // 2], rgb[-1]]))
+            palette = np.array(mosaic.quantize(colors=64 - len(self.exact),
+                                               method=Image.Quantize.MEDIANCUT,
+                                               dither=Image.Dither.NONE).getpalette(),
+                               float).reshape(-1, 3)
+            # median cut averages its boxes: the colours drawn flat (background, text, rods,
+            # the pivot's band) are added exactly, so they stay what was drawn
+            palette = np.vstack([np.array(self.exact, float) * 255, palette])
+            frames = []
+            for f in rgb:
+                code = (f[..., 0].astype(np.int32) << 16) | (f[..., 1].astype(np.int32) << 8) \
+                    | f[..., 2]
+                colours, where = np.unique(code, return_inverse=True)
+                c = np.stack([colours >> 16, (colours >> 8) & 255, colours & 255], 1)
+                nearest = np.argmin(((c[:, None, :] - palette[None]) ** 2).sum(2), 1)
+                im = Image.fromarray(nearest[where].reshape(code.shape).astype(np.uint8), "P")
+                im.putpalette(np.round(palette).astype(np.uint8).ravel().tolist())
+                frames.append(im)
             frames[0].save(self.outfile, save_all=True, append_images=frames[1:],
                            duration=int(1000 / self.fps), loop=0)
 
-    return GifWriter(fps=fps)
+    writer = GifWriter(fps=fps)
+    writer.exact = [(1.0, 1.0, 1.0), (0.0, 0.0, 0.0), *map(to_rgb, exact)]
+    return writer
+
+
+def _pendulum_stage(t, theta, pivot, amps, *, l, g, damping, omega, window, stayed, fall,
+                    floquet, tilt0, slow, frames_per_period, width):
+    """pendulum_animation's figure: two single-link chains from their pivots (0, y_p)."""
+    frames = len(t)
+    info = dict(l=l, omega=omega, omega0=math.sqrt(g / l), window=window, stayed=stayed,
+                fall=fall, floquet=floquet)
+    panels = [_Panel(anchor=np.stack([np.zeros(frames), pivot[i]], 1),
+                     points=np.stack(bob_position(theta[i], pivot[i], l), 1)[:, None, :],
+                     colour=_COLOURS[i], title=_pendulum_label(info, float(amps[i]), i),
+                     readout=[f"θ − π = {d:+.3f} rad"
+                              for d in (theta[i] - math.pi + math.pi) % (2 * math.pi) - math.pi])
+              for i in range(2)]
+    title = (f"Kapitza pendulum: both released at rest {tilt0:.3g} rad from the upright "
+             f"(l = {l:g} m, g = {g:g} m/s²" + (f", γ = {damping:g} 1/s" if damping else "")
+             + ")")
+    return _Stage(panels, t, title, slow, frames_per_period, width)
+
+
+_COLOURS = ("tab:blue", "tab:red", "tab:green", "tab:purple")
+
+
+def _pendulum_label(s, A, i):
+    """The title of pendulum_animation's panel i: its drive, the window, what happens."""
+    l, w0, omega = s["l"], s["omega0"], s["omega"]
+    A_min, A_max = s["window"]
+    f = omega / (2 * math.pi)
+    if A > 0:
+        drive = (f"pivot shaken: A/l = {A / l:.3g}, ω/ω0 = {omega / w0:.3g}\n"
+                 f"(A = {A:.3g} m at f = {f:.3g} Hz)")
+    else:
+        drive = "pivot not shaken (A = 0)\n "
+    where = ("inside" if A_min < A < A_max else "outside") + \
+        f" the window {A_min / l:.3g} < A/l < {A_max / l:.3g}"
+    floquet = "Floquet: stable" if s["floquet"][i] else "Floquet: unstable"
+    if s["stayed"][i]:
+        fate = "STAYS UP"
+    else:       # the simulation's verdict: past the horizontal, |θ − π| ≥ π/2
+        fate = f"FALLS at t = {s['fall'][i]:.2f} s"
+    return f"{drive}\n{where}\n{floquet} → {fate}"
+
+
+@dataclass(frozen=True)
+class _Panel:
+    """One chain to draw: anchor (frames, 2) and particles (frames, n, 2) in m, joined in
+    order by rods; its colour, title and a text per frame."""
+
+    anchor: np.ndarray
+    points: np.ndarray
+    colour: str
+    title: str
+    readout: list
 
 
 class _Stage:
-    """The figure of two pendulums and how frame k is drawn on it.
+    """The figure of side-by-side panels, each a chain of particles hanging from a pivot
+    that may move, and how frame k is drawn on it.
 
     ``draw(k)`` sets the artists from the arrays it was given, nothing else: the tests read
-    the artists' data back (``rods``, ``bobs``) against an independent simulation.
+    the artists' data back (``rods``, ``bobs``) against an independent simulation.  Every
+    panel has the same scale: its half-width is the largest reach max|anchor| + Σ|links|.
     """
 
-    colours = ("tab:blue", "tab:red")
-
-    def __init__(self, scene, t, theta, pivot, width):
+    def __init__(self, panels, t, title, slow, frames_per_period, width):
         import matplotlib
         from matplotlib.figure import Figure
         from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-        self.scene, self.t, self.theta, self.pivot = scene, t, theta, pivot
+        self.panels, self.t, self.slow = panels, t, slow
+        self.frames = len(t)
+        self.frames_per_period = frames_per_period
+        self.colours = [p.colour for p in panels]
         self.dpi = 100
-        self.width, self.height = int(width), int(round(0.7 * width))
+        n = len(panels)
+        self.width = int(width)
+        self.height = int(round(width * (0.7 if n <= 2 else 0.2 + 1.0 / n)))
         fig = Figure(figsize=(self.width / self.dpi, self.height / self.dpi), dpi=self.dpi)
         FigureCanvasAgg(fig)
         self.fig = fig
-        l = scene["l"]
-        amps = scene["amps"]
-        reach = 1.12 * l + float(amps.max())
-        scale = self.width / 720
-        big, font, small = ({"fontsize": s * scale} for s in (11.5, 10, 8.5))
-        self.trail_len = scene["frames_per_period"]
-        self.rods, self.bobs, self.trails, self.tilts = [], [], [], []
-        self.pivots = []
+        reach = 1.06 * max(_reach(p) for p in panels)
+        scale = self.width / 720 * (1 if n <= 2 else 2 / n) ** 0.5
+        big, font, small = ({"fontsize": s * scale} for s in (11, 10, 8.5))
+        self.rods, self.bobs, self.trails, self.tilts, self.pivots = [], [], [], [], []
+        # margins for the titles and the clock: fixed in points, so a fraction of the height
+        frac = 504 * scale / self.height
+        top, bottom = 1 - 0.245 * frac, 0.115 * frac
         with matplotlib.rc_context({"font.size": 10 * scale}):
-            axes = fig.subplots(1, 2, gridspec_kw=dict(left=0.01, right=0.99, bottom=0.115,
-                                                       top=0.755, wspace=0.03))
-            for i, ax in enumerate(axes):
+            axes = np.atleast_1d(fig.subplots(1, n, gridspec_kw=dict(
+                left=0.01, right=0.99, bottom=bottom, top=top, wspace=0.03)))
+            for ax, panel in zip(axes, panels):
                 ax.set_xlim(-reach, reach)
                 ax.set_ylim(-reach, reach)
                 ax.set_aspect("equal")
                 ax.set_xticks([])
                 ax.set_yticks([])
-                for s in ax.spines.values():
-                    s.set_color("0.8")
-                amp = float(amps[i])
-                # the pivot's range of travel (its shake, ±A) and the upright direction
-                if amp > 0:
-                    ax.fill_between([-0.07 * l, 0.07 * l], -amp, amp, color="0.85", lw=0,
-                                    zorder=0)
-                ax.plot([0, 0], [0, 1.1 * l], ls=(0, (4, 4)), color="0.6", lw=0.8, zorder=0)
-                trail, = ax.plot([], [], color=self.colours[i], lw=1.2, alpha=0.4, zorder=1)
-                rod, = ax.plot([], [], color=self.colours[i], lw=3 * scale,
-                               solid_capstyle="round", zorder=2)
-                bob, = ax.plot([], [], "o", color=self.colours[i], ms=13 * scale, zorder=3)
+                for side in ax.spines.values():
+                    side.set_color("0.8")
+                c = panel.colour
+                # the pivot's path (its shake) as a thick grey band, and the upright direction
+                band = _travel(panel.anchor)
+                ax.plot(band[:, 0], band[:, 1], color="0.85", lw=14 * scale,
+                        solid_capstyle="butt", zorder=0)
+                x0, y0 = panel.anchor.mean(0)
+                ax.plot([x0, x0], [y0, y0 + 0.95 * reach], ls=(0, (4, 4)), color="0.6",
+                        lw=0.8, zorder=0)
+                trail, = ax.plot([], [], color=c, lw=1.2, alpha=0.4, zorder=1)
+                rod, = ax.plot([], [], color=c, lw=3 * scale, solid_capstyle="round",
+                               solid_joinstyle="round", zorder=2)
+                bob, = ax.plot([], [], "o", color=c, ms=13 * scale, zorder=3, ls="none")
                 piv, = ax.plot([], [], "s", color="k", ms=6 * scale, zorder=4)
                 tilt = ax.text(0.03, 0.03, "", transform=ax.transAxes, ha="left",
                                va="bottom", family="monospace", **small)
-                ax.set_title(self._label(i), color=self.colours[i], pad=5, linespacing=1.35,
-                             **font)
+                ax.set_title(panel.title, color=c, pad=5, linespacing=1.35, **font)
                 self.rods.append(rod)
                 self.bobs.append(bob)
                 self.trails.append(trail)
                 self.pivots.append(piv)
                 self.tilts.append(tilt)
-            fig.suptitle(f"Kapitza pendulum: both released at rest {scene['tilt0']:.3g} rad "
-                         f"from the upright (l = {l:g} m, g = {scene['g']:g} m/s²"
-                         + (f", γ = {scene['damping']:g} 1/s" if scene["damping"] else "")
-                         + ")", y=0.985, **big)
-            self.clock = fig.text(0.5, 0.052, "", ha="center", va="bottom", **font)
-            fig.text(0.5, 0.012, "grey bar: the pivot's travel ±A    dashed: the upright    "
-                     "faint curve: the bob's path over the last drive period",
+            fig.suptitle(title, y=0.985, **big)
+            self.clock = fig.text(0.5, 0.052 * frac, "", ha="center", va="bottom", **font)
+            bob = "bob's" if max(p.points.shape[1] for p in panels) == 1 else "outer bob's"
+            fig.text(0.5, 0.012 * frac, "grey band: the pivot's travel    dashed: the upright"
+                     f"    faint curve: the {bob} path over the last "
+                     + ("drive period" if frames_per_period else "second"),
                      ha="center", va="bottom", color="0.4", **small)
 
-    def _label(self, i):
-        s = self.scene
-        l, w0, omega = s["l"], s["omega0"], s["omega"]
-        A = float(s["amps"][i])
-        A_min, A_max = s["window"]
-        f = omega / (2 * math.pi)
-        if A > 0:
-            drive = (f"pivot shaken: A/l = {A / l:.3g}, ω/ω0 = {omega / w0:.3g}\n"
-                     f"(A = {A:.3g} m at f = {f:.3g} Hz)")
-        else:
-            drive = "pivot not shaken (A = 0)\n "
-        where = ("inside" if A_min < A < A_max else "outside") + \
-            f" the window {A_min / l:.3g} < A/l < {A_max / l:.3g}"
-        floquet = "Floquet: stable" if s["floquet"][i] else "Floquet: unstable"
-        if s["stayed"][i]:
-            fate = "STAYS UP"
-        else:       # the simulation's verdict: past the horizontal, |θ − π| ≥ π/2
-            fate = f"FALLS at t = {s['fall'][i]:.2f} s"
-        return f"{drive}\n{where}\n{floquet} → {fate}"
-
     def draw(self, k):
-        l = self.scene["l"]
-        for i in range(2):
-            x, y = bob_position(self.theta[i, k], self.pivot[i, k], l)
-            self.rods[i].set_data([0.0, x], [self.pivot[i, k], y])
-            self.bobs[i].set_data([x], [y])
-            self.pivots[i].set_data([0.0], [self.pivot[i, k]])
-            # the bob's path over the last drive period: the fast wobble, seen as a smear
-            j = slice(max(0, k - self.trail_len), k + 1)
-            tx, ty = bob_position(self.theta[i, j], self.pivot[i, j], l)
-            self.trails[i].set_data(tx, ty)
-            dev = (self.theta[i, k] - math.pi + math.pi) % (2 * math.pi) - math.pi
-            self.tilts[i].set_text(f"θ − π = {dev:+.3f} rad")
-        self.clock.set_text(f"t = {self.t[k]:5.3f} s    slow motion ×{self.scene['slow']:.3g} "
-                            f"({self.scene['frames_per_period']} frames per drive period)")
+        n = self.frames_per_period or 1
+        for i, p in enumerate(self.panels):
+            chain = np.vstack([p.anchor[k], p.points[k]])
+            self.rods[i].set_data(chain[:, 0], chain[:, 1])
+            self.bobs[i].set_data(p.points[k, :, 0], p.points[k, :, 1])
+            self.pivots[i].set_data([p.anchor[k, 0]], [p.anchor[k, 1]])
+            # the last bob's path over the last drive period: the fast wobble, as a smear
+            j = slice(max(0, k - n), k + 1)
+            self.trails[i].set_data(p.points[j, -1, 0], p.points[j, -1, 1])
+            self.tilts[i].set_text(p.readout[k])
+        motion = (f"slow motion ×{self.slow:.3g} ({self.frames_per_period} frames per drive "
+                  "period)" if self.frames_per_period else "real time")
+        self.clock.set_text(f"t = {self.t[k]:5.3f} s    {motion}")
 
     def close(self):
         self.fig.clear()
+
+
+def _travel(anchor):
+    """The pivot's path to draw as its band: the segment between its extremes when it moves
+    on a line (vertical, horizontal, oblique drive), else the path itself (an ellipse)."""
+    centred = anchor - anchor.mean(0)
+    if not np.any(centred):
+        return anchor[:1]
+    _, sv, vt = np.linalg.svd(centred, full_matrices=False)
+    if sv[1] > 1e-9 * sv[0]:
+        return anchor
+    along = centred @ vt[0]
+    return anchor[[np.argmin(along), np.argmax(along)]]
+
+
+def _reach(panel):
+    """max |anchor| + the chain's length at frame 0 (m): the farthest a bob can go."""
+    chain = np.vstack([panel.anchor[0], panel.points[0]])
+    return float(np.abs(panel.anchor).max() + np.linalg.norm(np.diff(chain, axis=0), axis=1).sum())

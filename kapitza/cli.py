@@ -442,28 +442,36 @@ def _verify(args) -> int:
 
 
 def _animate(args) -> int:
-    from .animation import pendulum_animation
-    if args.scene is not None:
+    from .animation import pendulum_animation, system_animation
+    scenes = [_scene(path) for path in args.scene]
+    if scenes:
         given = [n for n, k in (("--A", "A"), ("--A-over-l", "A_over_l"), ("--omega", "omega"),
                                 ("--f", "f"), ("--omega-over-omega0", "omega_over_omega0"))
                  if getattr(args, k) is not None]
         if given:
-            raise UsageError(f"{', '.join(given)}: the scene {args.scene} sets the drive; "
-                             "give either the scene or the drive options.")
-        scene = _scene(args.scene)
-        pend, p = scene.pendulum, scene.params
-        if pend is None or pend.drive != "vertical":
-            raise UsageError(f"{args.scene}: animate needs a plain pendulum scene with a "
-                             "vertical drive ([system] name = \"pendulum\", "
-                             "[effects.drive] direction = \"vertical\").")
-        A, omega, theta0 = float(p["A"]), float(p["omega"]), float(scene.q0[0])
-        l, g, damping = pend.l, pend.g, pend.damping
-    else:
-        if args.drive != "vertical":
-            raise UsageError("--drive: animate shows the vertical drive only.")
-        A, omega, theta0 = _amplitude(args), _frequency(args), args.theta0
-        l, g, damping = args.l, args.g, args.damping
+            raise UsageError(f"{', '.join(given)}: the scene sets the drive; give either "
+                             "scenes or the drive options.")
+    pend = scenes[0].pendulum if len(scenes) == 1 else None
     try:
+        if scenes and (pend is None or pend.drive != "vertical"):
+            # chains (or several scenes): each scene a panel, from its own [initial] state
+            anim = system_animation(args.out, scenes, duration=args.duration, fps=args.fps,
+                                    frames_per_period=args.frames_per_period,
+                                    width=args.width, max_frames=args.max_frames)
+            data, head, fate = _gif_summary(anim)
+            data.update(scenes=list(args.scene), titles=list(anim.titles))
+            _emit(args, data, head + "".join(f"\n  {path}: {f}"
+                                             for path, f in zip(args.scene, fate)))
+            return EXIT_OK
+        if scenes:
+            p = scenes[0].params
+            A, omega, theta0 = float(p["A"]), float(p["omega"]), float(scenes[0].q0[0])
+            l, g, damping = pend.l, pend.g, pend.damping
+        else:
+            if args.drive != "vertical":
+                raise UsageError("--drive: animate shows the vertical drive only.")
+            A, omega, theta0 = _amplitude(args), _frequency(args), args.theta0
+            l, g, damping = args.l, args.g, args.damping
         anim = pendulum_animation(args.out, A=A, omega=omega, l=l, g=g, damping=damping,
                                   theta0=theta0, A_fall=args.A_fall, duration=args.duration,
                                   fps=args.fps, frames_per_period=args.frames_per_period,
@@ -471,23 +479,29 @@ def _animate(args) -> int:
     except KeyboardInterrupt:
         _say(f"kapitza animate: interrupted; the frames finished are in {args.out}.")
         return EXIT_INTERRUPTED
+    data, head, fate = _gif_summary(anim)
+    data.update(A=anim.A[0], A_fall=anim.A[1], omega=omega, A_over_l=anim.A[0] / l,
+                omega_over_omega0=omega / math.sqrt(g / l), theta0=theta0, window=anim.window,
+                pendulum={"l": l, "g": g, "damping": damping, "omega0": math.sqrt(g / l)})
+    _emit(args, data, f"{head}\n  shaken A = {A:.4g} m (window {anim.window[0]:.4g} < A < "
+          f"{anim.window[1]:.4g} m): {fate[0]}\n  A = {anim.A[1]:.4g} m: {fate[1]}")
+    return EXIT_OK
+
+
+def _gif_summary(anim):
+    """What every animation reports: (JSON fields, the text's first line, per panel what
+    happened)."""
     data = {"path": anim.path, "frames": anim.frames, "width": anim.width,
             "height": anim.height, "bytes": anim.bytes, "fps": anim.fps,
             "slow_motion": anim.slow_motion, "frames_per_period": anim.frames_per_period,
-            "duration": float(anim.t[-1]), "A": anim.A[0], "A_fall": anim.A[1],
-            "omega": omega, "A_over_l": anim.A[0] / l,
-            "omega_over_omega0": omega / math.sqrt(g / l),
-            "pendulum": {"l": l, "g": g, "damping": damping, "omega0": math.sqrt(g / l)},
-            "theta0": theta0, "window": anim.window, "floquet_stable": anim.floquet_stable,
-            "stayed_up": anim.stayed_up, "fall_time": anim.fall_time,
+            "duration": float(anim.t[-1]), "stayed_up": anim.stayed_up,
+            "fall_time": anim.fall_time, "floquet_stable": anim.floquet_stable,
             "seconds": anim.seconds}
+    head = (f"{anim.path}: {anim.frames} frames, {anim.width}×{anim.height} px, "
+            f"{anim.bytes / 1e6:.2f} MB, slow motion ×{anim.slow_motion:.3g}")
     fate = ["stays up" if up else f"falls at t = {t:.3g} s"
-            for up, t in zip(anim.stayed_up, anim.fall_time)]
-    _emit(args, data, f"{anim.path}: {anim.frames} frames, {anim.width}×{anim.height} px, "
-          f"{anim.bytes / 1e6:.2f} MB, slow motion ×{anim.slow_motion:.3g}\n"
-          f"  shaken A = {A:.4g} m (window {anim.window[0]:.4g} < A < {anim.window[1]:.4g} m): "
-          f"{fate[0]}\n  A = {anim.A[1]:.4g} m: {fate[1]}")
-    return EXIT_OK
+            for up, t in zip(anim.stayed_up or (), anim.fall_time)]
+    return data, head, fate
 
 
 def _report(args) -> int:
@@ -614,7 +628,8 @@ _EXAMPLES = {
                "kapitza verify --A 0.01:0.3:10 --omega 50:500:5 --log-omega --data v.csv --json"],
     "animate": ["kapitza animate --A-over-l 0.25 --omega-over-omega0 10 --out pendulum.gif",
                 "kapitza animate --A 0.2 --omega 40 --A-fall 0.05 --duration 3 --json",
-                "kapitza animate kapitza/scenes/report.toml --out report.gif"],
+                "kapitza animate kapitza/scenes/report.toml --out report.gif",
+                "kapitza animate up.toml undriven.toml --out chains.gif"],
     "report": ["kapitza report                      # the default scene, into ./kapitza-report",
                "kapitza report kapitza/scenes/double_pendulum.toml --out dp-report",
                "kapitza report --quick --out /tmp/r --json"],
@@ -728,8 +743,10 @@ def _parser() -> argparse.ArgumentParser:
 
     p = add("animate", "a looping GIF of the stabilised inverted pendulum beside one that "
             "falls (vertical drive, slow motion)", pend)
-    p.add_argument("scene", metavar="SCENE.toml", nargs="?",
-                   help="take l, g, damping, the drive and θ0 from a pendulum scene")
+    p.add_argument("scene", metavar="SCENE.toml", nargs="*",
+                   help="one pendulum scene: l, g, damping, the drive and θ0 from it (the "
+                   "falling one beside it as with the options); a chain's scene, or several "
+                   "scenes: one panel each, from their [initial] states")
     p.add_argument("--theta0", type=float, default=math.pi - 0.1,
                    help="release angle of both (rad from the downward vertical; default "
                    "π − 0.1)")

@@ -6,6 +6,7 @@ against an independent simulation, the classifications against ``measure`` and F
 """
 import json
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -15,7 +16,7 @@ from scipy.integrate import quad
 
 import kapitza
 from kapitza import KapitzaPendulum, cli
-from kapitza.animation import _Stage, bob_position
+from kapitza.animation import _pendulum_stage, bob_position
 
 L, G = 1.0, 9.81
 W0 = math.sqrt(G / L)
@@ -56,11 +57,10 @@ def test_the_drawn_angles_are_an_independent_simulation(anim):
         np.testing.assert_allclose(anim.theta[i], ref.q[:, 0], atol=1e-7)
         np.testing.assert_allclose(anim.pivot[i], amp * np.cos(OMEGA * anim.t), atol=1e-15)
     # the artists show exactly those states: rod from the pivot to l (sin θ, −cos θ)
-    scene = dict(l=L, g=G, damping=0.0, omega=OMEGA, omega0=W0, amps=anim.A,
-                 window=anim.window, stayed=anim.stayed_up, fall=anim.fall_time,
-                 floquet=anim.floquet_stable, tilt0=0.1, slow=anim.slow_motion,
-                 frames_per_period=4)
-    stage = _Stage(scene, anim.t, anim.theta, anim.pivot, 300)
+    stage = _pendulum_stage(anim.t, anim.theta, anim.pivot, anim.A, l=L, g=G, damping=0.0,
+                            omega=OMEGA, window=anim.window, stayed=anim.stayed_up,
+                            fall=anim.fall_time, floquet=anim.floquet_stable, tilt0=0.1,
+                            slow=anim.slow_motion, frames_per_period=4, width=300)
     gif = Image.open(anim.path)
     try:
         for k in (0, anim.frames // 2, anim.frames - 1):
@@ -160,3 +160,89 @@ def test_cli_writes_the_gif_and_json(tmp_path, capsys):
     assert code == 2 and "A = 0.05 m is outside the window" in err
     assert cli.main(["animate", "--help"]) == 0
     assert "kapitza animate" in capsys.readouterr().out
+
+
+# -- system_animation: Acheson's double pendulum, upright when shaken, falling when not ------
+
+CHAIN = """schema = 1
+title = "{title}"
+[system]
+name = "double_pendulum"
+[parameters]
+l1 = 1.0
+l2 = 1.0
+m1 = 1.0
+m2 = 1.0
+g = 9.81
+[effects]
+gravity = true
+{drive}
+[initial]
+theta1 = 3.10
+theta2 = 3.20
+"""
+DRIVE = '[effects.drive]\ndirection = "vertical"\namplitude = 0.08\nomega = 100.0'
+
+
+@pytest.fixture(scope="module")
+def chains(tmp_path_factory):
+    up = kapitza.Scene.from_text(CHAIN.format(title="shaken", drive=DRIVE))
+    down = kapitza.Scene.from_text(CHAIN.format(title="still", drive=""))
+    path = tmp_path_factory.mktemp("chains") / "chains.gif"
+    return kapitza.system_animation(path, [up, down], duration=1.2, frames_per_period=4,
+                                    width=300, progress=False), up, down
+
+
+def test_chains_draw_the_simulated_positions(chains):
+    anim, up, down = chains
+    with Image.open(anim.path) as im:
+        assert im.n_frames == anim.frames == len(anim.t) and im.size == (300, 210)
+    np.testing.assert_allclose(np.diff(anim.t), 2 * math.pi / 100 / 4, rtol=1e-12)
+    for i, (scene, amp) in enumerate(((up, 0.08), (down, 0.0))):
+        ref = scene.system.simulate(scene.q0, scene.qdot0, (0.0, anim.t[-1]), scene.params,
+                                    rtol=1e-11, t_eval=anim.t)
+        th1, th2 = ref.q[:, 0], ref.q[:, 1]
+        np.testing.assert_allclose(anim.q[i], ref.q, atol=1e-7)
+        # the chain by hand: pivot (0, A cos ωt), links of 1 m from the downward vertical
+        yp = amp * np.cos(100.0 * anim.t)
+        x1, y1 = np.sin(th1), yp - np.cos(th1)
+        x2, y2 = x1 + np.sin(th2), y1 - np.cos(th2)
+        np.testing.assert_allclose(anim.anchor[i, :, 1], yp, atol=1e-12)
+        np.testing.assert_allclose(anim.positions[i][:, 0], np.stack([x1, y1], 1), atol=1e-6)
+        np.testing.assert_allclose(anim.positions[i][:, 1], np.stack([x2, y2], 1), atol=1e-6)
+    frame = anim.to_dataframe()
+    assert len(frame) == 2 * anim.frames and {"theta1", "x2", "pivot_y"} <= set(frame)
+
+
+def test_shaken_chain_stays_up_as_achesons_theorem_says(chains):
+    anim, up, down = chains
+    assert anim.stayed_up == (True, False) and anim.floquet_stable == (True, False)
+    assert math.isnan(anim.fall_time[0]) and 0 < anim.fall_time[1] < anim.t[-1]
+    # Acheson's theorem (closed form, first-order averaging, inside its regime here: no
+    # AveragingValidityWarning): A ω = 8 m/s above √2 g/ω_min = 5.79 m/s
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        acheson = kapitza.multiple_pendulum_upright([1.0, 1.0], [1.0, 1.0], A=0.08,
+                                                    omega=100.0)
+    assert bool(np.all(acheson.stable))
+    with pytest.raises(ValueError, match="different drive frequencies"):
+        other = kapitza.Scene.from_text(CHAIN.format(title="x", drive=DRIVE.replace("100.0",
+                                                                                      "90.0")))
+        kapitza.system_animation(anim.path.with_name("x.gif"), [up, other], duration=0.2)
+
+
+def test_cli_animates_several_scenes(chains, tmp_path, capsys):
+    up, down = tmp_path / "up.toml", tmp_path / "down.toml"
+    up.write_text(CHAIN.format(title="shaken", drive=DRIVE))
+    down.write_text(CHAIN.format(title="still", drive=""))
+    out = tmp_path / "c.gif"
+    code = cli.main(["animate", str(up), str(down), "--duration", "0.3", "--width", "300",
+                     "--frames-per-period", "4", "--out", str(out), "--json"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    data = json.loads(captured.out)
+    assert data["scenes"] == [str(up), str(down)] and data["floquet_stable"] == [True, False]
+    with Image.open(out) as im:
+        assert im.n_frames == data["frames"] == 20
+    assert cli.main(["animate", str(up), "--A", "0.1", "--out", str(out)]) == 2
+    assert "the scene sets the drive" in capsys.readouterr().err
