@@ -283,9 +283,11 @@ def _own_reference(system, q0, qdot0, t_span, params, default):
 
 def _check_inputs(system, methods, peers, rtols, repeat, max_seconds, t_span):
     from .integrate import METHODS
-    if not (isinstance(t_span, (tuple, list)) and len(t_span) == 2
-            and all(isinstance(x, (int, float)) and math.isfinite(x) for x in t_span)
-            and t_span[1] > t_span[0]):
+    try:
+        t0, t1 = (float(x) for x in t_span)
+    except (TypeError, ValueError):
+        t0 = t1 = math.nan
+    if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
         raise ValueError(f"t_span must be (t0, t1) with t1 > t0 (s), got {t_span!r}.")
     rtols = tuple(sorted((float(r) for r in rtols), reverse=True))
     if not rtols:
@@ -367,8 +369,10 @@ def work_precision(system, q0, qdot0, t_span, params, *, methods=("rkn12", "dop8
     rtols = _check_inputs(system, methods, peers, rtols, repeat, max_seconds, t_span)
     if not (isinstance(rounds, int) and rounds >= 1):
         raise ValueError(f"rounds must be an integer ≥ 1, got {rounds!r}.")
-    q0 = list(map(float, np.atleast_1d(q0)))
-    qdot0 = list(map(float, np.atleast_1d(qdot0)))
+    # the start and the parameters are checked here, once (the messages name the argument)
+    q0 = system.coordinate_array(q0, "q0").tolist()
+    qdot0 = system.coordinate_array(qdot0, "qdot0").tolist()
+    params = dict(zip(system.parameters, system.parameter_array(params).tolist()))
     t_span = (float(t_span[0]), float(t_span[1]))
     clock = time.process_time if cpu_time else time.perf_counter
     eligible, why = rkn_eligibility(system.kernels)

@@ -157,3 +157,26 @@ def test_the_figure_draws_one_line_per_method_and_marks_the_default(exact):
     with pytest.raises(TypeError, match="WorkPrecision"):
         work_precision_figure(exact.to_dataframe())
     assert isinstance(exact, WorkPrecision)
+
+
+def test_a_missing_parameter_and_a_bad_start_are_named(pendulum):
+    with pytest.raises(ValueError, match="l"):
+        work_precision(pendulum, [THETA0], [0.0], (0.0, 1.0), dict(g=G, m=1.0))
+    with pytest.raises(ValueError, match="q0"):
+        work_precision(pendulum, [THETA0, 0.0], [0.0], (0.0, 1.0), P)
+
+
+def test_ctrl_c_keeps_the_finished_runs(pendulum, monkeypatch):
+    calls = {"n": 0}
+    real = wp_module.best_time
+
+    def interrupting(fn, repeat=3, clock=None):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise KeyboardInterrupt
+        return real(fn, repeat)
+    monkeypatch.setattr(wp_module, "best_time", interrupting)
+    res = work_precision(pendulum, {"theta": THETA0}, {"theta": 0.0}, SPAN, P,
+                         methods=("rkn12",), rtols=RTOLS, repeat=1, peers=())
+    assert res.interrupted and len(res) == 2
+    assert np.all(res.error <= 10 * res.rtol)
