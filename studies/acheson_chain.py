@@ -140,7 +140,7 @@ def run(out: Path, quick: bool = False) -> dict:
         w_c = lowest_frequency(lambda r: mode_window(lam, r))
         # from 1.2 ω_c: nearer, the window is narrower than the scan's spacing
         start = max(w_c * 1.2, 2.0)
-        fl_ratios = np.geomspace(start, FLOQUET_MAX_RATIO, 5 if quick else 16)
+        fl_ratios = np.geomspace(start, FLOQUET_MAX_RATIO, 3 if quick else 16)
         win = kapitza.window(system, params, about, fl_ratios * W0,
                              A_limit=4 * A_INF * lam[-1])
         diffs = []
