@@ -74,8 +74,10 @@ def write_findings(findings: dict, out: Path) -> Path:
 
 
 def main(module_name: str, run, argv=None) -> int:
-    """The command line of a study: full size into studies/results/<name>/ by default."""
-    name = module_name.rsplit(".", 1)[-1]
+    """The command line of a study (``module_name``: its ``__name__`` or its file's stem):
+    full size into studies/results/<name>/ by default."""
+    # run as a script the module is "__main__": its file names the study
+    name = Path(getattr(sys.modules.get(module_name), "__file__", None) or module_name).stem
     parser = argparse.ArgumentParser(prog=f"studies/{name}.py")
     parser.add_argument("--quick", action="store_true", help="the reduced size the tests run")
     parser.add_argument("--out", type=Path, default=None,
