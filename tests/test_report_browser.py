@@ -1,13 +1,14 @@
 """The report page in a real browser (issue 14, point 3).
 
 Headless Chromium opens the quick report's ``index.html`` the way a reader does and checks what
-a reader would see: every ``<img>`` decoded (``complete`` and ``naturalWidth > 0``: a missing or
-corrupt file is also "complete", with width 0), the GIF among them, every local link (the data
-files) resolving to a file inside the report folder, no console message at warning level or
-above (a failed resource load is one: Chromium logs it as a SEVERE network entry), nothing loaded
-from outside the folder, no horizontal scrolling at 1280 px; then a full-page screenshot, checked
-to be a real picture (``KAPITZA_SCREENSHOT_DIR`` set: a copy is kept there). Negative tests on
-hand-made pages prove that each check catches what it is for.
+a reader would see: every ``<img>`` decoded (``complete`` and ``naturalWidth > 0``: a missing
+or undecodable file is also "complete", with width 0, and logs nothing when it exists; a
+truncated PNG whose first rows decode is drawn in part and passes), the GIF among them, every
+local link (the data files) resolving to a file inside the report folder, no console message
+at warning level or above (a failed resource load is one: Chromium logs it as a SEVERE network
+entry), nothing loaded from outside the folder, no horizontal scrolling at 1280 px; then a
+full-page screenshot, checked to be a real picture (``KAPITZA_SCREENSHOT_DIR`` set: a copy is
+kept there). Negative tests on hand-made pages prove that each check catches what it is for.
 
 Browser and driver: Debian's ``chromium`` and ``chromium-driver`` (the same source version, so
 they always match; ``.ci/run`` installs both when missing), driven by Selenium with the driver's
@@ -198,9 +199,9 @@ def browser(tmp_path_factory):
     """One headless Chromium (fresh profile) for the module, console captured at every level."""
     binary = _which(BROWSERS)
     if binary is None:
-        pytest.skip(f"no Chromium on PATH (looked for {', '.join(BROWSERS)}) and it could not "
-                    "be installed: .ci/run installs Debian's chromium and chromium-driver, "
-                    "or run: apt-get install chromium chromium-driver")
+        pytest.skip(f"no Chromium on PATH (looked for {', '.join(BROWSERS)}): .ci/run installs "
+                    "Debian's chromium and chromium-driver where it can; by hand: "
+                    "apt-get install chromium chromium-driver")
     driver_path = shutil.which("chromedriver")
     if driver_path is None:
         pytest.fail(f"Chromium is installed ({binary}) but chromedriver is not on PATH: "
