@@ -714,10 +714,10 @@ def _pendulum_stage(t, theta, pivot, amps, *, l, g, damping, omega, window, stay
                      readout=[f"θ − π = {d:+.3f} rad"
                               for d in (theta[i] - math.pi + math.pi) % (2 * math.pi) - math.pi])
               for i in range(2)]
-    title = (f"Kapitza pendulum: both released at rest {tilt0:.3g} rad from the upright "
-             f"(l = {l:g} m, g = {g:g} m/s²" + (f", γ = {damping:g} 1/s" if damping else "")
-             + ")")
-    return _Stage(panels, t, title, slow, frames_per_period, width)
+    title = f"Kapitza pendulum: both released at rest {tilt0:.3g} rad from the upright"
+    constants = (f"l = {l:g} m, g = {g:g} m/s²" + (f", damping γ = {damping:g} 1/s" if damping
+                                                   else ", no damping"))
+    return _Stage(panels, t, title, slow, frames_per_period, width, subtitle=constants)
 
 
 _COLOURS = ("tab:blue", "tab:red", "tab:green", "tab:purple")
@@ -764,7 +764,7 @@ class _Stage:
     panel has the same scale: its half-width is the largest reach max|anchor| + Σ|links|.
     """
 
-    def __init__(self, panels, t, title, slow, frames_per_period, width):
+    def __init__(self, panels, t, title, slow, frames_per_period, width, subtitle=""):
         import matplotlib
         from matplotlib.figure import Figure
         from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -786,7 +786,7 @@ class _Stage:
         self.rods, self.bobs, self.trails, self.tilts, self.pivots = [], [], [], [], []
         # margins for the titles and the clock: fixed in points, so a fraction of the height
         frac = 504 * scale / self.height
-        top, bottom = 1 - 0.245 * frac, 0.115 * frac
+        top, bottom = 1 - 0.245 * frac, 0.13 * frac
         with matplotlib.rc_context({"font.size": 10 * scale}):
             axes = np.atleast_1d(fig.subplots(1, n, gridspec_kw=dict(
                 left=0.01, right=0.99, bottom=bottom, top=top, wspace=0.03)))
@@ -811,21 +811,26 @@ class _Stage:
                                solid_joinstyle="round", zorder=2)
                 bob, = ax.plot([], [], "o", color=c, ms=13 * scale, zorder=3, ls="none")
                 piv, = ax.plot([], [], "s", color="k", ms=6 * scale, zorder=4)
-                tilt = ax.text(0.03, 0.03, "", transform=ax.transAxes, ha="left",
-                               va="bottom", family="monospace", **small)
-                ax.set_title(panel.title, color=c, pad=5, linespacing=1.35, **font)
+                # below the panel: a swinging chain would cross any text inside it
+                tilt = ax.text(0.5, -0.008, "", transform=ax.transAxes, ha="center",
+                               va="top", family="monospace", **small)
+                head = ax.set_title(panel.title, color=c, pad=5, linespacing=1.35, **font)
+                _fit(head, ax.get_position().width * self.width)
                 self.rods.append(rod)
                 self.bobs.append(bob)
                 self.trails.append(trail)
                 self.pivots.append(piv)
                 self.tilts.append(tilt)
-            fig.suptitle(title, y=0.985, **big)
+            _fit(fig.suptitle(title, y=0.985, **big), 0.98 * self.width)
+            if subtitle:
+                fig.text(0.5, 1 - 0.074 * frac, subtitle, ha="center", va="bottom",
+                         color="0.3", **small)
             self.clock = fig.text(0.5, 0.052 * frac, "", ha="center", va="bottom", **font)
             bob = "bob's" if max(p.points.shape[1] for p in panels) == 1 else "outer bob's"
-            fig.text(0.5, 0.012 * frac, "grey band: the pivot's travel    dashed: the upright"
-                     f"    faint curve: the {bob} path over the last "
-                     + ("drive period" if frames_per_period else "second"),
-                     ha="center", va="bottom", color="0.4", **small)
+            _fit(fig.text(0.5, 0.012 * frac, "grey band: the pivot's travel    dashed: the "
+                          f"upright    faint curve: the {bob} path over the last "
+                          + ("drive period" if frames_per_period else "second"),
+                          ha="center", va="bottom", color="0.4", **small), 0.98 * self.width)
 
     def draw(self, k):
         n = self.frames_per_period or 1
@@ -844,6 +849,14 @@ class _Stage:
 
     def close(self):
         self.fig.clear()
+
+
+def _fit(text, width_px):
+    """Shrink ``text``'s font until it is at most ``width_px`` wide (long titles)."""
+    renderer = text.figure.canvas.get_renderer()
+    wide = text.get_window_extent(renderer).width
+    if wide > width_px:
+        text.set_fontsize(text.get_fontsize() * width_px / wide)
 
 
 def _travel(anchor):
