@@ -228,13 +228,16 @@ def browser(tmp_path_factory):
 # --- the real report --------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
-def report_dir(browser, tmp_path_factory):
+def report(browser, tmp_path_factory):
     """The quick report, built once (after the browser: no build where the test is skipped)."""
     from kapitza.report import build_report
 
-    out = tmp_path_factory.mktemp("report")
-    build_report(out=out, quick=True)
-    return out
+    return build_report(out=tmp_path_factory.mktemp("report"), quick=True)
+
+
+@pytest.fixture(scope="module")
+def report_dir(report):
+    return Path(report.out)
 
 
 @pytest.fixture(scope="module")
@@ -248,25 +251,31 @@ def report_page(browser, report_dir, tmp_path_factory):
     return page
 
 
-def test_every_image_loads(report_page, report_dir):
+def test_every_image_loads(report, report_page, report_dir):
+    assert report.failed == ()      # a failed section has no figure on the page
     assert broken_images(report_page) == []
     shown = {_local_path(i["src"]).resolve() for i in report_page.images}
-    # every figure and animation the report wrote is on the page, the GIF among them
+    # every section's figure, and every image file in the folder, is on the page, the GIF too
+    figures = {Path(p).resolve() for p in report.figures.values()}
     written = {p.resolve() for ext in ("*.png", "*.gif") for p in report_dir.rglob(ext)}
-    assert written - shown == set(), "figures written but not shown on the page"
-    assert any(p.suffix == ".gif" for p in shown), "the animation (GIF) is not on the page"
-    assert len(shown) >= 4, f"only {len(shown)} images on the page: {sorted(shown)}"
+    assert figures - shown == set(), "section figures not shown on the page"
+    assert written - shown == set(), "image files written but not shown on the page"
+    # the default scene has a figure in every section (7): none may be missing from the page
+    assert set(report.figures) == {sec.name for sec in report.sections}
+    assert len(report.figures) >= 7 and report.figures["animation"].suffix == ".gif"
     # each is drawn at a visible size and fits the window
     for i in report_page.images:
         assert 0 < i["width"] <= report_page.client_width and i["height"] > 0, i
 
 
-def test_every_link_resolves_and_every_data_file_is_linked(report_page, report_dir):
+def test_every_link_resolves_and_every_data_file_is_linked(report, report_page, report_dir):
     assert unresolved_links(report_page, report_dir) == []
     linked = {p.resolve() for p in map(_local_path, report_page.links) if p is not None}
+    # every table in both formats, and every file of the data folder
+    tables = {Path(p).resolve() for pair in report.tables.values() for p in pair}
     data = {p.resolve() for p in (report_dir / "data").rglob("*") if p.is_file()}
-    assert data, "the report wrote no data files"
-    assert data - linked == set(), "data files the page does not link"
+    assert tables and {p.suffix for p in tables} == {".parquet", ".csv"}
+    assert (tables | data) - linked == set(), "data files the page does not link"
 
 
 def test_console_clean_and_nothing_loaded_from_outside(report_page, report_dir):
