@@ -317,7 +317,7 @@ def _velocity_theory(kappa):
 def run(out: Path, quick: bool = False) -> dict:
     out = Path(out)
     sweeps = out / "sweeps"
-    n_plane, sub, periods, n_line = (10, 3, 500, 7) if quick else (80, 4, 2000, 12)
+    n_plane, sub, periods, n_line = (10, 2, 500, 7) if quick else (80, 4, 2000, 12)
     A_l = np.geomspace(0.002, 0.5, n_plane)
     w_ratio = np.geomspace(2.0, 300.0, n_plane)
     t = time.perf_counter()

@@ -14,8 +14,9 @@ Method
 released at t = 0 (pivot at its highest point, y_p = A) with tilt φ0 = π − θ0 and
 angular velocity θ̇0; it *stays up* when |θ − π| < 0.8 π for the whole run (a motion
 past the averaged barrier swings through the hanging position, |θ − π| = π, so any band
-between the barrier and π classifies the same).  Runs last 800 drive periods (≥ 12 free
-periods 2π/ω0 of the pendulum at the highest ω here), tolerance rtol = 1e-7.
+between the barrier and π classifies the same).  Runs last 800 drive periods (the tilt
+lines: 10 ω/ω0, at least 300), at least 10 free periods 2π/ω0 of the pendulum at every ω
+here; tolerance rtol = 1e-7.
 
 *The averaged reference* (independent of the simulation): the slow motion Φ(t) in
 U_eff(θ) = −g l cos θ + A²ω² sin²θ/4 (``KapitzaPendulum.effective_potential``) conserves
