@@ -300,6 +300,10 @@ def figure(table, sims, vfits, alines, A_l, w_ratio):
            title="the amplitude shift of Ω: Ω(a) ≈ Ω + (dΩ/d(a²)) a²\n"
                  f"(releases a = {RELEASES[0]}, {RELEASES[1]} rad; "
                  "β = g/6l − A²ω²/3l²)")
+    from matplotlib.ticker import FixedLocator, NullFormatter, ScalarFormatter
+    ax.yaxis.set_major_locator(FixedLocator([0.5, 0.7, 1, 1.5, 2, 3, 5]))
+    ax.yaxis.set_major_formatter(ScalarFormatter())
+    ax.yaxis.set_minor_formatter(NullFormatter())
     ax.legend(fontsize=8)
     fig.suptitle("How good is averaging? Upright pendulum, relative error of the slow "
                  "frequency Ω (exact: Floquet; l = 1 m, g = 9.81 m/s²)", fontsize=13)
