@@ -16,7 +16,8 @@ T-periodic orbit is a root of F(y0) = φ_T(y0) − y0.  Newton's step solves
 (X − I) δy = −F, with X = ∂φ_T/∂y0 integrated along the trajectory from the
 variational equations (:func:`lagrange_core.variational.flow`: the system's exact
 compiled Jacobian, 8th-order steps doubled until converged); a step that does not
-reduce |F| is halved (up to 12 times).  At convergence X *is* the monodromy matrix
+reduce |F|, or whose flow fails (non-finite, or not converged by ``max_steps``), is
+halved (up to 12 times).  At convergence X *is* the monodromy matrix
 of the orbit: its eigenvalues are the Floquet multipliers.  The start is the averaging
 prediction (the slow equilibrium of :func:`kapitza.average`, at rest) unless a guess
 is given; a state that persists under the drive skips the Newton iteration and goes
@@ -111,8 +112,24 @@ def _persists(system, p, y, T):
     return scale <= 1e-12
 
 
+#: Halvings of a Newton step before the iteration is declared stalled.
+MAX_HALVINGS = 12
+
+
+def _flow(system, y, T, p, tol, steps, max_steps):
+    """The flow over one period, or None where it fails: a non-finite state or step
+    doublings that do not converge by ``max_steps`` (FloatingPointError from flow), or a
+    singular mass matrix on the way (ValueError)."""
+    try:
+        with np.errstate(all="ignore"):      # a diverging trial state is judged, not warned
+            return flow(system, y, (0.0, T), p, tol=tol, steps=max(16, int(steps)),
+                        max_steps=max_steps)
+    except (FloatingPointError, ValueError, OverflowError):
+        return None
+
+
 def periodic_orbit(system, params, guess=None, *, frequency="omega", periods=1, tol=1e-10,
-                   max_iterations=40) -> PeriodicOrbit:
+                   max_iterations=40, max_steps=1 << 16) -> PeriodicOrbit:
     """The T-periodic (or nT-periodic) orbit of a driven system by Newton shooting.
 
     Parameters
@@ -131,6 +148,12 @@ def periodic_orbit(system, params, guess=None, *, frequency="omega", periods=1, 
     tol : float
         Residual |φ_T(y0) − y0| ≤ tol · max(1, |y0|); the flow is integrated to tol/100.
     max_iterations : int
+        Newton steps before giving up (ValueError).
+    max_steps : int
+        Most fixed steps of one flow over ``periods`` · T (the step count doubles until two
+        counts agree to tol/100; an orbit that smooth needs a few hundred per period).  A
+        trial state whose flow needs more, or diverges, is a rejected Newton step (halved);
+        this bounds one flow to about a second for a one-degree-of-freedom system.
 
     Returns
     -------
@@ -160,13 +183,23 @@ def periodic_orbit(system, params, guess=None, *, frequency="omega", periods=1, 
         return _result(system, params, y, T, periods, fr.multipliers, M, 0.0,
                        float(fr.error_estimate), 0, "equilibrium that persists under the drive "
                        "(kapitza.floquet_point)", decided=(bool(fr.stable), fr.omega_slow))
-    steps = 32
     ftol = tol / 100
-    fl = flow(system, y, (0.0, T), p, tol=ftol, steps=steps)
-    steps = fl.steps
+    y_start = y.copy()
+    # flow() doubles its step count from ``steps`` until two counts agree, so it returns at
+    # least twice the count it starts from: each call starts at half the last accepted count
+    # (which converged, so it is reused, not doubled again).  Carrying the accepted count
+    # forward unhalved doubled it at every Newton step: 2^20 steps per period after ~15 steps
+    # and minutes per flow (issue: circular pivot, A = 0.2 l, ω/ω0 = 133, 352 s).
+    fl = _flow(system, y, T, p, ftol, 32, max_steps)
+    if fl is None:
+        raise ValueError(f"periodic_orbit: the flow over one period from the guess {y.tolist()} "
+                         f"failed (non-finite or not converged by max_steps = {max_steps} "
+                         "steps); try another guess, or a larger max_steps for a very fast "
+                         "orbit.")
     F = fl.y1 - y
     res = float(np.max(np.abs(F)))
     d = 2 * n
+    rejected = 0
     for it in range(1, max_iterations + 1):
         if res <= tol * max(1.0, float(np.max(np.abs(y)))):
             break
@@ -179,24 +212,31 @@ def periodic_orbit(system, params, guess=None, *, frequency="omega", periods=1, 
                              "or a conserved quantity); move the parameters or use another "
                              "guess.") from None
         lam = 1.0
-        for _ in range(13):
+        for _ in range(MAX_HALVINGS + 1):
             y_try = y + lam * dy
-            fl_try = flow(system, y_try, (0.0, T), p, tol=ftol, steps=steps)
-            F_try = fl_try.y1 - y_try
-            r_try = float(np.max(np.abs(F_try)))
-            if r_try < res or (lam < 1 and r_try <= res * (1 + 1e-12)):
-                break
+            # a trial state whose flow fails (non-finite, or the step doublings not
+            # converging by max_steps) is a rejected step like one that raises |F|: halve
+            fl_try = _flow(system, y_try, T, p, ftol, fl.steps // 2, max_steps)
+            if fl_try is not None:
+                F_try = fl_try.y1 - y_try
+                r_try = float(np.max(np.abs(F_try)))
+                if r_try < res or (lam < 1 and r_try <= res * (1 + 1e-12)):
+                    break
+            rejected += fl_try is None
             lam *= 0.5
         else:
             raise ValueError(f"periodic_orbit: Newton's method stalled at residual {res:.3g} "
-                             f"(iteration {it}); no periodic orbit near the guess "
+                             f"(iteration {it}; {MAX_HALVINGS} halvings of the step, "
+                             f"{rejected} trial flows failed); no periodic orbit near the guess "
                              f"{y.tolist()}. Try another guess (e.g. the averaged state) or "
                              "parameters inside the averaging regime.")
         y, fl, F, res = y_try, fl_try, F_try, r_try
-        steps = fl.steps
     else:
         raise ValueError(f"periodic_orbit: no convergence in {max_iterations} iterations "
-                         f"(residual {res:.3g}).")
+                         f"(residual {res:.3g} at {y.tolist()}, from the guess "
+                         f"{y_start.tolist()}); no periodic orbit reached from this guess. Try "
+                         "another guess (e.g. the state [q, q̇] of a direct simulation at t = 0) "
+                         "or raise max_iterations.")
     mult = np.linalg.eigvals(fl.jacobian)
     return _result(system, params, y, T, periods, mult, fl.jacobian, res,
                    float(fl.error_estimate), it, "Newton shooting on the period map")

@@ -6,6 +6,8 @@ Floquet path about a persisting equilibrium, finite differences of the one-traje
 integrator for the variational flow, and direct simulation.
 """
 import math
+import sys
+import time
 
 import numpy as np
 import pytest
@@ -140,3 +142,59 @@ def test_orbit_errors_name_the_fix():
         KapitzaPendulum(drive="horizontal").floquet(0.001, 10.0, about="tilted")
     with pytest.raises(ValueError, match="about must be 'tilted'"):
         KapitzaPendulum(drive="horizontal").floquet(0.05, 300.0, about="upright")
+
+
+@pytest.mark.parametrize("failure", [FloatingPointError, ValueError])
+def test_failing_trial_flow_is_a_rejected_step(monkeypatch, failure):
+    """A Newton trial state whose one-period flow fails (flow raises FloatingPointError for
+    a non-finite state or step doublings that do not converge, ValueError for a singular
+    mass matrix) is a rejected step: the step is halved and the iteration goes on to the
+    same orbit (the horizontal drive's tilted orbit, to the residual tolerance).  Before,
+    the exception escaped from the first trial."""
+    po = sys.modules["kapitza.periodic_orbit"]
+    s = problems.driven_pendulum("horizontal")
+    P = dict(m=1.0, l=1.0, g=G, A=0.05, omega=2 * math.pi * 60)
+    ref = periodic_orbit(s, P, [1.5])
+    calls = []
+
+    def failing_first_trial(*args, **kwargs):
+        calls.append(args[1])
+        if len(calls) == 2:                     # call 1: the guess; call 2: the full step
+            raise failure("injected: the trial state's flow failed")
+        return flow(*args, **kwargs)
+    monkeypatch.setattr(po, "flow", failing_first_trial)
+    orbit = periodic_orbit(s, P, [1.5])
+    # the third flow is the halved step: y + ½ δy, half-way between the guess and call 2
+    assert np.allclose(calls[2], (calls[0] + calls[1]) / 2, rtol=0, atol=1e-15)
+    assert np.max(np.abs(orbit.state - ref.state)) < 1e-9
+    assert orbit.stable and orbit.omega_slow == pytest.approx(ref.omega_slow, rel=1e-9)
+
+    monkeypatch.setattr(po, "flow", lambda *a, **k: (_ for _ in ()).throw(failure("x")))
+    with pytest.raises(ValueError, match="flow over one period from the guess .* failed"):
+        periodic_orbit(s, P, [1.5])
+
+
+def test_circular_pivot_at_omega_ratio_133_ends_in_seconds():
+    """The set-up that took 352 s and ended in FloatingPointError (studies/other_drives.py:
+    circular pivot A = B = 0.2 l, ω/ω0 = 133, undamped).  The cause: each accepted Newton
+    step doubled the flow's step count (flow returns at least twice the count it starts
+    from), 2^19 steps per period after 14 steps.  Now from the at-rest guess θ = π Newton
+    does not reach the orbit (the orbit starts at θ ≈ π + A/l with q̇ = 4 rad/s; the
+    iteration wanders off to θ ≈ 5 rad): a ValueError naming the guess in about a second
+    (measured 0.15 s compiled).  Continued from the orbit at ω/ω0 = 200 it converges in a
+    few steps to the unstable upright orbit, period mean π, whose growth per period is
+    averaging's e^(ω0 T) = 1.0484 (U_eff = −g l cos θ + const, PHYSICS.md) to 3e-3
+    (measured |λ| = 1.0497: the excess is O(A²/l²)))."""
+    s = elliptic_pendulum()
+    w0 = math.sqrt(G)
+    P = dict(m=1.0, l=1.0, g=G, A=0.2, B=0.2, omega=132.7465766 * w0, gamma=0.0)
+    t0 = time.perf_counter()
+    with pytest.raises(ValueError, match="no periodic orbit reached from this guess"):
+        periodic_orbit(s, P, [math.pi])
+    assert time.perf_counter() - t0 < 30.0
+    start = periodic_orbit(s, dict(P, omega=200 * w0), [math.pi]).state
+    orbit = periodic_orbit(s, P, start)
+    assert orbit.iterations <= 10 and not orbit.stable
+    assert abs(orbit.q_mean[0] - math.pi) < 1e-6
+    assert np.max(np.abs(orbit.multipliers)) == pytest.approx(math.exp(2 * math.pi * w0 /
+                                                                       P["omega"]), rel=3e-3)
