@@ -1,12 +1,15 @@
-"""Animations: the stabilised inverted pendulum beside one that falls, as a looping GIF.
+"""Animations as looping GIFs: the stabilised inverted pendulum beside one that falls
+(:func:`pendulum_animation`), and planar chains of particles from scenes side by side,
+e.g. Acheson's double pendulum upright and falling (:func:`system_animation`).
 
 What is drawn is what was simulated
 -----------------------------------
-Both pendulums are integrated by :meth:`kapitza.KapitzaPendulum.simulate` with output at
-exactly the frame times (the RKN and DOP853 drivers land on each requested time; no
-interpolation afterwards), and each frame draws those angles and the pivot's height
-y_p = A cos ωt at the same instant (shared/PHYSICS.md: θ from the downward vertical,
-θ = π upright).
+Both pendulums are integrated by :meth:`kapitza.KapitzaPendulum.simulate` (a scene's system
+by :meth:`lagrange_core.System.simulate`) with output at exactly the frame times (the RKN
+and DOP853 drivers land on each requested time; no interpolation afterwards), and each
+frame draws those angles and the pivot's height y_p = A cos ωt at the same instant
+(shared/PHYSICS.md: θ from the downward vertical, θ = π upright); a scene's particles are
+drawn at its system's own positions r_i(q, t).
 
 Slow motion, never aliasing
 ---------------------------
@@ -25,6 +28,18 @@ are whole centiseconds).  A scene in which the shake is visible and the physics 
 Kapitza effect is ω/ω0 ≈ 10–30 with A/l ≈ 0.1–0.3 inside the exact window
 ``KapitzaPendulum.stability_window``; e.g. ω/ω0 = 10, A/l = 0.25 (window 0.142 < A/l <
 0.471 for l = 1 m) plays at slow motion ×2 with the defaults.
+
+Stroboscopic frames for fast drives
+-----------------------------------
+A drive too fast for that (Kapitza's own 60 Hz: 8 frames a period are 480 frames a second)
+is shown stroboscopically instead (``mode="strobe"``, or ``"auto"`` when slow motion would
+need more than ``max_frames`` or play more than 10× slower than real time): one frame
+every m ≈ 1/(fps T) whole drive periods, t_k = k m T, so the pivot is always at the same
+phase (y_p = A, the top) and the frames show the slow motion at about real time, as a
+strobe lamp at the drive's frequency would.  What the strobe skips is drawn, not hidden:
+the pivot's travel as a grey band, and the pendulum faint at n phases through the drive
+period after each frame (the blur a camera exposing for one period would record), all
+from the same simulation.
 
 The GIF loops (``loop=0``), is 720 px wide by default, and is written with matplotlib's
 ``animation.PillowWriter`` (no dependency beyond matplotlib).
@@ -93,9 +108,12 @@ class Animation:
     frames_per_period : int
         Frames per drive period T.
     slow_motion : float
-        Playback slowed down by this factor: n / (T · fps).
+        Playback slowed down by this factor: simulated time per frame × fps, inverted
+        (n / (T · fps) in slow motion; < 1 plays faster than real time).
     seconds : float
         Wall time of simulation and rendering (s).
+    periods_per_frame : int or None
+        The strobe's m drive periods between frames (t_k = k m T); None: slow motion.
     """
 
     path: Path
@@ -122,6 +140,7 @@ class Animation:
     frames_per_period: int
     slow_motion: float
     seconds: float
+    periods_per_frame: int | None = None
 
     @property
     def period(self) -> float:
@@ -173,7 +192,7 @@ class SystemAnimation:
     floquet_stable : tuple of bool or None
         Linear stability of ``about`` under each panel's drive (Floquet; undriven: the
         normal modes), None without ``about``.
-    fps, frames_per_period, slow_motion, seconds
+    fps, frames_per_period, slow_motion, seconds, periods_per_frame
         As for :class:`Animation` (``frames_per_period`` None: real time, no drive).
     """
 
@@ -197,6 +216,7 @@ class SystemAnimation:
     frames_per_period: object
     slow_motion: float
     seconds: float
+    periods_per_frame: int | None = None
 
     def to_dataframe(self):
         """One row per panel and frame: panel, frame, t (s), each coordinate and velocity,
@@ -257,27 +277,61 @@ def _playback(where, duration, fps, rtol, frames_per_period, width, max_frames):
     return duration, fps, rtol
 
 
-def _frame_times(where, omega, duration, fps, frames_per_period, max_frames, fix):
-    """Frame times t_k = k T/n over ``duration`` (or k/fps, real time, without a drive:
-    ``omega`` None), the frame rate the GIF stores and the slow-motion factor."""
+MODES = ("auto", "slow", "strobe")
+#: mode="auto" strobes a drive whose slow motion would be slower than this
+SLOWEST = 10.0
+
+
+def _frame_times(where, omega, duration, fps, frames_per_period, max_frames, fix, mode):
+    """The frames' times and how they play.
+
+    Returns (t, fps_shown, slow, stride): frame times t (s); the frame rate the GIF stores;
+    the playback's slow-motion factor (simulated s per played s, inverted); ``stride`` None
+    for slow motion (t_k = k T/n) or the m drive periods between stroboscopic frames
+    (t_k = k m T, m ≈ 1/(fps T): about real time).  Without a drive (``omega`` None) the
+    frames are real time, t_k = k/fps.  ``mode="auto"`` takes slow motion when its frames
+    fit ``max_frames`` and it is at most :data:`SLOWEST` times slower than real time,
+    else the strobe.
+    """
+    if mode not in MODES:
+        raise ValueError(f"{where}mode must be one of {MODES}, got {mode!r}.")
     # whole-centisecond delays are what a GIF stores: state the rate it really plays at
     fps_shown = 100.0 / max(1, round(int(1000 / fps) / 10))
+    stride = None
     if omega is None:
         dt, what = 1 / fps_shown, f"1/fps = {1 / fps_shown:.4g} s"
     else:
         period = 2 * math.pi / omega
         dt, what = period / frames_per_period, f"T/n = {period / frames_per_period:.4g} s"
-    frames = int(math.floor(duration / dt * (1 + 1e-12))) + 1
+        too_slow = 1 / (dt * fps_shown) > SLOWEST
+        if mode == "strobe" or (mode == "auto" and (_count(duration, dt) > max_frames
+                                                    or too_slow)):
+            stride = max(1, round(1 / (fps_shown * period)))
+            dt, what = stride * period, f"{stride} drive period(s) = {stride * period:.4g} s"
+    frames = _count(duration, dt)
     if frames < 2:
         raise ValueError(f"{where}duration = {duration:g} s is shorter than one frame "
                          f"interval {what}; use duration ≥ {dt:.4g} s.")
     if frames > max_frames:
         per = ("" if omega is None else f" ({frames_per_period} per drive period of "
-               f"{2 * math.pi / omega:.4g} s)")
+               f"{2 * math.pi / omega:.4g} s)" if stride is None else
+               f" (one every {what})")
+        strobe = ", mode='strobe'" if omega is not None and stride is None else ""
         raise ValueError(f"{where}{frames} frames needed{per} over duration = {duration:g} s, "
                          f"more than max_frames = {max_frames}; shorten duration to ≤ "
-                         f"{(max_frames - 1) * dt:.3g} s, {fix}, or raise max_frames.")
-    return np.arange(frames) * dt, fps_shown, 1 / (dt * fps_shown)
+                         f"{(max_frames - 1) * dt:.3g} s, {fix}{strobe}, or raise max_frames.")
+    return np.arange(frames) * dt, fps_shown, 1 / (dt * fps_shown), stride
+
+
+def _count(duration, dt):
+    return int(math.floor(duration / dt * (1 + 1e-12))) + 1
+
+
+def _samples(t, omega, stride, frames_per_period):
+    """The simulation's output times, (frames, s): each frame's time, and with the strobe
+    also the n − 1 later phases of its drive period (the rod drawn faint through them)."""
+    sub = frames_per_period if stride else 1
+    return t[:, None] + np.arange(sub)[None, :] * (2 * math.pi / omega / sub if stride else 0)
 
 
 def _render(where, stage, path, fps, progress, label):
@@ -307,7 +361,7 @@ def pendulum_animation(path, *, A: float, omega: float, l: float = 1.0, g: float
                        theta0: float = math.pi - 0.1, damping: float = 0.0,
                        A_fall: float = 0.0, duration: float = 4.0, fps: float = 20.0,
                        frames_per_period: int = 8, width: int = 720, max_frames: int = 600,
-                       rtol: float = 1e-10, progress=None) -> Animation:
+                       rtol: float = 1e-10, mode: str = "auto", progress=None) -> Animation:
     """Write a looping GIF of a stabilised inverted pendulum beside one that falls.
 
     Two pendulums of length ``l`` are released at rest from the same angle ``theta0``
@@ -344,7 +398,14 @@ def pendulum_animation(path, *, A: float, omega: float, l: float = 1.0, g: float
         the GIF stores whole-centisecond delays, and ``Animation.fps`` the rate stored.
     frames_per_period : int
         Frames n per drive period T = 2π/ω, ≥ 4, so the drive is resolved, not aliased;
-        the slow-motion factor is n / (T · fps).
+        the slow-motion factor is n / (T · fps).  With the strobe: the phases at which
+        the chain is drawn faint through each frame's drive period.
+    mode : {"auto", "slow", "strobe"}
+        "slow": n frames every drive period, in slow motion; "strobe": one frame every
+        m ≈ 1/(fps T) drive periods at the same phase (about real time), the pendulum
+        drawn faint through the period after each frame, for drives too fast to show in
+        slow motion (module docstring); "auto" (default): slow motion when its frames fit
+        ``max_frames`` and it plays at most 10× slower than real time, else the strobe.
     width : int
         Frame width (pixels), 300–2000; the height is 0.6 of it.
     max_frames : int
@@ -428,25 +489,29 @@ def pendulum_animation(path, *, A: float, omega: float, l: float = 1.0, g: float
                          "pendulum would stay up too; use A_fall = 0 (undriven) or "
                          f"A_fall < {A_min:.4g} m.")
 
-    t, fps_shown, slow = _frame_times(where, omega, duration, fps, frames_per_period,
-                                      max_frames, fix="lower omega (ω/ω0 ≈ 10–30 is enough "
-                                      "to stabilise)")
+    t, fps_shown, slow, stride = _frame_times(
+        where, omega, duration, fps, frames_per_period, max_frames,
+        fix="lower omega (ω/ω0 ≈ 10–30 is enough to stabilise)", mode=mode)
     frames = len(t)
+    samples = _samples(t, omega, stride, frames_per_period)
     amps = np.array([A, A_fall])
-    theta = np.empty((2, frames))
-    theta_dot = np.empty((2, frames))
+    theta_all = np.empty((2,) + samples.shape)
+    theta_dot_all = np.empty((2,) + samples.shape)
     for i, amp in enumerate(amps):
-        traj = pend.simulate(theta0, 0.0, (0.0, float(t[-1])), float(amp), omega, rtol=rtol,
-                             t_eval=t)
-        if traj.status != "success" or traj.t.shape != t.shape:
+        traj = pend.simulate(theta0, 0.0, (0.0, float(samples[-1, -1])), float(amp), omega,
+                             rtol=rtol, t_eval=samples.ravel())
+        if traj.status != "success" or traj.t.shape != (samples.size,):
             raise RuntimeError(f"{where}the simulation with A = {amp:.6g} m stopped: "
                                f"{traj.status} ({traj.message}).")
-        theta[i], theta_dot[i] = traj.q[:, 0], traj.qdot[:, 0]
-    pivot = amps[:, None] * np.cos(omega * t)[None, :]
-    tilt = _tilt(theta)
+        theta_all[i] = traj.q[:, 0].reshape(samples.shape)
+        theta_dot_all[i] = traj.qdot[:, 0].reshape(samples.shape)
+    theta, theta_dot = theta_all[:, :, 0], theta_dot_all[:, :, 0]
+    pivot_all = amps[:, None, None] * np.cos(omega * samples)[None]
+    pivot = pivot_all[:, :, 0]
+    tilt = _tilt(theta_all).reshape(2, -1)
     out = tilt >= UPRIGHT_BAND
     stayed = (bool(not out[0].any()), bool(not out[1].any()))
-    fall = tuple(float(t[np.argmax(o)]) if o.any() else math.nan for o in out)
+    fall = tuple(float(samples.ravel()[np.argmax(o)]) if o.any() else math.nan for o in out)
     if not stayed[0]:
         warnings.warn(f"{where}the driven pendulum (A = {A:.4g} m, inside the window) fell at "
                       f"t = {fall[0]:.3g} s: a release {tilt0:.3g} rad from the upright is "
@@ -457,10 +522,10 @@ def pendulum_animation(path, *, A: float, omega: float, l: float = 1.0, g: float
                       f"{duration:g} s (max tilt {tilt[1].max():.3g} rad); use a longer "
                       "duration.", stacklevel=2)
 
-    stage = _pendulum_stage(t, theta, pivot, amps, l=l, g=g, damping=damping, omega=omega,
-                            window=(A_min, A_max), stayed=stayed, fall=fall, floquet=stable,
-                            tilt0=tilt0, slow=slow, frames_per_period=frames_per_period,
-                            width=width)
+    stage = _pendulum_stage(t, theta_all, pivot_all, amps, l=l, g=g, damping=damping,
+                            omega=omega, window=(A_min, A_max), stayed=stayed, fall=fall,
+                            floquet=stable, tilt0=tilt0, slow=slow,
+                            frames_per_period=frames_per_period, stride=stride, width=width)
     _render(where, stage, path, fps_shown, progress, "pendulum_animation")
     return Animation(path=path, frames=frames, width=stage.width, height=stage.height,
                      bytes=path.stat().st_size, t=t, theta=theta, theta_dot=theta_dot,
@@ -468,13 +533,13 @@ def pendulum_animation(path, *, A: float, omega: float, l: float = 1.0, g: float
                      theta0=theta0, window=(A_min, A_max), floquet_stable=stable,
                      stayed_up=stayed, fall_time=fall, max_tilt=tuple(map(float, tilt.max(1))),
                      fps=fps_shown, frames_per_period=frames_per_period, slow_motion=slow,
-                     seconds=time.perf_counter() - started)
+                     seconds=time.perf_counter() - started, periods_per_frame=stride)
 
 
 def system_animation(path, scenes, *, about="inverted", titles=None, title=None,
                      duration: float = 4.0,
                      fps: float = 20.0, frames_per_period: int = 8, width: int = 720,
-                     max_frames: int = 600, rtol: float = 1e-10,
+                     max_frames: int = 600, rtol: float = 1e-10, mode: str = "auto",
                      progress=None) -> SystemAnimation:
     """Write a looping GIF of planar chains of particles side by side, each from a scene.
 
@@ -502,7 +567,7 @@ def system_animation(path, scenes, *, about="inverted", titles=None, title=None,
     title : str, optional
         The figure's title (default: how the chains were released and what "stays up"
         means).
-    duration, fps, frames_per_period, width, max_frames, rtol, progress
+    duration, fps, frames_per_period, width, max_frames, rtol, mode, progress
         As for :func:`pendulum_animation`.  Without any drive the frames are in real time
         (t_k = k/fps).
 
@@ -553,19 +618,23 @@ def system_animation(path, scenes, *, about="inverted", titles=None, title=None,
                          f"{sorted(omegas)} rad/s; the frames follow one drive period, so give "
                          "them one omega.")
     omega = omegas.pop() if omegas else None
-    t, fps_shown, slow = _frame_times(where, omega, duration, fps, frames_per_period,
-                                      max_frames, fix="or a slower drive")
+    t, fps_shown, slow, stride = _frame_times(where, omega, duration, fps, frames_per_period,
+                                              max_frames, fix="or a slower drive", mode=mode)
+    samples = _samples(t, omega, stride, frames_per_period)     # (frames, s)
+    flat = samples.ravel()
 
     panels, qs, qds, anchors, positions, stayed, fall, stable = [], [], [], [], [], [], [], []
     for i, sc in enumerate(scenes):
         system, params = sc.system, dict(sc.params)
         names = tuple(system.coordinates)
-        traj = system.simulate(sc.q0, sc.qdot0, (0.0, float(t[-1])), params, rtol=rtol,
-                               t_eval=t)
-        if traj.status != "success" or traj.t.shape != t.shape:
+        traj = system.simulate(sc.q0, sc.qdot0, (0.0, float(flat[-1])), params, rtol=rtol,
+                               t_eval=flat)
+        if traj.status != "success" or traj.t.shape != flat.shape:
             raise RuntimeError(f"{where}the simulation of scene {i} ({titles[i]}) stopped: "
                                f"{traj.status} ({traj.message}).")
-        q, qd = np.asarray(traj.q), np.asarray(traj.qdot)
+        q_all = np.asarray(traj.q)                                  # (frames · s, n)
+        step = samples.shape[1]
+        q, qd = q_all[::step], np.asarray(traj.qdot)[::step]
         drive = sc._drive
         pivot = drive.pivot() if drive is not None else (0, 0)
         exprs = [sp.sympify(c) for c in pivot]
@@ -575,10 +644,11 @@ def system_animation(path, scenes, *, about="inverted", titles=None, title=None,
                                  f"{len(particle.position)} dimensions; only planar (x, y) "
                                  "chains can be drawn.")
             exprs += [sp.sympify(c) for c in particle.position]
-        values = _evaluate(where, exprs, names, q, t, params, t_symbol)
-        anchor = np.stack(values[:2], 1)
-        pos = np.stack([np.stack(values[2 + 2 * j: 4 + 2 * j], 1)
-                        for j in range(len(system.particles))], 1)
+        values = _evaluate(where, exprs, names, q_all, flat, params, t_symbol)
+        chains = np.stack([np.stack(values[2 * j: 2 * j + 2], 1)
+                           for j in range(1 + len(system.particles))], 1)
+        chains = chains.reshape(samples.shape + chains.shape[1:])   # (frames, s, 1 + p, 2)
+        anchor, pos = chains[:, 0, 0], chains[:, 0, 1:]
         if about is None:
             centre, ok, when, lin = None, None, math.nan, None
         else:
@@ -587,10 +657,10 @@ def system_animation(path, scenes, *, about="inverted", titles=None, title=None,
             if centre.shape != (len(names),):
                 raise ValueError(f"{where}about must be 'inverted', 'hanging', None or one "
                                  f"value per coordinate {names}, got {about!r}.")
-            dev = np.abs((q - centre + math.pi) % (2 * math.pi) - math.pi).max(1)
+            dev = np.abs((q_all - centre + math.pi) % (2 * math.pi) - math.pi).max(1)
             out = dev >= UPRIGHT_BAND
             ok = bool(not out.any())
-            when = float(t[np.argmax(out)]) if out.any() else math.nan
+            when = float(flat[np.argmax(out)]) if out.any() else math.nan
             if drive is not None:
                 lin = bool(floquet_point(system, params, centre).stable)
             else:
@@ -614,7 +684,8 @@ def system_animation(path, scenes, *, about="inverted", titles=None, title=None,
                    for n, c in zip(names, centre)]
             readout = ["  ".join(f"{r} = {v:+.3f}" for r, v in zip(ref, row)) for row in off]
         panels.append(_Panel(anchor=anchor, points=pos, colour=_COLOURS[i],
-                             title=f"{titles[i]}\n{sub}{fate}", readout=readout))
+                             title=f"{titles[i]}\n{sub}{fate}", readout=readout,
+                             blur=chains if stride else None))
         qs.append(q)
         qds.append(qd)
         anchors.append(anchor)
@@ -627,7 +698,8 @@ def system_animation(path, scenes, *, about="inverted", titles=None, title=None,
         title = "Released from each scene's [initial] state" + (
             f"; STAYS UP: every angle within π/2 of {about}" if isinstance(about, str)
             else "")
-    stage = _Stage(panels, t, title, slow, frames_per_period if omega else None, width)
+    stage = _Stage(panels, t, title, slow, frames_per_period if omega else None, width,
+                   stride=stride)
     _render(where, stage, path, fps_shown, progress, "system_animation")
     return SystemAnimation(
         path=path, frames=len(t), width=stage.width, height=stage.height,
@@ -639,7 +711,7 @@ def system_animation(path, scenes, *, about="inverted", titles=None, title=None,
         stayed_up=None if about is None else tuple(stayed), fall_time=tuple(fall),
         floquet_stable=None if about is None else tuple(stable), fps=fps_shown,
         frames_per_period=frames_per_period if omega else None, slow_motion=slow,
-        seconds=time.perf_counter() - started)
+        seconds=time.perf_counter() - started, periods_per_frame=stride)
 
 
 def _evaluate(where, exprs, names, q, t, params, t_symbol):
@@ -703,21 +775,32 @@ def _gif_writer(fps, exact=()):
 
 
 def _pendulum_stage(t, theta, pivot, amps, *, l, g, damping, omega, window, stayed, fall,
-                    floquet, tilt0, slow, frames_per_period, width):
-    """pendulum_animation's figure: two single-link chains from their pivots (0, y_p)."""
-    frames = len(t)
+                    floquet, tilt0, slow, frames_per_period, width, stride=None):
+    """pendulum_animation's figure: two single-link chains from their pivots (0, y_p).
+
+    ``theta`` and ``pivot`` are (2, frames) or (2, frames, s): each frame's state first,
+    then (strobe) the later phases of its drive period, drawn faint."""
+    theta, pivot = np.asarray(theta), np.asarray(pivot)
+    if theta.ndim == 2:
+        theta, pivot = theta[..., None], pivot[..., None]
     info = dict(l=l, omega=omega, omega0=math.sqrt(g / l), window=window, stayed=stayed,
                 fall=fall, floquet=floquet)
-    panels = [_Panel(anchor=np.stack([np.zeros(frames), pivot[i]], 1),
-                     points=np.stack(bob_position(theta[i], pivot[i], l), 1)[:, None, :],
-                     colour=_COLOURS[i], title=_pendulum_label(info, float(amps[i]), i),
-                     readout=[f"θ − π = {d:+.3f} rad"
-                              for d in (theta[i] - math.pi + math.pi) % (2 * math.pi) - math.pi])
-              for i in range(2)]
+    panels = []
+    for i in range(2):
+        x, y = bob_position(theta[i], pivot[i], l)                     # (frames, s)
+        chains = np.stack([np.stack([np.zeros_like(x), pivot[i]], -1),
+                           np.stack([x, y], -1)], 2)                  # (frames, s, 2, 2)
+        dev = (theta[i, :, 0] - math.pi + math.pi) % (2 * math.pi) - math.pi
+        panels.append(_Panel(anchor=chains[:, 0, 0], points=chains[:, 0, 1:],
+                             colour=_COLOURS[i],
+                             title=_pendulum_label(info, float(amps[i]), i),
+                             readout=[f"θ − π = {d:+.3f} rad" for d in dev],
+                             blur=chains if stride else None))
     title = f"Kapitza pendulum: both released at rest {tilt0:.3g} rad from the upright"
     constants = (f"l = {l:g} m, g = {g:g} m/s²" + (f", damping γ = {damping:g} 1/s" if damping
                                                    else ", no damping"))
-    return _Stage(panels, t, title, slow, frames_per_period, width, subtitle=constants)
+    return _Stage(panels, t, title, slow, frames_per_period, width, subtitle=constants,
+                  stride=stride)
 
 
 _COLOURS = ("tab:blue", "tab:red", "tab:green", "tab:purple")
@@ -746,13 +829,15 @@ def _pendulum_label(s, A, i):
 @dataclass(frozen=True)
 class _Panel:
     """One chain to draw: anchor (frames, 2) and particles (frames, n, 2) in m, joined in
-    order by rods; its colour, title and a text per frame."""
+    order by rods; its colour, title and a text per frame; with the strobe, the whole chain
+    (pivot first) at s phases of the drive period starting at each frame, drawn faint."""
 
     anchor: np.ndarray
     points: np.ndarray
     colour: str
     title: str
     readout: list
+    blur: np.ndarray | None = None      # (frames, s, links + 1, 2): the chain over a period
 
 
 class _Stage:
@@ -764,14 +849,15 @@ class _Stage:
     panel has the same scale: its half-width is the largest reach max|anchor| + Σ|links|.
     """
 
-    def __init__(self, panels, t, title, slow, frames_per_period, width, subtitle=""):
+    def __init__(self, panels, t, title, slow, frames_per_period, width, subtitle="",
+                 stride=None):
         import matplotlib
         from matplotlib.figure import Figure
         from matplotlib.backends.backend_agg import FigureCanvasAgg
 
         self.panels, self.t, self.slow = panels, t, slow
         self.frames = len(t)
-        self.frames_per_period = frames_per_period
+        self.frames_per_period, self.stride = frames_per_period, stride
         self.colours = [p.colour for p in panels]
         self.dpi = 100
         n = len(panels)
@@ -784,6 +870,7 @@ class _Stage:
         scale = self.width / 720 * (1 if n <= 2 else 2 / n) ** 0.5
         big, font, small = ({"fontsize": s * scale} for s in (11, 10, 8.5))
         self.rods, self.bobs, self.trails, self.tilts, self.pivots = [], [], [], [], []
+        self.blurs = []
         # margins for the titles and the clock: fixed in points, so a fraction of the height
         frac = 504 * scale / self.height
         top, bottom = 1 - 0.245 * frac, 0.13 * frac
@@ -800,13 +887,18 @@ class _Stage:
                     side.set_color("0.8")
                 c = panel.colour
                 # the pivot's path (its shake) as a thick grey band, and the upright direction
-                band = _travel(panel.anchor)
+                band = _travel(panel.anchor if panel.blur is None
+                               else panel.blur[:, :, 0].reshape(-1, 2))
                 ax.plot(band[:, 0], band[:, 1], color="0.85", lw=14 * scale,
                         solid_capstyle="butt", zorder=0)
                 x0, y0 = panel.anchor.mean(0)
                 ax.plot([x0, x0], [y0, y0 + 0.95 * reach], ls=(0, (4, 4)), color="0.6",
                         lw=0.8, zorder=0)
                 trail, = ax.plot([], [], color=c, lw=1.2, alpha=0.4, zorder=1)
+                # strobe: the chain at the later phases of the frame's drive period, faint
+                blur = [] if panel.blur is None else [
+                    ax.plot([], [], color=c, lw=1.5 * scale, alpha=0.3, zorder=1)[0]
+                    for _ in range(panel.blur.shape[1] - 1)]
                 rod, = ax.plot([], [], color=c, lw=3 * scale, solid_capstyle="round",
                                solid_joinstyle="round", zorder=2)
                 bob, = ax.plot([], [], "o", color=c, ms=13 * scale, zorder=3, ls="none")
@@ -821,16 +913,19 @@ class _Stage:
                 self.trails.append(trail)
                 self.pivots.append(piv)
                 self.tilts.append(tilt)
+                self.blurs.append(blur)
             _fit(fig.suptitle(title, y=0.985, **big), 0.98 * self.width)
             if subtitle:
                 fig.text(0.5, 1 - 0.074 * frac, subtitle, ha="center", va="bottom",
                          color="0.3", **small)
             self.clock = fig.text(0.5, 0.052 * frac, "", ha="center", va="bottom", **font)
             bob = "bob's" if max(p.points.shape[1] for p in panels) == 1 else "outer bob's"
+            faint = (f"faint: the chain and the {bob} path through the drive period after "
+                     "the frame" if stride else f"faint curve: the {bob} path over the last "
+                     + ("drive period" if frames_per_period else "second"))
             _fit(fig.text(0.5, 0.012 * frac, "grey band: the pivot's travel    dashed: the "
-                          f"upright    faint curve: the {bob} path over the last "
-                          + ("drive period" if frames_per_period else "second"),
-                          ha="center", va="bottom", color="0.4", **small), 0.98 * self.width)
+                          f"upright    {faint}", ha="center", va="bottom", color="0.4",
+                          **small), 0.98 * self.width)
 
     def draw(self, k):
         n = self.frames_per_period or 1
@@ -839,24 +934,47 @@ class _Stage:
             self.rods[i].set_data(chain[:, 0], chain[:, 1])
             self.bobs[i].set_data(p.points[k, :, 0], p.points[k, :, 1])
             self.pivots[i].set_data([p.anchor[k, 0]], [p.anchor[k, 1]])
-            # the last bob's path over the last drive period: the fast wobble, as a smear
-            j = slice(max(0, k - n), k + 1)
-            self.trails[i].set_data(p.points[j, -1, 0], p.points[j, -1, 1])
+            if p.blur is None:
+                # the last bob's path over the last drive period: the fast wobble, as a smear
+                j = slice(max(0, k - n), k + 1)
+                self.trails[i].set_data(p.points[j, -1, 0], p.points[j, -1, 1])
+            else:
+                # the drive period after the frame, which the strobe skips: drawn faint
+                self.trails[i].set_data(p.blur[k, :, -1, 0], p.blur[k, :, -1, 1])
+                for line, phase in zip(self.blurs[i], p.blur[k, 1:]):
+                    line.set_data(phase[:, 0], phase[:, 1])
             self.tilts[i].set_text(p.readout[k])
-        motion = (f"slow motion ×{self.slow:.3g} ({self.frames_per_period} frames per drive "
-                  "period)" if self.frames_per_period else "real time")
+        if self.stride:
+            motion = (f"stroboscopic: one frame every {self.stride} drive period"
+                      f"{'s' if self.stride > 1 else ''}, same phase ({_pace(self.slow)})")
+        elif self.frames_per_period:
+            motion = (f"{_pace(self.slow)} ({self.frames_per_period} frames per drive "
+                      "period)")
+        else:
+            motion = "real time"
         self.clock.set_text(f"t = {self.t[k]:5.3f} s    {motion}")
 
     def close(self):
         self.fig.clear()
 
 
+def _pace(slow):
+    """How fast the GIF plays: "slow motion ×4", "real time" (within 5 %), "×2 fast"."""
+    if slow > 1.05:
+        return f"slow motion ×{slow:.3g}"
+    if slow >= 1 / 1.05:
+        return "real time"
+    return f"×{1 / slow:.3g} fast"
+
+
 def _fit(text, width_px):
     """Shrink ``text``'s font until it is at most ``width_px`` wide (long titles)."""
     renderer = text.figure.canvas.get_renderer()
-    wide = text.get_window_extent(renderer).width
-    if wide > width_px:
-        text.set_fontsize(text.get_fontsize() * width_px / wide)
+    for _ in range(8):          # glyph widths are hinted: not quite proportional to size
+        wide = text.get_window_extent(renderer).width
+        if wide <= width_px:
+            return
+        text.set_fontsize(text.get_fontsize() * 0.99 * width_px / wide)
 
 
 def _travel(anchor):
@@ -875,4 +993,5 @@ def _travel(anchor):
 def _reach(panel):
     """max |anchor| + the chain's length at frame 0 (m): the farthest a bob can go."""
     chain = np.vstack([panel.anchor[0], panel.points[0]])
-    return float(np.abs(panel.anchor).max() + np.linalg.norm(np.diff(chain, axis=0), axis=1).sum())
+    anchors = panel.anchor if panel.blur is None else panel.blur[:, :, 0]
+    return float(np.abs(anchors).max() + np.linalg.norm(np.diff(chain, axis=0), axis=1).sum())

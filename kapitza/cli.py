@@ -457,7 +457,8 @@ def _animate(args) -> int:
             # chains (or several scenes): each scene a panel, from its own [initial] state
             anim = system_animation(args.out, scenes, duration=args.duration, fps=args.fps,
                                     frames_per_period=args.frames_per_period,
-                                    width=args.width, max_frames=args.max_frames)
+                                    width=args.width, max_frames=args.max_frames,
+                                    mode=args.mode)
             data, head, fate = _gif_summary(anim)
             data.update(scenes=list(args.scene), titles=list(anim.titles))
             _emit(args, data, head + "".join(f"\n  {path}: {f}"
@@ -475,7 +476,8 @@ def _animate(args) -> int:
         anim = pendulum_animation(args.out, A=A, omega=omega, l=l, g=g, damping=damping,
                                   theta0=theta0, A_fall=args.A_fall, duration=args.duration,
                                   fps=args.fps, frames_per_period=args.frames_per_period,
-                                  width=args.width, max_frames=args.max_frames)
+                                  width=args.width, max_frames=args.max_frames,
+                                  mode=args.mode)
     except KeyboardInterrupt:
         _say(f"kapitza animate: interrupted; the frames finished are in {args.out}.")
         return EXIT_INTERRUPTED
@@ -494,11 +496,13 @@ def _gif_summary(anim):
     data = {"path": anim.path, "frames": anim.frames, "width": anim.width,
             "height": anim.height, "bytes": anim.bytes, "fps": anim.fps,
             "slow_motion": anim.slow_motion, "frames_per_period": anim.frames_per_period,
-            "duration": float(anim.t[-1]), "stayed_up": anim.stayed_up,
-            "fall_time": anim.fall_time, "floquet_stable": anim.floquet_stable,
-            "seconds": anim.seconds}
+            "duration": float(anim.t[-1]), "periods_per_frame": anim.periods_per_frame,
+            "stayed_up": anim.stayed_up, "fall_time": anim.fall_time,
+            "floquet_stable": anim.floquet_stable, "seconds": anim.seconds}
+    pace = (f"stroboscopic, one frame every {anim.periods_per_frame} drive periods, "
+            if anim.periods_per_frame else "") + f"slow motion ×{anim.slow_motion:.3g}"
     head = (f"{anim.path}: {anim.frames} frames, {anim.width}×{anim.height} px, "
-            f"{anim.bytes / 1e6:.2f} MB, slow motion ×{anim.slow_motion:.3g}")
+            f"{anim.bytes / 1e6:.2f} MB, {pace}")
     fate = ["stays up" if up else f"falls at t = {t:.3g} s"
             for up, t in zip(anim.stayed_up or (), anim.fall_time)]
     return data, head, fate
@@ -760,6 +764,10 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--width", type=int, default=720, help="frame width (px; default 720)")
     p.add_argument("--max-frames", dest="max_frames", type=int, default=600,
                    help="refuse to render more frames (default 600)")
+    p.add_argument("--mode", choices=("auto", "slow", "strobe"), default="auto",
+                   help="slow motion (n frames a drive period), strobe (one frame every few "
+                   "periods at one phase, the period drawn faint) or auto (slow motion when "
+                   "it fits --max-frames and is at most 10× slower than real; default)")
     p.add_argument("--out", default="pendulum.gif", help="the GIF (default pendulum.gif)")
     p.set_defaults(run=_animate)
 

@@ -133,11 +133,53 @@ def test_bad_inputs_name_the_argument_and_the_fix(tmp_path):
         kapitza.pendulum_animation(gif, A=A, omega=OMEGA, frames_per_period=2)
     with pytest.raises(ValueError, match=r"path must end in \.gif"):
         kapitza.pendulum_animation(tmp_path / "x.png", A=A, omega=OMEGA)
-    with pytest.raises(ValueError, match=r"more than max_frames = 600; shorten duration"):
-        kapitza.pendulum_animation(gif, A=0.05, omega=2 * math.pi * 60, duration=4)
+    with pytest.raises(ValueError, match=r"more than max_frames = 600; shorten duration.*"
+                       r"mode='strobe'"):
+        kapitza.pendulum_animation(gif, A=0.05, omega=2 * math.pi * 60, duration=4,
+                                   mode="slow")
+    with pytest.raises(ValueError, match=r"mode must be one of"):
+        kapitza.pendulum_animation(gif, A=A, omega=OMEGA, mode="fast")
     with pytest.raises(ValueError, match=r"theta0 must be released near the upright"):
         kapitza.pendulum_animation(gif, A=A, omega=OMEGA, theta0=0.3)
     assert not gif.exists()
+
+
+def test_a_fast_drive_is_strobed_at_one_phase_with_the_period_drawn_faint(tmp_path):
+    """Kapitza's 60 Hz: slow motion would need 8 frames every 1/60 s, so "auto" strobes one
+    frame every m = round(1/(fps T)) = 3 periods; the pivot is at its top in every frame and
+    the faint chains are the simulation at the n phases of the period after each frame."""
+    w = 2 * math.pi * 60
+    anim = kapitza.pendulum_animation(tmp_path / "k.gif", A=0.05, omega=w, duration=1.5,
+                                      width=300, progress=False)
+    T = 2 * math.pi / w
+    assert anim.periods_per_frame == 3 and anim.frames == 31
+    np.testing.assert_allclose(anim.t, np.arange(31) * 3 * T, rtol=1e-12)
+    np.testing.assert_allclose(anim.pivot[0], 0.05, rtol=1e-12)       # same phase: the top
+    assert anim.slow_motion == pytest.approx(1 / (3 * T * 20))         # ≈ real time
+    assert anim.stayed_up == (True, False) and anim.floquet_stable == (True, False)
+    pend = KapitzaPendulum()
+    phases = anim.t[:, None] + np.arange(8) * T / 8
+    ref = pend.simulate(math.pi - 0.1, 0.0, (0, phases[-1, -1]), 0.05, w, rtol=1e-11,
+                        t_eval=phases.ravel()).q[:, 0].reshape(phases.shape)
+    np.testing.assert_allclose(anim.theta[0], ref[:, 0], atol=1e-7)
+    stage = _pendulum_stage(anim.t, ref[None].repeat(2, 0), 0.05 * np.cos(w * phases)[None]
+                            .repeat(2, 0), anim.A, l=1.0, g=G, damping=0.0, omega=w,
+                            window=anim.window, stayed=anim.stayed_up, fall=anim.fall_time,
+                            floquet=anim.floquet_stable, tilt0=0.1, slow=anim.slow_motion,
+                            frames_per_period=8, width=300, stride=3)
+    try:
+        k = 10
+        stage.draw(k)
+        for j, line in enumerate(stage.blurs[0], start=1):
+            x, y = line.get_data()
+            yp = 0.05 * math.cos(w * phases[k, j])
+            np.testing.assert_allclose([x[1], y[1]], [math.sin(ref[k, j]),
+                                                      yp - math.cos(ref[k, j])], atol=1e-12)
+        assert "one frame every 3 drive periods" in stage.clock.get_text()
+    finally:
+        stage.close()
+    with Image.open(anim.path) as im:
+        assert im.n_frames == 31
 
 
 def test_cli_writes_the_gif_and_json(tmp_path, capsys):
