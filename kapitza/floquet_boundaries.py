@@ -48,6 +48,8 @@ max(1, ‖Mb‖)), ``undamped`` (∮ tr J dt = 0) and, with ``analyse``, ``stabl
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 __all__ = ["reduced_polynomial", "margin", "signed_margin", "solve_edges", "first_window",
@@ -422,13 +424,22 @@ def _solve_scanned(evaluate, w, lo, hi, kinds, rtol, sub=16):
 
 # -- the first window of stabilising amplitudes -----------------------------------------
 
-def first_window(evaluate, omega, grid, rtol):
+def first_window(evaluate, omega, grid, rtol, *, side=1e-5):
     """The lowest interval of stabilising amplitudes at each frequency.
 
     ``grid`` (ns,) or (len(omega), ns): ascending amplitudes of the classification scan
-    per ω.  Returns dict(A_min, A_max, accuracy, kind_min, kind_max, evaluations):
-    A_min = grid[0] (accuracy 0) where the first scan point is stable; A_max = +inf
-    where the scan ends stable; both NaN where no scan point is stable.
+    per ω.  Returns dict(A_min, A_max, accuracy, kind_min, kind_max, evaluations,
+    checked): A_min = grid[0] (accuracy 0) where the first scan point is stable;
+    A_max = +inf where the scan ends stable; both NaN where no scan point is stable.
+
+    Each solved edge is checked on both sides, at A(1 ∓ η), η = max(``side``,
+    4 accuracy), by the sign of :func:`signed_margin` on the margins' (finer)
+    monodromies: the window's side must be stable, the other unstable.  Where a check
+    fails (the scan mislabelled a point, or an edge's margin did not change sign) or
+    an edge was not found although a scan point is stable, both edges are NaN and
+    ``checked`` is False, with a RuntimeWarning naming the frequencies — never a wrong
+    window.  A RuntimeWarning also names the frequencies whose certified accuracy is
+    worse than ``rtol`` (float64 monodromies near the identity: fast drives).
     """
     w = np.atleast_1d(np.asarray(omega, float))
     grid = np.broadcast_to(np.asarray(grid, float), (w.size, np.shape(grid)[-1]))
@@ -470,9 +481,56 @@ def first_window(evaluate, omega, grid, rtol):
         out["A_min"][rows[:nlo]], out["acc_min"][rows[:nlo]] = root[:nlo], acc[:nlo]
         out["A_max"][rows[nlo:]], out["acc_max"][rows[nlo:]] = root[nlo:], acc[nlo:]
         kmin[rows[:nlo]], kmax[rows[nlo:]] = kinds[:nlo], kinds[nlo:]
-    return dict(A_min=out["A_min"], A_max=out["A_max"],
-                accuracy=np.fmax(out["acc_min"], out["acc_max"]),
-                kind_min=kmin, kind_max=kmax, evaluations=evals)
+    found = np.any(stable, axis=1)
+    checked, ev = _check_edges(evaluate, w, out, side)
+    evals += ev
+    checked &= ~(np.isnan(out["A_min"]) | np.isnan(out["A_max"]))   # an edge not found
+    bad = found & ~checked
+    for k in ("A_min", "A_max", "acc_min", "acc_max"):
+        out[k][bad] = np.nan
+    accuracy = np.fmax(out["acc_min"], out["acc_max"])
+    freq = lambda which: ", ".join(f"{x:.6g}" for x in w[which])     # noqa: E731
+    if bad.any():
+        warnings.warn(
+            f"window: the edges at ω = {freq(bad)} rad/s failed their check (the side "
+            "that should be stable is not, or an edge's margin has no root in the scan's "
+            "bracket); they are NaN, not a wrong window.  A finer scan (more scan points, "
+            "a smaller A_limit) or a lower drive frequency may resolve them.",
+            RuntimeWarning, stacklevel=3)
+    coarse = accuracy > rtol
+    if coarse.any():
+        warnings.warn(
+            f"window: at ω = {freq(coarse)} rad/s the edges are certified only to "
+            f"{', '.join(f'{a:.2g}' for a in accuracy[coarse])} (relative), coarser than "
+            f"tol = {rtol:.2g}: near the identity (a fast drive) float64 monodromies fix "
+            "the margins' sign no better (the achievable accuracy grows about as ω²).",
+            RuntimeWarning, stacklevel=3)
+    return dict(A_min=out["A_min"], A_max=out["A_max"], accuracy=accuracy,
+                kind_min=kmin, kind_max=kmax, evaluations=evals, checked=checked | ~found)
+
+
+def _check_edges(evaluate, w, out, side):
+    """Per ω, whether every solved edge in ``out`` (A_min, A_max, acc_min, acc_max) has
+    its window's side stable and its other side unstable at A(1 ∓ η), η = max(side,
+    4 accuracy), by :func:`signed_margin` (> 0 stable); edges at the scan's ends (accuracy
+    0: A_min = grid[0], A_max = inf) are not checked.  Returns (ok (m,), evaluations)."""
+    ok = np.ones(w.size, dtype=bool)
+    x, at, want = [], [], []
+    for edge, acc, below_stable in (("A_min", "acc_min", False), ("A_max", "acc_max", True)):
+        A, a = out[edge], out[acc]
+        solved = np.isfinite(A) & (a > 0)
+        r = np.nonzero(solved)[0]
+        eta = np.maximum(side, 4.0 * a[r])
+        x += [A[r] * (1 - eta), A[r] * (1 + eta)]
+        at += [r, r]
+        want += [np.full(r.size, below_stable), np.full(r.size, not below_stable)]
+    x, at, want = np.concatenate(x), np.concatenate(at), np.concatenate(want)
+    if x.size == 0:
+        return ok, 0
+    with np.errstate(invalid="ignore"):
+        stable = signed_margin(evaluate(x, w[at], False)) > 0.0
+    np.logical_and.at(ok, at, stable == want)
+    return ok, x.size
 
 
 # -- boundary curves over (A, ω) by continuation ----------------------------------------

@@ -116,6 +116,111 @@ def test_single_pendulum_windows_undamped_damped_and_hanging():
     assert win.A_min == 0.0 and win.A_max == pytest.approx(ref.A_max, rel=1e-10)
 
 
+
+# -- fast drives: monodromies near the identity ---------------------------------------------
+
+EQUAL = {n: dict({"g": G}, **{f"l{i}": 1.0 for i in range(1, n + 1)},
+                 **{f"m{i}": 1.0 for i in range(1, n + 1)}) for n in (4, 5)}
+
+
+@pytest.mark.parametrize("n", [4, 5])
+def test_chain_windows_at_fast_drives_against_the_modal_decoupling(n):
+    """Acheson's chains at ω = 300 and 600 ω0, where every multiplier lies within 0.3 of
+    +1: the windows are the modal ones to their certified accuracy, which the margins'
+    float64 floor makes coarser than tol (≈ 1e-9 … 4e-8 here, ∝ ω²), said by a warning.
+    (Before the fix: N = 5 gave A_min = 0.00397 l, no A_max at 300 ω0, no window at
+    600 ω0, without a warning.)"""
+    w = np.array([300.0, 600.0]) * math.sqrt(G)
+    with pytest.warns(RuntimeWarning, match="certified only to") as rec:
+        win = fq.window(chain(n), EQUAL[n], [math.pi] * n, w)
+    assert not any("failed their check" in str(r.message) for r in rec)
+    lo, hi = modal_window(w, [1.0] * n, [1.0] * n)
+    assert np.all(np.isfinite([win.A_min, win.A_max]))
+    # the stated bound: the relative error is within the reported accuracy, itself ≤ 1e-7
+    assert np.all(win.accuracy <= 1e-7) and np.all(win.accuracy > win.tol)
+    for edge, ref in ((win.A_min, lo), (win.A_max, hi)):
+        assert np.all(np.abs(edge / ref - 1) <= win.accuracy)
+    # the study's scan limit (4 · 0.454 λ_N) lands on the same windows
+    lam = multiple_pendulum_upright([1.0] * n, [1.0] * n, g=G).effective_lengths
+    with pytest.warns(RuntimeWarning, match="certified only to"):
+        other = fq.window(chain(n), EQUAL[n], [math.pi] * n, w, A_limit=4 * 0.454 * lam[-1])
+    np.testing.assert_allclose([other.A_min, other.A_max], [lo, hi], rtol=1e-7)
+
+
+def test_window_warns_only_when_the_accuracy_misses_tol(triple):
+    """At ω = 100 rad/s (32 ω0) the triple pendulum's edges reach 1e-10: no warning; the
+    same window asked to 1e-13 cannot get there in float64 and says so."""
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        win = fq.window(triple, TP, [math.pi] * 3, 100.0)
+    assert win.accuracy <= 1e-10
+    with pytest.warns(RuntimeWarning, match=r"coarser than tol = 1e-13"):
+        fine = fq.window(triple, TP, [math.pi] * 3, 100.0, tol=1e-13)
+    assert fine.accuracy > 1e-13
+    assert abs(fine.A_min / win.A_min - 1) <= fine.accuracy + win.accuracy
+
+
+def test_reduced_roots_keep_a_cluster_at_plus_one():
+    """Multipliers e^(±iθ_k) with θ_k = 1e-3 … 0.3 and a real pair e^(±σ): x − 2 =
+    2 cos θ − 2 and 2 cosh σ − 2 (closed form) to 1e-9 relative, although the roots differ
+    from 2 by as little as 1e-6; the real roots are real exactly, a quadruplet's complex."""
+    from kapitza.floquet_boundaries import reduced_polynomial
+    theta = np.array([1e-3, 3e-3, 0.05, 0.3])
+    sigma = 2e-3
+    lam = np.r_[np.exp(1j * theta), np.exp(-1j * theta), np.exp(sigma), np.exp(-sigma)]
+    _, x = reduced_polynomial(lam[None, :], 5)
+    y = np.sort(x[0].real - 2.0)
+    ref = np.sort(np.r_[2 * np.cos(theta) - 2, 2 * np.cosh(sigma) - 2])
+    assert np.all(x[0].imag == 0.0)
+    np.testing.assert_allclose(y, ref, rtol=1e-9)
+    # a Krein quadruplet ρ e^(±iφ), e^(±iφ)/ρ: one complex pair x = (ρ + 1/ρ) cos φ ± ...
+    rho, phi = 1.01, 0.02
+    quad = np.r_[rho * np.exp(1j * phi), rho * np.exp(-1j * phi), np.exp(1j * phi) / rho,
+                 np.exp(-1j * phi) / rho]
+    _, x = reduced_polynomial(quad[None, :], 2)
+    z = (rho + 1 / rho) * math.cos(phi) + 1j * (rho - 1 / rho) * math.sin(phi)
+    np.testing.assert_allclose(np.sort_complex(x[0]), [z.conjugate(), z], rtol=1e-12)
+
+
+def test_first_window_refuses_a_window_its_check_contradicts():
+    """Two synthetic modes (2 × 2 blocks, x_k = tr, det 1): mode 1 stable for 1 < A < 5,
+    mode 2 for 2 < A < 3, so the window is [2, 3].  A scan that lies — 'stable' for
+    1.05 < A < 1.6, as the near-identity scans did — brackets mode 1's +1 crossing at
+    A = 1, a true root of det(M − I); its side check finds A(1 + η) unstable, and the
+    window is NaN with a warning, not [1, 3].  A lie that leaves an edge without a root
+    is NaN with a warning too; told the truth, the same scan gives [2, 3]."""
+    from kapitza.floquet_boundaries import first_window
+
+    def block(x):
+        one = np.ones_like(x)
+        return np.stack([np.stack([x / 2, one], -1), np.stack([x * x / 4 - 1, x / 2], -1)], -2)
+
+    def scan(lie):
+        def evaluate(A, omega, analyse):
+            A = np.asarray(A, float)
+            x1, x2 = 2.0 - (A - 1.0), 2.0 - 4.0 * (A - 2.0)
+            Mb = np.zeros((A.size, 4, 4))
+            Mb[:, :2, :2], Mb[:, 2:, 2:] = block(x1), block(x2)
+            out = dict(Mb=Mb, ls=np.zeros(A.size), err=np.full(A.size, 1e-15),
+                       undamped=np.ones(A.size, dtype=bool))
+            if analyse:
+                stable = (np.abs(x1) <= 2) & (np.abs(x2) <= 2) | ((A > lie[0]) & (A < lie[1]))
+                label = np.where((x1 > 2) | (x2 > 2), 1, 2)
+                out.update(stable=stable, label=np.where(stable, 0, label))
+            return out
+        return evaluate
+
+    grid = np.array([0.0, 0.5, 0.9, 1.1, 1.5, 2.5, 3.5, 4.0])
+    for lie in ((1.05, 1.6), (1.05, 1.2)):
+        with pytest.warns(RuntimeWarning, match="failed their check"):
+            out = first_window(scan(lie), np.array([1.0]), grid, 1e-10)
+        assert np.isnan(out["A_min"][0]) and np.isnan(out["A_max"][0])
+        assert not out["checked"][0]
+    out = first_window(scan((0.0, 0.0)), np.array([1.0]), grid, 1e-10)
+    assert out["checked"][0] and out["accuracy"][0] <= 1e-10
+    np.testing.assert_allclose([out["A_min"][0], out["A_max"][0]], [2.0, 3.0], rtol=1e-10)
+
 def test_window_without_stable_amplitudes_is_nan(double):
     win = fq.window(double, DP, [math.pi, math.pi], 10.0)      # too slow to hold it up
     assert math.isnan(win.A_min) and math.isnan(win.A_max)
