@@ -21,6 +21,7 @@ from disk (no JavaScript, no server), so a path that works only under a server (
 ``/data/x.csv``) fails here as it would for the reader, and there is no port, server thread or
 favicon request to get wrong.
 """
+import base64
 import dataclasses
 import os
 import shutil
@@ -98,8 +99,6 @@ return {
 def open_page(driver, path, screenshot):
     """Open ``path`` (a local HTML file) in ``driver``, wait for its images, record what loaded
     and write a full-page PNG screenshot to ``screenshot``."""
-    import base64
-
     from selenium.webdriver.support.ui import WebDriverWait
 
     driver.get_log("browser")           # drop what earlier pages left in the log
@@ -158,10 +157,10 @@ def unresolved_links(page, root):
 
 def outside_resources(page, root):
     """What the page loaded from outside the folder ``root`` (the report must be
-    self-contained: the reader may be offline)."""
+    self-contained: the reader may be offline); data: URIs are inside the page itself."""
     root = Path(root).resolve()
-    return sorted({u for u in page.resources
-                   if (p := _local_path(u)) is None or root not in p.resolve().parents})
+    return sorted({u for u in page.resources if urlsplit(u).scheme != "data"
+                   and ((p := _local_path(u)) is None or root not in p.resolve().parents)})
 
 
 def layout_problems(page):
