@@ -100,7 +100,9 @@ class Animation:
     stayed_up : (bool, bool)
         |θ − π| < π/2 in every frame (sampled every T/n: the fast wobble is resolved).
     fall_time : (float, float)
-        First frame time with |θ − π| ≥ π/2 (s); NaN where it stayed up.
+        When |θ − π| reached π/2 (s; interpolated linearly between the samples around it,
+        error ≲ Δt² θ̈ / (8 θ̇): 1.7e-4 s for the default scene at 8 frames a period,
+        against the exact 1.11802 s of energy conservation); NaN where it stayed up.
     max_tilt : (float, float)
         max |θ − π| over the frames (rad, wrapped into [0, π]).
     fps : float
@@ -188,7 +190,8 @@ class SystemAnimation:
     stayed_up : tuple of bool or None
         Every coordinate within π/2 of ``about`` in every frame (None without ``about``).
     fall_time : tuple of float
-        First frame time outside that band (s); NaN where it stayed.
+        When a coordinate first left that band (s; interpolated linearly between the
+        samples around it); NaN where it stayed.
     floquet_stable : tuple of bool or None
         Linear stability of ``about`` under each panel's drive (Floquet; undriven: the
         normal modes), None without ``about``.
@@ -511,7 +514,7 @@ def pendulum_animation(path, *, A: float, omega: float, l: float = 1.0, g: float
     tilt = _tilt(theta_all).reshape(2, -1)
     out = tilt >= UPRIGHT_BAND
     stayed = (bool(not out[0].any()), bool(not out[1].any()))
-    fall = tuple(float(samples.ravel()[np.argmax(o)]) if o.any() else math.nan for o in out)
+    fall = tuple(_crossing(samples.ravel(), d) for d in tilt)
     if not stayed[0]:
         warnings.warn(f"{where}the driven pendulum (A = {A:.4g} m, inside the window) fell at "
                       f"t = {fall[0]:.3g} s: a release {tilt0:.3g} rad from the upright is "
@@ -660,7 +663,7 @@ def system_animation(path, scenes, *, about="inverted", titles=None, title=None,
             dev = np.abs((q_all - centre + math.pi) % (2 * math.pi) - math.pi).max(1)
             out = dev >= UPRIGHT_BAND
             ok = bool(not out.any())
-            when = float(flat[np.argmax(out)]) if out.any() else math.nan
+            when = _crossing(flat, dev)
             if drive is not None:
                 lin = bool(floquet_point(system, params, centre).stable)
             else:
@@ -712,6 +715,20 @@ def system_animation(path, scenes, *, about="inverted", titles=None, title=None,
         floquet_stable=None if about is None else tuple(stable), fps=fps_shown,
         frames_per_period=frames_per_period if omega else None, slow_motion=slow,
         seconds=time.perf_counter() - started, periods_per_frame=stride)
+
+
+def _crossing(t, dev):
+    """When ``dev`` (distance from the upright, rad, sampled at ``t``) first reaches π/2 (s):
+    linear interpolation between the two samples around it (its error is second order in
+    their spacing, the drawn frames' or the strobe's phases'); NaN if it never does."""
+    out = dev >= UPRIGHT_BAND
+    if not out.any():
+        return math.nan
+    k = int(np.argmax(out))
+    if k == 0:
+        return float(t[0])
+    d0, d1 = dev[k - 1], dev[k]
+    return float(t[k - 1] + (t[k] - t[k - 1]) * (UPRIGHT_BAND - d0) / (d1 - d0))
 
 
 def _evaluate(where, exprs, names, q, t, params, t_symbol):
