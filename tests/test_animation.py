@@ -288,3 +288,25 @@ def test_cli_animates_several_scenes(chains, tmp_path, capsys):
         assert im.n_frames == data["frames"] == 20
     assert cli.main(["animate", str(up), "--A", "0.1", "--out", str(out)]) == 2
     assert "the scene sets the drive" in capsys.readouterr().err
+
+
+def test_ctrl_c_keeps_the_finished_frames(tmp_path, monkeypatch, capsys):
+    import kapitza.animation as animation
+    draw = animation._Stage.draw
+
+    def interrupted(self, k):
+        if k == 5:
+            raise KeyboardInterrupt
+        draw(self, k)
+
+    monkeypatch.setattr(animation._Stage, "draw", interrupted)
+    out = tmp_path / "cut.gif"
+    with pytest.raises(KeyboardInterrupt):
+        kapitza.pendulum_animation(out, A=A, omega=OMEGA, progress=False, **SMALL)
+    assert "interrupted after 5 of 32 frames" in capsys.readouterr().err
+    with Image.open(out) as im:
+        assert im.n_frames == 5
+    code = cli.main(["animate", "--A-over-l", "0.25", "--omega-over-omega0", "10",
+                     "--duration", "1.6", "--frames-per-period", "4", "--width", "300",
+                     "--out", str(out)])
+    assert code == 130 and "frames finished are in" in capsys.readouterr().err
