@@ -30,9 +30,12 @@ Edges, curves, maps
 vectorised over the brackets, each step at least a quarter of the tolerance from the
 bracket's ends so that the bracket itself closes: an edge is reported with a bracket
 [lo, hi] across which the margin changes sign, and ``accuracy`` = max(A − lo, hi − A)/A
-(widened by bound/slope where an end's sign is within the margin's error bound).
+(widened by bound/slope where an end's sign is within the margin's error bound); a
+RuntimeWarning says where it is coarser than the tolerance asked (near the identity, at
+fast drives, float64 monodromies fix a margin's sign only to ≈ ε (ω/ω0)² relative).
 :func:`first_window` brackets the lowest stable interval of amplitudes by a
-classification scan and solves its two edges; :func:`trace_curves` follows every
+classification scan, solves its two edges and checks each on both sides (NaN and a
+warning where a check fails: never a wrong window); :func:`trace_curves` follows every
 stability boundary A_k(ω) over a frequency grid by predictor–corrector continuation,
 seeded by scans at every few frequencies and checked on both sides by classification;
 :func:`refine_map` computes a map on a coarse grid and subdivides only the cells whose
@@ -502,8 +505,8 @@ def first_window(evaluate, omega, grid, rtol, *, side=1e-5):
         warnings.warn(
             f"window: at ω = {freq(coarse)} rad/s the edges are certified only to "
             f"{', '.join(f'{a:.2g}' for a in accuracy[coarse])} (relative), coarser than "
-            f"tol = {rtol:.2g}: near the identity (a fast drive) float64 monodromies fix "
-            "the margins' sign no better (the achievable accuracy grows about as ω²).",
+            f"tol = {rtol:.2g}: the margins' sign is fixed no better in float64 (monodromies "
+            "near the identity at fast drives: the achievable accuracy grows about as ω²).",
             RuntimeWarning, stacklevel=3)
     return dict(A_min=out["A_min"], A_max=out["A_max"], accuracy=accuracy,
                 kind_min=kmin, kind_max=kmax, evaluations=evals, checked=checked | ~found)
@@ -552,7 +555,9 @@ def trace_curves(evaluate, omega, grid, rtol, *, seed_every=10, side=1e-6):
     3. Every point found is classified at A(1 ∓ ``side``): it is kept (else NaN) where
        exactly the side the seed said is stable.
 
-    Returns dict(A (k, m), accuracy (k, m), kind (k,), stable_below (k,), evaluations).
+    Returns dict(A (k, m), accuracy (k, m), kind (k,), stable_below (k,), evaluations);
+    a RuntimeWarning names the frequencies where a point's accuracy is coarser than
+    ``rtol``.
     """
     w = np.asarray(omega, float)
     grid = np.asarray(grid, float)
@@ -629,7 +634,18 @@ def trace_curves(evaluate, omega, grid, rtol, *, seed_every=10, side=1e-6):
                 seeds[t]["back"] = True
                 new.append((t, -1))
         fronts = new
-    return _assemble(evaluate, w, seeds, find, points, side, evals)
+    found = _assemble(evaluate, w, seeds, find, points, side, evals)
+    with np.errstate(invalid="ignore"):
+        coarse = np.any(found["accuracy"] > rtol, axis=0)
+    if coarse.any():
+        warnings.warn(
+            f"boundaries: {int(coarse.sum())} of {w.size} frequencies (from ω = "
+            f"{w[coarse][0]:.6g} rad/s) have points certified only to "
+            f"{np.nanmax(found['accuracy'][:, coarse]):.2g} (relative), coarser than "
+            f"tol = {rtol:.2g}: the margins' sign is fixed no better in float64 (monodromies "
+            "near the identity at fast drives, ∝ ω²; a tongue's tip, where the curve's A → 0) "
+            "— see ``accuracy``.", RuntimeWarning, stacklevel=3)
+    return found
 
 
 def _march(evaluate, w, seeds, fronts, cols, col_pos, lo_A, hi_A, rtol, points):

@@ -147,6 +147,29 @@ def test_chain_windows_at_fast_drives_against_the_modal_decoupling(n):
     np.testing.assert_allclose([other.A_min, other.A_max], [lo, hi], rtol=1e-7)
 
 
+
+def test_fast_drive_boundaries_and_maps_share_the_fix():
+    """5 equal links at 250 … 600 ω0: the boundary curves lie on the modal edges within
+    their (warned) accuracy, and the uniform and adaptive maps' labels equal the modal
+    decoupling's at every point (before the fix 19 of these 65 × 33 points were wrong)."""
+    n = 5
+    w = np.linspace(280.0, 320.0, 8) * math.sqrt(G)
+    with pytest.warns(RuntimeWarning, match="certified only to"):
+        curves = fq.boundaries(chain(n), EQUAL[n], [math.pi] * n, w, A_range=(0.0, 0.06),
+                               tol=1e-9, seed_every=4)
+    assert curves.kind == ("T", "2T")
+    lo, hi = modal_window(w, [1.0] * n, [1.0] * n)
+    for k, ref in ((0, lo), (1, hi)):
+        assert np.all(np.isfinite(curves.A[k]))
+        assert np.all(np.abs(curves.A[k] / ref - 1) <= curves.accuracy[k])
+        assert np.all(curves.accuracy[k] <= 1e-7)
+    A, w = np.linspace(0.0, 0.05, 65), np.linspace(250.0, 600.0, 33) * math.sqrt(G)
+    lo, hi = modal_window(w, [1.0] * n, [1.0] * n)
+    ref = (A[:, None] > lo[None, :]) & (A[:, None] < hi[None, :])
+    adaptive = fq.adaptive_map(chain(n), A, w, EQUAL[n], [math.pi] * n, coarse_step=8)
+    uniform = fq.stability_map(chain(n), A, w, EQUAL[n], [math.pi] * n)
+    assert np.array_equal(uniform.stable, ref) and np.array_equal(adaptive.stable, ref)
+
 def test_window_warns_only_when_the_accuracy_misses_tol(triple):
     """At ω = 100 rad/s (32 ω0) the triple pendulum's edges reach 1e-10: no warning; the
     same window asked to 1e-13 cannot get there in float64 and says so."""
