@@ -188,7 +188,9 @@ class SystemAnimation:
     about : ndarray or None
         The state each panel is classified against (e.g. all angles π: upright).
     stayed_up : tuple of bool or None
-        Every coordinate within π/2 of ``about`` in every frame (None without ``about``).
+        Every coordinate within π/2 of ``about`` in every frame (None without ``about``;
+        a panel's entry None where its drive leaves no equilibrium at θ = 0 or π: a
+        horizontal or elliptic pivot).
     fall_time : tuple of float
         When a coordinate first left that band (s; interpolated linearly between the
         samples around it); NaN where it stayed.
@@ -652,7 +654,10 @@ def system_animation(path, scenes, *, about="inverted", titles=None, title=None,
                            for j in range(1 + len(system.particles))], 1)
         chains = chains.reshape(samples.shape + chains.shape[1:])   # (frames, s, 1 + p, 2)
         anchor, pos = chains[:, 0, 0], chains[:, 0, 1:]
-        if about is None:
+        unheld = (isinstance(about, str) and drive is not None
+                  and not drive.keeps_vertical_equilibria)
+        if about is None or unheld:
+            # a horizontal or elliptic pivot leaves no upright equilibrium to measure from
             centre, ok, when, lin = None, None, math.nan, None
         else:
             centre = (np.full(len(names), arguments.about_angle(about))
@@ -674,7 +679,8 @@ def system_animation(path, scenes, *, about="inverted", titles=None, title=None,
             sub = f"pivot shaken ({kind}): A = {amp:.3g} m at ω = {omega:.4g} rad/s"
         else:
             sub = "pivot still (no drive)"
-        fate = ""
+        fate = "\nno equilibrium at θ = 0 or π under this drive: not classified" \
+            if unheld else ""
         if ok is not None:
             fate = "\n" + ("Floquet" if drive is not None else "normal modes") + \
                 (": stable" if lin else ": unstable") + " → " + \
@@ -699,8 +705,8 @@ def system_animation(path, scenes, *, about="inverted", titles=None, title=None,
 
     if title is None:
         title = "Released from each scene's [initial] state" + (
-            f"; STAYS UP: every angle within π/2 of {about}" if isinstance(about, str)
-            else "")
+            f"; STAYS UP: every angle within π/2 of {about}"
+            if isinstance(about, str) and any(x is not None for x in stayed) else "")
     stage = _Stage(panels, t, title, slow, frames_per_period if omega else None, width,
                    stride=stride)
     _render(where, stage, path, fps_shown, progress, "system_animation")
@@ -924,7 +930,7 @@ class _Stage:
                 tilt = ax.text(0.5, -0.008, "", transform=ax.transAxes, ha="center",
                                va="top", family="monospace", **small)
                 head = ax.set_title(panel.title, color=c, pad=5, linespacing=1.35, **font)
-                _fit(head, ax.get_position().width * self.width)
+                _fit(head, 0.98 * self.width / n)
                 self.rods.append(rod)
                 self.bobs.append(bob)
                 self.trails.append(trail)

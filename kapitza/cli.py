@@ -503,8 +503,8 @@ def _gif_summary(anim):
             if anim.periods_per_frame else "") + f"slow motion ×{anim.slow_motion:.3g}"
     head = (f"{anim.path}: {anim.frames} frames, {anim.width}×{anim.height} px, "
             f"{anim.bytes / 1e6:.2f} MB, {pace}")
-    fate = ["stays up" if up else f"falls at t = {t:.3g} s"
-            for up, t in zip(anim.stayed_up or (), anim.fall_time)]
+    fate = ["not classified" if up is None else "stays up" if up else
+            f"falls at t = {t:.3g} s" for up, t in zip(anim.stayed_up or (), anim.fall_time)]
     return data, head, fate
 
 

@@ -310,3 +310,15 @@ def test_ctrl_c_keeps_the_finished_frames(tmp_path, monkeypatch, capsys):
                      "--duration", "1.6", "--frames-per-period", "4", "--width", "300",
                      "--out", str(out)])
     assert code == 130 and "frames finished are in" in capsys.readouterr().err
+
+
+def test_a_drive_without_an_upright_equilibrium_is_drawn_not_classified(tmp_path):
+    scene = kapitza.Scene.example("horizontal_drive")
+    anim = kapitza.system_animation(tmp_path / "h.gif", [scene], duration=0.5, width=300,
+                                    progress=False)
+    assert anim.stayed_up == (None,) and anim.floquet_stable == (None,)
+    assert "not classified" in anim.titles[0]
+    # the pivot moves along x only: x_p = A cos ωt at the frames (the strobe's phase 0)
+    np.testing.assert_allclose(anim.anchor[0, :, 0], 0.05 * np.cos(200.0 * anim.t),
+                               atol=1e-12)
+    np.testing.assert_array_equal(anim.anchor[0, :, 1], 0.0)
