@@ -19,8 +19,8 @@ from kapitza.results import ComputationInterrupted
 from helpers import pendulum_scene
 
 W60 = 2 * math.pi * 60
-COMMANDS = ["predict", "window", "map", "measure", "verify", "run", "sweep", "warmup",
-            "summary"]
+COMMANDS = ["predict", "window", "map", "measure", "verify", "animate", "report", "run", "sweep",
+            "warmup", "summary"]
 
 
 def run_json(capsys, *argv):
