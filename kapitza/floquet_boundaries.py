@@ -492,13 +492,16 @@ def first_window(evaluate, omega, grid, rtol, *, side=1e-5):
     for k in ("A_min", "A_max", "acc_min", "acc_max"):
         out[k][bad] = np.nan
     accuracy = np.fmax(out["acc_min"], out["acc_max"])
-    freq = lambda which: ", ".join(f"{x:.6g}" for x in w[which])     # noqa: E731
+
+    def freq(which):
+        return ", ".join(f"{x:.6g}" for x in w[which])
+
     if bad.any():
         warnings.warn(
             f"window: the edges at ω = {freq(bad)} rad/s failed their check (the side "
             "that should be stable is not, or an edge's margin has no root in the scan's "
             "bracket); they are NaN, not a wrong window.  A finer scan (more scan points, "
-            "a smaller A_limit) or a lower drive frequency may resolve them.",
+            "a smaller A_limit) may resolve them.",
             RuntimeWarning, stacklevel=3)
     coarse = accuracy > rtol
     if coarse.any():

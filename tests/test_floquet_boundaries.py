@@ -225,8 +225,8 @@ def test_first_window_refuses_a_window_its_check_contradicts():
             x1, x2 = 2.0 - (A - 1.0), 2.0 - 4.0 * (A - 2.0)
             Mb = np.zeros((A.size, 4, 4))
             Mb[:, :2, :2], Mb[:, 2:, 2:] = block(x1), block(x2)
-            out = dict(Mb=Mb, ls=np.zeros(A.size), err=np.full(A.size, 1e-15),
-                       undamped=np.ones(A.size, dtype=bool))
+            out = {"Mb": Mb, "ls": np.zeros(A.size), "err": np.full(A.size, 1e-15),
+                   "undamped": np.ones(A.size, dtype=bool)}
             if analyse:
                 stable = (np.abs(x1) <= 2) & (np.abs(x2) <= 2) | ((A > lie[0]) & (A < lie[1]))
                 label = np.where((x1 > 2) | (x2 > 2), 1, 2)
