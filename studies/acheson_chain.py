@@ -30,16 +30,19 @@ Because the upper limit shrinks with the shortest mode (λ_N → 0 as N grows) w
 one grows with the longest, a chain of N ≥ 2 links has a window only above a lowest drive
 frequency ω_c(N), found by root-finding on the mode windows.
 
-Limitation found here: above ω ≈ 300 ω0 the chains with N ≥ 4 have monodromies so close to
-the identity that :func:`kapitza.floquet.window` mislabels them (a wrong A_min and no A_max
-at ω = 300 ω0 for N = 5, an edge with "accuracy" 0.6 at 600 ω0 for N = 4).  The Floquet
-windows are therefore taken at ω ≤ 200 ω0, where they agree with the mode windows to
-≤ 1e-8; the high-frequency limits come from the mode windows.
+The Floquet windows run up to ω = 1000 ω0 at a requested accuracy of 1e-8: near the identity
+the monodromy's margins fix the edges only to about ε_mach (ω/ω0)², so 1e-10 is out of reach
+there (``kapitza.floquet.window`` warns when it cannot meet ``tol``).  An earlier run of this
+study found the whole-chain windows wrong for N ≥ 4 above 300 ω0 (the stability test lost the
+multipliers' small differences from +1; fixed in :mod:`kapitza.floquet_boundaries`); they now
+agree with the mode windows within their certified accuracy (≤ 8e-7) at every frequency,
+which ``check`` asserts.
 """
 from __future__ import annotations
 
 import math
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -60,7 +63,9 @@ QUESTION = ("What minimum drive and what upper limit hold a chain of N = 1 … 5
 L, G = 1.0, 9.81
 W0 = math.sqrt(G / L)
 #: the frequency of the direct simulations, and the highest of the Floquet windows
-SIM_RATIO, FLOQUET_MAX_RATIO = 100.0, 200.0
+SIM_RATIO, FLOQUET_MAX_RATIO = 100.0, 1000.0
+#: the accuracy asked of the whole-chain windows (reachable up to 1000 ω0, see above)
+FLOQUET_TOL = 1e-8
 A_INF = 0.4540231668672888        # b1(2A/l) = 0: the single pendulum's A_max/l as ω → ∞
 ACHESON_UPPER = 0.450             # Acheson's (1993) rounded constant for the same limit
 
@@ -141,12 +146,17 @@ def run(out: Path, quick: bool = False) -> dict:
         # from 1.2 ω_c: nearer, the window is narrower than the scan's spacing
         start = max(w_c * 1.2, 2.0)
         fl_ratios = np.geomspace(start, FLOQUET_MAX_RATIO, 3 if quick else 16)
-        win = kapitza.window(system, params, about, fl_ratios * W0,
-                             A_limit=4 * A_INF * lam[-1])
-        diffs = []
+        with warnings.catch_warnings():
+            # above ~200 ω0 the edges are certified to 1e-8 … 8e-7, not FLOQUET_TOL (the
+            # warning says so); the accuracy reached is kept per point and checked below
+            warnings.filterwarnings("ignore", "window: at ω", RuntimeWarning)
+            win = kapitza.window(system, params, about, fl_ratios * W0, tol=FLOQUET_TOL,
+                                 A_limit=4 * A_INF * lam[-1])
+        diffs, ratios = [], []
         for r, a, b, acc in zip(fl_ratios, win.A_min, win.A_max, win.accuracy):
             ma, mb = mode_window(lam, r)
             diffs += [abs(a / L / ma - 1), abs(b / L / mb - 1)]
+            ratios += [d / acc for d in diffs[-2:]]
             rows.append(dict(N=n, omega_ratio=r, method="exact (Floquet, whole chain)",
                              A_min_l=a / L, A_max_l=b / L, certified_accuracy=acc))
         for method, (a, b) in (("exact (mode windows)", mode_window(lam, curve)),
@@ -156,6 +166,9 @@ def run(out: Path, quick: bool = False) -> dict:
             rows += [dict(N=n, omega_ratio=r, method=method, A_min_l=x, A_max_l=y,
                           certified_accuracy=math.nan) for r, x, y in zip(curve, a, b)]
         f[f"N{n}_floquet_vs_modes_max_rel_diff"] = float(np.nanmax(diffs))
+        f[f"N{n}_floquet_max_certified_accuracy"] = float(np.nanmax(win.accuracy))
+        # the difference in units of the certified accuracy: ≤ 1 if the certificate is honest
+        f[f"N{n}_floquet_vs_modes_over_accuracy"] = float(np.nanmax(ratios))
         f[f"N{n}_floquet_windows_found"] = int(np.sum(np.isfinite(win.A_min)))
         f[f"N{n}_floquet_windows_asked"] = int(fl_ratios.size)
 
@@ -180,12 +193,12 @@ def run(out: Path, quick: bool = False) -> dict:
             f[f"N{n}_lowest_omega_ratio_asymptotic"] = math.sqrt(2) * wn**2 / (A_INF * w1) / W0
             # the Floquet window of the whole chain just above and below ω_c
             near = kapitza.window(system, params, about, np.array([1.1, 0.9]) * w_c * W0,
-                                  A_limit=4 * A_INF * lam[-1])
+                                  tol=FLOQUET_TOL, A_limit=4 * A_INF * lam[-1])
             f[f"N{n}_floquet_window_at_1.1_omega_c"] = bool(np.isfinite(near.A_min[0]))
             f[f"N{n}_floquet_window_at_0.9_omega_c"] = bool(np.isfinite(near.A_min[1]))
 
         # -- direct simulation just inside and outside each exact edge -----------------------
-        sw = kapitza.window(system, params, about, SIM_RATIO * W0)
+        sw = kapitza.window(system, params, about, SIM_RATIO * W0, tol=FLOQUET_TOL)
         factors = np.array([0.9, 1.1, 0.9, 1.1])
         amps = factors * np.array([sw.A_min, sw.A_min, sw.A_max, sw.A_max])
         expect = np.array([False, True, True, False])
@@ -280,7 +293,9 @@ def check(findings: dict, quick: bool) -> None:
     for n in ns:
         # the whole chain's Floquet windows = the N decoupled Mathieu windows (Acheson)
         assert f[f"N{n}_floquet_windows_found"] == f[f"N{n}_floquet_windows_asked"], n
-        assert f[f"N{n}_floquet_vs_modes_max_rel_diff"] < 1e-7, (n, f[f"N{n}_floquet_vs_modes_max_rel_diff"])
+        # ... each edge within its own certified accuracy (1e-8 … 8e-7 above ~200 ω0)
+        assert f[f"N{n}_floquet_vs_modes_over_accuracy"] <= 1.0, n
+        assert f[f"N{n}_floquet_vs_modes_max_rel_diff"] < 1e-6, n
         # Acheson's minimum drive is the ω → ∞ limit of the exact one (relative error O(ε²))
         assert abs(f[f"N{n}_exact_min_drive_at_1e4"]
                    / f[f"N{n}_acheson_min_drive_A_omega_over_sqrt_gl"] - 1) < 1e-6
