@@ -53,11 +53,14 @@ most of it writing the GIF; ``quick=True`` ≈ 15 s compiled.
 """
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import html
 import math
 import platform
 import sys
+import signal
+import threading
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -258,6 +261,48 @@ def build_report(scene=None, out="kapitza-report", *, quick: bool = False,
                grid_progress=False if progress is False else None)
     say(f"kapitza report: {scene.spec.title or scene.spec.source} -> {out}/"
         + (" (quick)" if quick else ""))
+    with _ctrl_c() as ctrl_c:
+        done, interrupted = _run_sections(job, say, ctrl_c, t_start)
+        report = Report(out=out, index=out / "index.html",
+                        scene=str(scene.spec.source), sections=tuple(done.values()),
+                        tables=dict(job.tables), numbers=dict(job.numbers),
+                        seconds=time.perf_counter() - t_start, quick=quick)
+        _write_page(job, done, report.seconds)
+    if interrupted:
+        say(f"kapitza report: interrupted; kept {out / 'index.html'} with the finished "
+            f"sections (missing: {', '.join(report.missing)})")
+        raise ReportInterrupted(report)
+    say(f"kapitza report: done in {report.seconds:.1f} s: {report.index}")
+    return report
+
+
+@contextlib.contextmanager
+def _ctrl_c():
+    """Ctrl-C while the report runs: raised at once inside a section ("armed"), only noted
+    between sections (the page is never cut in the middle), and always noted in
+    ``state["hit"]`` — a computation that catches the KeyboardInterrupt to return its
+    finished part (e.g. work_precision) still stops the report after its section.  Our
+    own handler also keeps lagrange_core's ``defer_ctrl_c`` from holding the interrupt
+    back where no chunk loop would see it."""
+    state = {"armed": False, "hit": False}
+    if threading.current_thread() is not threading.main_thread():
+        yield state
+        return
+
+    def handler(signum, frame):
+        state["hit"] = True
+        if state["armed"]:
+            raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGINT, handler)
+    try:
+        yield state
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+def _run_sections(job, say, ctrl_c, t_start):
+    """Every section in order; (sections by name, interrupted)."""
     done = {}
     interrupted = False
     for k, (name, title) in enumerate(SECTIONS.items()):
@@ -269,6 +314,7 @@ def build_report(scene=None, out="kapitza-report", *, quick: bool = False,
         say(f"[{k + 1}/{len(SECTIONS)}] {title} ...")
         caught = []
         try:
+            ctrl_c["armed"] = True
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 result = _BUILDERS[name](job)
@@ -280,6 +326,9 @@ def build_report(scene=None, out="kapitza-report", *, quick: bool = False,
             interrupted = True
         except Exception as e:          # shown on the page; the other sections still run
             result, status, reason = None, "failed", f"{type(e).__name__}: {e}"
+        finally:
+            ctrl_c["armed"] = False
+        interrupted = interrupted or ctrl_c["hit"]     # held back or caught inside: stop
         dt = time.perf_counter() - t0
         notes = tuple(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
         section = ReportSection(name, title, status, seconds=dt, reason=reason, notes=notes)
@@ -292,17 +341,7 @@ def build_report(scene=None, out="kapitza-report", *, quick: bool = False,
             + (f" ({reason})" if status != "done" else "")
             + f", {dt:.1f} s (elapsed {time.perf_counter() - t_start:.1f} s)")
         _write_page(job, done, time.perf_counter() - t_start)
-    report = Report(out=out, index=out / "index.html",
-                    scene=str(scene.spec.source), sections=tuple(done.values()),
-                    tables=dict(job.tables), numbers=dict(job.numbers),
-                    seconds=time.perf_counter() - t_start, quick=quick)
-    _write_page(job, done, report.seconds)
-    if interrupted:
-        say(f"kapitza report: interrupted; kept {out / 'index.html'} with the finished "
-            f"sections (missing: {', '.join(report.missing)})")
-        raise ReportInterrupted(report)
-    say(f"kapitza report: done in {report.seconds:.1f} s: {report.index}")
-    return report
+    return done, interrupted
 
 
 def _speaker(progress):
@@ -1036,6 +1075,8 @@ def _work_precision(job: _Job) -> _Result:
     result = work_precision(system, q0, job.scene.qdot0, t_span, job.params,
                             rtols=(1e-3, 1e-6, 1e-9) if job.quick else
                             (1e-3, 1e-5, 1e-7, 1e-9, 1e-11), repeat=1 if job.quick else 3)
+    if getattr(result, "interrupted", False):     # it keeps its finished runs and returns
+        raise KeyboardInterrupt("work_precision was interrupted")
     job.table("work_precision", result.to_dataframe(), "work_precision")
     fig = work_precision_figure(result)
     caption = (f"Error at the final time t = {t_span[1]:.3g} s ({t_span[1] / T:.0f} drive "
