@@ -173,13 +173,15 @@ class Report:
         raise KeyError(f"no section {name!r}; the sections are {list(SECTIONS)}.")
 
     def to_dataframe(self):
-        """One row per section: name, title, status, seconds, figure, tables, caption, reason."""
+        """One row per section: name, title, status, seconds, figure, tables, caption, reason,
+        notes."""
         import pandas as pd
         return pd.DataFrame([{"section": s.name, "title": s.title, "status": s.status,
                               "seconds": s.seconds,
                               "figure": None if s.figure is None else str(s.figure),
                               "tables": ", ".join(s.tables), "caption": s.caption,
-                              "reason": s.reason} for s in self.sections])
+                              "reason": s.reason, "notes": " | ".join(s.notes)}
+                             for s in self.sections])
 
 
 class ReportInterrupted(KeyboardInterrupt):
