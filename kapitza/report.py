@@ -1050,6 +1050,21 @@ def _verification(job: _Job) -> _Result:
         caption += (f", the farthest {np.nanmax(d):.2g} (relative in A) from an exact "
                     "boundary" if np.isfinite(d).any() else "")
     caption += "."
+    names = {"averaging": "first-order averaging", "averaging_2": "next-order averaging",
+             "simulation": "simulation"}
+    against = []
+    for m in v.methods:
+        if m == "floquet":
+            continue
+        counts = []
+        for quantity in ("stability", "omega_slow"):
+            compared, agree = v.compare(m, "floquet", quantity)
+            counts.append((int((compared & ~agree).sum()), int(compared.sum())))
+        against.append(f"{names.get(m, m)} differs in stability at {counts[0][0]} of "
+                       f"{counts[0][1]} points and in Ω beyond the stated tolerances at "
+                       f"{counts[1][0]} of {counts[1][1]}")
+    if against:
+        caption += " Against Floquet: " + "; ".join(against) + "."
     for f in v.fits:
         caption += (f" Order {f.order} averaging: error of Ω ∝ ε^p with p = {f.exponent:.3f} "
                     f"± {f.exponent_error:.3f} (theory {f.theory:g}).")
