@@ -1235,7 +1235,7 @@ def _write_page(job: _Job, done: dict, seconds: float) -> None:
         parts.append(f"<p class=note>Still running; not yet written: "
                      f"{esc('; '.join(pending))}.</p>")
     rows = "".join(f"<tr><td class=l><a href='#{n}'>{esc(s.title)}</a></td>"
-                   f"<td class=l>{s.status}</td><td>{_fmt(s.seconds)}</td></tr>"
+                   f"<td class=l>{s.status}</td><td>{_fmt(round(s.seconds, 1))}</td></tr>"
                    for n, s in done.items())
     parts.append(f"<table><tr><th class=l>section</th><th class=l>status</th>"
                  f"<th>wall time (s)</th></tr>{rows}</table>")
