@@ -356,7 +356,8 @@ def verification_figure(verification, *, dimensionless=None, title=None):
     ``verification.disagreements``).  Right, when ``verification.fits`` is not empty:
     each averaging order's relative error in Ω against the small parameter on log-log
     axes (filled: fitted, open: below Floquet's own resolution), the fitted line c ε^p
-    and the theory's slope through the fit's middle.
+    and the theory's slope through the fit's middle.  An axis whose grid spans more than
+    a decade (all positive) is logarithmic.
 
     Returns
     -------
@@ -411,9 +412,13 @@ def verification_figure(verification, *, dimensionless=None, title=None):
                                   ms=9 if mk != "+" else 8,
                                   label=f"{_VERIFY_NAMES[m]} ≠ Floquet ({what}): {int(bad.sum())}"))
     _drive_labels(ax, dimensionless, "A" if v.length is None else "A (m)")
-    for setter, x in ((ax.set_xlim, w), (ax.set_ylim, A)):     # the points' range: lines clip
+    for axis, x in (("x", w), ("y", A)):       # the points' range: lines clip
+        if x.min() > 0 and x.max() > 10 * x.min():     # a geometric grid: log axis
+            getattr(ax, f"set_{axis}scale")("log")
+            getattr(ax, f"set_{axis}lim")(x.min() / 1.25, x.max() * 1.25)
+            continue
         pad = 0.06 * (x.max() - x.min()) or 0.06 * abs(x.max()) or 1.0
-        setter(x.min() - pad, x.max() + pad)
+        getattr(ax, f"set_{axis}lim")(x.min() - pad, x.max() + pad)
     ax.set_title(title or f"Verification about {_about_text(v.about)}: {A.size} points, "
                  f"{v.periods} periods simulated", fontsize=10)
     ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2,
