@@ -5,7 +5,7 @@ Problem: ``lagrange_core.problems.driven_pendulum()`` (vertical drive), A = 0.05
 l = 1 m, g = 9.81 m/s², ω = 2π·60 rad/s, from θ = π − 0.1 at rest, for 2000 drive
 periods (33.3 s).  Error = |θ(T) − θ_ref(T)| (rad) at the final time.
 
-The measurement is ``lagrange_core.work_precision.work_precision`` (this script adds the
+The measurement is ``lagrange_core.accuracy_cost.work_precision`` (this script adds the
 peers' tolerance grids, the fixed-step ``yoshida6`` and the printed ratios).
 Reference: heyoka's Taylor integrator in long double at tol 1e-18, cross-checked
 against our RKN 12 at rtol 1e-14 (the script prints the difference and refuses to
@@ -50,7 +50,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from lagrange_core import problems  # noqa: E402
-from lagrange_core.work_precision import best_time, work_precision  # noqa: E402
+from lagrange_core.accuracy_cost import best_time, work_precision  # noqa: E402
 
 A, L, G = 0.05, 1.0, 9.81
 OMEGA = 2 * math.pi * 60
@@ -105,7 +105,7 @@ def main(argv=None):
     # time to reach a level is not decided by where a decade's grid falls
     fine = [1e-5, 1e-7, 1e-9, 1e-11, 1e-13] if args.quick else \
         [float(f"{m}e-{k + (m != 1)}") for k in range(3, 13) for m in (1, 5, 2)] + [1e-13, 1e-14]
-    # the compiled runs, ours and heyoka, timed in rounds (lagrange_core.work_precision)
+    # the compiled runs, ours and heyoka, timed in rounds (lagrange_core.accuracy_cost)
     common = dict(reference=reference, cpu_time=args.cpu, progress=True)
     fast = work_precision(system, q0, v0, (0.0, T), PARAMS, methods=("rkn12", "rkn12-fixed",
                           "dop853"), rtols=fine, repeat=repeat, rounds=rounds,

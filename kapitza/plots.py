@@ -454,18 +454,18 @@ def _order_panel(ax, fits):
 
 def work_precision_figure(result, *, ax=None):
     """Error at the final time against wall time, log-log, one line per method (a
-    :class:`lagrange_core.work_precision.WorkPrecision`).
+    :class:`lagrange_core.accuracy_cost.WorkPrecision`).
 
     Each point is one tolerance, labelled with its exponent (``-6``: rtol = 1e-6).  The
     system's default method is drawn thick, our other methods in colour, the peers (scipy,
     heyoka) dashed in grey tones; hollow markers are errors not resolved by the reference
     (within ten times its own error, the dotted line).  Down and left is better.
     """
-    from lagrange_core.work_precision import RESOLVED_FACTOR, WorkPrecision
+    from lagrange_core.accuracy_cost import RESOLVED_FACTOR, WorkPrecision
     if not isinstance(result, WorkPrecision):
-        raise TypeError(f"result must be a lagrange_core.work_precision.WorkPrecision, got "
+        raise TypeError(f"result must be a lagrange_core.accuracy_cost.WorkPrecision, got "
                         f"{type(result).__name__}; make one with "
-                        f"lagrange_core.work_precision.work_precision(...).")
+                        f"lagrange_core.accuracy_cost.work_precision(...).")
     fig, ax = _axes(ax, (6.4, 4.6))
     positive = result.error[result.error > 0]
     floor = 0.5 * positive.min() if positive.size else 1e-16

@@ -36,7 +36,7 @@ The sections, in order (each says on the page why it is skipped where it does no
     agreement counts, every disagreement with its distance to the nearest boundary, the
     measured order of averaging.
 ``work_precision``
-    What accuracy costs in time (:func:`lagrange_core.work_precision.work_precision`).
+    What accuracy costs in time (:func:`lagrange_core.accuracy_cost.work_precision`).
 ``animation``
     A GIF of the stabilised inverted pendulum beside one that falls
     (:func:`kapitza.animation.pendulum_animation`).
@@ -1075,14 +1075,9 @@ def _verification(job: _Job) -> _Result:
 
 
 def _work_precision(job: _Job) -> _Result:
-    try:
-        from lagrange_core.work_precision import work_precision
-        from .plots import work_precision_figure
-    except ImportError:
-        # PLACEHOLDER (issue 14): lagrange_core.work_precision lands from a colleague;
-        # until then the page says so instead of showing the figure.
-        raise _Skip("lagrange_core.work_precision is not part of this installation yet.") \
-            from None
+    from lagrange_core.accuracy_cost import work_precision
+
+    from .plots import work_precision_figure
     pend = job.pend
     system = job.scene.system
     w = job.omega

@@ -26,7 +26,7 @@ warmup
     Compile the integrators once per installation (:mod:`lagrange_core.warmup`).
 work_precision, WorkPrecision
     What accuracy costs in time: error at the final time against wall time, per method
-    and tolerance, with scipy and heyoka as peers (:mod:`lagrange_core.work_precision`).
+    and tolerance, with scipy and heyoka as peers (:mod:`lagrange_core.accuracy_cost`).
 """
 from . import effects, fields, problems
 from .codegen import Kernels, compile_kernels
@@ -38,7 +38,7 @@ from .bodies import RigidBody, rotation_matrix
 from .symbols import coordinates, t
 from .systems import Particle, System
 from .warmup import warmup
-from .work_precision import WorkPrecision, work_precision
+from .accuracy_cost import WorkPrecision, work_precision
 
 __all__ = ["System", "Particle", "RigidBody", "rotation_matrix", "coordinates", "t", "derive",
            "Equations", "compile_kernels", "Kernels", "Linearization", "problems", "fields",

@@ -12,7 +12,7 @@ Every panel plots an error against an independent reference (log) over the wall 
 (log), best of several runs after a warm-up run, so compiling and loading kernels are
 excluded; every point is labelled with the exponent of its tolerance.
 
-1. *Integrators* (:func:`lagrange_core.work_precision.work_precision`): the driven
+1. *Integrators* (:func:`lagrange_core.accuracy_cost.work_precision`): the driven
    pendulum of the benchmarks (A = 0.05 m, l = 1 m, ω = 2π·60 rad/s, θ0 = π − 0.1 at rest)
    over 500 drive periods; error |θ(T) − θ_ref(T)| against our RKN 12 at rtol 1e-14
    cross-checked by DOP853 at 1e-14; ours (``rkn12`` = the default, ``rkn12-fixed``,
@@ -74,7 +74,7 @@ if __package__ in (None, ""):
 import kapitza
 from _common import main, save_figure, write_table
 from lagrange_core import problems
-from lagrange_core.work_precision import best_time, work_precision
+from lagrange_core.accuracy_cost import best_time, work_precision
 
 QUESTION = ("How much wall time does each capability of the toolkit (integrators, Floquet "
             "analysis, averaging, batch simulation) spend per extra digit of accuracy, and "

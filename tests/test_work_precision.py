@@ -1,4 +1,4 @@
-"""lagrange_core.work_precision: errors measured against a closed form (the pendulum returns
+"""lagrange_core.work_precision (lagrange_core/accuracy_cost.py): errors measured against a closed form (the pendulum returns
 to its start after one period, T = 4 K(sin²(θ0/2)) / ω0), the reference's own accuracy, the
 trends with tolerance, peers skipped cleanly, bad input, and the figure."""
 from __future__ import annotations
@@ -12,7 +12,7 @@ from scipy.special import ellipk
 
 from lagrange_core import WorkPrecision, problems, work_precision
 
-wp_module = importlib.import_module("lagrange_core.work_precision")
+wp_module = importlib.import_module("lagrange_core.accuracy_cost")
 
 G, L = 9.81, 1.0
 THETA0 = 1.0                                       # rad: a large swing, far from linear
