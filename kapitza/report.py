@@ -1111,18 +1111,15 @@ def _work_precision(job: _Job) -> _Result:
 
 
 def _animation(job: _Job) -> _Result:
-    pend = job.pend
-    if pend is None:
-        raise _Skip(f"the animation draws the single pendulum; this scene is "
-                    f"{job.scene.spec.rig_name}.")
+    from .animation import pendulum_animation, system_animation
+    sizes = ({"duration": 1.6, "frames_per_period": 4, "width": 480, "max_frames": 80}
+             if job.quick else {})
     if not job.vertical:
-        raise _Skip("the animation shows the upright pendulum held by a vertical drive beside "
-                    "one that falls; this scene's drive is horizontal.")
-    try:
-        from .animation import pendulum_animation
-    except ImportError:
-        # PLACEHOLDER (issue 14): kapitza.animation lands from a colleague.
-        raise _Skip("kapitza.animation is not part of this installation yet.") from None
+        raise _Skip("the animation shows the upright state held by a vertical drive; this "
+                    "scene's drive leaves no upright equilibrium.")
+    if job.pend is None:
+        return _chain_animation(job, system_animation, sizes)
+    pend = job.pend
     rel = Path("figures") / "pendulum.gif"
     win = pend.stability_window(job.omega)
     A = job.A if float(win.A_min) < job.A < float(win.A_max) else \
@@ -1131,15 +1128,30 @@ def _animation(job: _Job) -> _Result:
     if not 0 < abs(theta0 - math.pi) < math.pi / 2:        # not released near the upright
         theta0 = math.pi - 0.1
     result = pendulum_animation(job.out / rel, l=pend.l, g=pend.g, A=A, omega=job.omega,
-                                theta0=theta0, damping=pend.damping,
-                                **({"duration": 1.6, "frames_per_period": 4, "width": 480}
-                                   if job.quick else {}))
+                                theta0=theta0, damping=pend.damping, **sizes)
     caption = (f"Left: driven with A = {A:g} m at ω = {job.omega:g} rad/s (inside the exact "
                f"window {float(win.A_min):.3g} m < A < {float(win.A_max):.3g} m), it stays up; "
                f"right: the same release without a sufficient drive falls.")
-    if hasattr(result, "to_dataframe"):
-        job.table("animation", result.to_dataframe(), "animation")
-    return _Result(rel, caption, ["animation"] if "animation" in job.tables else [])
+    job.table("animation", result.to_dataframe(), "animation")
+    return _Result(rel, caption, ["animation"])
+
+
+def _chain_animation(job: _Job, system_animation, sizes) -> _Result:
+    """A system other than the single pendulum (e.g. Acheson's chain): the scene itself,
+    released from its [initial] state under its drive, in one panel."""
+    rel = Path("figures") / "animation.gif"
+    try:
+        result = system_animation(job.out / rel, [job.scene], **sizes)
+    except ValueError as e:       # not a planar chain of particles: nothing to draw
+        raise _Skip(f"the animation draws planar chains of particles: {e}") from None
+    stayed, stable = result.stayed_up[0], result.floquet_stable[0]
+    fate = ("it stays within π/2 of the upright for the whole clip" if stayed else
+            f"it leaves the upright at t = {result.fall_time[0]:.3g} s")
+    caption = (f"The scene's system released from its initial state with the drive "
+               f"A = {job.A:g} m, ω = {job.omega:g} rad/s: {fate}; Floquet analysis calls the "
+               f"upright {'stable' if stable else 'unstable'} at this drive.")
+    job.table("animation", result.to_dataframe(), "animation")
+    return _Result(rel, caption, ["animation"])
 
 
 _BUILDERS = {"potential": _potential, "map": _map, "spots": _spots, "slow": _slow,

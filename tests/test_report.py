@@ -17,6 +17,7 @@ import pytest
 
 from helpers import G, L, interrupt_child, pendulum_monodromy
 
+import kapitza
 from kapitza import KapitzaPendulum
 from kapitza.cli import main
 from kapitza.report import SECTIONS, build_report
@@ -149,7 +150,13 @@ def test_double_pendulum_scene_says_why_sections_are_skipped(tmp_path):
     status = {s.name: s.status for s in report.sections}
     assert status == {"potential": "skipped", "map": "done", "spots": "done", "slow": "done",
                       "verification": "done", "work_precision": "done",
-                      "animation": "skipped"}
+                      "animation": "done"}
+    # the chain's own animation: held up at the scene's drive, as Floquet says (independently)
+    sc = kapitza.Scene.from_toml(scene)
+    assert kapitza.floquet_point(sc.system, sc.params, [np.pi, np.pi]).stable
+    anim = report.section("animation")
+    assert anim.figure.suffix == ".gif" and "stays within π/2" in anim.caption
+    assert "calls the upright stable" in anim.caption
     page = report.index.read_text(encoding="utf-8")
     for s in report.sections:
         if s.status == "skipped":
