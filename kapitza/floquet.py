@@ -1415,6 +1415,16 @@ def window(system, params, about, omega, *, amplitude="A", frequency="omega", to
         chain); A_max = inf where the scan ends stable.  ``accuracy``: the larger
         certified relative accuracy of the two edges.  ``l``, ``g`` are None.
 
+    Warns
+    -----
+    RuntimeWarning
+        Where the certified ``accuracy`` is coarser than ``tol``: at fast drives the
+        monodromy is near the identity and float64 fixes the margins' sign only to about
+        ε_mach (ω/ω0)² (so 1e-10 is out of reach from ~100–300 ω0 on; ask for 1e-8 there).
+        Where a solved edge fails its check on both sides (A(1 ∓ η) classified on the fine
+        monodromies), or a stable amplitude was scanned but an edge not found, both edges
+        of that ω are NaN and the warning names the frequencies: never a wrong window.
+
     Examples
     --------
     The upright pendulum's window at ω = 60 rad/s agrees with the Mathieu equation's
