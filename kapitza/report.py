@@ -39,7 +39,8 @@ The sections, in order (each says on the page why it is skipped where it does no
     What accuracy costs in time (:func:`lagrange_core.accuracy_cost.work_precision`).
 ``animation``
     A GIF of the stabilised inverted pendulum beside one that falls
-    (:func:`kapitza.animation.pendulum_animation`).
+    (:func:`kapitza.animation.pendulum_animation`); for another planar chain, the
+    scene's own system under its drive (:func:`kapitza.animation.system_animation`).
 
 Progress goes to stderr, one line per section with its elapsed time.  Ctrl-C stops the
 running section (within a compiled chunk, ≈ 0.25 s), writes the page with the finished
