@@ -426,7 +426,7 @@ class _Job:
     # -- output --------------------------------------------------------------------------
     def figure(self, fig, name: str) -> Path:
         rel = Path("figures") / f"{name}.png"
-        fig.savefig(self.out / rel, dpi=110)
+        fig.savefig(self.out / rel, dpi=150)      # sharp on high-density screens
         return rel
 
     def table(self, name: str, frame, section: str, shown: str | None = None):
@@ -1219,6 +1219,8 @@ def _write_page(job: _Job, done: dict, seconds: float) -> None:
     scene = job.scene
     esc = html.escape
     source = scene.spec.source
+    if Path(str(source)).resolve() == _default_scene_path().resolve():
+        source = "the built-in scene kapitza/scenes/report.toml"     # not this machine's path
     title = scene.spec.title or Path(source).stem
     now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     params = ", ".join(f"{k} = {v:g}" for k, v in sorted(scene.params.items()))
