@@ -49,10 +49,6 @@ import numpy as np
 import pandas as pd
 import scipy.optimize
 
-if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-
 import kapitza
 from _common import main, save_figure, write_table
 

@@ -42,10 +42,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-
 import kapitza
 from kapitza.verify import fit_order
 from _common import main, save_figure, write_table

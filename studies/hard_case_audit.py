@@ -29,8 +29,7 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import main, save_figure, write_table  # noqa: E402
+from _common import main, save_figure, write_table
 
 QUESTION = ("How far inside its asserted bound is each hard case the tests cover — the "
             "error or drift measured again beside the bound, as a margin?")

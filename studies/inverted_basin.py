@@ -49,10 +49,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-
 import kapitza
 from _common import main, save_figure, write_table
 
@@ -314,7 +310,6 @@ def figure(maps, tilts, frac, A_l, w_ratio):
     ax.legend(fontsize=7, ncol=2, loc="upper left")
 
     ax = fig.add_subplot(gs[1, 2:4])
-    nA, nw = len(A_l), len(w_ratio)
     grid = frac.set_index(["A_l", "omega_ratio"]).fraction_sim.unstack().reindex(
         index=A_l, columns=w_ratio).to_numpy()
     mesh = ax.pcolormesh(w_ratio, A_l, grid, cmap="viridis", vmin=0, vmax=1, shading="nearest")

@@ -30,11 +30,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import main, save_figure, write_table  # noqa: E402
+from _common import main, save_figure, write_table
 
-import kapitza  # noqa: E402
-from kapitza import KapitzaPendulum, Scene, periodic_orbit  # noqa: E402
+import kapitza
+from kapitza import KapitzaPendulum, Scene, periodic_orbit
 
 QUESTION = ("How well does first-order averaging describe the horizontal drive's tilted state "
             "and the elliptic pivot (circular: never upright; damped: a tilt), measured "

@@ -49,10 +49,6 @@ import numpy as np
 import pandas as pd
 import sympy as sp
 
-if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-
 import kapitza
 from lagrange_core import problems
 from _common import main, save_figure, write_table

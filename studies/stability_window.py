@@ -42,10 +42,6 @@ import pandas as pd
 import scipy.optimize
 import scipy.special
 
-if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-
 import kapitza
 from _common import main, save_figure, write_table
 

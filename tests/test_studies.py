@@ -4,13 +4,14 @@ an independent reference (issue 15)."""
 from __future__ import annotations
 
 import importlib.util
-import math
+import sys
 from pathlib import Path
 
 import pandas as pd
 import pytest
 
 STUDIES = Path(__file__).resolve().parent.parent / "studies"
+sys.path.insert(0, str(STUDIES))       # the studies import their shared _common
 NAMES = sorted(p.stem for p in STUDIES.glob("[a-z]*.py"))
 
 
