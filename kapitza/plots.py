@@ -90,13 +90,17 @@ def _about_text(about) -> str:
         if isinstance(values, dict):
             values = list(values.values())
         values = np.atleast_1d(np.asarray(values, float))
-    except (ValueError, TypeError, SyntaxError):     # not numbers: as given, shortened
-        return f"the state {str(about)[:40]}"
+    except (ValueError, TypeError, SyntaxError):
+        try:        # a numpy array's str(): "[3.14159265 3.14159265]", no commas
+            values = np.array(str(about).strip("[]()").split(), float)
+        except ValueError:                           # not numbers: as given, shortened
+            return f"the state {str(about)[:40]}"
     parts = []
     for v in values:
         k = v / np.pi
-        parts.append(("0" if k == 0 else "π" if k == 1 else f"{k:g}π")
-                     if abs(k - round(k * 4) / 4) < 1e-12 else f"{v:.4g}")
+        quarter = round(k * 4) / 4         # 1e-8: arrays printed to 8 digits still read as π
+        parts.append(("0" if quarter == 0 else "π" if quarter == 1 else f"{quarter:g}π")
+                     if abs(k - quarter) < 1e-8 else f"{v:.4g}")
     return f"the state q = ({', '.join(parts)})"
 
 
