@@ -73,7 +73,9 @@ def flow(system, y0, t_span, params, *, tol=1e-12, steps=16, max_steps=1 << 20) 
     steps : int
         First step count tried (e.g. 16 per drive period).
     max_steps : int
-        Give up (ValueError) beyond this many steps.
+        Give up beyond this many steps: FloatingPointError where the doublings have not
+        converged by then or the state is still non-finite (ValueError: bad input, or a
+        singular mass matrix).
 
     Returns
     -------
