@@ -55,6 +55,16 @@ def jacobian_monodromy(system, params, about, *, rtol, atol=1e-13):
     return monodromy(mat, 2 * math.pi / params["omega"], rtol=rtol, atol=atol)
 
 
+def sigint_default():
+    """``preexec_fn`` of a child that must see Ctrl-C: SIGINT back to its default action.
+
+    A shell's background job (``cmd &``, as CI may start the suite) ignores SIGINT, its
+    children inherit SIG_IGN across exec, and Python then installs no KeyboardInterrupt
+    handler: the child would never notice the signal the test sends."""
+    import signal
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def interrupt_child(tmp_path, source, delay, timeout):
     """Run ``source`` in a child process, send it SIGINT ``delay`` s after it prints
     "ready", and return (its JSON report, the time the signal was sent)."""
@@ -66,7 +76,8 @@ def interrupt_child(tmp_path, source, delay, timeout):
     import time
     script = tmp_path / "child.py"
     script.write_text(source)
-    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True,
+                            preexec_fn=sigint_default)
     try:
         assert proc.stdout.readline().strip() == "ready"
         time.sleep(delay)

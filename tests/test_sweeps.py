@@ -16,20 +16,19 @@ import pandas as pd
 import pytest
 
 import kapitza
-from kapitza import ComputationInterrupted, Scene
+from kapitza import Scene
 from kapitza.scene_file import Axis
 from kapitza.sweep import MANIFEST, compute_tile, run_sweep, tile_columns
 
-from helpers import pendulum_scene as pendulum
+from helpers import pendulum_scene as pendulum, sigint_default
 
 #: the Kapitza pendulum simulated over A × θ0: 12 points in tiles of 4
 SCENE = pendulum(theta=3.0, analyses="simulate = { periods = 50 }", sweep="tile_points = 4",
                  axes="A = { start = 0.0, stop = 0.3, num = 6 }\ninitial.theta = [2.9, 3.0]")
 
 
-def slow_scene(points=96, tile=8, periods=5000):
-    """Tiles of ~0.2 s (measured 0.08 s per 2000 periods): the whole sweep takes seconds, long
-    enough to kill or interrupt it between tiles even on a loaded machine."""
+def slow_scene(points=96, tile=8, periods=2000):
+    """Tiles of ~0.1 s: long enough to kill or interrupt a sweep between them."""
     return (SCENE.replace("num = 6", f"num = {points // 2}")
             .replace("tile_points = 4", f"tile_points = {tile}")
             .replace("periods = 50", f"periods = {periods}"))
@@ -142,7 +141,8 @@ def _child(tmp_path, text):
         p for p in (here, os.environ.get("PYTHONPATH")) if p))
     return subprocess.Popen([sys.executable, str(tmp_path / "child.py"),
                              str(tmp_path / "scene.toml"), str(tmp_path / "out")],
-                            stdout=subprocess.PIPE, text=True, env=env)
+                            stdout=subprocess.PIPE, text=True, env=env,
+                            preexec_fn=sigint_default)
 
 
 def _wait_for_parts(directory, count, timeout=120):
