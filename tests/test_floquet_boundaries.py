@@ -307,6 +307,9 @@ def test_double_pendulum_boundaries_against_modes_and_both_sides(double):
     assert set(df.stable_side) == {"above", "below"}
 
 
+# near the tongue's tip (A → 0) two frequencies' points are certified to ~1.5e-9, not 1e-9:
+# boundaries says so in a warning (tested elsewhere); this test checks the curves' values
+@pytest.mark.filterwarnings("ignore:boundaries.*certified only:RuntimeWarning")
 def test_complex_boundaries_of_the_sum_resonance(coupled):
     w = np.linspace(2.2, 2.8, 61)
     curves = fq.boundaries(coupled, W12, [0.0, 0.0], w, A_range=(0.0, 0.6), tol=1e-9)
