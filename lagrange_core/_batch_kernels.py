@@ -60,7 +60,7 @@ from numba import njit, prange
 from ._integrator_kernels import (DRIVE_STEP, FAST_MATH, INLINE, ST_BLOCK, STATS_SIZE, TV_HOLD,
                                   TV_HREF, TV_SIZE, drive_rates, held_step_record,
                                   project_constraints, rkn_combine, rkn_next_step, rkn_stages,
-                                  second_order_step, starting_step)
+                                  rotate_drive, second_order_step, starting_step)
 from ._kernel_calls import (DRIVE_RATES, ENERGY, FAST_ACCEL, FAST_ACCEL_LANES, MAX_DRIVE_RATES,
                             RHS, call_drive_rates, call_energy, call_fast_accel,
                             call_fast_accel_lanes, call_rhs)
@@ -404,11 +404,7 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
                     for i in range(n):
                         vn[i] += 0.5 * hk * an[i]
                         qn[i] += hk * vn[i]
-                    for k in range(nd):
-                        cr = rot[s, k, 0]
-                        sr = rot[s, k, 1]
-                        css[2 * k] = cs0[2 * k] * cr - cs0[2 * k + 1] * sr
-                        css[2 * k + 1] = cs0[2 * k + 1] * cr + cs0[2 * k] * sr
+                    rotate_drive(cs0, rot, s, css)
                     kst = call_fast_accel(ka[FAST_ACCEL], qn, t + S[s] * hs, css, p, an, Wn)
                     if kst != 0:
                         break
@@ -453,11 +449,7 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
             t_new = t + yk
             t_carry = (t_new - t) - yk
         if family == 0:         # FSAL: the drive at t + hs is the rotation of stage c = 1
-            for k in range(nd):
-                cr = rot[ns - 1, k, 0]
-                sr = rot[ns - 1, k, 1]
-                css[2 * k] = cs0[2 * k] * cr - cs0[2 * k + 1] * sr
-                css[2 * k + 1] = cs0[2 * k + 1] * cr + cs0[2 * k] * sr
+            rotate_drive(cs0, rot, ns - 1, css)
             if call_fast_accel(ka[FAST_ACCEL], qn, t_new, css, p, an, Wn) != 0:
                 status = GRID_SINGULAR
                 break

@@ -594,6 +594,28 @@ def accel_only(ka, q, t, p, out, rates, cs, Wn):
     return call_fast_accel(ka[FAST_ACCEL], q, t, cs, p, out, Wn)
 
 
+@njit(cache=True, inline=INLINE)
+def rkn_stage_position(q, v, K, A, s, ch, h, qs):
+    """The position of RKN stage s into ``qs``: q + c_s h v + h² Σ_{j<s} A_sj K_j
+    (``ch`` = c_s h)."""
+    for i in range(q.shape[0]):
+        acc = 0.0
+        for j in range(s):
+            acc += A[s, j] * K[j, i]
+        qs[i] = q[i] + ch * v[i] + h * h * acc
+
+
+@njit(cache=True, inline=INLINE)
+def rotate_drive(cs0, rot, s, css):
+    """The drive's cos/sin pairs ``cs0`` at t rotated by ``rot[s]`` (the cos/sin of
+    α_k x_s h) into ``css``: the drive at t + x_s h without calling cos or sin."""
+    for k in range(cs0.shape[0] // 2):
+        cr = rot[s, k, 0]
+        sr = rot[s, k, 1]
+        css[2 * k] = cs0[2 * k] * cr - cs0[2 * k + 1] * sr
+        css[2 * k + 1] = cs0[2 * k + 1] * cr + cs0[2 * k] * sr
+
+
 @njit(cache=True)
 def second_order_step(ka, family, t, q, v, a0, h, p, c, A, b, bp, w, K, qn, vn, qs, rates, cs,
                       Wn):
@@ -613,11 +635,7 @@ def second_order_step(ka, family, t, q, v, a0, h, p, c, A, b, bp, w, K, qn, vn, 
         ns = c.shape[0]
         for s in range(1, ns):
             ch = c[s] * h
-            for i in range(n):
-                acc = 0.0
-                for j in range(s):
-                    acc += A[s, j] * K[j, i]
-                qs[i] = q[i] + ch * v[i] + h * h * acc
+            rkn_stage_position(q, v, K, A, s, ch, h, qs)
             status = accel_only(ka, qs, t + ch, p, K[s], rates, cs, Wn)
             if status != 0:
                 return status
@@ -820,22 +838,12 @@ def rkn_stages(ka, t, hs, q, v, a0, c, A, rot, cs0, css, K, qs, p, Wn):
     s = 1 … ns − 1 at q + c_s hs v + hs² Σ_j A_sj K_j, the drive at t + c_s hs rotated from
     its value ``cs0`` at t by ``rot[s]`` (the cos/sin of α_k c_s hs).  Returns the drive
     kernel's status (0, or the first nonzero one: a singular mass matrix)."""
-    n = q.shape[0]
-    nd = cs0.shape[0] // 2
-    for i in range(n):
+    for i in range(q.shape[0]):
         K[0, i] = a0[i]
     for s in range(1, c.shape[0]):
         ch = c[s] * hs
-        for i in range(n):
-            acc = 0.0
-            for j in range(s):
-                acc += A[s, j] * K[j, i]
-            qs[i] = q[i] + ch * v[i] + hs * hs * acc
-        for k in range(nd):
-            cr = rot[s, k, 0]
-            sr = rot[s, k, 1]
-            css[2 * k] = cs0[2 * k] * cr - cs0[2 * k + 1] * sr
-            css[2 * k + 1] = cs0[2 * k + 1] * cr + cs0[2 * k] * sr
+        rkn_stage_position(q, v, K, A, s, ch, hs, qs)
+        rotate_drive(cs0, rot, s, css)
         status = call_fast_accel(ka[FAST_ACCEL], qs, t + ch, css, p, K[s], Wn)
         if status != 0:
             return status
@@ -1050,11 +1058,7 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
         else:
             exact_drive = clipped
             # FSAL: f at the new state; the drive at t + hs is the rotation of stage c = 1
-            for k in range(nd):
-                cr = rot[ns - 1, k, 0]
-                sr = rot[ns - 1, k, 1]
-                css[2 * k] = cs0[2 * k] * cr - cs0[2 * k + 1] * sr
-                css[2 * k + 1] = cs0[2 * k + 1] * cr + cs0[2 * k] * sr
+            rotate_drive(cs0, rot, ns - 1, css)
             status = call_fast_accel(ka[FAST_ACCEL], qn, t_new, css, p, a0, Wn)
             stats[ST_RHS] += 1
         # a terminal event may sit exactly on a singular state: the run ends there
