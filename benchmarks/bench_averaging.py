@@ -27,8 +27,8 @@ import numpy as np
 import sympy as sp
 from scipy.integrate import solve_ivp
 
-from kapitza import averaging as av
-from kapitza import pendulum_closed_forms as pcf
+from kapitza.averaging import _average as av
+from kapitza.closed_forms import _pendulum as pcf
 from kapitza.pendulum import KapitzaPendulum
 from lagrange_core import problems, t
 

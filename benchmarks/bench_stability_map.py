@@ -40,10 +40,10 @@ import sympy as sp
 from numba import njit, prange
 from scipy.integrate import solve_ivp
 
-from kapitza import floquet as fqm
-from kapitza import mathieu as mm
-from kapitza import plots
-from kapitza.pendulum_closed_forms import multiple_pendulum_upright
+from kapitza.floquet import _analysis as fqm
+from kapitza.closed_forms import _mathieu as mm
+from kapitza.figures import _plots as plots
+from kapitza.closed_forms._pendulum import multiple_pendulum_upright
 from kapitza.pendulum import KapitzaPendulum
 from lagrange_core import problems
 from lagrange_core import t as t_sym

@@ -161,25 +161,23 @@ True
 >>> pend.floquet(A=0.05, omega=2 * math.pi * 60, about="inverted").stable   # exact, linear
 True
 """
+from ._version import __version__
 from .averaging import AveragedSystem, AveragingValidityWarning, average
 from .floquet import (adaptive_map, boundaries, floquet_grid, floquet_point, monodromy_data,
                       stability_map, window)
-from .mathieu import (characteristic_value, ince_strutt_chart, mathieu_monodromy_trace,
-                      mathieu_parameters, pendulum_stability_map, pendulum_stability_window)
-from .measurement import measure, measure_grid
+from .closed_forms import (characteristic_value, ince_strutt_chart, mathieu_monodromy_trace,
+                           mathieu_parameters, pendulum_stability_map, pendulum_stability_window)
+from .closed_forms import (multiple_pendulum_upright, pendulum_averaged,
+                           pendulum_effective_potential, averaging_window)
+from .simulation import measure, measure_grid, periodic_orbit
 from .pendulum import KapitzaPendulum
-from .periodic_orbit import periodic_orbit
-from .pendulum_closed_forms import (multiple_pendulum_upright, pendulum_averaged,
-                                    pendulum_effective_potential, averaging_window)
-from .plots import (effective_potential_figure, ince_strutt_figure, stability_map_figure,
-                    verification_figure)
-from .verify import verify
+from .figures import (effective_potential_figure, ince_strutt_figure, stability_map_figure,
+                      verification_figure)
+from .verification import verify
 from .animation import Animation, SystemAnimation, pendulum_animation, system_animation
 from .report import Report, build_report
 from .warmup import warmup
-from .scene import Scene, SceneResults, example_scenes
-from .scene_file import SceneError
-from .sweep import SweepResult
+from .scenes import Scene, SceneError, SceneResults, SweepResult, example_scenes
 from .results import (AveragingPrediction, ComputationInterrupted, EquilibriumPrediction,
                       FloquetGrid, FloquetResult, FloquetWindow, InceStruttChart, Measurement,
                       MonodromyData, MultiplePendulumPrediction, PendulumAveraging,
@@ -208,4 +206,3 @@ __all__ = [
     "pendulum_animation", "Animation", "build_report", "Report",
     "system_animation", "SystemAnimation",
 ]
-__version__ = "0.1.0"

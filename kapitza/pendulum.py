@@ -22,12 +22,13 @@ import numpy as np
 from lagrange_core import problems
 from lagrange_core.checks import real_array
 
-from . import arguments, mathieu, pendulum_closed_forms
+from . import _arguments as arguments
+from . import closed_forms
 from .floquet import floquet_point
-from .measurement import DEFAULT_PERIODS, pendulum_about, point, squeeze
-from .measurement import measure_grid as measure_system_grid
-from .periodic_orbit import periodic_orbit
-from .verify import line_argument, pendulum_verification
+from .simulation import DEFAULT_PERIODS, pendulum_about, point, squeeze
+from .simulation import measure_grid as measure_system_grid
+from .simulation import periodic_orbit
+from .verification import line_argument, pendulum_verification
 from .results import (FloquetResult, Measurement, PendulumAveraging, StabilityMap,
                       StabilityWindow, Verification)
 
@@ -157,9 +158,9 @@ class KapitzaPendulum:
 
         Vertical drive: −g l cos θ + A² ω² sin² θ / 4; horizontal: −g l cos θ +
         A² ω² cos² θ / 4.  Broadcasts over θ (rad), A (m), ω (rad/s).  See
-        :func:`kapitza.pendulum_closed_forms.pendulum_effective_potential`.
+        :func:`kapitza.closed_forms.pendulum_effective_potential`.
         """
-        return pendulum_closed_forms.pendulum_effective_potential(theta, A, omega, l=self.l,
+        return closed_forms.pendulum_effective_potential(theta, A, omega, l=self.l,
                                                                   g=self.g, drive=self.drive)
 
     def averaged(self, A, omega, order: int = 1, warn: bool = True,
@@ -170,10 +171,10 @@ class KapitzaPendulum:
         ``order=2`` adds the next order (vertical drive).  Returns
         :class:`kapitza.results.PendulumAveraging` with ``.inverted``, ``.hanging``
         (and ``.tilted`` for the horizontal drive); see
-        :func:`kapitza.pendulum_closed_forms.pendulum_averaged` for formulas and accuracy,
+        :func:`kapitza.closed_forms.pendulum_averaged` for formulas and accuracy,
         and for ``progress`` (large arrays run in chunks; Ctrl-C keeps the finished part).
         """
-        return pendulum_closed_forms.pendulum_averaged(A, omega, l=self.l, g=self.g,
+        return closed_forms.pendulum_averaged(A, omega, l=self.l, g=self.g,
                                                        damping=self.damping, drive=self.drive,
                                                        order=order, warn=warn, progress=progress)
 
@@ -187,7 +188,7 @@ class KapitzaPendulum:
         accuracy.  See :func:`kapitza.mathieu.pendulum_stability_window`.
 
         method="averaging": the averaging prediction of order ``order`` (inverted
-        only); see :func:`kapitza.pendulum_closed_forms.averaging_window`.
+        only); see :func:`kapitza.closed_forms.averaging_window`.
 
         Returns
         -------
@@ -199,11 +200,11 @@ class KapitzaPendulum:
             if about != "inverted":
                 raise ValueError(f"the averaging window is for about='inverted' only, got "
                                  f"{about!r}; use method='floquet' for the hanging pendulum.")
-            return pendulum_closed_forms.averaging_window(omega, l=self.l, g=self.g,
+            return closed_forms.averaging_window(omega, l=self.l, g=self.g,
                                                           damping=self.damping, order=order)
         if method != "floquet":
             raise ValueError(f"method must be 'floquet' or 'averaging', got {method!r}.")
-        return mathieu.pendulum_stability_window(omega, l=self.l, g=self.g, damping=self.damping,
+        return closed_forms.pendulum_stability_window(omega, l=self.l, g=self.g, damping=self.damping,
                                                  about=about, tol=tol)
 
     # -- Floquet (kapitza.floquet, kapitza.mathieu) ---------------------------------------
@@ -280,7 +281,7 @@ class KapitzaPendulum:
             (overlay e.g. ``stability_window(omega, method="averaging", order=1)``).
         """
         self._vertical("stability_map")
-        return mathieu.pendulum_stability_map(A, omega, l=self.l, g=self.g, damping=self.damping,
+        return closed_forms.pendulum_stability_map(A, omega, l=self.l, g=self.g, damping=self.damping,
                                               about=about, trace=trace, tol=tol,
                                               progress=progress)
 

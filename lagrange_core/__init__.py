@@ -39,6 +39,7 @@ from .symbols import coordinates, t
 from .systems import Particle, System
 from .warmup import warmup
 from .accuracy_cost import WorkPrecision, work_precision
+from ._version import __version__
 
 __all__ = ["System", "Particle", "RigidBody", "rotation_matrix", "coordinates", "t", "derive",
            "Equations", "compile_kernels", "Kernels", "Linearization", "problems", "fields",
@@ -46,7 +47,6 @@ __all__ = ["System", "Particle", "RigidBody", "rotation_matrix", "coordinates", 
            "Trajectory", "METHODS", "Event", "turning_point", "crossing", "multiplier_zero",
            "SimulationInterrupted", "GridTrajectories", "GridInterrupted", "warmup",
            "work_precision", "WorkPrecision"]
-__version__ = "0.1.0"
 
 
 def __getattr__(name):

@@ -43,7 +43,7 @@ import numpy as np
 import pandas as pd
 
 import kapitza
-from kapitza.verify import fit_order
+from kapitza.verification._verify import fit_order
 from _common import main, save_figure, write_table
 
 QUESTION = ("How large is the relative error of the upright pendulum's slow frequency "

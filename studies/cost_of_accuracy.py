@@ -110,7 +110,7 @@ def integrators(quick):
 
 def _boundary_points(kind, q):
     """(A, ω, exact tr M) on the upright's boundary a = a0(q) (kind "a") or b1(q) ("b")."""
-    from kapitza.mathieu import characteristic_value
+    from kapitza.closed_forms._mathieu import characteristic_value
     a = characteristic_value(kind, 0 if kind == "a" else 1, q)
     return q * L / 2, 2 * W0 / np.sqrt(-a), 2.0 if kind == "a" else -2.0
 
@@ -341,7 +341,7 @@ def run(out, quick=False):
 def figure(wp, fq, av, bt, batch_ref_error):
     from matplotlib.figure import Figure
 
-    from kapitza.plots import work_precision_figure
+    from kapitza.figures._plots import work_precision_figure
     fig = Figure(figsize=(13.5, 10.5))
     fig.subplots_adjust(left=0.07, right=0.98, bottom=0.06, top=0.92, wspace=0.2, hspace=0.3)
     axes = fig.subplots(2, 2)

@@ -295,7 +295,7 @@ def cartesian(quick):
 def mathieu_large_q(quick):
     import scipy.linalg
     import scipy.special
-    from kapitza import mathieu as mm
+    from kapitza.closed_forms import _mathieu as mm
     K = 80
     d = (2 * np.arange(K) + 1.0) ** 2
     d[0] += 20.9
@@ -319,7 +319,7 @@ def mathieu_large_q(quick):
 
 @_shared
 def huge_amplitude(quick):
-    from kapitza import mathieu as mm
+    from kapitza.closed_forms import _mathieu as mm
     from kapitza.pendulum import KapitzaPendulum
     pend = KapitzaPendulum(l=1.0, g=G)
     worst = 0.0

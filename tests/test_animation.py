@@ -16,7 +16,7 @@ from scipy.integrate import quad
 
 import kapitza
 from kapitza import KapitzaPendulum, cli
-from kapitza.animation import _pendulum_stage, bob_position
+from kapitza.animation._animation import _pendulum_stage, bob_position
 
 L, G = 1.0, 9.81
 W0 = math.sqrt(G / L)
@@ -291,7 +291,7 @@ def test_cli_animates_several_scenes(chains, tmp_path, capsys):
 
 
 def test_ctrl_c_keeps_the_finished_frames(tmp_path, monkeypatch, capsys):
-    import kapitza.animation as animation
+    import kapitza.animation._animation as animation
     draw = animation._Stage.draw
 
     def interrupted(self, k):

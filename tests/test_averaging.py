@@ -17,9 +17,9 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 from scipy.special import mathieu_a, mathieu_b
 
-from kapitza import averaging as av
-from kapitza import mathieu as mm
-from kapitza import pendulum_closed_forms as pcf
+from kapitza.averaging import _average as av
+from kapitza.closed_forms import _mathieu as mm
+from kapitza.closed_forms import _pendulum as pcf
 from kapitza.pendulum import KapitzaPendulum
 from lagrange_core import Particle, System, coordinates, problems, t
 

@@ -13,8 +13,8 @@ from helpers import G
 from scipy.optimize import brentq
 from scipy.special import mathieu_b
 
-from kapitza import averaging as av
-from kapitza import pendulum_closed_forms as pcf
+from kapitza.averaging import _average as av
+from kapitza.closed_forms import _pendulum as pcf
 
 
 # -- item 4: the averaging window ------------------------------------------------------------
@@ -69,7 +69,7 @@ def test_window_carries_validity_flags():
 _MEMORY_PROBE = """
 import resource, sys
 import numpy as np
-from kapitza import pendulum_closed_forms as pcf
+from kapitza.closed_forms import _pendulum as pcf
 A = np.linspace(0.001, 0.2, {n})
 before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 out = pcf.pendulum_averaged(A, 200.0, order=2, warn=False)
@@ -221,7 +221,7 @@ def test_ctrl_c_keeps_the_finished_points():
     """Ctrl-C (here raised from the progress callback, between chunks) raises a
     KeyboardInterrupt carrying the finished part: the first points in flat order, equal
     to the full call's; ``computed`` marks them on the grid."""
-    from kapitza.results import ComputationInterrupted
+    from kapitza.results._results import ComputationInterrupted
     A = np.linspace(0.0, 0.2, 4 * pcf.CHUNK_POINTS).reshape(4, -1)
     w = np.array([[200.0], [300.0], [400.0], [500.0]])
 
@@ -253,8 +253,8 @@ import os, signal, threading, time
 import numpy as np
 # a background job of a shell ignores SIGINT: restore Ctrl-C's KeyboardInterrupt
 signal.signal(signal.SIGINT, signal.default_int_handler)
-from kapitza import pendulum_closed_forms as pcf
-from kapitza.results import ComputationInterrupted
+from kapitza.closed_forms import _pendulum as pcf
+from kapitza.results._results import ComputationInterrupted
 A = np.linspace(0.0, 0.2, 10_000_000)
 pcf.pendulum_averaged(A[:10], 300.0)
 sent = []
@@ -276,7 +276,7 @@ except ComputationInterrupted as e:
 
 def test_general_sweep_progress_and_ctrl_c():
     from kapitza.pendulum import KapitzaPendulum
-    from kapitza.results import ComputationInterrupted
+    from kapitza.results._results import ComputationInterrupted
     from lagrange_core import problems
     avg = av.average(problems.driven_pendulum("vertical"))
     base = KapitzaPendulum().params(0.1, 200.0)

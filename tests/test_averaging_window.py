@@ -14,11 +14,11 @@ import pytest
 import sympy as sp
 from helpers import G
 
-from kapitza import averaging as av
-from kapitza import floquet as fq
-from kapitza import pendulum_closed_forms as pcf
-from kapitza import plots
-from kapitza.results import StabilityWindow
+from kapitza.averaging import _average as av
+from kapitza.floquet import _analysis as fq
+from kapitza.closed_forms import _pendulum as pcf
+from kapitza.figures import _plots as plots
+from kapitza.results._results import StabilityWindow
 from lagrange_core import problems, t
 
 L = 0.7

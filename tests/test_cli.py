@@ -14,7 +14,7 @@ import pytest
 
 import kapitza
 from kapitza import KapitzaPendulum, cli
-from kapitza.results import ComputationInterrupted
+from kapitza.results._results import ComputationInterrupted
 
 from helpers import pendulum_scene
 

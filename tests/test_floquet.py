@@ -14,9 +14,9 @@ import scipy.special
 import sympy as sp
 from helpers import G, L, W0, jacobian_monodromy, mathieu_ivp_trace
 
-from kapitza import floquet as fq
-from kapitza import mathieu as mm
-from kapitza import plots
+from kapitza.floquet import _analysis as fq
+from kapitza.closed_forms import _mathieu as mm
+from kapitza.figures import _plots as plots
 from kapitza.pendulum import KapitzaPendulum
 from lagrange_core import problems
 from lagrange_core import t as t_sym

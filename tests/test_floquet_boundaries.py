@@ -21,12 +21,12 @@ import sympy as sp
 from helpers import G, jacobian_monodromy
 
 import lagrange_core as lc
-from kapitza import floquet as fq
-from kapitza import plots
-from kapitza.floquet_boundaries import margin
-from kapitza.mathieu import pendulum_stability_window
-from kapitza.pendulum_closed_forms import multiple_pendulum_upright
-from kapitza.results import AdaptiveMap, BoundaryCurves, StabilityWindow
+from kapitza.floquet import _analysis as fq
+from kapitza.figures import _plots as plots
+from kapitza.floquet._boundaries import margin
+from kapitza.closed_forms._mathieu import pendulum_stability_window
+from kapitza.closed_forms._pendulum import multiple_pendulum_upright
+from kapitza.results._results import AdaptiveMap, BoundaryCurves, StabilityWindow
 from lagrange_core import problems, t
 
 MASSES, LENGTHS = (1.0, 0.5), (1.0, 0.7)            # an unequal double pendulum
@@ -188,7 +188,7 @@ def test_reduced_roots_keep_a_cluster_at_plus_one():
     """Multipliers e^(±iθ_k) with θ_k = 1e-3 … 0.3 and a real pair e^(±σ): x − 2 =
     2 cos θ − 2 and 2 cosh σ − 2 (closed form) to 1e-9 relative, although the roots differ
     from 2 by as little as 1e-6; the real roots are real exactly, a quadruplet's complex."""
-    from kapitza.floquet_boundaries import reduced_polynomial
+    from kapitza.floquet._boundaries import reduced_polynomial
     theta = np.array([1e-3, 3e-3, 0.05, 0.3])
     sigma = 2e-3
     lam = np.r_[np.exp(1j * theta), np.exp(-1j * theta), np.exp(sigma), np.exp(-sigma)]
@@ -213,7 +213,7 @@ def test_first_window_refuses_a_window_its_check_contradicts():
     A = 1, a true root of det(M − I); its side check finds A(1 + η) unstable, and the
     window is NaN with a warning, not [1, 3].  A lie that leaves an edge without a root
     is NaN with a warning too; told the truth, the same scan gives [2, 3]."""
-    from kapitza.floquet_boundaries import first_window
+    from kapitza.floquet._boundaries import first_window
 
     def block(x):
         one = np.ones_like(x)

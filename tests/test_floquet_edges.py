@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from helpers import G, L, W0, interrupt_child
 
-from kapitza import floquet as fq
-from kapitza import mathieu as mm
+from kapitza.floquet import _analysis as fq
+from kapitza.closed_forms import _mathieu as mm
 from kapitza.pendulum import KapitzaPendulum
 
 
@@ -130,7 +130,7 @@ def test_triple_pendulum_uncertified_counts_only_the_uncertain(triple):
 
 # -- item 8: chunks, progress, Ctrl-C --------------------------------------------------
 
-from kapitza.results import ComputationInterrupted  # noqa: E402
+from kapitza.results._results import ComputationInterrupted  # noqa: E402
 
 
 def _stop(done, total):
@@ -214,7 +214,7 @@ import numpy as np
 # installs no handler: restore Ctrl-C's KeyboardInterrupt, as in an interactive run
 signal.signal(signal.SIGINT, signal.default_int_handler)
 from kapitza.pendulum import KapitzaPendulum
-from kapitza.results import ComputationInterrupted
+from kapitza.results._results import ComputationInterrupted
 p = KapitzaPendulum(l=1.0, g=9.81, damping=0.3)
 A, w = np.linspace(0.0, 0.7, 1000), np.linspace(2.0, 400.0, 1000) * np.sqrt(9.81)
 p.stability_map(A[:2], w[:2], progress=False)            # compiled / loaded
@@ -348,9 +348,9 @@ GENERAL_CHILD = r"""
 import json, math, signal, sys, time
 import numpy as np
 signal.signal(signal.SIGINT, signal.default_int_handler)     # see CHILD
-from kapitza import floquet as fq
+from kapitza.floquet import _analysis as fq
 from kapitza.pendulum import KapitzaPendulum
-from kapitza.results import ComputationInterrupted
+from kapitza.results._results import ComputationInterrupted
 p = KapitzaPendulum(l=1.0, g=9.81, damping=0.3)
 base = dict(m=1.0, l=1.0, g=9.81, gamma=0.3)
 A, w = np.linspace(0.0, 0.7, 600), np.linspace(2.0, 400.0, 600) * np.sqrt(9.81)

@@ -25,8 +25,8 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import fsolve
 
 import kapitza
-from kapitza import averaging as av
-from kapitza.measurement import slow_frequencies
+from kapitza.averaging import _average as av
+from kapitza.simulation._measurement import slow_frequencies
 from lagrange_core import Particle, System, coordinates, problems
 from lagrange_core import t as t_sym
 

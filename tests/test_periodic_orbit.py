@@ -14,7 +14,7 @@ import pytest
 import sympy as sp
 
 from kapitza import KapitzaPendulum, floquet_point
-from kapitza.periodic_orbit import periodic_orbit
+from kapitza.simulation._periodic_orbit import periodic_orbit
 from lagrange_core import Particle, System, coordinates, problems, t
 from lagrange_core.variational import flow
 

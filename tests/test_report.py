@@ -19,8 +19,8 @@ from helpers import G, L, interrupt_child, pendulum_monodromy
 
 import kapitza
 from kapitza import KapitzaPendulum
-from kapitza.cli import main
-from kapitza.report import SECTIONS, build_report
+from kapitza.cli._cli import main
+from kapitza.report._report import SECTIONS, build_report
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -208,7 +208,7 @@ def test_undriven_scene_is_refused(tmp_path):
 _CHILD = """
 import json, sys, time
 sys.path.insert(0, {root!r})
-from kapitza.report import ReportInterrupted, build_report
+from kapitza.report._report import ReportInterrupted, build_report
 
 
 def progress(message):        # "ready" once the first section is written

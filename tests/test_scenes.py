@@ -442,7 +442,7 @@ def test_syntax_errors_and_unreadable_files(tmp_path):
 
 
 def test_key_lines_follow_tables_inline_tables_and_multiline_arrays():
-    from kapitza.scene_file import _key_lines
+    from kapitza.scenes._file import _key_lines
     lines = _key_lines(textwrap.dedent('''\
         a = 1   # a comment with [brackets]
         [b]

@@ -17,8 +17,8 @@ import pytest
 
 import kapitza
 from kapitza import Scene
-from kapitza.scene_file import Axis
-from kapitza.sweep import MANIFEST, compute_tile, run_sweep, tile_columns
+from kapitza.scenes._file import Axis
+from kapitza.scenes._sweep import MANIFEST, compute_tile, run_sweep, tile_columns
 
 from helpers import pendulum_scene as pendulum, sigint_default
 

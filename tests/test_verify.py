@@ -15,7 +15,7 @@ import sympy as sp
 
 import kapitza
 from kapitza import KapitzaPendulum, Verification
-from kapitza.verify import fit_order
+from kapitza.verification._verify import fit_order
 from lagrange_core import problems, t as t_sym
 
 G, L = 9.81, 1.0

@@ -149,7 +149,7 @@ def test_bad_span_and_level(pendulum, exact):
 
 
 def test_the_figure_draws_one_line_per_method_and_marks_the_default(exact):
-    from kapitza.plots import work_precision_figure
+    from kapitza.figures._plots import work_precision_figure
     fig = work_precision_figure(exact)
     labels = [ln.get_label() for ln in fig.axes[0].lines if not ln.get_label().startswith("_")]
     assert "rkn12 (default)" in labels and "dop853" in labels and "scipy:DOP853" in labels

@@ -73,30 +73,46 @@ from lagrange_core import effects as fx
 from lagrange_core.module_store import content_key, source_fingerprint
 from lagrange_core.progress import interrupt_requested
 
-from . import sweep as sweeps
-from .averaging import average
-from .floquet import floquet_grid, floquet_point, stability_map
-from .pendulum import KapitzaPendulum
-from .periodic_orbit import periodic_orbit
-from .scene_file import SWEEPABLE, Axis, SceneSpec, read_scene, read_scene_text
+from . import _sweep as sweeps
+from ..averaging import average
+from ..floquet import floquet_grid, floquet_point, stability_map
+from ..pendulum import KapitzaPendulum
+from ..simulation import periodic_orbit
+from ._file import SWEEPABLE, Axis, SceneSpec, read_scene, read_scene_text
 
 __all__ = ["Scene", "SceneResults", "code_fingerprint", "example_scenes"]
 
-#: Modules whose code does not change what a scene computes (figures, the command line,
-#: installation, the cluster executor).
-_NOT_FINGERPRINTED = {"kapitza.plots", "kapitza.cli", "kapitza.warmup", "kapitza.__main__",
-                      "kapitza.sweep_dask", "lagrange_core.warmup"}
+#: Modules and subpackages whose code does not change what a scene computes (figures, the
+#: command line, installation, the cluster executor); everything else, at any depth, counts.
+_NOT_FINGERPRINTED = ("kapitza.figures", "kapitza.cli", "kapitza.warmup", "kapitza.__main__",
+                      "kapitza.scenes._sweep_dask", "lagrange_core.warmup")
+
+
+def _excluded(name: str) -> bool:
+    return any(name == x or name.startswith(x + ".") for x in _NOT_FINGERPRINTED)
+
+
+def fingerprinted_modules() -> list:
+    """Every module of lagrange_core and kapitza whose code can change a number: the
+    packages walked recursively (subpackages and their private modules included), less
+    ``_NOT_FINGERPRINTED``."""
+    mods, todo = [], ["lagrange_core", "kapitza"]
+    while todo:
+        package = importlib.import_module(todo.pop(0))
+        mods.append(package)
+        for info in pkgutil.iter_modules(package.__path__, prefix=f"{package.__name__}."):
+            if _excluded(info.name):
+                continue
+            if info.ispkg:
+                todo.append(info.name)
+            else:
+                mods.append(importlib.import_module(info.name))
+    return mods
 
 
 @functools.lru_cache(maxsize=None)
 def _package_fingerprint() -> str:
-    mods = []
-    for pkg in ("lagrange_core", "kapitza"):
-        package = importlib.import_module(pkg)
-        mods.append(package)
-        for info in pkgutil.iter_modules(package.__path__, prefix=f"{pkg}."):
-            if info.name not in _NOT_FINGERPRINTED:
-                mods.append(importlib.import_module(info.name))
+    mods = fingerprinted_modules()
     return source_fingerprint(*mods)
 
 
@@ -531,7 +547,7 @@ def _window(scene, s, progress):
 
 
 def _measure(scene, s, progress):
-    from .measurement import measure
+    from ..simulation import measure
     return measure(scene.system, scene.spec.params, _about(scene, s.get("about")), scene.q0,
                    scene.qdot0, periods=s.get("periods", 1000), band=s.get("band", math.pi / 2),
                    rtol=s.get("rtol", 1e-9), progress=progress)
@@ -553,7 +569,7 @@ def _simulate(scene, s, progress):
 
 
 def _verify(scene, s, progress):
-    from .verify import verify
+    from ..verification import verify
     A = np.asarray(s["A"].values)[:, None]
     omega = _frequency_axis(s)[None, :]
     common = dict(periods=s.get("periods", 1000), tol=s.get("tol", 1e-10),
@@ -649,7 +665,7 @@ def _grid_simulate(scene, s, params, q0, qdot0):
 
 
 def _grid_measure(scene, s, params, q0, qdot0):
-    from .measurement import measure_grid
+    from ..simulation import measure_grid
     about = s.get("about")
     if about in (None, "auto") and scene.capabilities["floquet"] != "equilibrium":
         about = np.array([_averaged_state(scene, _point_params(params, i), q0[i])

@@ -68,7 +68,7 @@ import numpy as np
 from lagrange_core.module_store import content_key
 from lagrange_core.progress import defer_ctrl_c, interrupt_requested
 
-from .results import ComputationInterrupted
+from ..results import ComputationInterrupted
 
 __all__ = ["SweepResult", "run_sweep", "grid_size", "tile_columns", "numba_threads",
            "package_versions", "write_table", "write_text", "MANIFEST"]
@@ -436,7 +436,7 @@ def run_sweep(work, axes, directory, *, key: str, fingerprint: str, metadata: di
 
     try:
         if mode == "dask":
-            from . import sweep_dask
+            from . import _sweep_dask as sweep_dask
             if todo and not calibrated:
                 _warm(work, axes)       # the workers load the kernels from the disk cache
             sweep_dask.run_tiles(executor, compute_tile, work, axes,

@@ -53,7 +53,7 @@ import numpy as np
 
 from lagrange_core.variational import flow
 
-from .results import PeriodicOrbit
+from ..results import PeriodicOrbit
 
 __all__ = ["periodic_orbit", "PeriodicOrbit"]
 
@@ -74,7 +74,7 @@ def _period(system, params, frequency, periods):
 def _start(system, params, guess, frequency):
     n = system.n_dof
     if guess is None:
-        from .averaging import average
+        from ..averaging import average
         avg = average(system, frequency)
         eq = avg.equilibria(params)
         stable = [q for q in eq if avg.slow_modes(params, q, warn=False).stable]
@@ -177,7 +177,7 @@ def periodic_orbit(system, params, guess=None, *, frequency="omega", periods=1, 
     y = _start(system, params, guess, frequency)
     n = system.n_dof
     if _persists(system, p, y, T):
-        from .floquet import floquet_point
+        from ..floquet import floquet_point
         fr = floquet_point(system, params, y[:n], frequency=frequency, tol=tol)
         M = None
         return _result(system, params, y, T, periods, fr.multipliers, M, 0.0,

@@ -246,7 +246,7 @@ def build_report(scene=None, out="kapitza-report", *, quick: bool = False,
     kapitza.SceneError, ValueError
         A bad scene file, or a scene without a drive.
     """
-    from .scene import Scene
+    from ..scenes import Scene
     t_start = time.perf_counter()
     if scene is None:
         scene = Scene.from_toml(_default_scene_path())
@@ -457,7 +457,7 @@ def _pct(x) -> str:
 # -- sections -------------------------------------------------------------------------------
 
 def _potential(job: _Job) -> _Result:
-    from .plots import effective_potential_figure
+    from ..figures import effective_potential_figure
     pend = job.pend
     if pend is None:
         raise _Skip(f"the effective potential figure draws U_eff(θ) of the single pendulum "
@@ -521,7 +521,7 @@ def _no_map_reason(job):
 def _window_curves(window):
     """The pendulum's exact window as boundary curves: A_min (a multiplier at +1, stable
     above) and A_max (at −1, stable below), drawn solid by the map figure."""
-    from .results import BoundaryCurves
+    from ..results import BoundaryCurves
     lo, hi = (np.atleast_1d(np.asarray(x, float)) for x in (window.A_min, window.A_max))
     acc = np.broadcast_to(np.nan if window.accuracy is None else
                           np.asarray(window.accuracy, float), lo.shape)
@@ -552,7 +552,7 @@ def _map_axes(job):
 
 
 def _map(job: _Job) -> _Result:
-    from .plots import _figure, legend_below, stability_map_figure, window_error_figure
+    from ..figures import _figure, legend_below, stability_map_figure, window_error_figure
     if not job.vertical:
         raise _Skip(_no_map_reason(job))
     A, w = _map_axes(job)
@@ -600,8 +600,8 @@ def _map(job: _Job) -> _Result:
                       f"off there (right: the error falls as (ω0/ω)² and (ω0/ω)⁴)."
                       if len(averaging) > 1 else "."))
     else:
-        from .averaging import average
-        from .floquet import boundaries, stability_map
+        from ..averaging import average
+        from ..floquet import boundaries, stability_map
         system, about, fixed = job.scene.system, job.about, job.fixed
         result = stability_map(system, A, w, fixed, about, progress=job.grid_progress)
         curves = boundaries(system, fixed, about, np.geomspace(w.min(), w.max(),
@@ -736,7 +736,7 @@ def _per_frequency(run, A, w, periods):
 
 def _spots(job: _Job) -> _Result:
     import pandas as pd
-    from .plots import spot_check_figure
+    from ..figures import spot_check_figure
     if not job.vertical:
         return _tilt_spots(job)
     if "map" not in job.state:
@@ -760,8 +760,8 @@ def _spots(job: _Job) -> _Result:
         avg = A * w >= math.sqrt(2 * pend.g * pend.l)
         extra = {"stable_averaging_1": avg}
     else:
-        from .floquet import floquet_grid
-        from .measurement import measure_grid
+        from ..floquet import floquet_grid
+        from ..simulation import measure_grid
         system, about = job.scene.system, job.about
         params = {**job.fixed, "A": A, "omega": w}
         q0 = about + offset * (-1.0) ** np.arange(about.size)
@@ -832,7 +832,7 @@ def _tilt_spots(job: _Job) -> _Result:
     """Horizontal drive: the tilt of the slow state, by averaging, the periodic orbit and
     simulation, along A at the scene's ω (no map exists to mark points on)."""
     import pandas as pd
-    from .plots import tilt_figure
+    from ..figures import tilt_figure
     pend, w = job.pend, job.omega
     if pend is None:
         raise _Skip(_no_map_reason(job))
@@ -893,7 +893,7 @@ def _line_amplitudes(job, n):
 
 def _slow(job: _Job) -> _Result:
     import pandas as pd
-    from .plots import slow_frequency_figure
+    from ..figures import slow_frequency_figure
     if not job.vertical:
         return _tilt_slow(job)
     n = 5 if job.quick else 12
@@ -904,7 +904,7 @@ def _slow(job: _Job) -> _Result:
         v = job.pend.verify(A, w, periods=periods, line=False, method=_GRID_METHOD,
                             progress=job.grid_progress)
     else:
-        from .verify import verify
+        from ..verification import verify
         v = verify(job.scene.system, job.fixed, job.about, A=A, omega=w, periods=periods,
                    line=False, method=_GRID_METHOD, progress=job.grid_progress)
     frame = v.to_dataframe()
@@ -946,7 +946,7 @@ def _slow(job: _Job) -> _Result:
 
 def _tilt_slow(job: _Job) -> _Result:
     import pandas as pd
-    from .plots import slow_frequency_line_figure
+    from ..figures import slow_frequency_line_figure
     pend, w = job.pend, job.omega
     if pend is None:
         raise _Skip(_no_map_reason(job))
@@ -983,7 +983,7 @@ def _tilt_slow(job: _Job) -> _Result:
 
 def _verification(job: _Job) -> _Result:
     import pandas as pd
-    from .plots import verification_figure
+    from ..figures import verification_figure
     if not job.vertical:
         raise _Skip("verification compares averaging, Floquet and simulation about an "
                     "equilibrium that persists under the drive; the horizontal drive leaves "
@@ -1007,7 +1007,7 @@ def _verification(job: _Job) -> _Result:
                             line=None if fit else False, method=_GRID_METHOD,
                             progress=job.grid_progress)
     else:
-        from .verify import verify
+        from ..verification import verify
         v = verify(job.scene.system, job.fixed, job.about, A=A[:, None], omega=w[None, :],
                    periods=periods, line=False, method=_GRID_METHOD,
                    progress=job.grid_progress)
@@ -1078,7 +1078,7 @@ def _verification(job: _Job) -> _Result:
 def _work_precision(job: _Job) -> _Result:
     from lagrange_core.accuracy_cost import work_precision
 
-    from .plots import work_precision_figure
+    from ..figures import work_precision_figure
     pend = job.pend
     system = job.scene.system
     w = job.omega
@@ -1112,7 +1112,7 @@ def _work_precision(job: _Job) -> _Result:
 
 
 def _animation(job: _Job) -> _Result:
-    from .animation import pendulum_animation, system_animation
+    from ..animation import pendulum_animation, system_animation
     sizes = ({"duration": 1.6, "frames_per_period": 4, "width": 480, "max_frames": 80}
              if job.quick else {})
     if not job.vertical:
@@ -1208,7 +1208,7 @@ def _versions() -> dict:
     import matplotlib
     import numba
     import scipy
-    from . import __version__
+    from .._version import __version__
     return {"kapitza": __version__, "python": platform.python_version(),
             "numpy": np.__version__, "scipy": scipy.__version__, "numba": numba.__version__,
             "matplotlib": matplotlib.__version__}

@@ -24,14 +24,14 @@ import warnings
 import numpy as np
 import scipy.linalg
 
-from . import arguments
-from .averaging import MAX_AMPLITUDE_RATIO, MIN_FREQUENCY_RATIO, AveragingValidityWarning
-from .floquet import run_in_chunks
-from .mathieu import (amplitude_from_q, characteristic_value, exponent_squared, mathieu_b1,
+from .. import _arguments as arguments
+from ..averaging import MAX_AMPLITUDE_RATIO, MIN_FREQUENCY_RATIO, AveragingValidityWarning
+from lagrange_core.progress import run_in_chunks
+from ._mathieu import (amplitude_from_q, characteristic_value, exponent_squared, mathieu_b1,
                       mathieu_b1_root, mathieu_parameters)
-from .results import (ComputationInterrupted, EquilibriumPrediction, MultiplePendulumPrediction,
+from ..results import (ComputationInterrupted, EquilibriumPrediction, MultiplePendulumPrediction,
                       PendulumAveraging, StabilityWindow)
-from .results import scalar_or_array as _s
+from ..results import scalar_or_array as _s
 
 __all__ = ["MAX_CORRECTION", "pendulum_effective_potential", "pendulum_averaged",
            "averaging_window", "multiple_pendulum_upright"]

@@ -111,8 +111,8 @@ import symengine as se
 from lagrange_core import _linalg, module_store
 from lagrange_core.systems import System, t as t_symbol
 
-from .floquet import run_in_chunks
-from .results import (AveragingPrediction, ComputationInterrupted, SlowModes, SlowModeSweep,
+from lagrange_core.progress import run_in_chunks
+from ..results import (AveragingPrediction, ComputationInterrupted, SlowModes, SlowModeSweep,
                       StabilityWindow)
 
 __all__ = ["MIN_FREQUENCY_RATIO", "MAX_AMPLITUDE_RATIO", "AveragingValidityWarning",

@@ -63,9 +63,9 @@ import numpy as np
 from numba import njit, prange
 from scipy.optimize import brentq
 
-from . import arguments
-from .floquet import run_in_chunks
-from .results import ComputationInterrupted, InceStruttChart, StabilityMap, StabilityWindow
+from .. import _arguments as arguments
+from lagrange_core.progress import run_in_chunks
+from ..results import ComputationInterrupted, InceStruttChart, StabilityMap, StabilityWindow
 
 __all__ = ["mathieu_parameters", "amplitude_from_q", "characteristic_value", "mathieu_trace",
            "mathieu_monodromy_trace", "ince_strutt_boundaries", "ince_strutt_chart",

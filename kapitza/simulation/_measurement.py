@@ -101,7 +101,7 @@ import numpy as np
 from lagrange_core.batch import GridInterrupted
 from lagrange_core.checks import real_array, real_number
 
-from .results import ComputationInterrupted, Measurement
+from ..results import ComputationInterrupted, Measurement
 
 __all__ = ["measure", "measure_grid", "slow_frequencies", "Measurement", "RESIDUAL_FACTOR",
            "DEFAULT_PERIODS"]

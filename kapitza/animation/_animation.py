@@ -56,7 +56,7 @@ import numpy as np
 
 from lagrange_core.progress import ProgressLine
 
-from . import arguments
+from .. import _arguments as arguments
 
 __all__ = ["Animation", "SystemAnimation", "pendulum_animation", "system_animation"]
 
@@ -454,7 +454,7 @@ def pendulum_animation(path, *, A: float, omega: float, l: float = 1.0, g: float
     ((True, False), 160, 1.99)
     """
     import time
-    from .pendulum import KapitzaPendulum
+    from ..pendulum import KapitzaPendulum
 
     where = "pendulum_animation: "
     started = time.perf_counter()
@@ -595,8 +595,8 @@ def system_animation(path, scenes, *, about="inverted", titles=None, title=None,
     import sympy as sp
     from lagrange_core.symbols import t as t_symbol
 
-    from .floquet import floquet_point
-    from .scene import Scene
+    from ..floquet import floquet_point
+    from ..scenes import Scene
 
     where = "system_animation: "
     started = time.perf_counter()

@@ -27,7 +27,7 @@ import textwrap
 
 import numpy as np
 
-from .results import (BoundaryCurves, InceStruttChart, PendulumAveraging, StabilityMap,
+from ..results import (BoundaryCurves, InceStruttChart, PendulumAveraging, StabilityMap,
                       StabilityWindow, Verification)
 
 __all__ = ["stability_map_figure", "effective_potential_figure", "ince_strutt_figure",

@@ -112,14 +112,14 @@ import numpy as np
 
 from lagrange_core.checks import real_array
 
-from . import arguments
-from .averaging import average
-from .floquet import floquet_grid
-from .mathieu import mathieu_parameters, pendulum_stability_window
-from .measurement import DEFAULT_PERIODS, measure_grid
-from .pendulum_closed_forms import pendulum_averaged
-from .plots import verification_figure
-from .results import OrderFit, Verification
+from .. import _arguments as arguments
+from ..averaging import average
+from ..floquet import floquet_grid
+from ..closed_forms import mathieu_parameters, pendulum_stability_window
+from ..simulation import DEFAULT_PERIODS, measure_grid
+from ..closed_forms import pendulum_averaged
+from ..figures import verification_figure
+from ..results import OrderFit, Verification
 
 __all__ = ["verify", "pendulum_verification", "fit_order", "line_argument", "LINE_RATIOS", "ORDER2_FACTOR",
            "RESOLVED", "BISECTIONS", "FIRST_WINDOW_ONLY", "SHIFT_SAFETY", "KAPPA"]

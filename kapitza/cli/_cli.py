@@ -171,7 +171,7 @@ def _table(frame) -> str:
 # -- parameters: SI numbers or dimensionless ratios -----------------------------------------
 
 def _pendulum(args):
-    from .pendulum import KapitzaPendulum
+    from ..pendulum import KapitzaPendulum
     return KapitzaPendulum(l=args.l, g=args.g, damping=args.damping, drive=args.drive)
 
 
@@ -335,7 +335,7 @@ def _map_outputs(args, result, pend, partial=False):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from .plots import stability_map_figure
+    from ..figures import stability_map_figure
 
     png = Path(args.out)
     data_path = _data_path(args.data) or png.with_suffix(".csv")
@@ -357,7 +357,7 @@ def _map_outputs(args, result, pend, partial=False):
 
 
 def _map(args) -> int:
-    from .results import ComputationInterrupted
+    from ..results import ComputationInterrupted
     pend = _pendulum(args)
     A = _amplitude(args, grid=True)
     omega = _frequency(args, grid=True)
@@ -442,7 +442,7 @@ def _verify(args) -> int:
 
 
 def _animate(args) -> int:
-    from .animation import pendulum_animation, system_animation
+    from ..animation import pendulum_animation, system_animation
     scenes = [_scene(path) for path in args.scene]
     if scenes:
         given = [n for n, k in (("--A", "A"), ("--A-over-l", "A_over_l"), ("--omega", "omega"),
@@ -509,7 +509,7 @@ def _gif_summary(anim):
 
 
 def _report(args) -> int:
-    from .report import ReportInterrupted, build_report
+    from ..report import ReportInterrupted, build_report
     scene = None if args.scene is None else _scene(args.scene)
     try:
         report = build_report(scene, args.out, quick=args.quick)
@@ -534,7 +534,7 @@ def _report(args) -> int:
 
 
 def _scene(path):
-    from .scene import Scene
+    from ..scenes import Scene
     if not Path(path).is_file():
         raise UsageError(f"no scene file {path!r}.")
     return Scene.from_toml(path)
@@ -564,7 +564,7 @@ def _run(args) -> int:
 
 
 def _sweep(args) -> int:
-    from .results import ComputationInterrupted
+    from ..results import ComputationInterrupted
     scene = _scene(args.scene)
     try:
         result = scene.sweep(args.analysis, directory=args.directory,
@@ -586,7 +586,7 @@ def _sweep(args) -> int:
 
 
 def _warmup(args) -> int:
-    from .warmup import warmup
+    from ..warmup import warmup
     _say("warmup: compiling (or loading from the cache) what the analyses need ...")
     seconds = warmup(verbose=False)
     _emit(args, {"seconds": seconds}, f"warmup done in {seconds:.1f} s")
@@ -676,7 +676,7 @@ def _common(p, json_only=False):
 
 
 def _parser() -> argparse.ArgumentParser:
-    from . import __version__
+    from .._version import __version__
     raw = argparse.RawDescriptionHelpFormatter
     parser = argparse.ArgumentParser(prog="kapitza", description=__doc__, formatter_class=raw)
     parser.add_argument("--version", action="version", version=f"kapitza {__version__}")
@@ -819,7 +819,7 @@ def main(argv=None) -> int:
     name = f"kapitza {args.command}"
     try:
         if getattr(args, "periods", 1) is None:
-            from .measurement import DEFAULT_PERIODS
+            from ..simulation import DEFAULT_PERIODS
             args.periods = DEFAULT_PERIODS
         return args.run(args)
     except UsageError as e:

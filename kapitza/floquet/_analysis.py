@@ -101,11 +101,11 @@ from lagrange_core.progress import ProgressLine as _ProgressLine  # noqa: F401
 from lagrange_core.progress import _SIGINT, run_in_chunks  # noqa: F401
 from lagrange_core.progress import defer_ctrl_c as _defer_ctrl_c
 
-from . import arguments
-from .floquet_boundaries import KINDS, first_window, refine_map, trace_curves
-from .floquet_boundaries import poly_eval as _poly_eval
-from .floquet_boundaries import reduced_polynomial as _reduced_polynomial
-from .results import (AdaptiveMap, BoundaryCurves, ComputationInterrupted, FloquetGrid,
+from .. import _arguments as arguments
+from ._boundaries import KINDS, first_window, refine_map, trace_curves
+from ._boundaries import poly_eval as _poly_eval
+from ._boundaries import reduced_polynomial as _reduced_polynomial
+from ..results import (AdaptiveMap, BoundaryCurves, ComputationInterrupted, FloquetGrid,
                       FloquetResult, MonodromyData, StabilityMap, StabilityWindow)
 
 __all__ = ["floquet_point", "floquet_grid", "stability_map", "monodromy_data", "window",

@@ -1,0 +1,70 @@
+"""Old spellings of the public API that still work in 0.2, with a ``DeprecationWarning``.
+
+One message format for every renamed function, argument and argument order
+(``docs/api-conventions.md`` §5): what was called, since when, and the new call. The
+warning points at the user's line (``stacklevel``), so ``-W error::DeprecationWarning``
+finds every old call in a script.
+"""
+from __future__ import annotations
+
+import functools
+import warnings
+from collections.abc import Callable
+from typing import Any
+
+__all__ = ["SINCE", "REMOVED_IN", "warn_deprecated", "deprecated_alias",
+           "renamed_keywords"]
+
+SINCE = "0.2.0"
+REMOVED_IN = "0.3"
+
+
+def warn_deprecated(old: str, new: str, *, stacklevel: int = 3) -> None:
+    """Warn that the call spelled ``old`` is deprecated; ``new`` is the call to make.
+
+    ``stacklevel=3`` points at the caller of the function that calls this one.
+    """
+    warnings.warn(f"{old} is deprecated since kapitza {SINCE} (removed in {REMOVED_IN}); "
+                  f"call {new}.", DeprecationWarning, stacklevel=stacklevel)
+
+
+def deprecated_alias(function: Callable, old: str, new: str) -> Callable:
+    """``function`` under an old name: same arguments and result, warns on every call.
+
+    Parameters
+    ----------
+    function : callable
+        The function (or class) under its new name.
+    old, new : str
+        The old and the new call as a user writes them, e.g.
+        ``"kapitza.averaging_window(omega)"`` and
+        ``"kapitza.pendulum_window(omega, method='averaging')"``.
+    """
+    @functools.wraps(function)
+    def alias(*args: Any, **kwargs: Any) -> Any:
+        warn_deprecated(old, new)
+        return function(*args, **kwargs)
+
+    alias.__doc__ = (f"Deprecated since kapitza {SINCE}: {old} → {new}.\n\n"
+                     + (function.__doc__ or ""))
+    alias.__deprecated__ = new        # marks it for tests/test_api.py and the reference
+    return alias
+
+
+def renamed_keywords(where: str, kwargs: dict, renames: dict[str, str],
+                     *, stacklevel: int = 4) -> dict:
+    """``kwargs`` with old keyword names replaced by new ones, warning once per old name.
+
+    ``renames`` maps old → new. Giving both the old and the new name is an error (the
+    call is ambiguous). Returns a new dict; ``kwargs`` is not changed.
+    """
+    out = dict(kwargs)
+    for old, new in renames.items():
+        if old in out:
+            if new in out:
+                raise TypeError(f"{where}: got both {old}= (deprecated) and {new}=; "
+                                f"pass only {new}=.")
+            warn_deprecated(f"{where}({old}=...)", f"{where}({new}=...)",
+                            stacklevel=stacklevel)
+            out[new] = out.pop(old)
+    return out
