@@ -27,8 +27,8 @@ import numpy as np
 import sympy as sp
 from scipy.integrate import solve_ivp
 
-from kapitza.averaging import _average as av
-from kapitza.closed_forms import _pendulum as pcf
+from kapitza.averaging import average
+from kapitza.closed_forms import multiple_pendulum_upright
 from kapitza.pendulum import KapitzaPendulum
 from lagrange_core import problems, t
 
@@ -64,7 +64,7 @@ def main():
     rng = np.random.default_rng(1)
     pts = np.column_stack([rng.uniform(0.005, 0.2, n_point), rng.uniform(20, 500, n_point)])
 
-    gen = av.average(p.system)
+    gen = average(p.system)
     gen.slow_modes(p.params(0.1, 200.0), [math.pi], warn=False)     # compile / load
     rows = []
     for order in (1, 2):
@@ -79,10 +79,11 @@ def main():
 
     Asym, wsym = sp.symbols("A omega", positive=True)
     chain = problems.n_link_pendulum(2, pivot=(0, Asym * sp.cos(wsym * t)))
-    cav = av.average(chain)
+    cav = average(chain)
     base = {"g": 9.81, "l1": 1.0, "l2": 1.0, "m1": 1.0, "m2": 1.0}
     cav.slow_modes({**base, "A": 0.02, "omega": 400.0}, [math.pi] * 2, warn=False)
-    dt = best_of(lambda: pcf.multiple_pendulum_upright([1, 1], [1, 1], A=A, omega=w, warn=False), rep)
+    dt = best_of(lambda: multiple_pendulum_upright([1, 1], [1, 1], A=A, omega=w, warn=False),
+                 rep)
     rows.append(("multiple_pendulum_upright N=2 (grid)", dt / (A.size * w.size)))
     dt = best_of(lambda: [cav.slow_modes({**base, "A": a, "omega": om}, [math.pi] * 2, warn=False)
                           for a, om in pts], rep)

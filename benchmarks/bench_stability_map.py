@@ -40,10 +40,11 @@ import sympy as sp
 from numba import njit, prange
 from scipy.integrate import solve_ivp
 
-from kapitza.floquet import _analysis as fqm
+from kapitza import floquet as fqm
 from kapitza.closed_forms import _mathieu as mm
+from kapitza.closed_forms import multiple_pendulum_upright, pendulum_window
 from kapitza.figures import _plots as plots
-from kapitza.closed_forms._pendulum import multiple_pendulum_upright
+from kapitza.floquet import _kernels
 from kapitza.pendulum import KapitzaPendulum
 from lagrange_core import problems
 from lagrange_core import t as t_sym
@@ -172,7 +173,7 @@ def section_single(quick):
     wrong = int(np.sum(m.stable[ii, jj] != (np.abs(tr) < 2)))
     # points 1e-6 (relative in A) inside and outside both boundaries, for 100 omegas
     ws = w[::10]
-    win = p.stability_window(ws)
+    win = p.window(ws)
     bad = 0
     for e, s_in in ((win.A_min, 1 + 1e-6), (win.A_max, 1 - 1e-6)):
         for k2, om in enumerate(ws):
@@ -218,9 +219,9 @@ def section_double(quick):
     A = np.linspace(0.0, 0.3, n)
     w = np.linspace(10.0, 150.0, n)
     up = [math.pi, math.pi]
-    fqm.stability_map(dp, A[:4], w[:4], base, up, tol=1e-8)
+    fqm.stability_map(dp, base, up, A=A[:4], omega=w[:4], tol=1e-8)
     for tol in (1e-6, 1e-8):
-        tt, m = best(lambda: fqm.stability_map(dp, A, w, base, up, tol=tol), 2)
+        tt, m = best(lambda: fqm.stability_map(dp, base, up, A=A, omega=w, tol=tol), 2)
         print(f"kapitza tol {tol:.0e}: {tt:6.2f} s  stable fraction {m.stable.mean():.4f}, "
               f"refined {m.refined_points}, uncertified {m.uncertified_points}, "
               f"flagged {m.flagged_points}, max error estimate {m.error_estimate:.1e}")
@@ -264,7 +265,7 @@ def modal_window(omega, n):
     """The equal n-link chain's exact window: the intersection of its modes' Mathieu
     windows (Acheson's decoupling; characteristic values, no monodromy)."""
     lam = multiple_pendulum_upright([1.0] * n, [1.0] * n, g=G).effective_lengths
-    modes = [mm.pendulum_stability_window(omega, l=lk, g=G, tol=1e-14) for lk in lam]
+    modes = [pendulum_window(omega, l=lk, g=G, tol=1e-14) for lk in lam]
     return (np.max([m.A_min for m in modes], axis=0), np.min([m.A_max for m in modes], axis=0))
 
 
@@ -290,26 +291,26 @@ def section_boundaries(quick, figure=None):
     cases = ((dp, dpar, up2), (tp, tpar, up3))
     for s_, p_, u_ in cases:
         fqm.floquet_point(s_, dict(p_, A=0.07, omega=100.0), u_)
-    serial = fqm.SERIAL_BELOW
+    serial = _kernels.SERIAL_BELOW
     reps = 10 if quick else 30
     cost = {}
     for _ in range(3):
         for mode, below in (("pool", 0), ("thread", serial)):
-            fqm.SERIAL_BELOW = below
+            _kernels.SERIAL_BELOW = below
             for s_, p_, u_ in cases:
                 t, _ = best(lambda: fqm.floquet_point(s_, dict(p_, A=0.07, omega=100.0), u_),
                             reps)
                 key = (mode, s_.n_dof)
                 cost[key] = min(cost.get(key, np.inf), t)
-    fqm.SERIAL_BELOW = serial
+    _kernels.SERIAL_BELOW = serial
     for mode in ("pool", "thread"):
         print(f"one Floquet point, {mode:6s}: 4-dim {cost[(mode, 2)] * 1e3:6.2f} ms, 6-dim "
               f"{cost[(mode, 3)] * 1e3:6.2f} ms, ratio {cost[(mode, 3)] / cost[(mode, 2)]:.2f}")
     # 4b. the triple pendulum's window at one ω
     w0 = 100.0
     lo, hi = modal_window(w0, 3)
-    fqm.window(tp, tpar, up3, w0)
-    t_win, win = best(lambda: fqm.window(tp, tpar, up3, w0), 5)
+    fqm.window(tp, tpar, up3, omega=w0)
+    t_win, win = best(lambda: fqm.window(tp, tpar, up3, omega=w0), 5)
     e_win = max(abs(win.A_min / lo - 1), abs(win.A_max / hi - 1))
     print(f"triple pendulum window, omega = {w0:g}: kapitza.floquet.window {t_win * 1e3:.0f} ms, "
           f"error {e_win:.1e} (certified {win.accuracy:.1e}); A = [{win.A_min:.12f}, "
@@ -325,12 +326,12 @@ def section_boundaries(quick, figure=None):
     n = 200
     A = np.linspace(0.0, 0.3, n)
     w = np.linspace(10.0, 150.0, n)
-    fqm.boundaries(dp, dpar, up2, w[:20], A_range=(0.0, 0.3), tol=1e-9)
+    fqm.boundaries(dp, dpar, up2, omega=w[:20], A_range=(0.0, 0.3), tol=1e-9)
     rows = {}
     for _ in range(2 if quick else 3):
-        for name, f in (("map 1e-6", lambda: fqm.stability_map(dp, A, w, dpar, up2, tol=1e-6,
-                                                                progress=False)),
-                        ("boundaries", lambda: fqm.boundaries(dp, dpar, up2, w,
+        for name, f in (("map 1e-6", lambda: fqm.stability_map(dp, dpar, up2, A=A, omega=w,
+                                                                tol=1e-6, progress=False)),
+                        ("boundaries", lambda: fqm.boundaries(dp, dpar, up2, omega=w,
                                                               A_range=(0.0, 0.3), tol=1e-9))):
             t, out = best(f, 1)
             if t < rows.get(name, (np.inf,))[0]:
@@ -349,8 +350,10 @@ def section_boundaries(quick, figure=None):
     for N in ((129, 257) if quick else (257, 513)):
         A = np.linspace(0.0, 0.3, N)
         w = np.linspace(10.0, 150.0, N)
-        t_u, uni = best(lambda: fqm.stability_map(dp, A, w, dpar, up2, progress=False), 1)
-        t_a, ada = best(lambda: fqm.adaptive_map(dp, A, w, dpar, up2, coarse_step=16), 2)
+        t_u, uni = best(lambda: fqm.stability_map(dp, dpar, up2, A=A, omega=w, progress=False),
+                          1)
+        t_a, ada = best(lambda: fqm.adaptive_map(dp, dpar, up2, A=A, omega=w, coarse_step=16),
+                          2)
         print(f"adaptive map {N} x {N}: {ada.monodromies} monodromies vs {N * N} "
               f"({N * N / ada.monodromies:.0f}x fewer), {t_a:.2f} s vs {t_u:.2f} s "
               f"({t_u / t_a:.1f}x), {int(np.sum(ada.label != uni.label))} labels differ")

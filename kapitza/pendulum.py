@@ -6,15 +6,17 @@ viscous damping γ (1/s):
 
     θ̈ = −γ θ̇ − (g − A ω² cos ωt) sin θ / l          (vertical drive)
 
-The analyses live in their own modules (:mod:`kapitza.pendulum_closed_forms`,
-:mod:`kapitza.mathieu`, :mod:`kapitza.floquet`) and return the value types of
+The analyses live in their own rooms (:mod:`kapitza.closed_forms`, :mod:`kapitza.floquet`,
+:mod:`kapitza.simulation`, :mod:`kapitza.verification`) and return the value types of
 :mod:`kapitza.results`; this class holds the pendulum's constants and routes to
-them, so a user meets one object.
+them, so a user meets one object.  Its methods take the drive first, then the state
+(``docs/api-conventions.md`` §2): ``pend.simulate(A, omega, theta0, theta_dot0, t_span)``.
 """
 from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,13 +26,14 @@ from lagrange_core.checks import real_array
 
 from . import _arguments as arguments
 from . import closed_forms
+from ._deprecation import warn_deprecated
+from .averaging import keyword_options
 from .floquet import floquet_point
-from .simulation import DEFAULT_PERIODS, pendulum_about, point, squeeze
+from .results import (FloquetResult, Measurement, PendulumAveraging, PeriodicOrbit,
+                      StabilityMap, StabilityWindow, Verification)
+from .simulation import DEFAULT_PERIODS, pendulum_about, periodic_orbit, point, squeeze
 from .simulation import measure_grid as measure_system_grid
-from .simulation import periodic_orbit
 from .verification import line_argument, pendulum_verification
-from .results import (FloquetResult, Measurement, PendulumAveraging, StabilityMap,
-                      StabilityWindow, Verification)
 
 __all__ = ["KapitzaPendulum"]
 
@@ -39,6 +42,51 @@ __all__ = ["KapitzaPendulum"]
 def _driven_pendulum(drive: str, damped: bool):
     # one System per variant and process: derivation and kernels are shared
     return problems.driven_pendulum(drive, damping=damped)
+
+
+def _theta_was_first(method: Callable) -> Callable:
+    """Before kapitza 0.2 ``effective_potential(theta, A, omega)``: a call with three
+    positional arguments is that order; it still works and warns."""
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        if len(args) == 3:
+            if "theta" in kwargs:
+                raise TypeError("KapitzaPendulum.effective_potential() got theta twice; call "
+                                "effective_potential(A, omega, theta=theta).")
+            warn_deprecated("KapitzaPendulum.effective_potential(theta, A, omega)",
+                            "KapitzaPendulum.effective_potential(A, omega, theta=theta)")
+            theta, A, omega = args
+            args, kwargs = (A, omega), dict(kwargs, theta=theta)
+        return method(self, *args, **kwargs)
+
+    return wrapper
+
+
+#: ``simulate``'s arguments before kapitza 0.2, in their order then
+_OLD_SIMULATE = ("theta0", "theta_dot0", "t_span", "A", "omega")
+
+
+def _drive_was_last(method: Callable) -> Callable:
+    """Before kapitza 0.2 ``simulate(theta0, theta_dot0, t_span, A, omega)``: a call whose
+    third positional argument is a pair (the time span, not the angle θ0) is that order;
+    it still works and warns."""
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        if len(args) >= 3 and np.ndim(args[2]) == 1 and np.size(args[2]) == 2:
+            if len(args) > len(_OLD_SIMULATE):
+                raise TypeError(f"KapitzaPendulum.simulate() takes at most "
+                                f"{len(_OLD_SIMULATE)} positional arguments ({len(args)} given).")
+            for name in _OLD_SIMULATE[:len(args)]:
+                if name in kwargs:
+                    raise TypeError(f"KapitzaPendulum.simulate() got {name} twice; call "
+                                    "simulate(A, omega, theta0, theta_dot0, t_span).")
+            warn_deprecated("KapitzaPendulum.simulate(theta0, theta_dot0, t_span, A, omega)",
+                            "KapitzaPendulum.simulate(A, omega, theta0, theta_dot0, t_span)")
+            kwargs.update(zip(_OLD_SIMULATE, args, strict=False))
+            args = ()
+        return method(self, *args, **kwargs)
+
+    return wrapper
 
 
 @dataclass(frozen=True)
@@ -72,7 +120,7 @@ class KapitzaPendulum:
     (True, True)
     >>> print(f"Ω: averaging {avg.omega_slow:.2f} rad/s, exact {exact.omega_slow:.2f} rad/s")
     Ω: averaging 12.96 rad/s, exact 12.98 rad/s
-    >>> win = pend.stability_window(w)
+    >>> win = pend.window(w)
     >>> print(f"{win.A_min:.4f} m < A < {win.A_max:.4f} m")
     0.0117 m < A < 0.4541 m
     """
@@ -152,18 +200,27 @@ class KapitzaPendulum:
             p["gamma"] = self.damping
         return p
 
-    # -- averaging (kapitza.pendulum_closed_forms) -----------------------------------------
-    def effective_potential(self, theta, A, omega):
+    # -- averaging (kapitza.closed_forms) ------------------------------------------------
+    @_theta_was_first
+    def effective_potential(self, A, omega, *, theta):
         """Kapitza effective potential per unit mass U_eff(θ)/m (J/kg), first-order averaging.
 
         Vertical drive: −g l cos θ + A² ω² sin² θ / 4; horizontal: −g l cos θ +
-        A² ω² cos² θ / 4.  Broadcasts over θ (rad), A (m), ω (rad/s).  See
-        :func:`kapitza.closed_forms.pendulum_effective_potential`.
-        """
-        return closed_forms.pendulum_effective_potential(theta, A, omega, l=self.l,
-                                                                  g=self.g, drive=self.drive)
+        A² ω² cos² θ / 4.  Broadcasts over A (m), ω (rad/s), θ (rad).  See
+        :func:`kapitza.closed_forms.pendulum_effective_potential`.  Before kapitza 0.2
+        the order was ``effective_potential(theta, A, omega)``; it still works and warns.
 
-    def averaged(self, A, omega, order: int = 1, warn: bool = True,
+        Examples
+        --------
+        >>> import math
+        >>> print(KapitzaPendulum().effective_potential(0.05, 150.0, theta=math.pi))   # g l
+        9.81
+        """
+        return closed_forms.pendulum_effective_potential(A, omega, theta=theta, l=self.l,
+                                                         g=self.g, drive=self.drive)
+
+    @keyword_options("KapitzaPendulum.averaged", 3, ("order", "warn", "progress"))
+    def averaged(self, A, omega, *, order: int = 1, warn: bool = True,
                  progress=None) -> PendulumAveraging:
         """Averaged predictions: equilibria, stability, slow frequencies, validity flags.
 
@@ -175,47 +232,48 @@ class KapitzaPendulum:
         and for ``progress`` (large arrays run in chunks; Ctrl-C keeps the finished part).
         """
         return closed_forms.pendulum_averaged(A, omega, l=self.l, g=self.g,
-                                                       damping=self.damping, drive=self.drive,
-                                                       order=order, warn=warn, progress=progress)
+                                              damping=self.damping, drive=self.drive,
+                                              order=order, warn=warn, progress=progress)
 
-    def stability_window(self, omega, about: str = "inverted", tol: float = 1e-10, *,
-                         method: str = "floquet", order: int = 2) -> StabilityWindow:
+    def window(self, omega, about: str = "inverted", *, tol: float = 1e-10,
+               method: str = "floquet", order: int = 2) -> StabilityWindow:
         """Amplitudes A_min < A < A_max that stabilise the pendulum at each ω (vertical drive).
 
         method="floquet" (default): exact, by root-finding on the Floquet condition
         (characteristic curves a0, b1 of the Mathieu equation; with damping
         |tr M| = 1 + e^(−γT)) to relative accuracy ``tol``, with the certified
-        accuracy.  See :func:`kapitza.mathieu.pendulum_stability_window`.
-
-        method="averaging": the averaging prediction of order ``order`` (inverted
-        only); see :func:`kapitza.closed_forms.averaging_window`.
+        accuracy.  method="averaging": the averaging prediction of order ``order``
+        (inverted only).  See :func:`kapitza.closed_forms.pendulum_window`.
 
         Returns
         -------
         kapitza.results.StabilityWindow
             Its ``method`` field says which.
         """
-        self._vertical("stability_window")
-        if method == "averaging":
-            if about != "inverted":
-                raise ValueError(f"the averaging window is for about='inverted' only, got "
-                                 f"{about!r}; use method='floquet' for the hanging pendulum.")
-            return closed_forms.averaging_window(omega, l=self.l, g=self.g,
-                                                          damping=self.damping, order=order)
-        if method != "floquet":
-            raise ValueError(f"method must be 'floquet' or 'averaging', got {method!r}.")
-        return closed_forms.pendulum_stability_window(omega, l=self.l, g=self.g, damping=self.damping,
-                                                 about=about, tol=tol)
+        self._vertical("window")
+        return closed_forms.pendulum_window(omega, l=self.l, g=self.g, damping=self.damping,
+                                            about=about, tol=tol, method=method, order=order)
 
-    # -- Floquet (kapitza.floquet, kapitza.mathieu) ---------------------------------------
+    def stability_window(self, omega, about: str = "inverted", tol: float = 1e-10, *,
+                         method: str = "floquet", order: int = 2) -> StabilityWindow:
+        """Deprecated since kapitza 0.2.0: :meth:`window` (same arguments, ``tol=`` by
+        keyword)."""
+        warn_deprecated("KapitzaPendulum.stability_window(omega, ...)",
+                        "KapitzaPendulum.window(omega, ...)")
+        return self.window(omega, about, tol=tol, method=method, order=order)
+
+    stability_window.__deprecated__ = "KapitzaPendulum.window(omega, ...)"
+
+    # -- Floquet (kapitza.floquet, kapitza.closed_forms) ---------------------------------
     def _vertical(self, what):
         if self.drive != "vertical":
             raise ValueError(f"{what} needs an equilibrium that persists under the drive; with "
                              "the horizontal drive neither θ = 0 nor θ = π does. Use "
                              "drive='vertical'.")
 
-    def floquet(self, A: float, omega: float, about: str = "inverted",
-                tol: float = 1e-10):
+    @keyword_options("KapitzaPendulum.floquet", 4, ("tol",))
+    def floquet(self, A: float, omega: float, about: str = "inverted", *,
+                tol: float = 1e-10) -> FloquetResult | PeriodicOrbit:
         """Floquet analysis of the linearised pendulum about θ = π or θ = 0 (vertical drive),
         or about the periodic orbit of the horizontal drive (``about="tilted"``).
 
@@ -223,7 +281,7 @@ class KapitzaPendulum:
         drive period (:func:`kapitza.floquet.floquet_point`) to relative accuracy ``tol``.
         Horizontal drive: no angle persists under the drive; the slow states are
         T-periodic orbits, found by Newton shooting from the averaging prediction
-        (:func:`kapitza.periodic_orbit.periodic_orbit`): ``about="tilted"`` (the tilted
+        (:func:`kapitza.simulation.periodic_orbit`): ``about="tilted"`` (the tilted
         state, cos θ* = 2gl/(Aω)², θ* > 0; it exists when (Aω)² > 2gl), "tilted-" (its
         mirror image), "hanging" or "inverted" (the orbits near θ = 0 and π).
 
@@ -270,15 +328,15 @@ class KapitzaPendulum:
         to ≈ 1e-15 relative); damped or ``trace=True``: the monodromy trace at
         every point to ``tol``, in chunks with a progress line on stderr (``progress``)
         and Ctrl-C keeping the finished rows (:class:`kapitza.results.ComputationInterrupted`).
-        See :func:`kapitza.mathieu.pendulum_stability_map`.
+        See :func:`kapitza.closed_forms.pendulum_stability_map`.
 
         Returns
         -------
         kapitza.results.StabilityMap
             axes A (m), omega (rad/s); ``stable``, ``label`` / ``boundary`` (period
             T or 2T bounds each unstable region), ``trace``, ``log_growth``;
-            ``to_dataframe()``.  Draw it with :func:`kapitza.plots.stability_map_figure`
-            (overlay e.g. ``stability_window(omega, method="averaging", order=1)``).
+            ``to_dataframe()``.  Draw it with :func:`kapitza.figures.stability_map_figure`
+            (overlay e.g. ``window(omega, method="averaging", order=1)``).
         """
         self._vertical("stability_map")
         return closed_forms.pendulum_stability_map(A, omega, l=self.l, g=self.g, damping=self.damping,
@@ -286,26 +344,41 @@ class KapitzaPendulum:
                                               progress=progress)
 
     # -- direct integration (lagrange_core) --------------------------------------------
-    def simulate(self, theta0: float, theta_dot0: float, t_span, A: float, omega: float, *,
+    @_drive_was_last
+    def simulate(self, A: float, omega: float, theta0: float, theta_dot0: float, t_span, *,
                  method=None, rtol: float = 1e-9, t_eval=None, **options):
         """Integrate the full nonlinear motion θ(t), the check on averaging and Floquet.
 
         Parameters
         ----------
+        A, omega : float
+            Drive amplitude (m) and angular frequency (rad/s).
         theta0, theta_dot0 : float
             Initial angle (rad, from the downward vertical) and angular velocity (rad/s).
         t_span : (t0, t1)
             Time interval (s).
-        A, omega : float
-            Drive amplitude (m) and angular frequency (rad/s).
         method, rtol, t_eval, **options
             As for :meth:`lagrange_core.System.simulate` (default: the adaptive
             Runge–Kutta–Nyström 12(10) method when undamped, DOP853 when damped).
+
+        Before kapitza 0.2 the order was ``simulate(theta0, theta_dot0, t_span, A, omega)``;
+        a call whose third positional argument is a pair (a time span) is taken in that
+        order, and warns.
 
         Returns
         -------
         lagrange_core.integrate.Trajectory
             ``t``, ``q`` (column ``theta``), ``qdot``, ``energy``, ``error_estimate``, ...
+
+        Examples
+        --------
+        Kapitza's 60 Hz, 5 cm drive holds the pendulum released 0.1 rad from the upright:
+
+        >>> import math
+        >>> traj = KapitzaPendulum().simulate(0.05, 2 * math.pi * 60, math.pi - 0.1, 0.0,
+        ...                                   (0.0, 1.0))
+        >>> bool(abs(traj.q[:, 0] - math.pi).max() < 0.2)
+        True
         """
         A, omega = arguments.drive(A, omega, where="KapitzaPendulum.simulate: ")
         if A.ndim:
@@ -315,7 +388,7 @@ class KapitzaPendulum:
                                     self.params(float(A), float(omega)), method=method,
                                     rtol=rtol, t_eval=t_eval, **options)
 
-    # -- measurements from direct integration (kapitza.measurement) --------------------------
+    # -- measurements from direct integration (kapitza.simulation) ---------------------------
     def measure(self, A: float, omega: float, theta0: float, theta_dot0: float = 0.0, *,
                 periods: int = DEFAULT_PERIODS, about=None, band=math.pi / 2,
                 method=None, rtol: float = 1e-9, t0: float = 0.0) -> Measurement:
@@ -351,7 +424,7 @@ class KapitzaPendulum:
             ``omega_slow_error``, ``amplitude`` (slow, rad), ``mean_angle`` (time mean,
             rad: the measured tilt of the horizontal drive), ``growth_rate``, ...;
             ``energy_drift`` is None (a driven pendulum has no conserved energy).
-            The estimator and what its error covers: :mod:`kapitza.measurement`.
+            The estimator and what its error covers: :mod:`kapitza.simulation`.
 
         Examples
         --------
@@ -428,7 +501,7 @@ class KapitzaPendulum:
             t0=t0, method=method, rtol=rtol, progress=progress)
         return squeeze(result)
 
-    # -- verification: the four methods compared (kapitza.verify) -------------------------
+    # -- verification: the four methods compared (kapitza.verification) -------------------
     def verify(self, A, omega, *, theta0: float = math.pi - 0.01, theta_dot0: float = 0.0,
                periods: int = DEFAULT_PERIODS, tol: float = 1e-10, rtol: float = 1e-9,
                method=None, line=None, progress=None) -> Verification:
@@ -449,7 +522,7 @@ class KapitzaPendulum:
             Floquet's tolerance, and the exact window's.
         line : None, False or (velocity, omega)
             Where the order of averaging is fitted (None: A ω = 2√(g l), ε = ω0/ω from
-            0.1 to 1/300; False: no fit); see :mod:`kapitza.verify`.
+            0.1 to 1/300; False: no fit); see :mod:`kapitza.verification`.
         progress
             As for :meth:`measure_grid` (the simulations and the Floquet grid).
 
@@ -461,7 +534,7 @@ class KapitzaPendulum:
             distance to the exact window's nearest edge (``disagreements``), the fitted
             orders of first- and next-order averaging (``exponent``, ``fits``),
             ``to_dataframe()`` and ``figure()``.  Methods and tolerances:
-            :mod:`kapitza.verify`.
+            :mod:`kapitza.verification`.
 
         Examples
         --------

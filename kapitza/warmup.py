@@ -23,8 +23,9 @@ def warmup(verbose: bool = False) -> float:
     pendulum = KapitzaPendulum(l=1.0, g=9.81)
     omega = 2 * math.pi * 60
     pendulum.stability_map(A=[0.02, 0.05], omega=[omega, 2 * omega])     # characteristic values
-    pendulum.stability_window(omega)                                     # certified window
+    pendulum.window(omega)                                               # certified window
     pendulum.floquet(0.05, omega, about="inverted")                     # general monodromy
     if verbose:
-        print(f"warmup: kapitza's Floquet and Mathieu kernels ({time.perf_counter() - start:.1f} s)")
+        print(f"warmup: kapitza's Floquet and Mathieu kernels "
+              f"({time.perf_counter() - start:.1f} s)")
     return time.perf_counter() - start

@@ -1,5 +1,10 @@
 """Batch integration's compiled kernels: many trajectories per call, observables only.
 
+Why one module over 800 lines: the grid drivers of every method share the inlined stage,
+observable and band-exit helpers below, and numba caches per source file; split, each
+file would compile its own copy of the helpers and a change to one would not recompile
+the drivers that inline it.
+
 One parallel call (numba ``prange``, dynamic scheduling: trajectories end at different
 times) integrates every grid point named in ``idx`` from its own initial state and
 parameters, and records only what :func:`lagrange_core.batch.simulate_grid` asked for,

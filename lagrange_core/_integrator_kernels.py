@@ -1,5 +1,9 @@
 """The integrators' compiled kernels: compiled once per installation, for every system.
 
+Why one module over 800 lines: the drivers of every method share the inlined step,
+dense-output and event helpers below, and numba caches per source file (see
+:mod:`lagrange_core._batch_kernels` for the same reason).
+
 Every function here is an ordinary ``@njit(cache=True)`` function.  It reaches the
 system's kernels (``rhs``, ``accelerations``, ``energy``, ``constraint_residual``,
 ``augmented``; see :mod:`lagrange_core.codegen`) through their C entry points: ``ka`` is

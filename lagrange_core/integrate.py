@@ -1,5 +1,9 @@
 """Integrate the equations of motion of a :class:`~lagrange_core.System`.
 
+Why one module over 800 lines: the method registry, the chunked driver loop, events and
+the ``Trajectory`` they fill are one concept, and most of the length is the methods'
+documentation below.
+
 Entry point: :meth:`System.simulate` (which calls :func:`simulate`).  It returns
 a frozen :class:`Trajectory`.
 

@@ -1,5 +1,9 @@
 """State a mechanical system the way a mechanics lecture does.
 
+Why one module over 800 lines: ``System`` is the statement and the one object users call
+(derive, simulate, simulate_grid, linearise); its methods delegate to their modules, and
+most of the length is their documentation.
+
 A :class:`System` is a *statement*: generalized coordinates, particles with
 positions ``r_i(q, t)`` (or an explicit Lagrangian), a potential, holonomic
 constraints, generalized forces and a Rayleigh dissipation function.  Nothing is

@@ -16,7 +16,7 @@ from scipy.integrate import quad
 
 import kapitza
 from kapitza import KapitzaPendulum, cli
-from kapitza.animation._animation import _pendulum_stage, bob_position
+from kapitza.animation._pendulum import bob_position, pendulum_stage
 
 L, G = 1.0, 9.81
 W0 = math.sqrt(G / L)
@@ -52,12 +52,12 @@ def test_the_gif_has_the_stated_frames_size_rate_and_loops(anim):
 def test_the_drawn_angles_are_an_independent_simulation(anim):
     pend = KapitzaPendulum(l=L, g=G)
     for i, amp in enumerate((A, 0.0)):
-        ref = pend.simulate(THETA0, 0.0, (0.0, anim.t[-1]), amp, OMEGA, rtol=1e-11,
+        ref = pend.simulate(amp, OMEGA, THETA0, 0.0, (0.0, anim.t[-1]), rtol=1e-11,
                             t_eval=anim.t)
         np.testing.assert_allclose(anim.theta[i], ref.q[:, 0], atol=1e-7)
         np.testing.assert_allclose(anim.pivot[i], amp * np.cos(OMEGA * anim.t), atol=1e-15)
     # the artists show exactly those states: rod from the pivot to l (sin θ, −cos θ)
-    stage = _pendulum_stage(anim.t, anim.theta, anim.pivot, anim.A, l=L, g=G, damping=0.0,
+    stage = pendulum_stage(anim.t, anim.theta, anim.pivot, anim.A, l=L, g=G, damping=0.0,
                             omega=OMEGA, window=anim.window, stayed=anim.stayed_up,
                             fall=anim.fall_time, floquet=anim.floquet_stable, tilt0=0.1,
                             slow=anim.slow_motion, frames_per_period=4, width=300)
@@ -159,10 +159,10 @@ def test_a_fast_drive_is_strobed_at_one_phase_with_the_period_drawn_faint(tmp_pa
     assert anim.stayed_up == (True, False) and anim.floquet_stable == (True, False)
     pend = KapitzaPendulum()
     phases = anim.t[:, None] + np.arange(8) * T / 8
-    ref = pend.simulate(math.pi - 0.1, 0.0, (0, phases[-1, -1]), 0.05, w, rtol=1e-11,
+    ref = pend.simulate(0.05, w, math.pi - 0.1, 0.0, (0, phases[-1, -1]), rtol=1e-11,
                         t_eval=phases.ravel()).q[:, 0].reshape(phases.shape)
     np.testing.assert_allclose(anim.theta[0], ref[:, 0], atol=1e-7)
-    stage = _pendulum_stage(anim.t, ref[None].repeat(2, 0), 0.05 * np.cos(w * phases)[None]
+    stage = pendulum_stage(anim.t, ref[None].repeat(2, 0), 0.05 * np.cos(w * phases)[None]
                             .repeat(2, 0), anim.A, l=1.0, g=G, damping=0.0, omega=w,
                             window=anim.window, stayed=anim.stayed_up, fall=anim.fall_time,
                             floquet=anim.floquet_stable, tilt0=0.1, slow=anim.slow_motion,
@@ -291,15 +291,15 @@ def test_cli_animates_several_scenes(chains, tmp_path, capsys):
 
 
 def test_ctrl_c_keeps_the_finished_frames(tmp_path, monkeypatch, capsys):
-    import kapitza.animation._animation as animation
-    draw = animation._Stage.draw
+    from kapitza.animation._drawing import Stage
+    draw = Stage.draw
 
     def interrupted(self, k):
         if k == 5:
             raise KeyboardInterrupt
         draw(self, k)
 
-    monkeypatch.setattr(animation._Stage, "draw", interrupted)
+    monkeypatch.setattr(Stage, "draw", interrupted)
     out = tmp_path / "cut.gif"
     with pytest.raises(KeyboardInterrupt):
         kapitza.pendulum_animation(out, A=A, omega=OMEGA, progress=False, **SMALL)

@@ -17,9 +17,10 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 from scipy.special import mathieu_a, mathieu_b
 
-from kapitza.averaging import _average as av
-from kapitza.closed_forms import _mathieu as mm
+from kapitza import averaging as av
+from kapitza.closed_forms import _characteristic as ch
 from kapitza.closed_forms import _pendulum as pcf
+from kapitza.closed_forms import pendulum_window
 from kapitza.pendulum import KapitzaPendulum
 from lagrange_core import Particle, System, coordinates, problems, t
 
@@ -119,7 +120,7 @@ def test_assumptions_are_checked():
     with pytest.raises(ValueError, match="velocit"):
         av.average(System([th], particles=[bob], forces={th: c * thd * sp.cos(w * t)}))
     with pytest.raises(ValueError, match="not a parameter"):
-        av.average(problems.driven_pendulum("vertical"), omega="Omega")
+        av.average(problems.driven_pendulum("vertical"), frequency="Omega")
     with pytest.raises(ValueError, match="not the gradient"):
         av.average(System([th], particles=[bob], forces={th: c + A * sp.cos(w * t)}))
 
@@ -133,14 +134,14 @@ def test_compiled_gradient_hessian_match_sympy():
     U = sp.lambdify(syms, avg.effective_potential, "numpy")
     pv = [params[s.name] for s in sys_.parameter_symbols]
     q0 = np.array([0.4, -1.1])
-    val, grad, hess = avg.evaluate(q0, params)
+    val, grad, hess = avg.evaluate(params, q0)
     assert val == pytest.approx(U(*q0, *pv), rel=1e-12)
     h = 1e-5
     for a in range(2):
         e = np.eye(2)[a] * h
         fd = (U(*(q0 + e), *pv) - U(*(q0 - e), *pv)) / (2 * h)
         assert grad[a] == pytest.approx(fd, rel=1e-7)
-        ga = avg.evaluate(q0 + e, params)[1] - avg.evaluate(q0 - e, params)[1]
+        ga = avg.evaluate(params, q0 + e)[1] - avg.evaluate(params, q0 - e)[1]
         np.testing.assert_allclose(hess[a], ga / (2 * h), rtol=1e-6)
 
 
@@ -150,7 +151,7 @@ def test_kapitza_pendulum_closed_forms_and_general_code(vertical):
     p = KapitzaPendulum()
     A, w = 0.05, 150.0
     theta = np.linspace(-3, 3, 7)
-    np.testing.assert_allclose(p.effective_potential(theta, A, w),
+    np.testing.assert_allclose(p.effective_potential(A, w, theta=theta),
                                -G * L * np.cos(theta) + A**2 * w**2 * np.sin(theta)**2 / 4)
     r = p.averaged(A, w)
     assert r.inverted.stable == ((A * w) ** 2 > 2 * G * L)
@@ -258,14 +259,14 @@ def test_corrected_more_accurate_across_regime():
 
 def test_series_against_scipy_characteristic_values():
     q = np.array([0.1, 0.3, 0.6, 0.9])
-    np.testing.assert_allclose(mm.mathieu_b1(q), mathieu_b(1, q), atol=5e-7)
-    np.testing.assert_allclose(mm.mathieu_a0(q[:3]), mathieu_a(0, q[:3]), atol=2e-5)
+    np.testing.assert_allclose(ch.mathieu_b1(q), mathieu_b(1, q), atol=5e-7)
+    np.testing.assert_allclose(ch.mathieu_a0(q[:3]), mathieu_a(0, q[:3]), atol=2e-5)
 
 
-def test_stability_window_against_exact_boundaries():
+def test_averaging_window_against_exact_boundaries():
     w = np.array([15.0, 30.0, 60.0, 200.0]) * W0
-    win2 = pcf.averaging_window(w, order=2)
-    win1 = pcf.averaging_window(w, order=1)
+    win2 = pendulum_window(w, method="averaging", order=2)
+    win1 = pendulum_window(w, method="averaging", order=1)
     for i, om in enumerate(w):
         a = -4 * W0**2 / om**2
         q_lo = brentq(lambda q: mathieu_a(0, q) - a, 1e-6, 0.9)
@@ -274,7 +275,8 @@ def test_stability_window_against_exact_boundaries():
         assert abs(win2.A_min[i] / A_lo - 1) < abs(win1.A_min[i] / A_lo - 1) / 20
         assert win2.A_max[i] == pytest.approx(A_hi, rel=1e-5)
         assert np.isinf(win1.A_max[i])
-    assert pcf.averaging_window(1e6 * W0).A_max == pytest.approx(0.4540, abs=1e-4)
+    assert pendulum_window(1e6 * W0, method="averaging").A_max == pytest.approx(0.4540,
+                                                                                abs=1e-4)
     assert list(win2.to_dataframe().columns) == ["omega", "A_min", "A_max", "order"]
     # the order-2 stability flag sees the upper limit, order 1 does not
     w0 = 100 * W0
@@ -490,8 +492,8 @@ def test_damped_kapitza_limit_against_damped_floquet():
     def growth(A):
         return np.max(np.abs(np.linalg.eigvals(pendulum_monodromy(A, w, -1, gamma=gamma)))) - 1
     exact = brentq(growth, 0.5 * math.sqrt(2 * G * L) / w, 2 * math.sqrt(2 * G * L) / w, xtol=1e-12)
-    first = pcf.averaging_window(w, damping=gamma, order=1)
-    second = pcf.averaging_window(w, damping=gamma, order=2)
+    first = pendulum_window(w, method="averaging", damping=gamma, order=1)
+    second = pendulum_window(w, method="averaging", damping=gamma, order=2)
     # order 1: damping does not move the limit, error O(ε²) + O(γ²/ω²);
     # order 2: includes the (γ/ω)² weakening of the fast response, error O(ε⁴)
     assert first.A_min == pytest.approx(math.sqrt(2 * G * L) / w)

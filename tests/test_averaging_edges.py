@@ -13,8 +13,9 @@ from helpers import G
 from scipy.optimize import brentq
 from scipy.special import mathieu_b
 
-from kapitza.averaging import _average as av
+from kapitza import averaging as av
 from kapitza.closed_forms import _pendulum as pcf
+from kapitza.closed_forms import pendulum_window
 
 
 # -- item 4: the averaging window ------------------------------------------------------------
@@ -25,7 +26,7 @@ def test_window_upper_edge_is_the_resonance_at_any_frequency():
     l = 0.3
     w0 = math.sqrt(G / l)
     omegas = np.array([5.0, 0.8 * w0, 1.2 * w0, 1.6 * w0, 8 * w0])
-    win = pcf.averaging_window(omegas, l=l, g=G)
+    win = pendulum_window(omegas, method="averaging", l=l, g=G)
     for i, om in enumerate(omegas):
         a = -4 * G / (l * om**2)
         q_hi = brentq(lambda q: mathieu_b(1, q) - a, 0.1, 60.0, xtol=1e-14)
@@ -40,27 +41,29 @@ def test_window_carries_validity_flags():
     l = 0.3
     w0 = math.sqrt(G / l)
     omegas = np.array([0.8, 3.0, 10.0, 100.0]) * w0
-    win = pcf.averaging_window(omegas, l=l, g=G)
+    win = pendulum_window(omegas, method="averaging", l=l, g=G)
     np.testing.assert_allclose(win.frequency_ratio, omegas / w0)
     np.testing.assert_array_equal(win.fast_drive, [False, False, True, True])
     np.testing.assert_array_equal(win.small_amplitude, win.A_min / l <= av.MAX_AMPLITUDE_RATIO)
     np.testing.assert_array_equal(win.valid, [False, False, True, True])
     # the error estimate is the order-1 edge's distance from the order-2 edge
-    first = pcf.averaging_window(omegas, l=l, g=G, order=1)
+    first = pendulum_window(omegas, method="averaging", l=l, g=G, order=1)
     np.testing.assert_allclose(win.error_estimate, np.abs(first.A_min / win.A_min - 1), rtol=1e-12)
     assert np.all(np.isinf(first.A_max)) and np.all(first.exists)
     np.testing.assert_array_equal(first.valid, [False, False, True, True])
     # the damping rate counts among the slow rates
-    damped = pcf.averaging_window(100 * w0, l=l, g=G, damping=30 * w0, warn=False)
+    damped = pendulum_window(100 * w0, method="averaging", l=l, g=G, damping=30 * w0,
+                             warn=False)
     assert damped.fast_drive is False and damped.valid is False
     # scalar: a warning names the reason; arrays only set the flags
     with pytest.warns(av.AveragingValidityWarning, match="× max"):
-        pcf.averaging_window(0.8 * w0, l=l, g=G)
+        pendulum_window(0.8 * w0, method="averaging", l=l, g=G)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        pcf.averaging_window(100 * w0, l=l, g=G)
-        pcf.averaging_window(omegas, l=l, g=G)
-        weightless = pcf.averaging_window(omegas, l=l, g=0.0)   # no gravity to overcome
+        pendulum_window(100 * w0, method="averaging", l=l, g=G)
+        pendulum_window(omegas, method="averaging", l=l, g=G)
+        # no gravity to overcome
+        weightless = pendulum_window(omegas, method="averaging", l=l, g=0.0)
     assert np.all(weightless.A_min == 0) and np.all(weightless.valid)
 
 
@@ -131,10 +134,10 @@ def test_elliptic_drive_drag_torque_closed_form(elliptic):
     avg = av.average(elliptic)
     P = dict(m=0.3, l=0.7, g=G, A=0.02, B=0.03, omega=120.0, gamma=4.0)
     for th in (0.0, 0.4, 2.0):
-        assert avg.mean_drag([th], P)[0] == pytest.approx(0.3 * 4.0 * 120.0 * 0.02 * 0.03 / 2,
+        assert avg.mean_drag(P, [th])[0] == pytest.approx(0.3 * 4.0 * 120.0 * 0.02 * 0.03 / 2,
                                                           rel=1e-12)
-    assert avg.mean_drag([0.3], {**P, "gamma": 0.0})[0] == 0.0
-    assert avg.mean_drag([0.3], {**P, "B": 0.0})[0] == 0.0
+    assert avg.mean_drag({**P, "gamma": 0.0}, [0.3])[0] == 0.0
+    assert avg.mean_drag({**P, "B": 0.0}, [0.3])[0] == 0.0
     # the tilted hanging state: m g l sin θ + m ω² (B² − A²) sin θ cos θ / 2 = m γ ω A B / 2
     hanging = min(avg.equilibria(P), key=lambda q: abs(q[0]))[0]
     resid = (G * 0.7 * math.sin(hanging) + 120.0**2 * (0.03**2 - 0.02**2)
@@ -221,7 +224,7 @@ def test_ctrl_c_keeps_the_finished_points():
     """Ctrl-C (here raised from the progress callback, between chunks) raises a
     KeyboardInterrupt carrying the finished part: the first points in flat order, equal
     to the full call's; ``computed`` marks them on the grid."""
-    from kapitza.results._results import ComputationInterrupted
+    from kapitza.results import ComputationInterrupted
     A = np.linspace(0.0, 0.2, 4 * pcf.CHUNK_POINTS).reshape(4, -1)
     w = np.array([[200.0], [300.0], [400.0], [500.0]])
 
@@ -254,7 +257,7 @@ import numpy as np
 # a background job of a shell ignores SIGINT: restore Ctrl-C's KeyboardInterrupt
 signal.signal(signal.SIGINT, signal.default_int_handler)
 from kapitza.closed_forms import _pendulum as pcf
-from kapitza.results._results import ComputationInterrupted
+from kapitza.results import ComputationInterrupted
 A = np.linspace(0.0, 0.2, 10_000_000)
 pcf.pendulum_averaged(A[:10], 300.0)
 sent = []
@@ -276,7 +279,7 @@ except ComputationInterrupted as e:
 
 def test_general_sweep_progress_and_ctrl_c():
     from kapitza.pendulum import KapitzaPendulum
-    from kapitza.results._results import ComputationInterrupted
+    from kapitza.results import ComputationInterrupted
     from lagrange_core import problems
     avg = av.average(problems.driven_pendulum("vertical"))
     base = KapitzaPendulum().params(0.1, 200.0)

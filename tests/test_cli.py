@@ -14,7 +14,8 @@ import pytest
 
 import kapitza
 from kapitza import KapitzaPendulum, cli
-from kapitza.results._results import ComputationInterrupted
+from kapitza.cli import _commands
+from kapitza.results import ComputationInterrupted
 
 from helpers import pendulum_scene
 
@@ -79,7 +80,8 @@ def test_bare_kapitza_with_options_runs_the_summary(monkeypatch, capsys):
         seen["rtol"] = rtol
         return pd.DataFrame([{"problem": "pendulum", "status": "success"}])
 
-    monkeypatch.setattr(cli, "catalogue_summary", fake)
+    # patched where the summary command looks it up
+    monkeypatch.setattr(_commands, "catalogue_summary", fake)
     assert cli.main(["--rtol", "1e-6"]) == 0
     assert seen["rtol"] == 1e-6
     assert "success" in capsys.readouterr().out
@@ -139,8 +141,8 @@ def test_predict_text_goes_to_stdout(capsys):
 def test_window_exact_with_averaging_beside(capsys):
     code, data, _ = run_json(capsys, "window", "--omega", "100,200,400")
     pend = KapitzaPendulum()
-    exact = pend.stability_window(np.array([100.0, 200.0, 400.0]))
-    approx = pend.stability_window(np.array([100.0, 200.0, 400.0]), method="averaging", order=1)
+    exact = pend.window(np.array([100.0, 200.0, 400.0]))
+    approx = pend.window(np.array([100.0, 200.0, 400.0]), method="averaging", order=1)
     rows = data["rows"]
     assert code == 0 and [r["omega"] for r in rows] == [100.0, 200.0, 400.0]
     assert [r["A_min"] for r in rows] == exact.A_min.tolist()

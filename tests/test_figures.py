@@ -1,13 +1,15 @@
 """Figures (issue 10, item 15): titles that fit, dimensionless and logarithmic axes,
 boundaries as lines, the effective potential with its equilibria marked.  The figures
-draw results; the values drawn are checked against the results they were given."""
+draw results; the values drawn are checked against the results they were given.  They
+read results by their fields and never import them (issue 20): a stand-in with the
+fields draws, anything else is refused naming the result type."""
 import math
 
 import numpy as np
 import pytest
 
 import kapitza
-from kapitza import KapitzaPendulum, plots
+from kapitza import KapitzaPendulum, figures
 
 L, G = 0.5, 9.81
 W0 = math.sqrt(G / L)
@@ -29,8 +31,8 @@ def _inside(fig, artist):
 def test_dimensionless_log_axes_and_boundaries(pend):
     omega = np.geomspace(3 * W0, 300 * W0, 120)
     m = pend.stability_map(np.linspace(0.001, 0.35, 90), omega)
-    avg = pend.stability_window(omega, method="averaging", order=1)
-    fig = plots.stability_map_figure(m, overlays=[avg], dimensionless=True, log_omega=True)
+    avg = pend.window(omega, method="averaging", order=1)
+    fig = figures.stability_map_figure(m, overlays=[avg], dimensionless=True, log_omega=True)
     ax = fig.axes[0]
     assert ax.get_xscale() == "log" and "ω/ω0" in ax.get_xlabel() and "A/l" in ax.get_ylabel()
     np.testing.assert_allclose(ax.get_xlim(), (omega[0] / W0, omega[-1] / W0), rtol=1e-12)
@@ -48,13 +50,13 @@ def test_dimensionless_log_axes_and_boundaries(pend):
 def test_log_axis_from_zero_and_dimensionless_without_constants_are_refused(pend):
     m = pend.stability_map(np.linspace(0.0, 0.3, 10), np.linspace(10.0, 100.0, 10))
     with pytest.raises(ValueError, match="log_A=True needs positive values"):
-        plots.stability_map_figure(m, log_A=True)
+        figures.stability_map_figure(m, log_A=True)
     general = kapitza.results.StabilityMap(
         A=m.A, omega=m.omega, stable=m.stable, label=m.label, trace=None, log_growth=None,
         error_estimate=0.0, about="[3.141592653589793, 0.0]", method="monodromy")
     with pytest.raises(ValueError, match="pass l=... .* and g="):
-        plots.stability_map_figure(general, dimensionless=True)
-    fig = plots.stability_map_figure(general, dimensionless=True, l=L, g=G)
+        figures.stability_map_figure(general, dimensionless=True)
+    fig = figures.stability_map_figure(general, dimensionless=True, l=L, g=G)
     assert "q = (π, 0)" in fig.axes[0].get_title()
     assert _inside(fig, fig.axes[0].title)
 
@@ -62,9 +64,9 @@ def test_log_axis_from_zero_and_dimensionless_without_constants_are_refused(pend
 def test_effective_potential_marks_the_equilibria(pend):
     A, omega = 0.04, 2 * math.pi * 50
     theta = np.linspace(-math.pi, 2 * math.pi, 901)
-    U = kapitza.pendulum_effective_potential(theta, A, omega, l=L, g=G)
+    U = kapitza.pendulum_effective_potential(A, omega, theta=theta, l=L, g=G)
     pred = kapitza.pendulum_averaged(A, omega, l=L, g=G)
-    fig = plots.effective_potential_figure(theta, U, prediction=pred)
+    fig = figures.effective_potential_figure(theta, U, prediction=pred)
     ax = fig.axes[0]
     names = sorted({t.get_text() for t in ax.texts})
     assert names == sorted(e.name for e in pred.equilibria if bool(np.all(e.exists)))
@@ -75,4 +77,44 @@ def test_effective_potential_marks_the_equilibria(pend):
         assert u == pytest.approx(float(np.interp(th, theta, U)), rel=1e-12)
     assert _inside(fig, ax.title)
     with pytest.raises(ValueError, match="same length"):
-        plots.effective_potential_figure(theta, U[:-1])
+        figures.effective_potential_figure(theta, U[:-1])
+
+
+def test_figures_read_results_by_their_fields(pend):
+    """Figures never import kapitza.results: any object with a result's fields draws, and
+    anything else is refused with the result type expected and the fields it lacks."""
+    from types import SimpleNamespace
+    m = pend.stability_map(np.linspace(0.0, 0.3, 12), np.linspace(10.0, 100.0, 14))
+    fields = {f: getattr(m, f) for f in m.__dataclass_fields__}
+    twin = figures.stability_map_figure(SimpleNamespace(**fields))
+    fig = figures.stability_map_figure(m)
+    assert twin.axes[0].get_title() == fig.axes[0].get_title()
+    with pytest.raises(TypeError, match=r"result must be a kapitza.results.StabilityMap, got "
+                                        r"DataFrame \(it has no label, about, method"):
+        figures.stability_map_figure(m.to_dataframe())
+    with pytest.raises(TypeError, match="every overlay must be a kapitza.results.StabilityWindow"):
+        figures.stability_map_figure(m, overlays=[m])
+    with pytest.raises(TypeError, match="Verification, got StabilityMap"):
+        figures.verification_figure(m)
+    with pytest.raises(TypeError, match="InceStruttChart, got StabilityMap"):
+        figures.ince_strutt_figure(m)
+
+
+def test_boundary_curves_and_windows_are_told_apart(pend):
+    """Overlays of both kinds on one map: a window as black dashed edges, boundary curves
+    as solid lines coloured by kind (one legend entry per kind)."""
+    omega = np.linspace(20.0, 120.0, 40)
+    m = pend.stability_map(np.linspace(0.001, 0.2, 30), omega)
+    exact = pend.window(omega)
+    curves = kapitza.BoundaryCurves(
+        omega=omega, A=np.vstack([exact.A_min, exact.A_max]),
+        accuracy=np.full((2, omega.size), 1e-10), kind=("T", "2T"),
+        stable_below=np.array([False, True]), about="inverted")
+    avg = pend.window(omega, method="averaging", order=1)
+    ax = figures.stability_map_figure(m, overlays=[avg, curves]).axes[0]
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "averaging (order 1): A ω = √(2 g l)" in labels
+    assert {"exact boundary: multiplier +1 (T)",
+            "exact boundary: multiplier −1 (2T)"} <= set(labels)
+    solid = [li for li in ax.lines if li.get_label().startswith("exact boundary")]
+    np.testing.assert_array_equal(solid[0].get_ydata(), exact.A_min)

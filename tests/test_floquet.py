@@ -12,11 +12,12 @@ import pytest
 import scipy.linalg
 import scipy.special
 import sympy as sp
-from helpers import G, L, W0, jacobian_monodromy, mathieu_ivp_trace
+from helpers import W0, G, L, jacobian_monodromy, mathieu_ivp_trace
 
-from kapitza.floquet import _analysis as fq
+from kapitza import floquet as fq
 from kapitza.closed_forms import _mathieu as mm
 from kapitza.figures import _plots as plots
+from kapitza.floquet._multipliers import _analyse
 from kapitza.pendulum import KapitzaPendulum
 from lagrange_core import problems
 from lagrange_core import t as t_sym
@@ -130,7 +131,7 @@ def test_pairs_and_broken_monodromy_is_flagged():
     M = scipy.linalg.expm(Jst @ (H + H.T) * 0.3)
     T = np.array([1.0, 1.0])
     Ms = np.stack([M, M + 1e-5 * rng.normal(size=(4, 4))])
-    res = fq._analyse(Ms, np.zeros(2), T, np.zeros(2), np.full(2, 1e-12), 1e-8)
+    res = _analyse(Ms, np.zeros(2), T, np.zeros(2), np.full(2, 1e-12), 1e-8)
     assert res["flags"][0] == ()
     assert res["pairing"][0] < 1e-12
     assert any("Liouville" in f for f in res["flags"][1])
@@ -166,7 +167,7 @@ def test_tolerance_is_met_and_reported(pendulum, tol):
 def test_stability_window_against_scipy_characteristic_values(pendulum):
     from scipy.optimize import brentq
     w = np.array([8.0, 15.0, 40.0, 120.0]) * W0
-    win = pendulum.stability_window(w, tol=1e-10)
+    win = pendulum.window(w, tol=1e-10)
     for i, om in enumerate(w):
         a = -4 * W0**2 / om**2
         q0 = brentq(lambda q: scipy.special.mathieu_a(0, q) - a, 1e-9, 3, xtol=1e-15)
@@ -180,7 +181,7 @@ def test_stability_window_against_scipy_characteristic_values(pendulum):
 def test_stability_window_high_frequency_limits(pendulum):
     # ω/ω0 = 1e4: A_min from the a0 series, A_max → 0.4540 l (first parametric resonance)
     w = 1e4 * W0
-    win = pendulum.stability_window(w)
+    win = pendulum.window(w)
     a = -4 * W0**2 / w**2
     q = math.sqrt(-2 * a)
     for _ in range(5):                       # a = −q²/2 + 7q⁴/128 solved for q
@@ -191,7 +192,7 @@ def test_stability_window_high_frequency_limits(pendulum):
 
 def test_damped_window_is_the_floquet_condition(damped):
     w = np.array([10.0, 30.0]) * W0
-    win = damped.stability_window(w, tol=1e-9)
+    win = damped.window(w, tol=1e-9)
     for i, om in enumerate(w):
         T = 2 * np.pi / om
         thr = 1 + math.exp(-damped.damping * T)
@@ -199,7 +200,7 @@ def test_damped_window_is_the_floquet_condition(damped):
             a, q, c = mm.mathieu_parameters(A, om, L, G, damped.damping, "inverted")
             assert abs(mathieu_ivp_trace(a, q, c)) == pytest.approx(thr, rel=1e-8)
     # damping shrinks the period-2T resonance tongue above the window
-    und = KapitzaPendulum(l=L, g=G).stability_window(w)
+    und = KapitzaPendulum(l=L, g=G).window(w)
     assert np.all(win.A_max > und.A_max)
 
 
@@ -218,7 +219,7 @@ def test_map_sample_against_monodromy_and_boundary_points(pendulum, rng):
     assert np.array_equal(m.label[i, j][unstable], np.where(tr[unstable] > 0, 1, 2))
     # points within 1e-6 (relative) of both boundaries, on either side
     ws = np.array([3.0, 20.0, 150.0, 1e4]) * W0
-    win = pendulum.stability_window(ws)
+    win = pendulum.window(ws)
     for k, om in enumerate(ws):
         for edge, inside in ((win.A_min[k], 1 + 1e-6), (win.A_max[k], 1 - 1e-6)):
             pts = np.array([edge * inside, edge * (2 - inside)])
@@ -234,7 +235,7 @@ def test_map_dataframe_and_figure(pendulum, tmp_path):
     m = pendulum.stability_map(np.linspace(0, 0.6, 40), np.linspace(3, 200, 50))
     df = m.to_dataframe()
     assert len(df) == 2000 and set(df.boundary) <= {"stable", "T", "2T"}
-    averaging = pendulum.stability_window(np.linspace(3, 200, 400), method="averaging", order=1)
+    averaging = pendulum.window(np.linspace(3, 200, 400), method="averaging", order=1)
     fig = plots.stability_map_figure(m, overlays=[averaging])
     assert isinstance(fig, Figure)
     assert any("averaging" in (ln.get_label() or "") for ln in fig.axes[0].lines)
@@ -308,7 +309,7 @@ def test_double_pendulum_monodromy_against_solve_ivp(double_pendulum):
 def test_double_pendulum_map(double_pendulum):
     A = np.linspace(0.0, 0.3, 10)
     w = np.linspace(20.0, 150.0, 8)
-    m = fq.stability_map(double_pendulum, A, w, DP, [np.pi, np.pi], tol=1e-9)
+    m = fq.stability_map(double_pendulum, DP, [np.pi, np.pi], A=A, omega=w, tol=1e-9)
     assert m.stable.shape == (10, 8) and m.flagged_points == 0
     assert not m.stable[0].any()                  # no drive: the upright state falls
     assert m.stable.any()                         # Acheson: a window exists
@@ -361,7 +362,7 @@ def test_hanging_map_tongues(pendulum, rng):
 def test_general_path_at_high_frequency_ratio(pendulum):
     # ω/ω0 = 1e3, A = 2 A_min: the monodromy is within 1e-5 of the identity
     w = 1e3 * W0
-    A = 2 * pendulum.stability_window(w).A_min
+    A = 2 * pendulum.window(w).A_min
     r = pendulum.floquet(A, w, tol=1e-12)
     a, q, _ = mm.mathieu_parameters(A, w, L, G, 0.0, "inverted")
     assert r.trace == pytest.approx(mm.mathieu_trace(a, q, tol=1e-14), abs=1e-11)

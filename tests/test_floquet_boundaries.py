@@ -5,7 +5,7 @@ Independent references:
   vertically driven pivot splits exactly into N Mathieu equations, mode k a pendulum of
   effective length λ_k (kapitza.multiple_pendulum_upright, from lagrange_core's hanging
   normal modes); each mode's exact window comes from Mathieu characteristic values
-  (kapitza.mathieu.pendulum_stability_window, no monodromy), and the chain's window is
+  (kapitza.closed_forms.pendulum_window, no monodromy), and the chain's window is
   their intersection.
 * The single pendulum's exact windows, undamped and damped (Mathieu).
 * The sum resonance of two parametrically coupled oscillators, first order:
@@ -21,12 +21,13 @@ import sympy as sp
 from helpers import G, jacobian_monodromy
 
 import lagrange_core as lc
-from kapitza.floquet import _analysis as fq
-from kapitza.figures import _plots as plots
-from kapitza.floquet._boundaries import margin
-from kapitza.closed_forms._mathieu import pendulum_stability_window
-from kapitza.closed_forms._pendulum import multiple_pendulum_upright
-from kapitza.results._results import AdaptiveMap, BoundaryCurves, StabilityWindow
+from kapitza import figures as plots
+from kapitza import floquet as fq
+from kapitza.closed_forms import multiple_pendulum_upright, pendulum_window
+from kapitza.floquet import _kernels
+from kapitza.floquet._margins import margin
+from kapitza.floquet._probe import _Probe
+from kapitza.results import AdaptiveMap, BoundaryCurves, StabilityWindow
 from lagrange_core import problems, t
 
 MASSES, LENGTHS = (1.0, 0.5), (1.0, 0.7)            # an unequal double pendulum
@@ -65,7 +66,7 @@ W12 = {"w1": 1.0, "w2": 1.5}
 def modal_window(omega, masses, lengths, tol=1e-14):
     """The chain's exact window as the intersection of its modes' Mathieu windows."""
     lam = multiple_pendulum_upright(masses, lengths, g=G).effective_lengths
-    modes = [pendulum_stability_window(omega, l=lk, g=G, tol=tol) for lk in lam]
+    modes = [pendulum_window(omega, l=lk, g=G, tol=tol) for lk in lam]
     return (np.max([m.A_min for m in modes], axis=0), np.min([m.A_max for m in modes], axis=0))
 
 
@@ -73,7 +74,7 @@ def modal_window(omega, masses, lengths, tol=1e-14):
 
 def test_double_pendulum_window_is_the_intersection_of_its_modes(double):
     w = np.array([45.0, 60.0, 100.0, 150.0])
-    win = fq.window(double, DP, [math.pi, math.pi], w)
+    win = fq.window(double, DP, [math.pi, math.pi], omega=w)
     assert isinstance(win, StabilityWindow) and win.method == "floquet" and win.tol == 1e-10
     lo, hi = modal_window(w, MASSES, LENGTHS)
     assert np.all(lo < hi)
@@ -85,7 +86,7 @@ def test_double_pendulum_window_is_the_intersection_of_its_modes(double):
 
 
 def test_triple_pendulum_window_to_1e_10(triple):
-    win = fq.window(triple, TP, [math.pi] * 3, 100.0)
+    win = fq.window(triple, TP, [math.pi] * 3, omega=100.0)
     assert np.ndim(win.A_min) == 0 and win.accuracy <= 1e-10
     lo, hi = modal_window(100.0, [1.0] * 3, [1.0] * 3)
     assert abs(win.A_min / lo - 1) < 1e-10 and abs(win.A_max / hi - 1) < 1e-10
@@ -102,17 +103,17 @@ def test_triple_pendulum_window_to_1e_10(triple):
 def test_single_pendulum_windows_undamped_damped_and_hanging():
     w = np.array([30.0, 80.0])
     params = dict(m=1.0, l=0.8, g=G)
-    ref = pendulum_stability_window(w, l=0.8, g=G, tol=1e-14)
-    win = fq.window(problems.driven_pendulum("vertical"), params, [math.pi], w)
+    ref = pendulum_window(w, l=0.8, g=G, tol=1e-14)
+    win = fq.window(problems.driven_pendulum("vertical"), params, [math.pi], omega=w)
     np.testing.assert_allclose([win.A_min, win.A_max], [ref.A_min, ref.A_max], rtol=1e-10)
     # damped: the edges are |tr M| = 1 + e^(−γT), the Mathieu reference integrates tr M
     damped = problems.driven_pendulum("vertical", damping=True)
-    ref = pendulum_stability_window(w, l=0.8, g=G, damping=0.6, tol=1e-11)
-    win = fq.window(damped, dict(params, gamma=0.6), [math.pi], w)
+    ref = pendulum_window(w, l=0.8, g=G, damping=0.6, tol=1e-11)
+    win = fq.window(damped, dict(params, gamma=0.6), [math.pi], omega=w)
     np.testing.assert_allclose([win.A_min, win.A_max], [ref.A_min, ref.A_max], rtol=1e-9)
     # the hanging state is stable undriven: A_min = 0, A_max the first parametric tongue
-    ref = pendulum_stability_window(3.0, l=0.8, g=G, about="hanging", tol=1e-14)
-    win = fq.window(problems.driven_pendulum("vertical"), params, [0.0], 3.0)
+    ref = pendulum_window(3.0, l=0.8, g=G, about="hanging", tol=1e-14)
+    win = fq.window(problems.driven_pendulum("vertical"), params, [0.0], omega=3.0)
     assert win.A_min == 0.0 and win.A_max == pytest.approx(ref.A_max, rel=1e-10)
 
 
@@ -132,7 +133,7 @@ def test_chain_windows_at_fast_drives_against_the_modal_decoupling(n):
     600 ω0, without a warning.)"""
     w = np.array([300.0, 600.0]) * math.sqrt(G)
     with pytest.warns(RuntimeWarning, match="certified only to") as rec:
-        win = fq.window(chain(n), EQUAL[n], [math.pi] * n, w)
+        win = fq.window(chain(n), EQUAL[n], [math.pi] * n, omega=w)
     assert not any("failed their check" in str(r.message) for r in rec)
     lo, hi = modal_window(w, [1.0] * n, [1.0] * n)
     assert np.all(np.isfinite([win.A_min, win.A_max]))
@@ -143,7 +144,8 @@ def test_chain_windows_at_fast_drives_against_the_modal_decoupling(n):
     # the study's scan limit (4 · 0.454 λ_N) lands on the same windows
     lam = multiple_pendulum_upright([1.0] * n, [1.0] * n, g=G).effective_lengths
     with pytest.warns(RuntimeWarning, match="certified only to"):
-        other = fq.window(chain(n), EQUAL[n], [math.pi] * n, w, A_limit=4 * 0.454 * lam[-1])
+        other = fq.window(chain(n), EQUAL[n], [math.pi] * n, omega=w,
+                          A_range=(0.0, 4 * 0.454 * lam[-1]))
     np.testing.assert_allclose([other.A_min, other.A_max], [lo, hi], rtol=1e-7)
 
 
@@ -155,7 +157,7 @@ def test_fast_drive_boundaries_and_maps_share_the_fix():
     n = 5
     w = np.linspace(280.0, 320.0, 8) * math.sqrt(G)
     with pytest.warns(RuntimeWarning, match="certified only to"):
-        curves = fq.boundaries(chain(n), EQUAL[n], [math.pi] * n, w, A_range=(0.0, 0.06),
+        curves = fq.boundaries(chain(n), EQUAL[n], [math.pi] * n, omega=w, A_range=(0.0, 0.06),
                                tol=1e-9, seed_every=4)
     assert curves.kind == ("T", "2T")
     lo, hi = modal_window(w, [1.0] * n, [1.0] * n)
@@ -166,8 +168,8 @@ def test_fast_drive_boundaries_and_maps_share_the_fix():
     A, w = np.linspace(0.0, 0.05, 65), np.linspace(250.0, 600.0, 33) * math.sqrt(G)
     lo, hi = modal_window(w, [1.0] * n, [1.0] * n)
     ref = (A[:, None] > lo[None, :]) & (A[:, None] < hi[None, :])
-    adaptive = fq.adaptive_map(chain(n), A, w, EQUAL[n], [math.pi] * n, coarse_step=8)
-    uniform = fq.stability_map(chain(n), A, w, EQUAL[n], [math.pi] * n)
+    adaptive = fq.adaptive_map(chain(n), EQUAL[n], [math.pi] * n, A=A, omega=w, coarse_step=8)
+    uniform = fq.stability_map(chain(n), EQUAL[n], [math.pi] * n, A=A, omega=w)
     assert np.array_equal(uniform.stable, ref) and np.array_equal(adaptive.stable, ref)
 
 def test_window_warns_only_when_the_accuracy_misses_tol(triple):
@@ -176,10 +178,10 @@ def test_window_warns_only_when_the_accuracy_misses_tol(triple):
     import warnings
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        win = fq.window(triple, TP, [math.pi] * 3, 100.0)
+        win = fq.window(triple, TP, [math.pi] * 3, omega=100.0)
     assert win.accuracy <= 1e-10
     with pytest.warns(RuntimeWarning, match=r"coarser than tol = 1e-13"):
-        fine = fq.window(triple, TP, [math.pi] * 3, 100.0, tol=1e-13)
+        fine = fq.window(triple, TP, [math.pi] * 3, omega=100.0, tol=1e-13)
     assert fine.accuracy > 1e-13
     assert abs(fine.A_min / win.A_min - 1) <= fine.accuracy + win.accuracy
 
@@ -188,7 +190,7 @@ def test_reduced_roots_keep_a_cluster_at_plus_one():
     """Multipliers e^(±iθ_k) with θ_k = 1e-3 … 0.3 and a real pair e^(±σ): x − 2 =
     2 cos θ − 2 and 2 cosh σ − 2 (closed form) to 1e-9 relative, although the roots differ
     from 2 by as little as 1e-6; the real roots are real exactly, a quadruplet's complex."""
-    from kapitza.floquet._boundaries import reduced_polynomial
+    from kapitza.floquet._margins import reduced_polynomial
     theta = np.array([1e-3, 3e-3, 0.05, 0.3])
     sigma = 2e-3
     lam = np.r_[np.exp(1j * theta), np.exp(-1j * theta), np.exp(sigma), np.exp(-sigma)]
@@ -213,7 +215,7 @@ def test_first_window_refuses_a_window_its_check_contradicts():
     A = 1, a true root of det(M − I); its side check finds A(1 + η) unstable, and the
     window is NaN with a warning, not [1, 3].  A lie that leaves an edge without a root
     is NaN with a warning too; told the truth, the same scan gives [2, 3]."""
-    from kapitza.floquet._boundaries import first_window
+    from kapitza.floquet._edges import first_window
 
     def block(x):
         one = np.ones_like(x)
@@ -245,27 +247,27 @@ def test_first_window_refuses_a_window_its_check_contradicts():
     np.testing.assert_allclose([out["A_min"][0], out["A_max"][0]], [2.0, 3.0], rtol=1e-10)
 
 def test_window_without_stable_amplitudes_is_nan(double):
-    win = fq.window(double, DP, [math.pi, math.pi], 10.0)      # too slow to hold it up
+    win = fq.window(double, DP, [math.pi, math.pi], omega=10.0)      # too slow to hold it up
     assert math.isnan(win.A_min) and math.isnan(win.A_max)
 
 
 def test_window_and_boundaries_refuse_bad_input(double):
     with pytest.raises(ValueError, match="'B' is not a parameter"):
-        fq.window(double, DP, [math.pi, math.pi], 100.0, amplitude="B")
+        fq.window(double, DP, [math.pi, math.pi], omega=100.0, amplitude="B")
     with pytest.raises(ValueError, match="tol must be"):
-        fq.window(double, DP, [math.pi, math.pi], 100.0, tol=0.5)
+        fq.window(double, DP, [math.pi, math.pi], omega=100.0, tol=0.5)
     with pytest.raises(ValueError, match="ascending"):
-        fq.boundaries(double, DP, [math.pi, math.pi], [100.0, 50.0])
+        fq.boundaries(double, DP, [math.pi, math.pi], omega=[100.0, 50.0])
     with pytest.raises(ValueError, match="A_range"):
-        fq.boundaries(double, DP, [math.pi, math.pi], [50.0, 100.0], A_range=(0.3, 0.1))
+        fq.boundaries(double, DP, [math.pi, math.pi], omega=[50.0, 100.0], A_range=(0.3, 0.1))
     with pytest.raises(ValueError, match="does not persist"):
-        fq.window(double, DP, [1.0, math.pi], 100.0)
+        fq.window(double, DP, [1.0, math.pi], omega=100.0)
 
 
 def test_margins_have_simple_roots_at_the_edges(triple):
     """det(M ∓ I) changes sign across each edge, with an error bound far below |g|."""
-    win = fq.window(triple, TP, [math.pi] * 3, 100.0)
-    probe = fq._Probe(triple, TP, [math.pi] * 3, "A", "omega", 1e-15, 16, 1e-8, paired=True)
+    win = fq.window(triple, TP, [math.pi] * 3, omega=100.0)
+    probe = _Probe(triple, TP, [math.pi] * 3, "A", "omega", 1e-15, 16, 1e-8, paired=True)
     for edge, kind in ((win.A_min, 1), (win.A_max, 2)):
         A = edge * np.array([1 - 1e-8, 1 + 1e-8])
         g, bound = margin(probe(A, np.full(2, 100.0)), np.full(2, kind))
@@ -289,7 +291,8 @@ def _both_sides(system, params, about, curves, side=1e-6):
 
 def test_double_pendulum_boundaries_against_modes_and_both_sides(double):
     w = np.linspace(20.0, 150.0, 60)
-    curves = fq.boundaries(double, DP, [math.pi, math.pi], w, A_range=(0.0, 0.3), tol=1e-9)
+    curves = fq.boundaries(double, DP, [math.pi, math.pi], omega=w, A_range=(0.0, 0.3),
+                           tol=1e-9)
     assert isinstance(curves, BoundaryCurves)
     assert curves.kind == ("T", "2T") and curves.stable_below.tolist() == [False, True]
     lo, hi = modal_window(w, MASSES, LENGTHS)
@@ -312,7 +315,7 @@ def test_double_pendulum_boundaries_against_modes_and_both_sides(double):
 @pytest.mark.filterwarnings("ignore:boundaries.*certified only:RuntimeWarning")
 def test_complex_boundaries_of_the_sum_resonance(coupled):
     w = np.linspace(2.2, 2.8, 61)
-    curves = fq.boundaries(coupled, W12, [0.0, 0.0], w, A_range=(0.0, 0.6), tol=1e-9)
+    curves = fq.boundaries(coupled, W12, [0.0, 0.0], omega=w, A_range=(0.0, 0.6), tol=1e-9)
     assert curves.kind == ("complex", "complex") and curves.stable_below.all()
     good, count = _both_sides(coupled, W12, [0.0, 0.0], curves)
     assert good and count >= 40          # the tongue covers about 2 × 25 of the frequencies
@@ -322,14 +325,15 @@ def test_complex_boundaries_of_the_sum_resonance(coupled):
     A = np.fmin(*curves.A)                   # the tongue's edge at each ω (NaN outside)
     np.testing.assert_allclose(A[near], 2 * math.sqrt(1.5) * sigma[near], rtol=0.05)
     # the exact window at one ω is bounded by the same curve
-    win = fq.window(coupled, W12, [0.0, 0.0], w[10])
+    win = fq.window(coupled, W12, [0.0, 0.0], omega=w[10])
     assert win.A_min == 0.0 and win.A_max == pytest.approx(A[10], rel=1e-9)
 
 
 def test_boundaries_drawn_as_lines_over_a_map(double):
     w = np.linspace(40.0, 150.0, 30)
-    curves = fq.boundaries(double, DP, [math.pi, math.pi], w, A_range=(0.0, 0.3), tol=1e-9)
-    m = fq.stability_map(double, np.linspace(0.0, 0.3, 20), w, DP, [math.pi, math.pi])
+    curves = fq.boundaries(double, DP, [math.pi, math.pi], omega=w, A_range=(0.0, 0.3),
+                           tol=1e-9)
+    m = fq.stability_map(double, DP, [math.pi, math.pi], A=np.linspace(0.0, 0.3, 20), omega=w)
     fig = plots.stability_map_figure(m, overlays=[curves])
     labels = [line.get_label() for line in fig.axes[0].lines]
     assert labels == ["exact boundary: multiplier +1 (T)", "exact boundary: multiplier −1 (2T)"]
@@ -347,8 +351,8 @@ def test_adaptive_map_equals_the_uniform_map_with_10x_fewer_monodromies(case, do
     else:
         system, params, about = coupled, W12, [0.0, 0.0]
         A, w = np.linspace(0.0, 0.8, 257), np.linspace(2.0, 3.0, 257)
-    m = fq.adaptive_map(system, A, w, params, about, coarse_step=16)
-    uniform = fq.stability_map(system, A, w, params, about)
+    m = fq.adaptive_map(system, params, about, A=A, omega=w, coarse_step=16)
+    uniform = fq.stability_map(system, params, about, A=A, omega=w)
     assert isinstance(m, AdaptiveMap) and m.stable.shape == (257, 257)
     assert np.array_equal(m.label, uniform.label)
     assert m.monodromies == m.computed.sum() and 10 * m.monodromies <= A.size * w.size
@@ -368,7 +372,7 @@ def test_small_grids_run_on_the_calling_thread_with_the_same_results(triple):
     import numba
     before = numba.get_num_threads()
     # the first chunk (64 points) runs on the calling thread, larger ones in parallel
-    A = np.linspace(0.06, 0.08, 4 * fq.SERIAL_BELOW)
+    A = np.linspace(0.06, 0.08, 4 * _kernels.SERIAL_BELOW)
     big = fq.floquet_grid(triple, dict(TP, A=A, omega=100.0), [math.pi] * 3, progress=False)
     assert numba.get_num_threads() == before
     for i in (0, 100, len(A) - 1):

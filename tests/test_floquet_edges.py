@@ -10,9 +10,9 @@ import math
 
 import numpy as np
 import pytest
-from helpers import G, L, W0, interrupt_child
+from helpers import W0, G, L, interrupt_child
 
-from kapitza.floquet import _analysis as fq
+from kapitza import floquet as fq
 from kapitza.closed_forms import _mathieu as mm
 from kapitza.pendulum import KapitzaPendulum
 
@@ -66,7 +66,7 @@ def test_one_bad_point_does_not_abort_the_grid(pendulum):
     assert np.allclose(g.log_growth[:, 0], W0 * 2 * math.pi / w[0], rtol=1e-12)
     assert all("not integrated" in g.flags[3 * i][0] for i in range(3))
     assert np.all(g.margin[:, 0] == np.inf)           # e^(1e301): certainly unstable
-    m = fq.stability_map(pendulum.system, A, w, dict(m=1.0, l=L, g=G), [math.pi])
+    m = fq.stability_map(pendulum.system, dict(m=1.0, l=L, g=G), [math.pi], A=A, omega=w)
     assert m.flagged_points == 3 and np.isfinite(m.error_estimate)
     assert m.stable.tolist() == g.stable.tolist()
 
@@ -117,20 +117,20 @@ def test_triple_pendulum_small_growth_is_unstable(triple):
 def test_triple_pendulum_uncertified_counts_only_the_uncertain(triple):
     # a sweep through the window, no point near an edge: every classification is certain
     A = np.linspace(0.0, 0.1, 21)
-    m = fq.stability_map(triple, A, [100.0], TP, UP3, tol=1e-10)
+    m = fq.stability_map(triple, TP, UP3, A=A, omega=[100.0], tol=1e-10)
     assert m.stable.sum() >= 1 and m.uncertified_points == 0 and m.flagged_points == 0
     for i in range(0, 21, 4):
         lam = _reference_multipliers(triple, A[i])
         assert m.stable[i, 0] == bool(np.max(np.abs(lam)) < 1 + 1e-6)
     # points 1e-9 from the edge are within the error estimate: counted, whichever side
-    near = fq.stability_map(triple, EDGE3 * np.array([1 - 1e-9, 1 + 1e-9]), [100.0], TP,
-                            UP3)
+    near = fq.stability_map(triple, TP, UP3, A=EDGE3 * np.array([1 - 1e-9, 1 + 1e-9]),
+                            omega=[100.0])
     assert near.uncertified_points == 2
 
 
 # -- item 8: chunks, progress, Ctrl-C --------------------------------------------------
 
-from kapitza.results._results import ComputationInterrupted  # noqa: E402
+from kapitza.results._results import ComputationInterrupted, FloquetGrid  # noqa: E402
 
 
 def _stop(done, total):
@@ -171,7 +171,7 @@ def test_floquet_grid_interrupt_keeps_finished_points():
                for k in np.flatnonzero(~e.computed))
     # the general map carries its partial map
     with pytest.raises(ComputationInterrupted) as info:
-        fq.stability_map(p.system, A, w, dict(m=1.0, l=L, g=G, gamma=0.5), [math.pi],
+        fq.stability_map(p.system, dict(m=1.0, l=L, g=G, gamma=0.5), [math.pi], A=A, omega=w,
                          progress=_stop_in(1))
     assert info.value.computed.sum() == n
     assert np.array_equal(info.value.result.stable[e.computed], g.stable[e.computed])
@@ -285,24 +285,26 @@ def test_empty_grids_give_empty_results(pendulum):
     d = fq.monodromy_data(pendulum.system, dict(base, A=np.array([]), omega=60.0), [math.pi])
     assert d.monodromy.shape == (0, 2, 2) and len(d.to_dataframe()) == 0
     for A, w in (([], [60.0]), ([0.1, 0.2], []), ([], [])):
-        m = fq.stability_map(pendulum.system, A, w, base, [math.pi])
+        m = fq.stability_map(pendulum.system, base, [math.pi], A=A, omega=w)
         assert m.stable.shape == m.label.shape == m.trace.shape == (len(A), len(w))
         assert len(m.to_dataframe()) == 0 and m.flagged_points == 0
         assert m.error_estimate == 0.0 and m.max_steps_per_period == 0
 
 
-# -- issue 10, item 2: A and ω in the same place as KapitzaPendulum.stability_map ---------
+# -- issue 10, item 2 / issue 20: the grid's axes are keywords (docs/api-conventions.md) ------
 
-def test_general_map_takes_the_axes_first(pendulum):
+def test_general_map_takes_the_axes_as_keywords(pendulum):
     base = dict(m=1.0, l=L, g=G)
     A, w = np.array([0.05, 0.2]), np.array([60.0, 120.0])
-    m = fq.stability_map(pendulum.system, A, w, base, [math.pi])
-    kw = fq.stability_map(pendulum.system, A=A, omega=w, params=base, about=[math.pi])
+    m = fq.stability_map(pendulum.system, base, [math.pi], A=A, omega=w)
+    kw = fq.stability_map(pendulum.system, omega=w, A=A, about=[math.pi], params=base)
     ref = pendulum.stability_map(A, w, about="inverted")
     assert m.stable.tolist() == kw.stable.tolist() == ref.stable.tolist()
-    # the old order (system, params, about, A, omega) is refused, naming the new one
-    with pytest.raises(TypeError, match=r"stability_map\(system, A, omega, params, about"):
+    # axes by position after about (the order before 0.1) are refused, naming the new call
+    with pytest.raises(TypeError, match=r"stability_map\(system, params, about, A=A, omega"):
         fq.stability_map(pendulum.system, base, [math.pi], A, w)
+    with pytest.raises(TypeError, match="params must be a dict"):
+        fq.stability_map(pendulum.system, [0.1], [math.pi], A=A, omega=w)
 
 
 # -- issue 10, item 3: Ctrl-C while J(t) is sampled and while the points are analysed -----
@@ -319,7 +321,7 @@ def test_floquet_grid_interrupt_at_each_stage(stage):
         fq.floquet_grid(p.system, params, [math.pi], progress=_stop_in(stage))
     e = info.value
     g, done = e.result, e.computed
-    assert isinstance(g, fq.FloquetGrid) and g.shape == done.shape == (100, 100)
+    assert isinstance(g, FloquetGrid) and g.shape == done.shape == (100, 100)
     n = int(done.sum())
     # sampling: nothing finished; integration: its first chunk; analysis: the first 4096
     assert n == {0: 0, 1: 64, 2: 4096}[stage] and done.ravel()[:n].all()
@@ -331,7 +333,7 @@ def test_floquet_grid_interrupt_at_each_stage(stage):
                for k in np.flatnonzero(~done))
     # the general map and the monodromy data carry the same points
     with pytest.raises(ComputationInterrupted) as info:
-        fq.stability_map(p.system, A, w, base, [math.pi], progress=_stop_in(stage))
+        fq.stability_map(p.system, base, [math.pi], A=A, omega=w, progress=_stop_in(stage))
     m = info.value.result
     assert np.array_equal(info.value.computed, done) and m.stable.shape == (100, 100)
     assert np.array_equal(m.stable, g.stable) and m.flagged_points >= 10000 - n
@@ -348,16 +350,16 @@ GENERAL_CHILD = r"""
 import json, math, signal, sys, time
 import numpy as np
 signal.signal(signal.SIGINT, signal.default_int_handler)     # see CHILD
-from kapitza.floquet import _analysis as fq
+from kapitza import floquet as fq
 from kapitza.pendulum import KapitzaPendulum
 from kapitza.results._results import ComputationInterrupted
 p = KapitzaPendulum(l=1.0, g=9.81, damping=0.3)
 base = dict(m=1.0, l=1.0, g=9.81, gamma=0.3)
 A, w = np.linspace(0.0, 0.7, 600), np.linspace(2.0, 400.0, 600) * np.sqrt(9.81)
-fq.stability_map(p.system, A[:2], w[:2], base, [math.pi], progress=False)   # compiled
+fq.stability_map(p.system, base, [math.pi], A=A[:2], omega=w[:2], progress=False)  # compiled
 print("ready", flush=True)
 try:
-    fq.stability_map(p.system, A, w, base, [math.pi], progress=False)
+    fq.stability_map(p.system, base, [math.pi], A=A, omega=w, progress=False)
     print(json.dumps({"finished": True}), flush=True)
 except ComputationInterrupted as e:
     t = time.time()

@@ -29,7 +29,7 @@ def test_rod_motion_equals_the_rigid_body(rod_system):
     assert pend.l == pytest.approx(2 * L_ROD / 3, rel=1e-15)
     A, omega = 0.04, 2 * math.pi * 50
     t_eval = np.linspace(0.0, 2.0, 41)
-    ours = pend.simulate(math.pi - 0.2, 0.0, (0.0, 2.0), A, omega, rtol=1e-11, t_eval=t_eval)
+    ours = pend.simulate(A, omega, math.pi - 0.2, 0.0, (0.0, 2.0), rtol=1e-11, t_eval=t_eval)
     body = rod_system.simulate([math.pi - 0.2], [0.0], (0.0, 2.0), rod_params(A, omega),
                                rtol=1e-11, t_eval=t_eval)
     # the same equation of motion up to the rounding of its coefficient (l_eq = 2L/3 against
@@ -45,7 +45,7 @@ def test_rod_window_equals_the_rigid_bodys_floquet(rod_system):
     monodromy (kapitza.floquet_point on the RigidBody system) changes stability."""
     pend = KapitzaPendulum.rod(L_ROD, g=G)
     omega = 2 * math.pi * 30
-    win = pend.stability_window(omega)
+    win = pend.window(omega)
     lower, upper = win.A_min, win.A_max
 
     def stable(A):
@@ -77,9 +77,15 @@ def test_strings_booleans_and_bad_drives_are_refused():
     with pytest.raises(ValueError, match="A must be a number"):
         pend.floquet(A="0.01", omega=100.0)
     with pytest.raises(ValueError, match="A must be finite and ≥ 0"):
-        pend.simulate(3.0, 0.0, (0, 0.1), -0.1, 100.0)
+        pend.simulate(-0.1, 100.0, 3.0, 0.0, (0, 0.1))
     with pytest.raises(ValueError, match="omega must be finite and > 0"):
-        pend.simulate(3.0, 0.0, (0, 0.1), 0.1, 0.0)
+        pend.simulate(0.1, 0.0, 3.0, 0.0, (0, 0.1))
+    with pytest.raises(ValueError, match="method must be 'floquet'.*got 'exact'"):
+        pend.window(100.0, method="exact")
+    with pytest.raises(ValueError, match="about='inverted' only"):
+        pend.window(100.0, "hanging", method="averaging")
+    with pytest.raises(ValueError, match="horizontal drive"):
+        KapitzaPendulum(drive="horizontal").window(100.0)
 
 
 def test_empty_axes_give_empty_maps():

@@ -8,6 +8,7 @@ integrator for the variational flow, and direct simulation.
 import math
 import sys
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -90,7 +91,7 @@ def test_horizontal_orbit_against_direct_simulation():
     pend = KapitzaPendulum(drive="horizontal")
     w = 2 * math.pi * 60
     orbit = pend.floquet(0.05, w, about="tilted")
-    tr = pend.simulate(orbit.state[0], orbit.state[1], (0.0, 20 * 2 * math.pi / w), 0.05, w,
+    tr = pend.simulate(0.05, w, orbit.state[0], orbit.state[1], (0.0, 20 * 2 * math.pi / w),
                        rtol=1e-12, method="dop853")
     assert abs(tr.q[-1, 0] - orbit.state[0]) < 1e-8
     assert abs(tr.qdot[-1, 0] - orbit.state[1]) < 1e-6
@@ -136,7 +137,7 @@ def test_orbit_errors_name_the_fix():
         periodic_orbit(s, P)
     with pytest.raises(ValueError, match="drive frequency 'w'"):
         periodic_orbit(s, P, [1.5], frequency="w")
-    with pytest.raises(ValueError, match="guess must be 1 finite coordinates"):
+    with pytest.raises(ValueError, match="about must be 1 finite coordinates"):
         periodic_orbit(s, P, [1.5, 0.0, 0.0])
     with pytest.raises(ValueError, match=r"\(Aω\)² > 2gl"):
         KapitzaPendulum(drive="horizontal").floquet(0.001, 10.0, about="tilted")
@@ -151,7 +152,7 @@ def test_failing_trial_flow_is_a_rejected_step(monkeypatch, failure):
     mass matrix) is a rejected step: the step is halved and the iteration goes on to the
     same orbit (the horizontal drive's tilted orbit, to the residual tolerance).  Before,
     the exception escaped from the first trial."""
-    po = sys.modules["kapitza.periodic_orbit"]
+    po = sys.modules["kapitza.simulation._shooting"]
     s = problems.driven_pendulum("horizontal")
     P = dict(m=1.0, l=1.0, g=G, A=0.05, omega=2 * math.pi * 60)
     ref = periodic_orbit(s, P, [1.5])
@@ -198,3 +199,80 @@ def test_circular_pivot_at_omega_ratio_133_ends_in_seconds():
     assert abs(orbit.q_mean[0] - math.pi) < 1e-6
     assert np.max(np.abs(orbit.multipliers)) == pytest.approx(math.exp(2 * math.pi * w0 /
                                                                        P["omega"]), rel=3e-3)
+
+
+def test_guess_keyword_is_deprecated_for_about():
+    """``guess=`` (kapitza 0.1) still works in 0.2, warns with the new spelling, and gives
+    the same orbit to the last bit; giving both is an error."""
+    s = problems.driven_pendulum("horizontal")
+    P = dict(m=1.0, l=1.0, g=G, A=0.05, omega=2 * math.pi * 60)
+    new = periodic_orbit(s, P, [1.5])
+    with pytest.warns(DeprecationWarning, match=r"periodic_orbit\(about=\.\.\.\)") as rec:
+        old = periodic_orbit(s, P, guess=[1.5])
+    assert rec[0].filename == __file__                  # points at the caller's line
+    np.testing.assert_array_equal(old.state, new.state)
+    np.testing.assert_array_equal(old.multipliers, new.multipliers)
+    assert old.error_estimate == new.error_estimate
+    with pytest.raises(TypeError, match="pass only about"):
+        periodic_orbit(s, P, [1.5], guess=[1.5])
+    with pytest.raises(TypeError, match="unexpected keyword"):
+        periodic_orbit(s, P, [1.5], gues=[1.5])
+
+
+def test_error_estimate_covers_the_state_error():
+    """``error_estimate`` bounds the state's error (‖J⁻¹‖ × (residual + flow error)) and the
+    monodromy's: a loose orbit (tol = 1e-6) against the same orbit shot to 2e-12 differs by
+    less than its estimate, and the estimate is not vacuous (within 1000× of the difference;
+    measured 5.4e-7 state, 2.1e-7 monodromy for an estimate of 7.8e-5: the flow's
+    step-doubling difference overstates its error).  At the default tol the estimate is
+    below 1e-9 (the horizontal drive's tilted orbit at 60 Hz and the elliptic pivot's
+    upright orbit)."""
+    pend = KapitzaPendulum(drive="horizontal")
+    w = 2 * math.pi * 60
+    fine = pend.floquet(0.05, w, about="tilted", tol=2e-12)
+    loose = pend.floquet(0.05, w, about="tilted", tol=1e-6)
+    err = np.max(np.abs(loose.state - fine.state))
+    assert err <= loose.error_estimate < 1000 * err
+    assert np.max(np.abs(loose.monodromy - fine.monodromy)) <= loose.error_estimate
+    default = pend.floquet(0.05, w, about="tilted")
+    assert np.max(np.abs(default.state - fine.state)) <= default.error_estimate < 1e-9
+    s = elliptic_pendulum()
+    P = dict(m=1.0, l=1.0, g=G, A=0.002, B=0.05, omega=2 * math.pi * 60, gamma=0.0)
+    loose = periodic_orbit(s, P, [math.pi], tol=1e-6)
+    fine = periodic_orbit(s, P, loose.state, tol=2e-12)
+    assert np.max(np.abs(loose.state - fine.state)) <= loose.error_estimate < 1e-3
+    assert periodic_orbit(s, P, [math.pi]).error_estimate < 1e-9
+
+
+def test_symmetry_is_tested_not_assumed():
+    """The half-period shooting is used only where the vector field has the symmetry
+    f(2c − q, −q̇, t + T/2) = −f(q, q̇, t): the horizontal drive about θ = 0 (auto, or
+    declared with a full-state guess), not about the tilted guess, not the elliptic pivot
+    (B ≠ 0 breaks it; declaring it there is an error), never for an even ``periods``."""
+    s = problems.driven_pendulum("horizontal")
+    P = dict(m=1.0, l=1.0, g=G, A=0.01, omega=2 * math.pi * 30)
+    auto = periodic_orbit(s, P, [0.0])
+    assert "half-period" in auto.method and abs(auto.q_mean[0]) < 1e-12
+    declared = periodic_orbit(s, P, auto.state + [1e-3, 0.0], symmetry=[0.0])
+    assert "half-period" in declared.method
+    assert np.max(np.abs(declared.state - auto.state)) < 1e-12
+    full = periodic_orbit(s, P, [0.0], symmetry=None)
+    assert "half-period" not in full.method
+    assert np.max(np.abs(full.state - auto.state)) < 1e-9
+    # the two monodromies agree: (R X_h)² is the full period's
+    assert np.max(np.abs(full.monodromy - auto.monodromy)) < 1e-9
+    assert "half-period" not in periodic_orbit(s, dict(P, A=0.05, omega=2 * math.pi * 60),
+                                               [1.5]).method
+    with pytest.raises(ValueError, match="even number of periods"):
+        periodic_orbit(s, P, [0.0], symmetry=[0.0], periods=2)
+    assert "half-period" not in periodic_orbit(s, P, [0.0], periods=2).method
+    e = elliptic_pendulum()
+    Pe = dict(m=1.0, l=1.0, g=G, A=0.002, B=0.05, omega=2 * math.pi * 60, gamma=0.0)
+    with pytest.raises(ValueError, match="does not have the half-period reflection symmetry"):
+        periodic_orbit(e, Pe, [math.pi], symmetry=[math.pi])
+    assert "half-period" not in periodic_orbit(e, Pe, [math.pi]).method
+    with pytest.raises(ValueError, match="symmetry must be 'auto'"):
+        periodic_orbit(s, P, [0.0], symmetry="yes")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")              # a well-conditioned orbit warns nothing
+        periodic_orbit(s, P, [0.0])

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from kapitza.cli import _cli as cli
+from kapitza import cli
 
 README = Path(__file__).resolve().parent.parent / "README.md"
 

@@ -19,8 +19,8 @@ from helpers import G, L, interrupt_child, pendulum_monodromy
 
 import kapitza
 from kapitza import KapitzaPendulum
-from kapitza.cli._cli import main
-from kapitza.report._report import SECTIONS, build_report
+from kapitza.cli import main
+from kapitza.report import SECTIONS, build_report
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -83,7 +83,7 @@ def test_map_window_and_averaging_tables_agree_with_independent_values(quick):
     assert np.allclose(win.A_min_averaging_1 * win.omega, math.sqrt(2 * G * L), rtol=1e-12)
     # the exact edges, an independent call at a few frequencies
     some = win.iloc[::17]
-    again = pend.stability_window(some.omega.to_numpy())
+    again = pend.window(some.omega.to_numpy())
     assert np.allclose(some.A_min_exact, again.A_min, rtol=1e-9)
     assert np.allclose(some.A_max_exact, again.A_max, rtol=1e-9)
     # the map's labels against the window: stable inside, unstable outside (2 % margin)
@@ -208,7 +208,7 @@ def test_undriven_scene_is_refused(tmp_path):
 _CHILD = """
 import json, sys, time
 sys.path.insert(0, {root!r})
-from kapitza.report._report import ReportInterrupted, build_report
+from kapitza.report import ReportInterrupted, build_report
 
 
 def progress(message):        # "ready" once the first section is written

@@ -229,7 +229,7 @@ def browser(tmp_path_factory):
 @pytest.fixture(scope="module")
 def report(browser, tmp_path_factory):
     """The quick report, built once (after the browser: no build where the test is skipped)."""
-    from kapitza.report._report import build_report
+    from kapitza.report import build_report
 
     return build_report(out=tmp_path_factory.mktemp("report"), quick=True)
 

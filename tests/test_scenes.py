@@ -1,4 +1,4 @@
-"""Scene files (kapitza.scene_file, kapitza.Scene): the issue's file as written, the
+"""Scene files (kapitza.scenes, kapitza.Scene): the issue's file as written, the
 equations with and without each effect, every kind of bad file reported at once, the
 analyses run (only those asked for) and the tables written."""
 import math
@@ -162,8 +162,10 @@ def test_elliptic_drive_and_harmonics_and_vectors():
         frequency_hz = 10.0
         harmonics = [[1, 1.0, 0.0], [2, 0.5, 0.3]]
     ''')
-    drive = next(e for e in s.effects if isinstance(e, fx.PivotDrive))
+    drive = s.drive
+    assert drive is next(e for e in s.effects if isinstance(e, fx.PivotDrive))
     assert drive.harmonics == ((1, 1.0, 0.0), (2, 0.5, 0.3))
+    assert drive.path == (0.5, 0.8660254037844386) and not drive.keeps_vertical_equilibria
     assert s.params["m1"] == s.params["m2"] == 1.0 and s.params["g"] == 9.81
     assert s.capabilities["floquet"] == "periodic_orbit"
 
@@ -182,6 +184,7 @@ def test_chain_and_user_module_rigs(tmp_path, monkeypatch):
         theta3_dot = -0.2
     ''')
     assert s.system.coordinates == ("theta1", "theta2", "theta3")
+    assert s.drive is None                      # no [effects.drive]
     assert s.q0.tolist() == [0, 0, 0.1] and s.qdot0.tolist() == [0, 0, -0.2]
     (tmp_path / "my_rigs.py").write_text(textwrap.dedent('''
         import sympy as sp
@@ -211,7 +214,7 @@ def test_chain_and_user_module_rigs(tmp_path, monkeypatch):
     ''')
     assert s.system.parameters == ("g", "k_phi", "mu", "r")
     assert s.params == dict(r=2.0, mu=1.0, g=9.81, k_phi=3.0)      # the mass defaults to 1 kg
-    assert kapitza.scene.code_fingerprint("my_rigs") != kapitza.scene.code_fingerprint()
+    assert kapitza.scenes.code_fingerprint("my_rigs") != kapitza.scenes.code_fingerprint()
     with pytest.raises(SceneError, match="must return a lagrange_core.effects.Rig"):
         scene('[system]\nname = "my_rigs:not_a_rig"\n[parameters]\n')
     with pytest.raises(SceneError, match="Did you mean 'swing'"):
@@ -253,7 +256,8 @@ floquet = true
 BAD = {
     "no schema": (("schema = 1\n", ""), [("schema", None, "missing; a scene file starts with "
                                                           "`schema = 1`")]),
-    "future schema": (("schema = 1", "schema = 2"), [("schema", 1, "unsupported schema version 2")]),
+    "future schema": (("schema = 1", "schema = 2"),
+                      [("schema", 1, "unsupported schema version 2")]),
     "schema text": (("schema = 1", 'schema = "1"'), [("schema", 1, "must be the whole number 1")]),
     "unknown table": ("[analysis]\nfloquet = true\n",
                       [("analysis", 13, "unknown table 'analysis'"),
@@ -356,6 +360,14 @@ BAD = {
                                    "[2.0]\n",
                                    [("sweep.axes.effects.drive.omega", 15, "another axis "
                                                                            "sweeps already")]),
+    "omega swept twice, once in Hz": ("[sweep.axes]\nomega = [1.0]\nfrequency_hz = [2.0]\n",
+                                      [("sweep.axes.frequency_hz", 15, "sweeps omega, which "
+                                                                       "another axis sweeps "
+                                                                       "already")]),
+    "sweep of a frequency ≤ 0 Hz": ("[sweep.axes]\nfrequency_hz = [-2.0]\n",
+                                    [("sweep.axes.frequency_hz[0]", 14, "must be > 0 (Hz)")]),
+    "a window at 0 Hz": (("floquet = true", "window = { frequency_hz = [0.0] }"),
+                         [("analyses.window.frequency_hz[0]", 12, "must be > 0 (Hz)")]),
     "output formats": ("[output]\nformats = [\"hdf5\"]\n",
                        [("output.formats[0]", 14, "unknown value 'hdf5'; allowed: parquet, "
                                                   "csv")]),
@@ -391,6 +403,49 @@ def test_bad_scene_files_are_explained(case, tmp_path):
             assert f"{path}:{line}: {key}: " in text
         else:
             assert f"{key}: " in text
+
+
+def test_hertz_are_read_as_rad_per_s_once(tmp_path):
+    """frequency_hz wherever the file allows it (the drive, an analysis's axis, a sweep
+    axis) is read as omega in rad/s: the checked scene, the analyses and the sweep's
+    dataset hold omega only (docs/api-conventions.md §4)."""
+    w = 2 * math.pi
+    text = (_GOOD.replace("omega = 300.0", "frequency_hz = 50.0")
+            .replace("floquet = true", "floquet = true\nwindow = { frequency_hz = { start = "
+                     "10.0, stop = 100.0, num = 3, scale = \"log\" } }\nverify = { A = [0.1], "
+                     "frequency_hz = [50.0, 60.0] }")
+            + "[sweep]\nanalyses = [\"floquet\"]\n[sweep.axes]\nfrequency_hz = [40.0, 60.0]\n"
+            + "[output]\ndirectory = \"out\"\n")
+    s = Scene.from_text(text, str(tmp_path / "scene.toml"))
+    assert s.params["omega"] == w * 50.0
+    window = s.analyses["window"]
+    assert set(window) == {"omega"} and window["omega"].name == "omega"
+    assert window["omega"].kind == "log"
+    assert window["omega"].values == pytest.approx(tuple(w * np.geomspace(10.0, 100.0, 3)),
+                                                   rel=1e-15)
+    assert s.analyses["verify"]["omega"].values == (w * 50.0, w * 60.0)
+    (axis,) = s.spec.sweep["axes"]
+    assert (axis.name, axis.values, s.spec.sweep["targets"]) == ("omega", (w * 40, w * 60),
+                                                                 {"omega": "omega"})
+    assert "frequency_hz" not in repr((s.spec.params, s.spec.analyses, s.spec.sweep))
+    # the same scene in rad/s is the same scene: the same key, the same numbers
+    in_rad_s = Scene.from_text(
+        text.replace("frequency_hz = 50.0", f"omega = {w * 50.0!r}")
+        .replace("frequency_hz = { start = 10.0, stop = 100.0,",
+                 f"omega = {{ start = {w * 10.0!r}, stop = {w * 100.0!r},")
+        .replace("frequency_hz = [50.0, 60.0]", f"omega = [{w * 50.0!r}, {w * 60.0!r}]")
+        .replace("frequency_hz = [40.0, 60.0]", f"omega = [{w * 40.0!r}, {w * 60.0!r}]"),
+        str(tmp_path / "scene.toml"))
+    assert in_rad_s.params == s.params and in_rad_s.spec.sweep == s.spec.sweep
+    np.testing.assert_allclose(in_rad_s.analyses["window"]["omega"].values,
+                               window["omega"].values, rtol=1e-15)
+    # the sweep's dataset: an omega column in rad/s, each point Floquet at that omega
+    # (about "auto": the hanging state, nearest the initial θ = 0)
+    frame = s.sweep("floquet", progress=False).to_dataframe()
+    assert "frequency_hz" not in frame and frame["omega"].tolist() == [w * 40, w * 60]
+    for i in range(2):
+        one = kapitza.floquet_point(s.system, dict(s.params, omega=w * (40, 60)[i]), [0.0])
+        assert frame["trace"][i] == pytest.approx(one.trace, rel=1e-9)
 
 
 def test_g_without_gravity():
@@ -442,8 +497,8 @@ def test_syntax_errors_and_unreadable_files(tmp_path):
 
 
 def test_key_lines_follow_tables_inline_tables_and_multiline_arrays():
-    from kapitza.scenes._file import _key_lines
-    lines = _key_lines(textwrap.dedent('''\
+    from kapitza.scenes._checker import key_lines
+    lines = key_lines(textwrap.dedent('''\
         a = 1   # a comment with [brackets]
         [b]
         c = [
@@ -472,7 +527,7 @@ def test_only_the_analyses_asked_for_run_and_tables_are_written(tmp_path):
     assert list(res.results) == ["floquet", "window", "simulate"]
     fl = res["floquet"]
     assert isinstance(fl, kapitza.FloquetResult) and fl.stable      # Kapitza: upright held
-    exact = kapitza.KapitzaPendulum(l=1.0, g=9.81).stability_window(np.array([100.0, 300.0]))
+    exact = kapitza.KapitzaPendulum(l=1.0, g=9.81).window(np.array([100.0, 300.0]))
     np.testing.assert_array_equal(res["window"].A_min, exact.A_min)   # the exact window
     tr = res["simulate"]
     assert tr.t.shape == (11,) and tr.t[-1] == pytest.approx(5 * 2 * math.pi / 300.0)
@@ -487,7 +542,7 @@ def test_only_the_analyses_asked_for_run_and_tables_are_written(tmp_path):
     meta = json.loads(table.schema.metadata[b"kapitza"])
     assert meta["scene"] == path.read_text() and meta["analysis"] == "simulate"
     assert meta["parameters"]["omega"] == 300.0 and meta["versions"]["numpy"] == np.__version__
-    assert meta["fingerprint"] == kapitza.scene.code_fingerprint()
+    assert meta["fingerprint"] == kapitza.scenes.code_fingerprint()
     frame = table.to_pandas()
     assert list(frame.columns[:2]) == ["t", "theta"] and len(frame) == 11
     fl_table = pd.read_parquet(out / "floquet.parquet")         # complex multipliers, split
@@ -523,8 +578,30 @@ def test_floquet_follows_the_effects():
         ''').run()
 
 
+def test_map_and_window_of_a_system_off_the_plain_pendulum():
+    """A spring at the upright (rest = π) makes the scene a general system: the map by
+    monodromy (kapitza.stability_map) and the window by averaging (AveragedSystem.window).
+    Its linearisation is the pendulum's with g' = g − k/(m l): the exact Mathieu map and
+    averaging's A_min ω = √(2 g' l) are independent references."""
+    A = [0.01, 0.02, 0.4, 0.5]
+    s = Scene.from_text(_GOOD.replace("[analyses]", f"[effects.spring.theta]\nk = 2.0\nrest = "
+                                                    f"{math.pi!r}\n[analyses]")
+                        .replace("floquet = true", f"stability_map = {{ A = {A}, omega = "
+                                                   "[300.0], about = \"inverted\" }\nwindow = "
+                                                   "{ omega = [300.0, 600.0], about = \"inverted\" }"))
+    assert s.pendulum is None
+    res = s.run(write=False)
+    g_eff = 9.81 - 2.0 / (1.0 * 1.0)
+    exact = kapitza.KapitzaPendulum(l=1.0, g=g_eff).stability_map(np.array(A), np.array([300.0]))
+    np.testing.assert_array_equal(res["stability_map"].stable, exact.stable)
+    assert exact.stable[:, 0].tolist() == [False, True, True, False]
+    window = res["window"]
+    assert window.method == "averaging"
+    np.testing.assert_allclose(window.A_min, np.sqrt(2 * g_eff) / np.array([300.0, 600.0]),
+                               rtol=1e-12)
+
+
 def test_verify_compares_the_methods_over_a_grid():
-    pytest.importorskip("kapitza.verify")
     res = Scene.from_text(_GOOD.replace("[analyses]", "[initial]\ntheta = 3.13\n[analyses]")
                           .replace("floquet = true", "verify = { A = [0.03, 0.05], omega = "
                                                      "[300.0], periods = 300 }")).run()

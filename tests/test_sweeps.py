@@ -1,4 +1,4 @@
-"""Sweeps (kapitza.sweep, Scene.sweep): tiles as atomic Parquet parts with metadata, a
+"""Sweeps (kapitza.scenes._sweep, Scene.sweep): tiles as atomic Parquet parts with metadata, a
 restart that skips finished tiles, a killed sweep resumed to the same dataset, Ctrl-C
 keeping finished tiles, the analyses over tiles, and serial = numba threads = a Dask
 LocalCluster to the bit."""
@@ -70,7 +70,7 @@ def test_sweep_parts_metadata_and_restart(tmp_path, capsys):
     import pyarrow.parquet as pq
     meta = json.loads(pq.read_schema(res.path / "_common_metadata").metadata[b"kapitza"])
     assert meta["scene"] == SCENE and meta["analysis"] == "simulate"
-    assert meta["fingerprint"] == kapitza.scene.code_fingerprint()
+    assert meta["fingerprint"] == kapitza.scenes.code_fingerprint()
     assert meta["versions"]["pyarrow"] and meta["versions"]["numba"]
     assert meta["axes"]["A"]["kind"] == "linear" and meta["parameters"]["omega"] == 200.0
     part_meta = json.loads(pq.read_schema(res.path / parts(res.path)[1]).metadata[b"kapitza"])
@@ -217,7 +217,7 @@ def test_floquet_and_averaging_sweeps_agree_with_the_exact_window(tmp_path):
         direction="vertical", theta=3.1, analyses="floquet = true\naveraging = true",
         axes="A = { start = 0.005, stop = 0.5, num = 12 }"))
     fl = s.sweep("floquet", directory=tmp_path, progress=False).to_dataframe()
-    win = kapitza.KapitzaPendulum(l=1.0, g=9.81).stability_window(200.0)
+    win = kapitza.KapitzaPendulum(l=1.0, g=9.81).window(200.0)
     inside = (fl["A"] > win.A_min) & (fl["A"] < win.A_max)
     assert fl["stable"].tolist() == inside.tolist() and 0 < inside.sum() < 12
     assert {"trace", "boundary", "omega_slow_0", "flags"} <= set(fl.columns)
@@ -263,6 +263,28 @@ def test_measure_sweep_over_initial_angles(tmp_path):
     assert m["stayed_up"].all()
     assert m["omega_slow_0"][1] == pytest.approx(math.sqrt((0.05 * 200) ** 2 / 2 - 9.81),
                                                  rel=0.02)
+
+
+# -- the code fingerprint ----------------------------------------------------------------------
+
+def test_the_code_fingerprint_covers_subpackages_not_figures_or_the_cli():
+    """Every module that can change a number counts, at any depth (a subpackage's private
+    modules too): changed analysis code starts a new dataset instead of resuming one.
+    Figures and the command line do not count."""
+    from kapitza.scenes import code_fingerprint, fingerprinted_modules
+    from lagrange_core.module_store import source_fingerprint
+    mods = fingerprinted_modules()
+    names = {m.__name__ for m in mods}
+    floquet = sys.modules[kapitza.floquet_point.__module__]        # wherever it lives now
+    assert floquet.__name__.startswith("kapitza.floquet.") and floquet in mods
+    assert {"kapitza", "kapitza.floquet", "kapitza.scenes._analyses", "kapitza.scenes._file",
+            "lagrange_core", "lagrange_core.systems"} <= names
+    for excluded in ("kapitza.figures", "kapitza.cli"):
+        assert not [n for n in names if n == excluded or n.startswith(excluded + ".")]
+    from kapitza.scenes._scene import _package_fingerprint
+    _package_fingerprint.cache_clear()          # of the sources as they are now
+    assert code_fingerprint() == source_fingerprint(*mods)
+    assert source_fingerprint(*[m for m in mods if m is not floquet]) != code_fingerprint()
 
 
 # -- executors --------------------------------------------------------------------------------

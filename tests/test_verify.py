@@ -15,8 +15,9 @@ import sympy as sp
 
 import kapitza
 from kapitza import KapitzaPendulum, Verification
-from kapitza.verification._verify import fit_order
-from lagrange_core import problems, t as t_sym
+from kapitza.verification import fit_order
+from lagrange_core import problems
+from lagrange_core import t as t_sym
 
 G, L = 9.81, 1.0
 PEND = KapitzaPendulum(l=L, g=G)
@@ -32,7 +33,7 @@ A_GRID = np.array([0.01, 0.02, 0.03, 0.05, 0.08, 0.12])
 
 def _on_edge(A):
     """ω (rad/s) at which the exact lower edge of the window is A."""
-    return scipy.optimize.brentq(lambda w: float(PEND.stability_window(w).A_min) - A, 20.0,
+    return scipy.optimize.brentq(lambda w: float(PEND.window(w).A_min) - A, 20.0,
                                  2000.0, xtol=1e-13, rtol=1e-14)
 
 
@@ -60,7 +61,7 @@ def test_pendulum_grid_classifications(pendulum):
     assert isinstance(v, Verification) and v.shape == (6, 6)
     assert v.methods == ("averaging", "averaging_2", "floquet", "simulation")
     # the exact window decides Floquet's classification: A_min < A < A_max
-    edges = PEND.stability_window(v.omega[0])
+    edges = PEND.window(v.omega[0])
     np.testing.assert_array_equal(v.stable_floquet, (v.A > edges.A_min) & (v.A < edges.A_max))
     assert 0 < v.stable_floquet.sum() < v.stable_floquet.size
     assert set(np.unique(v.simulation_status)) <= {"finished", "left_band"}
@@ -211,6 +212,29 @@ def test_refusals(chain_verification):
         PEND.verify(0.05, 200.0, line=3.0, periods=50)
     with pytest.raises(ValueError, match="horizontal"):
         KapitzaPendulum(drive="horizontal").verify(0.05, 200.0)
-    with pytest.raises(TypeError, match="verification_figure"):
-        Verification(**{**{f: getattr(v, f) for f in v.__dataclass_fields__},
-                        "figure_function": None}).figure()
+    with pytest.raises(ValueError, match="no field 'omega_slow_averaging_2'"):
+        v.modes("omega_slow_averaging_2")
+    with pytest.raises(ValueError, match="pass one of"):
+        v.modes("stable_floquet")
+
+
+def test_a_verification_is_data_that_draws_itself(chain_verification):
+    """Rebuilt from its fields alone (nothing injected by verify), a Verification compares
+    and draws itself as the original does; modes() gives every slow-frequency field a mode
+    axis."""
+    v = chain_verification
+    copy = Verification(**{f: getattr(v, f) for f in v.__dataclass_fields__})
+    for pair in (("floquet", "simulation"), ("averaging", "floquet")):
+        for a, b in zip(copy.compare(*pair, "omega_slow"), v.compare(*pair, "omega_slow"),
+                        strict=True):
+            np.testing.assert_array_equal(a, b)
+    assert copy.agreement.equals(v.agreement)
+    assert len(copy.figure(dimensionless=False).axes) == 2
+    assert v.modes("omega_slow_floquet").shape == (4, 3, 2)
+    np.testing.assert_array_equal(v.modes("tolerance_simulation"), v.tolerance_simulation)
+
+
+def test_modes_adds_the_axis_of_one_coordinate(pendulum):
+    x = pendulum.modes("omega_slow_averaging_2")
+    assert x.shape == pendulum.shape + (1,)
+    np.testing.assert_array_equal(x[..., 0], pendulum.omega_slow_averaging_2)

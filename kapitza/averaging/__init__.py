@@ -1,12 +1,20 @@
 """Multiple-scale averaging of any driven system: the effective potential U_eff, its
 equilibria and slow modes, the averaging window, and where averaging holds.
 
-Public: :func:`average`, :class:`AveragedSystem`, :class:`AveragingValidityWarning`.
-For sibling subpackages: the validity limits ``MIN_FREQUENCY_RATIO`` and
-``MAX_AMPLITUDE_RATIO``.
+Public: :func:`average`, :class:`AveragedSystem`, :class:`AveragingValidityWarning`,
+:func:`fourier_split`, and the validity limits ``MIN_FREQUENCY_RATIO`` and
+``MAX_AMPLITUDE_RATIO``.  For sibling subpackages (not in ``__all__``):
+``keyword_options`` (old positional options and keywords that still work in 0.2, with a
+warning).
+
+Modules: ``_average`` (the method and :class:`AveragedSystem`), ``_fourier`` (the
+harmonic split), ``_codegen`` (the compiled U_eff kernels), ``_window`` (the averaging
+window per ω), ``_validity`` (the thresholds), ``_legacy`` (old spellings).
 """
-from ._average import (MAX_AMPLITUDE_RATIO, MIN_FREQUENCY_RATIO, AveragedSystem,
-                       AveragingValidityWarning, average, fourier_split)
+from ._average import AveragedSystem, average
+from ._fourier import fourier_split
+from ._legacy import keyword_options as keyword_options
+from ._validity import MAX_AMPLITUDE_RATIO, MIN_FREQUENCY_RATIO, AveragingValidityWarning
 
 __all__ = ["average", "AveragedSystem", "AveragingValidityWarning", "fourier_split",
            "MIN_FREQUENCY_RATIO", "MAX_AMPLITUDE_RATIO"]

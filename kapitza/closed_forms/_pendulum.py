@@ -8,12 +8,12 @@ y_p = A cos ωt (vertical) or x_p = A cos ωt (horizontal); viscous damping γ (
 Everything here is a closed form, vectorised over arrays of A and ω (numpy speed, no
 compilation): first-order (Kapitza/Landau) averaging of the single pendulum for
 either drive, the next order for the vertical drive through the Mathieu equation's
-series (:mod:`kapitza.mathieu`), the averaging stability window, and the N-link
-chain on a vertically driven pivot (Acheson 1993), whose modes are single pendulums.
-The general method for any system is :mod:`kapitza.averaging` (whose validity
-thresholds apply here too); the exact (Floquet) counterparts are
-:func:`kapitza.mathieu.pendulum_stability_window` and
-:func:`kapitza.mathieu.pendulum_stability_map`.
+series (:mod:`kapitza.closed_forms._characteristic`), the averaging window, and the
+N-link chain on a vertically driven pivot (Acheson 1993), whose modes are single
+pendulums.  The general method for any system is :mod:`kapitza.averaging` (whose
+validity thresholds apply here too); the exact (Floquet) counterparts are
+:func:`kapitza.closed_forms.pendulum_window` and
+:func:`kapitza.closed_forms.pendulum_stability_map`.
 """
 from __future__ import annotations
 
@@ -24,17 +24,19 @@ import warnings
 import numpy as np
 import scipy.linalg
 
-from .. import _arguments as arguments
-from ..averaging import MAX_AMPLITUDE_RATIO, MIN_FREQUENCY_RATIO, AveragingValidityWarning
 from lagrange_core.progress import run_in_chunks
-from ._mathieu import (amplitude_from_q, characteristic_value, exponent_squared, mathieu_b1,
-                      mathieu_b1_root, mathieu_parameters)
+
+from .. import _arguments as arguments
+from .._deprecation import warn_deprecated
+from ..averaging import MAX_AMPLITUDE_RATIO, MIN_FREQUENCY_RATIO, AveragingValidityWarning
 from ..results import (ComputationInterrupted, EquilibriumPrediction, MultiplePendulumPrediction,
-                      PendulumAveraging, StabilityWindow)
+                       PendulumAveraging, StabilityWindow)
 from ..results import scalar_or_array as _s
+from ._characteristic import characteristic_value, exponent_squared, mathieu_b1, mathieu_b1_root
+from ._mathieu import amplitude_from_q, mathieu_parameters
 
 __all__ = ["MAX_CORRECTION", "pendulum_effective_potential", "pendulum_averaged",
-           "averaging_window", "multiple_pendulum_upright"]
+           "multiple_pendulum_upright"]
 
 #: A vertically driven pendulum's prediction is also flagged invalid when the next-order
 #: correction changes the slow frequency or growth rate by more than this fraction, or
@@ -45,21 +47,43 @@ __all__ = ["MAX_CORRECTION", "pendulum_effective_potential", "pendulum_averaged"
 MAX_CORRECTION = 0.1
 
 
-def pendulum_effective_potential(theta, A, omega, *, l=1.0, g=9.81, drive="vertical"):
+def _theta_was_first(function):
+    """Before kapitza 0.2 the angle came first, ``(theta, A, omega)``: a call with three
+    positional arguments is that order; it still works and warns."""
+    @functools.wraps(function)
+    def wrapper(*args, **kwargs):
+        if len(args) == 3:
+            if "theta" in kwargs:
+                raise TypeError("pendulum_effective_potential() got theta twice; call "
+                                "pendulum_effective_potential(A, omega, theta=theta).")
+            warn_deprecated("kapitza.pendulum_effective_potential(theta, A, omega)",
+                            "kapitza.pendulum_effective_potential(A, omega, theta=theta)")
+            theta, A, omega = args
+            args, kwargs = (A, omega), dict(kwargs, theta=theta)
+        return function(*args, **kwargs)
+
+    return wrapper
+
+
+@_theta_was_first
+def pendulum_effective_potential(A, omega, *, theta, l=1.0, g=9.81, drive="vertical"):
     """U_eff(θ)/m (J/kg) of the driven pendulum, first-order averaging.
 
     vertical:   U_eff/m = −g l cos θ + A² ω² sin² θ / 4
     horizontal: U_eff/m = −g l cos θ + A² ω² cos² θ / 4
 
-    Relative error O(ε²), ε² ~ ω0²/ω² ~ A²/l² (see :func:`kapitza.mathieu.exponent_squared`).
-    Broadcasts over θ (rad), A (m) and ω (rad/s).
+    Relative error O(ε²), ε² ~ ω0²/ω² ~ A²/l² (see
+    :func:`kapitza.closed_forms._characteristic.exponent_squared`).  Broadcasts over
+    A (m), ω (rad/s) and θ (rad).  The drive comes first (``docs/api-conventions.md``
+    §2); before kapitza 0.2 the order was ``(theta, A, omega)``, which still works and
+    warns.
 
     Examples
     --------
     Above A ω = √(2 g l) the upright θ = π is a minimum of U_eff:
 
     >>> import numpy as np
-    >>> U = pendulum_effective_potential(np.pi + np.array([-0.1, 0.0, 0.1]), 0.05, 150.0)
+    >>> U = pendulum_effective_potential(0.05, 150.0, theta=np.pi + np.array([-0.1, 0.0, 0.1]))
     >>> bool(U[1] < U[0] and U[1] < U[2])
     True
     """
@@ -101,7 +125,7 @@ def pendulum_averaged(A, omega, *, l=1.0, g=9.81, damping=0.0, drive="vertical",
         :mod:`kapitza.averaging` and :data:`MAX_CORRECTION`).
     progress : None, bool or callable
         Arrays of more than :data:`CHUNK_POINTS` points run in chunks of about 0.25 s
-        (:func:`kapitza.floquet.run_in_chunks`): a progress line on stderr for calls
+        (:func:`lagrange_core.progress.run_in_chunks`): a progress line on stderr for calls
         longer than 0.5 s when stderr is a terminal (None), always (True), never
         (False), or ``progress(done, total)`` after every chunk.
 
@@ -264,7 +288,7 @@ CHUNK_POINTS = 1 << 16
 
 def _in_chunks(fn, A, omega, progress=None):
     """``fn(A, omega)`` → [(name, {field: array})] over broadcast arrays of any size, in
-    chunks (:func:`kapitza.floquet.run_in_chunks`: about 0.25 s each, progress, Ctrl-C)
+    chunks (:func:`lagrange_core.progress.run_in_chunks`: about 0.25 s each, progress, Ctrl-C)
     of at most :data:`CHUNK_POINTS` flat points per numpy pass, assembled into arrays of
     A's shape.  Returns (fields, None), or after Ctrl-C (the finished flat prefix of
     every field, computed) with ``computed`` the mask of finished points on A's shape."""
@@ -291,51 +315,32 @@ def _in_chunks(fn, A, omega, progress=None):
             for name, fields in out], None
 
 
-def averaging_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2, warn=True) -> StabilityWindow:
-    """The drive amplitudes that keep the vertically driven pendulum upright, at each ω.
+def averaged_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2, warn=True,
+                    stacklevel=2) -> StabilityWindow:
+    """The averaging window of :func:`kapitza.closed_forms.pendulum_window`
+    (``method="averaging"``): the amplitudes that keep the vertically driven pendulum
+    upright, at each ω, by averaging of order ``order``.
 
     Order 1: A_min = √(2 g l)/ω, A_max = +inf (first order cannot see the upper
-    limit).  Order 2: A_min from ν²(a′, q) = −γ²/ω² (:func:`kapitza.mathieu.exponent_squared`),
-    i.e. (undamped) A²ω²(1 − 7A²/(16 l²)) ≈ 2 g l, relative error O(ε⁴); A_max from
-    the parametric resonance a′ = b₁(2A/l), → 0.4540 l as ω → ∞ (b₁ from its series,
-    :func:`kapitza.mathieu.mathieu_b1`, up to q = 1, A/l = 0.5, where it is good to 7e-7;
-    beyond, at ω ≲ 6 ω0, from the exact characteristic value).  Where the order-2 edges
-    cross (A_min ≥ A_max, at low ω) the prediction has no window: both edges are NaN
-    and ``exists`` is False.  The exact window is
-    :func:`kapitza.mathieu.pendulum_stability_window`.
+    limit).  Order 2: A_min from ν²(a′, q) = −γ²/ω²
+    (:func:`~kapitza.closed_forms._characteristic.exponent_squared`), i.e. (undamped)
+    A²ω²(1 − 7A²/(16 l²)) ≈ 2 g l, relative error O(ε⁴); A_max from the parametric
+    resonance a′ = b₁(2A/l), → 0.4540 l as ω → ∞ (b₁ from its series,
+    :func:`~kapitza.closed_forms._characteristic.mathieu_b1`, up to q = 1, A/l = 0.5,
+    where it is good to 7e-7; beyond, at ω ≲ 6 ω0, from the exact characteristic
+    value).  Where the order-2 edges cross (A_min ≥ A_max, at low ω) the prediction
+    has no window: both edges are NaN and ``exists`` is False.
 
     Validity is reported as by :func:`pendulum_averaged`: ``fast_drive``
     (ω ≥ MIN_FREQUENCY_RATIO × max(ω0, γ)), ``small_amplitude`` (A_min/l ≤
     MAX_AMPLITUDE_RATIO), ``converged`` (the next order moves A_min by at most
-    :data:`MAX_CORRECTION`) and ``valid`` (all three, and a window exists).
-
-    Parameters
-    ----------
-    omega : float or array
-        Drive angular frequency (rad/s).
-    l, g, damping : float
-        Length (m), gravity (m/s²), damping rate γ (1/s).
-    order : {1, 2}
-    warn : bool
-        Emit :class:`~kapitza.averaging.AveragingValidityWarning` for a scalar ω whose
-        window is not valid (arrays only set the flags).
-
-    Returns
-    -------
-    kapitza.results.StabilityWindow
-        ``method="averaging"``, fields of ``omega``'s shape (floats for a scalar).
+    :data:`MAX_CORRECTION`) and ``valid`` (all three, and a window exists); with
+    ``warn`` a scalar ω whose window is not valid emits an
+    :class:`~kapitza.averaging.AveragingValidityWarning` at ``stacklevel``.
 
     Examples
     --------
-    Order 2 against the exact window (l = 1 m, ω = 50 and 500 rad/s):
-
-    >>> from kapitza.mathieu import pendulum_stability_window
-    >>> win, exact = averaging_window([50.0, 500.0], order=2), pendulum_stability_window([50.0, 500.0])
-    >>> print(win.A_min.round(5), exact.A_min.round(5))
-    [0.08874 0.00886] [0.08874 0.00886]
-    >>> print(win.A_max.round(4), exact.A_max.round(4))
-    [0.4606 0.4541] [0.4606 0.4541]
-    >>> print(f"order 1: {averaging_window(50.0, order=1).A_min:.5f} m = √(2 g l)/ω")
+    >>> print(f"order 1: {averaged_window(50.0, order=1).A_min:.5f} m = √(2 g l)/ω")
     order 1: 0.08859 m = √(2 g l)/ω
     """
     _, omega = arguments.drive(0.0, omega)
@@ -370,7 +375,7 @@ def averaging_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2, warn=True) -
         if not converged:
             why.append(f"the next order moves A_min by {err:.3g} (> {MAX_CORRECTION:g})")
         warnings.warn(f"averaging window at ω = {float(omega):.4g} rad/s outside its regime: "
-                      + "; ".join(why), AveragingValidityWarning, stacklevel=2)
+                      + "; ".join(why), AveragingValidityWarning, stacklevel=stacklevel)
     return StabilityWindow(method="averaging", about="inverted", order=order, l=l, g=g,
                            damping=damping, omega=_s(omega), A_min=_s(A_min), A_max=_s(A_max),
                            exists=_s(exists), frequency_ratio=_s(ratio), error_estimate=_s(err),
@@ -378,7 +383,7 @@ def averaging_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2, warn=True) -
                            converged=_s(converged), valid=_s(valid))
 
 
-#: b₁'s series (:func:`kapitza.mathieu.mathieu_b1`) is used for q ≤ this (absolute error
+#: b₁'s series (:func:`~kapitza.closed_forms._characteristic.mathieu_b1`) is used for q ≤ this (absolute error
 #: 7e-7 here, 3e-5 at q = 1.5, 2e-3 at q = 2.5); beyond, the exact characteristic value.
 _B1_SERIES_LIMIT = 1.0
 

@@ -1,9 +1,26 @@
 """Figures: matplotlib ``Figure``s that draw results and overlays; they compute no physics.
+
+Each function draws the results it is given (the value types of :mod:`kapitza.results`,
+read by their fields: this room never imports them) and returns a
+:class:`matplotlib.figure.Figure` on the Agg canvas (no pyplot state, nothing shown); save
+it with ``fig.savefig(path)``.
+
+Modules: ``_maps`` (parameter planes: stability maps with windows and boundary curves,
+spot checks, the Ince–Strutt chart), ``_lines`` (curves against one variable: the
+effective potential, the window's error, slow frequencies and the tilt against A,
+work against precision), ``_verification`` (a verification's map and its slow
+frequencies), ``_common`` (the canvas, the check of what a figure is given, labels).
 """
-from ._plots import (_figure, effective_potential_figure, ince_strutt_figure, legend_below,
-                     slow_frequency_figure, slow_frequency_line_figure, spot_check_figure,
-                     stability_map_figure, tilt_figure, verification_figure,
-                     window_error_figure, work_precision_figure)
+from ._common import legend_below
+from ._lines import (
+    effective_potential_figure,
+    slow_frequency_line_figure,
+    tilt_figure,
+    window_error_figure,
+    work_precision_figure,
+)
+from ._maps import ince_strutt_figure, spot_check_figure, stability_map_figure
+from ._verification import slow_frequency_figure, verification_figure
 
 __all__ = ["stability_map_figure", "effective_potential_figure", "ince_strutt_figure",
            "verification_figure", "work_precision_figure", "spot_check_figure",

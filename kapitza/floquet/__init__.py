@@ -1,8 +1,65 @@
 """Floquet analysis of any driven system: the monodromy by a Taylor method on the exact
 Jacobian, per point and over grids; stability maps; exact windows and boundary curves.
+
+The linear time-periodic system
+-------------------------------
+Let y* = [q*, 0] be a state that persists under the drive (q̈ = 0 with q̇ = 0 at all t,
+e.g. the inverted pendulum θ = π).  Small deviations obey
+
+    x′ = J(t) x,    J(t) = ∂(dy/dt)/∂y at (t, y*),    J(t + T) = J(t),
+
+with J from the system's exact compiled ``jacobian`` kernel (no finite differences) and
+T = 2π/ω the drive period.  The monodromy M = X(T) (X′ = J X, X(0) = I, 2n × 2n) decides
+stability: the equilibrium is (linearly, asymptotically) stable when every multiplier λ
+(eigenvalue of M) has |λ| < 1, and, for an undamped system, when all lie on the unit
+circle.  J is sampled over one period and expanded in a trigonometric series, and M is
+integrated by a Taylor series method of order 16 whose steps meet the tolerance, with the
+error estimate reported (:mod:`kapitza.floquet._monodromy`, :mod:`kapitza.floquet._kernels`);
+Liouville's formula and the pairing λ, 1/λ of undamped systems guard every result
+(:mod:`kapitza.floquet._multipliers`).
+
+Entry points and results
+------------------------
+All take ``(system, params, about, *, ...)`` (docs/api-conventions.md), the grid's axes as
+keywords named by the parameter they vary:
+
+:func:`floquet_point`
+    One parameter set → :class:`~kapitza.results.FloquetResult`.
+:func:`floquet_grid`
+    A broadcast grid of parameter sets → :class:`~kapitza.results.FloquetGrid`.
+:func:`monodromy_data`
+    The matrices only → :class:`~kapitza.results.MonodromyData`.
+:func:`stability_map`
+    An (A, ω) grid, ``A=``, ``omega=`` → :class:`~kapitza.results.StabilityMap`.
+:func:`adaptive_map`
+    The same map, refined only where the classification changes →
+    :class:`~kapitza.results.AdaptiveMap`.
+:func:`window`
+    The stabilising amplitudes per ω, ``omega=``, certified edges →
+    :class:`~kapitza.results.StabilityWindow`.
+:func:`boundaries`
+    The curves A_k(ω) by continuation, ``omega=``, ``A_range=`` →
+    :class:`~kapitza.results.BoundaryCurves`.
+
+Windows, boundaries and adaptive maps find where stability changes as roots of smooth
+margins such as det(M ∓ I) (:mod:`kapitza.floquet._margins`), not by bisection on the flag.
+The single pendulum's maps and windows go through the Mathieu equation instead
+(:mod:`kapitza.closed_forms`), which is faster and exact to rounding.
+
+Examples
+--------
+The inverted pendulum (l = 1 m) shaken vertically with A = 5 cm at 60 Hz is stable:
+
+>>> import math
+>>> from lagrange_core import problems
+>>> r = floquet_point(problems.driven_pendulum("vertical"),
+...                   dict(m=1.0, l=1.0, g=9.81, A=0.05, omega=2 * math.pi * 60), [math.pi])
+>>> r.stable, r.boundary
+(True, 'stable')
 """
-from ._analysis import (adaptive_map, boundaries, floquet_grid, floquet_point, monodromy_data,
-                        stability_map, window)
+from ._maps import adaptive_map, stability_map
+from ._point import floquet_grid, floquet_point, monodromy_data
+from ._window import boundaries, window
 
 __all__ = ["floquet_point", "floquet_grid", "monodromy_data", "stability_map", "window",
            "boundaries", "adaptive_map"]

@@ -1,15 +1,43 @@
 """Every result of kapitza: frozen dataclasses with named fields and ``to_dataframe()``.
 
 The lowest room of the package: it imports no other kapitza subpackage (a result's
-``figure()`` draws itself through :mod:`kapitza.figures`, which reads results but never
-imports them at run time).
+``figure()`` draws itself through :mod:`kapitza.figures`, imported inside the method;
+the figures read results but never import them at run time).
+
+By concept: Floquet analysis (``FloquetResult``, ``MonodromyData``, ``FloquetGrid``);
+stability over the drive's plane (``StabilityMap``, ``AdaptiveMap``, ``StabilityWindow``,
+``BoundaryCurves``, ``InceStruttChart``); averaging (``SlowModes``,
+``AveragingPrediction``, ``SlowModeSweep``, and in closed form ``EquilibriumPrediction``,
+``PendulumAveraging``, ``MultiplePendulumPrediction``); direct simulation
+(``Measurement``, ``PeriodicOrbit``); verification (``Verification``, ``OrderFit``); and
+``ComputationInterrupted``, Ctrl-C during a long grid with the finished part.
+
+For sibling rooms (not in ``__all__``): ``BOUNDARIES`` (the names of the stability
+labels), ``VERIFICATION_METHODS`` and ``scalar_or_array``.
 """
-from ._results import (BOUNDARIES, VERIFICATION_METHODS, AdaptiveMap, AveragingPrediction,
-                       BoundaryCurves, ComputationInterrupted, EquilibriumPrediction,
-                       FloquetGrid, FloquetResult, FloquetWindow, InceStruttChart, Measurement,
-                       MonodromyData, MultiplePendulumPrediction, OrderFit, PendulumAveraging,
-                       PeriodicOrbit, SlowModes, SlowModeSweep, StabilityMap, StabilityWindow,
-                       Verification, scalar_or_array)
+from ._averaging import (
+    AveragingPrediction,
+    EquilibriumPrediction,
+    MultiplePendulumPrediction,
+    PendulumAveraging,
+    SlowModes,
+    SlowModeSweep,
+)
+from ._base import BOUNDARIES as BOUNDARIES
+from ._base import ComputationInterrupted
+from ._base import scalar_or_array as scalar_or_array
+from ._floquet import FloquetGrid, FloquetResult, MonodromyData
+from ._maps import (
+    AdaptiveMap,
+    BoundaryCurves,
+    FloquetWindow,
+    InceStruttChart,
+    StabilityMap,
+    StabilityWindow,
+)
+from ._simulation import Measurement, PeriodicOrbit
+from ._verification import VERIFICATION_METHODS as VERIFICATION_METHODS
+from ._verification import OrderFit, Verification
 
 __all__ = [
     "ComputationInterrupted", "FloquetResult", "MonodromyData", "FloquetGrid", "StabilityMap",

@@ -1,72 +1,13 @@
-"""Scene files: a physical set-up in TOML, read and checked as a whole.
+"""Reading a scene file: parsed with :mod:`tomllib`, every key checked before anything is built.
 
-A scene file says what a lecture's figure says — what hangs from the pivot, the
-parameter values, the physics switched on, where the motion starts — and which
-analyses to run.  :func:`read_scene` parses it with the standard library's
-:mod:`tomllib` and checks every key before anything is built; every problem found
-is collected and raised together as one :class:`SceneError`, each naming the file,
-the dotted key and its line, what is allowed, and the nearest allowed key for a
-misspelt one.  :class:`kapitza.Scene` builds the System and runs the analyses.
-
-Schema 1
---------
-Top level: ``schema = 1`` (required), ``title`` (text, optional) and the tables
-
-``[system]``
-    ``name``: a rig of :data:`lagrange_core.effects.RIGS` ("pendulum",
-    "double_pendulum", "triple_pendulum"), "chain" with ``links = n``, or a user's
-    function ``"package.module:function"`` that returns a
-    :class:`lagrange_core.effects.Rig` (called with the keyword arguments of the
-    optional table ``[system.options]``).
-``[parameters]``
-    The rig's parameters by name (the pendulum: ``l`` (m), ``m`` (kg); a chain ``l1`` …
-    ``ln``, ``m1`` … ``mn``) and ``g`` (m/s²) with gravity on.  Lengths are required;
-    masses default to 1 kg and ``g`` to 9.81 m/s².  A parameter the rig declares
-    positive (lengths, masses) must be > 0; ``g`` ≥ 0.
-``[effects]``
-    Only the effects named here enter the equations (:mod:`lagrange_core.effects`):
-
-    * ``gravity = true``;
-    * ``[effects.drive]``: ``direction`` ("vertical" (default), "horizontal", a vector
-      ``[dx, dy]``, or "elliptic": x = A cos ωt, y = B sin ωt), ``amplitude`` A (m, ≥ 0),
-      ``amplitude_y`` B (m, the ellipse only; its sign sets the sense of rotation),
-      ``frequency_hz`` f (> 0) or ``omega`` (rad/s, > 0), ``harmonics``
-      ``[[k, a_k, phase], ...]`` (A Σ a_k cos(kωt + phase); not for the ellipse);
-    * ``[effects.damping]``: ``gamma`` (1/s, ≥ 0), θ̈ = −γ θ̇ − …;
-    * ``[effects.air_drag]``: ``c`` (kg/m, ≥ 0), −c |v| v on every mass;
-    * ``[effects.spring.<coordinate>]``: ``k`` (> 0), ``rest`` (default 0).
-``[initial]``
-    Initial coordinates by name and velocities ``<coordinate>_dot`` (default 0).
-``[analyses]``
-    Each ``name = true`` or a table of its settings; only those named run (how each is
-    computed: :mod:`kapitza.scene`).  An *axis* is a list of values or a range
-    ``{start, stop, num, scale = "linear" | "log"}``; ``about`` is "inverted",
-    "hanging", "auto" (default) or a list of coordinate values.
-
-    ================  ===============================================================
-    ``averaging``     ``order`` (1, or 2 for the plain pendulum)
-    ``floquet``       ``about``, ``tol``
-    ``stability_map`` ``A`` (axis, m), ``omega`` (axis, rad/s) or ``frequency_hz``,
-                      ``about``, ``tol``
-    ``window``        ``omega`` or ``frequency_hz`` (axis), ``about``
-    ``measure``       ``about``, ``periods`` (1000), ``band`` (π/2 rad), ``rtol``
-    ``simulate``      ``periods`` (100) or ``duration`` (s), ``samples`` (1001),
-                      ``method``, ``rtol``
-    ``verify``        ``A``, ``omega`` or ``frequency_hz`` (axes), ``about``,
-                      ``periods``, ``offset``, ``band``, ``tol``, ``rtol``,
-                      ``fit_order`` (false)
-    ================  ===============================================================
-``[sweep]``
-    ``[sweep.axes]``: parameters to sweep, each a range ``{start, stop, num, scale =
-    "linear" | "log"}`` or a list of values; several axes form their Cartesian product
-    (the first axis slowest).  An axis is named by a parameter (``A``, ``omega``,
-    ``gamma``, ``l``, …), ``frequency_hz``, an initial value ``initial.theta``, or the
-    scene key that sets it (``effects.drive.amplitude``).  ``analyses``: which of the
-    analyses run at every point (default: every one that can); ``tile_points``: points
-    per tile (default: calibrated, :mod:`kapitza.sweep`).
-``[output]``
-    ``directory`` (relative to the scene file) and ``formats`` (["parquet"], or
-    ["parquet", "csv"]).
+:func:`read_scene` (or :func:`read_scene_text`) checks each table against the schema
+(:mod:`._schema`, which states it) and returns a :class:`SceneSpec`; every problem found is
+collected and raised together as one :class:`~kapitza.SceneError`
+(:mod:`._checker`), each naming the file, the dotted key and its line, what is allowed,
+and the nearest allowed key for a misspelt one.  :class:`kapitza.Scene` builds the System
+and runs the analyses.  A frequency given in Hz is converted to rad/s here, once: a
+:class:`SceneSpec` holds ``omega`` only (the parameter, the analyses' axes and the sweep's
+axis).
 
 Examples
 --------
@@ -81,21 +22,24 @@ Examples
 ... [effects.drive]
 ... amplitude = 0.05
 ... frequency_hz = 60.0
+... [analyses]
+... window = { frequency_hz = [50.0, 60.0] }
 ... ''')
 >>> sorted(spec.params.items())
 [('A', 0.05), ('g', 9.81), ('l', 1.0), ('m', 1.0), ('omega', 376.99111843077515)]
->>> read_scene_text('schema = 1\\n[system]\\nname = "pendulm"\\n')
-Traceback (most recent call last):
-  ...
-kapitza.scene_file.SceneError: scene <text> has 2 errors:
-  <text>:3: system.name: unknown rig 'pendulm'; allowed: pendulum, double_pendulum, triple_pendulum, chain, or "package.module:function". Did you mean 'pendulum'?
+>>> spec.analyses["window"]["omega"].values          # rad/s
+(314.1592653589793, 376.99111843077515)
+>>> try:
+...     read_scene_text('schema = 1\\n[system]\\nname = "pendulm"\\n')
+... except SceneError as e:
+...     print(e)                                         # doctest: +ELLIPSIS
+scene <text> has 2 errors:
+  <text>:3: system.name: unknown rig 'pendulm'; allowed: pendulum, ... Did you mean 'pendulum'?
   <text>: parameters: missing table; the rig's parameters go here
 """
 from __future__ import annotations
 
-import difflib
 import importlib
-import math
 import re
 import tomllib
 from dataclasses import dataclass, field
@@ -106,234 +50,36 @@ import sympy as sp
 from lagrange_core import effects as fx
 from lagrange_core.symbols import t as t_symbol
 
-__all__ = ["SCHEMA", "ANALYSES", "SWEEPABLE", "SceneError", "SceneProblem", "SceneSpec", "Axis",
-           "read_scene", "read_scene_text"]
+from ._checker import Checker, SceneError, SceneProblem, kind_of
+from ._schema import (
+    ABOUT,
+    ABOUT_EQUILIBRIUM,
+    ANALYSES,
+    AXIS,
+    CATALOGUE,
+    DRIVE,
+    EFFECTS,
+    KEY_TARGETS,
+    NEED_DRIVE,
+    ONE_NUMBER_EFFECTS,
+    OWNERS,
+    SCHEMA,
+    SWEEPABLE,
+    TOP,
+    UNITS,
+    hz_to_rad_s,
+)
 
-#: The schema version this module reads.
-SCHEMA = 1
+__all__ = ["SceneSpec", "Axis", "read_scene", "read_scene_text"]
 
-#: Analyses a scene may ask for, and their settings (name → (allowed keys, description)).
-ANALYSES = {
-    "averaging": ("order",),
-    "floquet": ("about", "tol"),
-    "stability_map": ("A", "omega", "frequency_hz", "about", "tol"),
-    "window": ("omega", "frequency_hz", "about"),
-    "measure": ("about", "periods", "band", "rtol"),
-    "simulate": ("periods", "duration", "samples", "method", "rtol"),
-    "verify": ("A", "omega", "frequency_hz", "about", "periods", "offset", "band", "tol",
-               "rtol", "fit_order"),
-}
-#: Analyses that run at every point of a sweep (the others are grids of their own).
-SWEEPABLE = ("averaging", "floquet", "measure", "simulate")
-
-_TOP = ("schema", "title", "system", "parameters", "effects", "initial", "analyses", "sweep",
-        "output")
-_EFFECTS = ("gravity", "drive", "damping", "air_drag", "spring")
-_DRIVE = ("direction", "amplitude", "amplitude_y", "frequency_hz", "omega", "harmonics")
-_AXIS = ("start", "stop", "num", "scale")
-_ABOUT = ("inverted", "hanging", "auto")
-_UNITS = {"g": "m/s²", "A": "m", "B": "m", "omega": "rad/s", "gamma": "1/s", "c_drag": "kg/m",
-          "frequency_hz": "Hz"}
-#: scene keys that set a parameter (for sweep axes named by the key that sets them)
-_KEY_TARGETS = {"effects.drive.amplitude": "A", "effects.drive.amplitude_y": "B",
-                "effects.drive.omega": "omega", "effects.drive.frequency_hz": "frequency_hz",
-                "effects.damping.gamma": "gamma", "effects.air_drag.c": "c_drag"}
-
-
-# -- errors ---------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class SceneProblem:
-    """One problem of a scene file: the dotted key, its line (None where unknown), what
-    is wrong and what is allowed."""
-
-    key: str
-    line: int | None
-    message: str
-
-    def format(self, source: str) -> str:
-        where = f"{source}:{self.line}" if self.line else source
-        return f"{where}: {self.key}: {self.message}"
-
-
-class SceneError(ValueError):
-    """Every problem found in a scene file, raised together.
-
-    Attributes
-    ----------
-    source : str
-        The file (or "<text>").
-    problems : tuple of SceneProblem
-    """
-
-    def __init__(self, source: str, problems):
-        self.source = str(source)
-        self.problems = tuple(problems)
-        n = len(self.problems)
-        head = f"scene {self.source} has {n} error{'s' if n != 1 else ''}:"
-        super().__init__("\n  ".join([head] + [p.format(self.source) for p in self.problems]))
-
-
-def _key_lines(text: str) -> dict:
-    """The line of every table header and key of a TOML text (dotted key → line number).
-
-    A light scan, not a parser (tomllib has already accepted the text): table headers,
-    ``key =`` lines (dotted keys included) and the keys of inline tables on those lines;
-    the lines inside a multi-line array or string are skipped."""
-    lines: dict = {}
-    table: list = []
-    depth = 0
-    in_string = False
-    key_re = r'(?:[A-Za-z0-9_-]+|"[^"]*"|\'[^\']*\')'
-    for no, raw in enumerate(text.splitlines(), 1):
-        if in_string:
-            if raw.count('"""') % 2 or raw.count("'''") % 2:
-                in_string = False
-            continue
-        s = _strip_comment(raw).strip()
-        if not s:
-            continue
-        if depth > 0:
-            depth += _balance(s)
-            continue
-        m = re.fullmatch(r"\[\[?\s*(" + key_re + r"(?:\s*\.\s*" + key_re + r")*)\s*\]\]?", s)
-        if m:
-            table = _split_key(m.group(1))
-            lines.setdefault(".".join(table), no)
-            continue
-        m = re.match(r"(" + key_re + r"(?:\s*\.\s*" + key_re + r")*)\s*=(.*)", s)
-        if not m:
-            continue
-        key = table + _split_key(m.group(1))
-        lines.setdefault(".".join(key), no)
-        value = m.group(2)
-        for inner in re.finditer(r"[{,]\s*(" + key_re + r")\s*=", value):
-            lines.setdefault(".".join(key + _split_key(inner.group(1))), no)
-        if value.count('"""') % 2 or value.count("'''") % 2:
-            in_string = True
-        depth = max(0, _balance(value))
-    return lines
-
-
-def _strip_comment(line: str) -> str:
-    quote = None
-    for i, ch in enumerate(line):
-        if quote:
-            if ch == quote:
-                quote = None
-        elif ch in "\"'":
-            quote = ch
-        elif ch == "#":
-            return line[:i]
-    return line
-
-
-def _balance(s: str) -> int:
-    s = re.sub(r'"[^"]*"|\'[^\']*\'', "", s)
-    return s.count("[") + s.count("{") - s.count("]") - s.count("}")
-
-
-def _split_key(k: str) -> list:
-    return [p.strip().strip("\"'") for p in re.findall(r'"[^"]*"|\'[^\']*\'|[^.]+', k)]
-
-
-class _Checker:
-    """Collects the problems of one scene file (never raises until :meth:`done`)."""
-
-    def __init__(self, source: str, text: str):
-        self.source = source
-        self.lines = _key_lines(text)
-        self.problems: list = []
-
-    def line(self, key: str):
-        parts = re.sub(r"\[\d+\]", "", key).split(".")
-        while parts:
-            no = self.lines.get(".".join(parts))
-            if no:
-                return no
-            parts.pop()
-        return None
-
-    def error(self, key: str, message: str):
-        self.problems.append(SceneProblem(key, self.line(key), message))
-
-    def unknown(self, key: str, name: str, allowed, what: str = "key", extra: str = ""):
-        allowed = list(allowed)
-        lower = {a.lower(): a for a in allowed}
-        close = difflib.get_close_matches(name.lower(), list(lower), n=1, cutoff=0.6)
-        hint = f". Did you mean {lower[close[0]]!r}?" if close else ""
-        shown = ", ".join(allowed) if allowed else "none"
-        self.error(key, f"unknown {what} {name!r}; allowed: {shown}{extra}{hint}")
-
-    def table(self, value, key: str, allowed, *, what: str = "key"):
-        """``value`` as a dict whose keys are all in ``allowed`` (unknown ones reported);
-        None (reported) if it is not a table."""
-        if not isinstance(value, dict):
-            self.error(key, f"must be a table, got {_kind(value)} {value!r}")
-            return None
-        for k in value:
-            if k not in allowed:
-                self.unknown(f"{key}.{k}" if key else k, k, allowed, what)
-        return value
-
-    def number(self, value, key: str, *, unit: str = "", minimum=None, strict=False,
-               integer=False):
-        """A finite number (an integer where asked) in range, else None (reported)."""
-        unit_s = f" ({unit})" if unit else ""
-        if integer:
-            if isinstance(value, bool) or not isinstance(value, int):
-                self.error(key, f"must be a whole number{unit_s}, got {_kind(value)} {value!r}")
-                return None
-        elif isinstance(value, bool) or not isinstance(value, (int, float)) \
-                or not math.isfinite(value):
-            self.error(key, f"must be a finite number{unit_s}, got {_kind(value)} {value!r}")
-            return None
-        if minimum is not None and (value <= minimum if strict else value < minimum):
-            self.error(key, f"must be {'>' if strict else '≥'} {minimum:g}{unit_s}, got {value!r}")
-            return None
-        return value if integer else float(value)
-
-    def one_of(self, table: dict, key: str, names, what: str, required: bool = True):
-        """The one of ``names`` that ``table`` has; a missing (if ``required``) or a second
-        one is reported."""
-        given = [k for k in names if k in table]
-        if len(given) > 1:
-            self.error(f"{key}.{given[1]}", f"give one of {' and '.join(names)}, not both")
-        elif not given and required:
-            self.error(f"{key}.{names[0]}", f"missing; give {what}")
-        return given[0] if len(given) == 1 else None
-
-    def boolean(self, value, key: str):
-        if not isinstance(value, bool):
-            self.error(key, f"must be true or false, got {_kind(value)} {value!r}")
-            return None
-        return value
-
-    def choice(self, value, key: str, allowed):
-        if not isinstance(value, str):
-            self.error(key, f"must be one of {', '.join(map(repr, allowed))}, got "
-                            f"{_kind(value)} {value!r}")
-            return None
-        if value not in allowed:
-            self.unknown(key, value, allowed, what="value")
-            return None
-        return value
-
-    def done(self):
-        if self.problems:
-            raise SceneError(self.source, self.problems)
-
-
-def _kind(value) -> str:
-    return {bool: "a boolean", int: "an integer", float: "a number", str: "text",
-            list: "an array", dict: "a table"}.get(type(value), type(value).__name__)
-
-
-# -- what a scene says ------------------------------------------------------------------------
 
 @dataclass(frozen=True)
 class Axis:
-    """One swept (or mapped) quantity: its name as written and its values (a tuple)."""
+    """One swept (or mapped) quantity: its name and its values (a tuple, SI units).
+
+    The name is as written in the file, except a frequency given in Hz
+    (``frequency_hz``), which is read as the axis ``omega`` with values in rad/s.
+    """
 
     name: str
     values: tuple
@@ -359,17 +105,20 @@ class SceneSpec:
     rig : lagrange_core.effects.Rig
     effects : tuple of effect objects (:mod:`lagrange_core.effects`)
     params : dict name → float
-        Every parameter of the System, defaults filled in.
+        Every parameter of the System (SI units: the drive's ``omega`` in rad/s even
+        where the file gave ``frequency_hz``), defaults filled in.
     initial : dict coordinate → float, and ``<coordinate>_dot`` → float
     analyses : dict name → dict of settings
-        Only the analyses asked for, in the file's order.
+        Only the analyses asked for, in the file's order.  Axes are :class:`Axis`; a
+        frequency axis is always ``omega`` (rad/s), never ``frequency_hz``.
     sweep : dict or None
-        ``axes`` (tuple of :class:`Axis`), ``targets`` (axis name → what it sets),
-        ``analyses`` (tuple), ``tile_points`` (int or None).
+        ``axes`` (tuple of :class:`Axis`; a ``frequency_hz`` axis is read as ``omega``,
+        rad/s), ``targets`` (axis name → what it sets: a parameter or
+        ``initial.<state>``), ``analyses`` (tuple), ``tile_points`` (int or None).
     output : dict
         ``directory`` (Path or None) and ``formats`` (tuple).
     data : dict
-        The parsed TOML (for the record).
+        The parsed TOML, as written (for the record; Hz where the file has Hz).
     """
 
     source: str
@@ -412,12 +161,12 @@ def read_scene_text(text: str, source: str = "<text>") -> SceneSpec:
         m = re.search(r"line (\d+)", str(e))
         raise SceneError(source, [SceneProblem("(syntax)", int(m.group(1)) if m else None,
                                                f"not valid TOML: {e}")]) from None
-    c = _Checker(source, text)
-    c.table(data, "", _TOP, what="table")
+    c = Checker(source, text)
+    c.table(data, "", TOP, what="table")
     _check_schema(c, data)
     title = data.get("title")
     if title is not None and not isinstance(title, str):
-        c.error("title", f"must be text, got {_kind(title)} {title!r}")
+        c.error("title", f"must be text, got {kind_of(title)} {title!r}")
         title = None
     rig_name, rig = _check_system(c, data.get("system"))
     effects, effect_params = _check_effects(c, data.get("effects", {}), rig)
@@ -438,15 +187,12 @@ def _check_schema(c, data):
         return
     v = data["schema"]
     if isinstance(v, bool) or not isinstance(v, int):
-        c.error("schema", f"must be the whole number {SCHEMA}, got {_kind(v)} {v!r}")
+        c.error("schema", f"must be the whole number {SCHEMA}, got {kind_of(v)} {v!r}")
     elif v != SCHEMA:
         c.error("schema", f"unsupported schema version {v}; this kapitza reads schema {SCHEMA}")
 
 
 # -- system -------------------------------------------------------------------------------
-
-_CATALOGUE = tuple(fx.RIGS) + ("chain",)
-
 
 def _check_system(c, system):
     if system is None:
@@ -458,15 +204,15 @@ def _check_system(c, system):
         return None, None
     name = system.get("name")
     if name is None:
-        c.error("system.name", 'missing; a rig of the catalogue (' + ", ".join(_CATALOGUE)
+        c.error("system.name", 'missing; a rig of the catalogue (' + ", ".join(CATALOGUE)
                 + ') or "package.module:function"')
         return None, None
     if not isinstance(name, str):
-        c.error("system.name", f"must be text, got {_kind(name)} {name!r}")
+        c.error("system.name", f"must be text, got {kind_of(name)} {name!r}")
         return None, None
     options = system.get("options", {})
     if not isinstance(options, dict):
-        c.error("system.options", f"must be a table of keyword arguments, got {_kind(options)}")
+        c.error("system.options", f"must be a table of keyword arguments, got {kind_of(options)}")
         options = {}
     links = system.get("links")
     if name == "chain":
@@ -480,7 +226,7 @@ def _check_system(c, system):
     if ":" in name:
         return name, _user_rig(c, name, options)
     if name not in fx.RIGS:
-        c.unknown("system.name", name, _CATALOGUE, what="rig",
+        c.unknown("system.name", name, CATALOGUE, what="rig",
                   extra=', or "package.module:function"')
         return name, None
     if options:
@@ -528,18 +274,10 @@ def _rig_symbols(rig):
 
 # -- effects ------------------------------------------------------------------------------
 
-#: effects set by one number ≥ 0: table → (effect, key, parameter, unit, what it is)
-_ONE_NUMBER_EFFECTS = {
-    "damping": (fx.Damping, "gamma", "gamma", "1/s",
-                "the damping rate γ (1/s), ≥ 0 (leave the table out for no damping)"),
-    "air_drag": (fx.AirDrag, "c", "c_drag", "kg/m", "c = ½ ρ C_d S (kg/m), ≥ 0"),
-}
-
-
 def _check_effects(c, effects, rig):
     """The effect objects and the values of their parameters."""
     out, values = [], {}
-    if c.table(effects, "effects", _EFFECTS, what="effect") is None:
+    if c.table(effects, "effects", EFFECTS, what="effect") is None:
         return out, values
     gravity = effects.get("gravity", False)
     if isinstance(gravity, dict):
@@ -551,7 +289,7 @@ def _check_effects(c, effects, rig):
         drive = _check_drive(c, effects["drive"], values)
         if drive is not None:
             out.append(drive)
-    for name, (kind, k, param, unit, what) in _ONE_NUMBER_EFFECTS.items():
+    for name, (kind, k, param, unit, what) in ONE_NUMBER_EFFECTS.items():
         if name not in effects:
             continue
         d = c.table(effects[name], f"effects.{name}", (k,))
@@ -586,7 +324,7 @@ def _check_effects(c, effects, rig):
 
 
 def _check_drive(c, d, values):
-    d = c.table(d, "effects.drive", _DRIVE)
+    d = c.table(d, "effects.drive", DRIVE)
     if d is None:
         return None
     key = "effects.drive"
@@ -603,7 +341,7 @@ def _check_drive(c, d, values):
                 path = tuple(v)
     else:
         c.error(f"{key}.direction", f'must be "vertical", "horizontal", "elliptic" or a vector '
-                                    f"[dx, dy], got {_kind(direction)} {direction!r}")
+                                    f"[dx, dy], got {kind_of(direction)} {direction!r}")
     if "amplitude" not in d:
         c.error(f"{key}.amplitude", "missing; the pivot's amplitude A (m), ≥ 0")
     else:
@@ -623,9 +361,9 @@ def _check_drive(c, d, values):
     k = c.one_of(d, key, ("frequency_hz", "omega"), "the drive's frequency as frequency_hz "
                                                      "(Hz) or omega (rad/s), > 0")
     if k is not None:
-        v = c.number(d[k], f"{key}.{k}", unit=_UNITS[k], minimum=0.0, strict=True)
+        v = c.number(d[k], f"{key}.{k}", unit=UNITS[k], minimum=0.0, strict=True)
         if v is not None:
-            values["omega"] = 2 * math.pi * v if k == "frequency_hz" else v
+            values["omega"] = hz_to_rad_s(v) if k == "frequency_hz" else v
     harmonics = ((1, 1.0, 0.0),)
     if "harmonics" in d:
         h = d["harmonics"]
@@ -657,13 +395,6 @@ def _check_drive(c, d, values):
 
 # -- parameters, initial state ------------------------------------------------------------------
 
-_OWNERS = {"g": ("gravity", "[effects] gravity = true"),
-           "A": ("drive", "effects.drive.amplitude"), "B": ("drive", "effects.drive.amplitude_y"),
-           "omega": ("drive", "effects.drive.frequency_hz or effects.drive.omega"),
-           "gamma": ("damping", "effects.damping.gamma"), "c_drag": ("air_drag",
-                                                                   "effects.air_drag.c")}
-
-
 def _check_parameters(c, given, rig, effects, effect_params):
     if given is None:
         c.error("parameters", "missing table; the rig's parameters go here")
@@ -685,15 +416,15 @@ def _check_parameters(c, given, rig, effects, effect_params):
             c.error(key, "g is gravity's parameter, but gravity is off: add `gravity = true` "
                          "under [effects], or remove g")
             continue
-        if k in _OWNERS and k != "g" or k.startswith("k_"):
-            where = _OWNERS[k][1] if k in _OWNERS else f"effects.spring.{k[2:]}.k"
+        if k in OWNERS and k != "g" or k.startswith("k_"):
+            where = OWNERS[k][1] if k in OWNERS else f"effects.spring.{k[2:]}.k"
             c.error(key, f"{k} is set by {where}, not in [parameters]")
             continue
         if k not in allowed:
             c.unknown(key, k, allowed, what=f"parameter of the {rig.name}")
             continue
         positive = k in syms and bool(syms[k].is_positive)
-        v = c.number(v, key, unit=_UNITS.get(k, "m" if k.startswith("l") else
+        v = c.number(v, key, unit=UNITS.get(k, "m" if k.startswith("l") else
                                               "kg" if k in masses else ""),
                      minimum=0.0 if positive or k == "g" else None, strict=positive)
         if v is not None:
@@ -748,15 +479,14 @@ def _check_analyses(c, analyses, effects):
             continue
         out[name] = _check_settings(c, name, s, key)
     for name in out:
-        if name in ("averaging", "floquet", "stability_map", "window", "verify") \
-                and drive is None:
+        if name in NEED_DRIVE and drive is None:
             c.error(f"analyses.{name}", f"{name} needs a drive: add [effects.drive]")
-        if name in ("stability_map", "window", "verify") and drive is not None \
+        if name in ABOUT_EQUILIBRIUM and drive is not None \
                 and not drive.keeps_vertical_equilibria:
-            c.error(f"analyses.{name}", f"{name} is about an equilibrium, and a "
-                                        f"{drive.path if isinstance(drive.path, str) else 'oblique'}"
-                                        " drive leaves none; sweep floquet over A and omega "
-                                        "instead ([sweep])")
+            path = drive.path if isinstance(drive.path, str) else "oblique"
+            c.error(f"analyses.{name}", f"{name} is about an equilibrium, and a {path} drive "
+                                        "leaves none; sweep floquet over A and omega instead "
+                                        "([sweep])")
     return out
 
 
@@ -783,10 +513,12 @@ def _check_settings(c, name, s, key):
         elif k == "method":
             from lagrange_core.integrate import METHODS
             out[k] = c.choice(v, kk, tuple(METHODS))
-        elif k in ("A", "omega", "frequency_hz"):
-            unit = _UNITS[k]
-            out[k] = _check_axis(c, v, kk, k, minimum=0.0, strict=k != "A", unit=unit)
-    if name in ("stability_map", "window", "verify"):
+        elif k in ("A", "omega"):
+            out[k] = _check_axis(c, v, kk, k, minimum=0.0, strict=k != "A", unit=UNITS[k])
+        elif k == "frequency_hz":           # read in Hz, kept as omega (rad/s)
+            out["omega"] = _in_rad_s(_check_axis(c, v, kk, k, minimum=0.0, strict=True,
+                                                 unit=UNITS[k]))
+    if name in ABOUT_EQUILIBRIUM:
         c.one_of(s, key, ("omega", "frequency_hz"), "the drive frequencies, omega (rad/s) or "
                                                     "frequency_hz (Hz): a range {start, stop, "
                                                     "num} or a list")
@@ -799,12 +531,12 @@ def _check_settings(c, name, s, key):
 
 def _check_about(c, v, key):
     if isinstance(v, str):
-        return c.choice(v, key, _ABOUT)
+        return c.choice(v, key, ABOUT)
     if isinstance(v, list) and v:
         vals = [c.number(x, f"{key}[{i}]", unit="rad") for i, x in enumerate(v)]
         return tuple(vals) if None not in vals else None
     c.error(key, f'must be "inverted", "hanging", "auto" or a list of coordinate values, got '
-                 f"{_kind(v)} {v!r}")
+                 f"{kind_of(v)} {v!r}")
     return None
 
 
@@ -819,9 +551,9 @@ def _check_axis(c, v, key, name, *, minimum=None, strict=False, unit=""):
         return Axis(name, tuple(vals), "list") if None not in vals else None
     if not isinstance(v, dict):
         c.error(key, f"must be a list of values or a range {{start, stop, num, scale}}, got "
-                     f"{_kind(v)} {v!r}")
+                     f"{kind_of(v)} {v!r}")
         return None
-    c.table(v, key, _AXIS)
+    c.table(v, key, AXIS)
     missing = [k for k in ("start", "stop", "num") if k not in v]
     for k in missing:
         c.error(f"{key}.{k}", "missing; a range is {start, stop, num} (scale = \"linear\" "
@@ -842,6 +574,13 @@ def _check_axis(c, v, key, name, *, minimum=None, strict=False, unit=""):
     return Axis(name, tuple(float(x) for x in vals), scale)
 
 
+def _in_rad_s(axis):
+    """A frequency axis read in Hz as the ``omega`` axis in rad/s (None stays None)."""
+    if axis is None:
+        return None
+    return Axis("omega", tuple(hz_to_rad_s(f) for f in axis.values), axis.kind)
+
+
 # -- sweep, output -------------------------------------------------------------------------------
 
 def _flatten_axes(c, axes, key, prefix=()):
@@ -849,7 +588,7 @@ def _flatten_axes(c, axes, key, prefix=()):
     out = {}
     for k, v in axes.items():
         name = prefix + (k,)
-        if isinstance(v, dict) and not (set(v) & set(_AXIS)):
+        if isinstance(v, dict) and not (set(v) & set(AXIS)):
             out.update(_flatten_axes(c, v, key, name))
         else:
             out[".".join(name)] = v
@@ -867,7 +606,7 @@ def _check_sweep(c, sweep, rig, params, effects, analyses):
                               "0.0, stop = 0.2, num = 21}")
         return None
     targets = _sweep_targets(rig, params)
-    axes, where = [], {}
+    axes, where, written = [], {}, {}        # written: an axis's name → its name in the file
     for name, v in _flatten_axes(c, axes_in, "sweep.axes").items():
         key = f"sweep.axes.{name}"
         target = targets.get(name)
@@ -875,14 +614,18 @@ def _check_sweep(c, sweep, rig, params, effects, analyses):
             c.unknown(key, name, [k for k in targets if "." not in k or k.startswith("initial.")],
                       what="sweep axis", extra=" (or the scene key that sets one)")
             continue
-        if target in where.values():
-            c.error(key, f"sweeps {target}, which another axis sweeps already")
+        swept = "omega" if target == "frequency_hz" else target
+        if swept in where.values():
+            c.error(key, f"sweeps {swept}, which another axis sweeps already")
             continue
         kind, minimum, strict, unit = _axis_range(target, rig)
         ax = _check_axis(c, v, key, name, minimum=minimum, strict=strict, unit=unit)
+        if ax is not None and target == "frequency_hz":    # read in Hz, swept as omega (rad/s)
+            ax = _in_rad_s(ax)
         if ax is not None:
             axes.append(ax)
-            where[name] = target
+            where[ax.name] = swept
+            written[ax.name] = name
     chosen = sweep.get("analyses")
     if chosen is None:
         chosen = [a for a in analyses if a in SWEEPABLE]
@@ -902,21 +645,22 @@ def _check_sweep(c, sweep, rig, params, effects, analyses):
     if tile is not None:
         tile = c.number(tile, "sweep.tile_points", integer=True, minimum=1)
     for name, target in where.items():
-        owner = _OWNERS.get(target if target != "frequency_hz" else "omega")
-        if owner and target not in params and not (target == "frequency_hz" and "omega" in params):
-            c.error(f"sweep.axes.{name}", f"sweeps {target}, but the {owner[0]} effect is off")
+        owner = OWNERS.get(target)
+        if owner and target not in params:
+            c.error(f"sweep.axes.{written[name]}",
+                    f"sweeps {target}, but the {owner[0]} effect is off")
     return {"axes": tuple(axes), "targets": where, "analyses": tuple(chosen),
             "tile_points": tile}
 
 
 def _sweep_targets(rig, params):
-    """Every name a sweep axis may have → what it sets (a parameter, frequency_hz or an
-    initial value ``initial.<state>``)."""
+    """Every name a sweep axis may have → what it sets (a parameter, an initial value
+    ``initial.<state>``, or frequency_hz: omega given in Hz, converted as it is read)."""
     names = set(params) | {"A", "omega", "gamma", "c_drag", "g", "B"}
     targets = {p: p for p in names}
     targets["frequency_hz"] = "frequency_hz"
     targets.update({f"parameters.{p}": p for p in params})
-    targets.update(_KEY_TARGETS)
+    targets.update(KEY_TARGETS)
     targets.update({f"effects.spring.{p[2:]}.k": p for p in params if p.startswith("k_")})
     if rig is not None:
         targets.update({f"initial.{s}": f"initial.{s}" for s in _state_names(rig)})
@@ -928,16 +672,16 @@ def _axis_range(target, rig):
     if target.startswith("initial."):
         return "state", None, False, "rad/s" if target.endswith("_dot") else "rad"
     if target in ("omega", "frequency_hz"):
-        return "param", 0.0, True, _UNITS[target]
+        return "param", 0.0, True, UNITS[target]
     if target in ("A", "gamma", "c_drag", "g"):
-        return "param", 0.0, False, _UNITS[target]
+        return "param", 0.0, False, UNITS[target]
     if target.startswith("k_"):
         return "param", 0.0, True, ""
     if rig is not None:
         syms, masses = _rig_symbols(rig)
         if target in syms and syms[target].is_positive:
             return "param", 0.0, True, "kg" if target in masses else "m"
-    return "param", None, False, _UNITS.get(target, "")
+    return "param", None, False, UNITS.get(target, "")
 
 
 def _check_output(c, output, source):
@@ -948,7 +692,7 @@ def _check_output(c, output, source):
     if "directory" in output:
         d = output["directory"]
         if not isinstance(d, str) or not d:
-            c.error("output.directory", f"must be a path (text), got {_kind(d)} {d!r}")
+            c.error("output.directory", f"must be a path (text), got {kind_of(d)} {d!r}")
         else:
             out["directory"] = (base / d).resolve()
     if "formats" in output:

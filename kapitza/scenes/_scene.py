@@ -1,49 +1,12 @@
 """Scenes: a set-up stated in a file, built into a System, analysed as the file asks.
 
-:class:`Scene` is a checked scene file (:mod:`kapitza.scene_file` states the schema and
-the checks): ``Scene.from_toml(path)``, then ``scene.system`` is the
+:class:`Scene` is a checked scene file (the schema: :mod:`._schema`; the checks:
+:mod:`._file`): ``Scene.from_toml(path)``, then ``scene.system`` is the
 :class:`lagrange_core.System` with only the effects the file names
 (:func:`lagrange_core.effects.build`), and ``scene.run()`` computes the analyses of
 ``[analyses]`` — only those — at the scene's point, and each sweepable one that
-``[sweep]`` names over the sweep's grid (:mod:`kapitza.sweep`).
-
-Which method each analysis uses
--------------------------------
-The best the effects allow (:func:`lagrange_core.effects.capabilities`); "the plain
-pendulum" is the catalogue's pendulum with gravity, a drive along the vertical or the
-horizontal (one harmonic) and at most damping, which has closed forms and exact maps.
-
-``averaging``
-    Plain pendulum: the closed forms, order 1 or 2 (:meth:`KapitzaPendulum.averaged`,
-    :class:`~kapitza.results.PendulumAveraging`).  Otherwise the general first-order
-    averaging (:func:`kapitza.average` ``.predict``, :class:`~kapitza.results.AveragingPrediction`).
-``floquet``
-    A drive along the vertical keeps θ = 0, π: :func:`kapitza.floquet_point` about
-    ``about`` (:class:`~kapitza.results.FloquetResult`).  A drive off the vertical leaves
-    no equilibrium: the periodic orbit by Newton shooting (:func:`kapitza.periodic_orbit`,
-    :class:`~kapitza.results.PeriodicOrbit`).
-``stability_map``, ``window``
-    Plain pendulum: the exact Mathieu map and window
-    (:func:`kapitza.mathieu.pendulum_stability_map`, ``pendulum_stability_window``).
-    Otherwise the monodromy map (:func:`kapitza.stability_map`) and the averaging window
-    (:meth:`kapitza.AveragedSystem.stability_window`).
-``measure``
-    Direct simulation measured from strobe samples (:func:`kapitza.measure`,
-    :class:`~kapitza.results.Measurement`), integrated by the method the effects allow
-    (RKN 12 without velocity forces, DOP853 with them).
-``simulate``
-    One trajectory (:meth:`lagrange_core.System.simulate`), ``samples`` equally spaced
-    output times.
-``verify``
-    Averaging, Floquet analysis and direct simulation compared over an (A, ω) grid
-    (:func:`kapitza.verify`; the upright plain pendulum: :meth:`KapitzaPendulum.verify`,
-    which adds the next order), :class:`~kapitza.results.Verification`.  ``fit_order =
-    true`` also fits the order of averaging along its default line.
-
-``about`` (Floquet, maps, windows, measurements): "inverted" (every coordinate π),
-"hanging" (0), a list of coordinate values, or "auto" (the default): the persisting
-state nearest the initial state (each coordinate's nearest multiple of π) — or, for
-a drive that leaves no equilibrium, the stable state of averaging nearest it.
+``[sweep]`` names over the sweep's grid (:mod:`._sweep`).  How each analysis is computed:
+:meth:`Scene.run`; the functions: :mod:`._analyses`.
 
 Examples
 --------
@@ -53,13 +16,14 @@ Examples
 ('A', 'g', 'gamma', 'l', 'm', 'omega')
 >>> sorted(scene.analyses)
 ['averaging', 'floquet']
+>>> scene.drive.path, scene.drive.keeps_vertical_equilibria
+('vertical', True)
 """
 from __future__ import annotations
 
 import functools
 import importlib
 import json
-import math
 import pkgutil
 import threading
 import time
@@ -71,16 +35,15 @@ import numpy as np
 
 from lagrange_core import effects as fx
 from lagrange_core.module_store import content_key, source_fingerprint
-from lagrange_core.progress import interrupt_requested
 
-from . import _sweep as sweeps
-from ..averaging import average
-from ..floquet import floquet_grid, floquet_point, stability_map
 from ..pendulum import KapitzaPendulum
-from ..simulation import periodic_orbit
-from ._file import SWEEPABLE, Axis, SceneSpec, read_scene, read_scene_text
+from . import _sweep as sweeps
+from ._analyses import GRID, POINT, tile_inputs
+from ._file import Axis, SceneSpec, read_scene, read_scene_text
+from ._schema import SWEEPABLE
 
-__all__ = ["Scene", "SceneResults", "code_fingerprint", "example_scenes"]
+__all__ = ["Scene", "SceneResults", "code_fingerprint", "example_scenes",
+           "fingerprinted_modules"]
 
 #: Modules and subpackages whose code does not change what a scene computes (figures, the
 #: command line, installation, the cluster executor); everything else, at any depth, counts.
@@ -107,10 +70,11 @@ def fingerprinted_modules() -> list:
                 todo.append(info.name)
             else:
                 mods.append(importlib.import_module(info.name))
-    return mods
+    # an empty file (a bare __init__.py) has no code, and no source for inspect to read
+    return [m for m in mods if Path(m.__file__).stat().st_size > 0]
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _package_fingerprint() -> str:
     mods = fingerprinted_modules()
     return source_fingerprint(*mods)
@@ -139,31 +103,34 @@ def example_scenes() -> dict:
 
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """A checked scene file (:mod:`kapitza.scene_file`) and what it builds.
+    """A checked scene file and what it builds.
 
-    Build it with :meth:`from_toml`, :meth:`from_text` or :meth:`example`.
+    Build it with :meth:`from_toml`, :meth:`from_text` or :meth:`example`.  The file's
+    schema (tables, keys, units) is stated in ``kapitza/scenes/_schema.py``; every value is
+    in SI units once read (a ``frequency_hz`` is the drive's ``omega`` in rad/s).
 
     Attributes
     ----------
-    spec : kapitza.scene_file.SceneSpec
-        Everything the file says, checked, with defaults filled in.
+    spec : kapitza.scenes.SceneSpec
+        Everything the file says, checked, with defaults filled in (``source``,
+        ``title``, ``rig_name``, ``params``, ``initial``, ``analyses``, ``sweep``, ...).
     """
 
     spec: SceneSpec
 
     @classmethod
-    def from_toml(cls, path) -> "Scene":
+    def from_toml(cls, path) -> Scene:
         """Read and check the scene file at ``path``; raises
-        :class:`~kapitza.scene_file.SceneError` with every problem found."""
+        :class:`~kapitza.SceneError` with every problem found."""
         return cls(read_scene(path))
 
     @classmethod
-    def from_text(cls, text: str, source: str = "<text>") -> "Scene":
+    def from_text(cls, text: str, source: str = "<text>") -> Scene:
         """A scene from TOML text (``source`` names it in messages)."""
         return cls(read_scene_text(text, source))
 
     @classmethod
-    def example(cls, name: str) -> "Scene":
+    def example(cls, name: str) -> Scene:
         """One of the scenes that ship with kapitza (:func:`example_scenes`)."""
         found = example_scenes()
         if name not in found:
@@ -183,11 +150,28 @@ class Scene:
 
     @property
     def effects(self) -> tuple:
+        """The effect objects the scene names (:mod:`lagrange_core.effects`), in the file's
+        order."""
         return self.spec.effects
 
     @property
+    def drive(self) -> fx.PivotDrive | None:
+        """The pivot's drive, or None where the scene has no ``[effects.drive]``.
+
+        A :class:`lagrange_core.effects.PivotDrive`: ``.path`` is "vertical",
+        "horizontal", "elliptic" or a direction vector ``(dx, dy)``; ``.harmonics`` the
+        terms ``(k, a_k, phase)``; ``.keeps_vertical_equilibria`` is True when the pivot
+        stays on the vertical (θ = 0 and π persist, so an analysis can be about them).
+        Its amplitude and frequency are the parameters ``A`` (m) and ``omega`` (rad/s)
+        of :attr:`params`.
+        """
+        return next((e for e in self.effects if isinstance(e, fx.PivotDrive)), None)
+
+    @property
     def analyses(self) -> dict:
-        """The analyses asked for and their settings."""
+        """The analyses asked for, name → settings, in the file's order.  A setting that
+        is an axis is a :class:`kapitza.scenes.Axis` in SI units (the drive frequencies
+        always ``omega``, rad/s, also where the file gave ``frequency_hz``)."""
         return dict(self.spec.analyses)
 
     @functools.cached_property
@@ -213,9 +197,10 @@ class Scene:
 
     @functools.cached_property
     def pendulum(self) -> KapitzaPendulum | None:
-        """The plain pendulum as a :class:`KapitzaPendulum`, or None (module docstring)."""
+        """The plain pendulum as a :class:`KapitzaPendulum`, or None (:meth:`run` says
+        which scenes are the plain pendulum)."""
         kinds = {type(e) for e in self.effects}
-        drive = self._drive
+        drive = self.drive
         if (self.spec.rig_name != "pendulum" or not kinds <= {fx.Gravity, fx.PivotDrive,
                                                               fx.Damping}
                 or fx.Gravity not in kinds or drive is None
@@ -225,10 +210,6 @@ class Scene:
         p = self.spec.params
         return KapitzaPendulum(l=p["l"], g=p["g"], damping=p.get("gamma", 0.0),
                                drive=drive.path)
-
-    @property
-    def _drive(self):
-        return next((e for e in self.effects if isinstance(e, fx.PivotDrive)), None)
 
     @property
     def _user_module(self):
@@ -263,7 +244,7 @@ class Scene:
 
     # -- running -------------------------------------------------------------------------
     def run(self, *, progress=None, executor=None, worker_threads: int = 1,
-            write: bool = True) -> "SceneResults":
+            write: bool = True) -> SceneResults:
         """Compute the analyses the scene asks for.
 
         Those named in ``[sweep] analyses`` run over the sweep's grid (:meth:`sweep`), the
@@ -276,13 +257,56 @@ class Scene:
         progress : None or bool
             Progress bars of sweeps and long grids (None: when stderr is a terminal).
         executor, worker_threads
-            Where sweeps run (:func:`kapitza.sweep.run_sweep`).
+            Where sweeps run (:func:`kapitza.scenes._sweep.run_sweep`).
         write : bool
             Write the output tables.
 
         Returns
         -------
         SceneResults
+
+        Notes
+        -----
+        Each analysis uses the best method the effects allow
+        (:func:`lagrange_core.effects.capabilities`).  "The plain pendulum" is the
+        catalogue's pendulum with gravity, a drive along the vertical or the horizontal
+        (one harmonic) and at most damping, which has closed forms and exact maps
+        (:attr:`pendulum`).
+
+        ``averaging``
+            Plain pendulum: the closed forms, order 1 or 2 (:meth:`KapitzaPendulum.averaged`,
+            :class:`~kapitza.PendulumAveraging`).  Otherwise the general first-order
+            averaging (:func:`kapitza.average` ``.predict``,
+            :class:`~kapitza.AveragingPrediction`).
+        ``floquet``
+            A drive along the vertical keeps θ = 0, π: :func:`kapitza.floquet_point` about
+            ``about`` (:class:`~kapitza.FloquetResult`).  A drive off the vertical leaves
+            no equilibrium: the periodic orbit by Newton shooting
+            (:func:`kapitza.periodic_orbit`, :class:`~kapitza.PeriodicOrbit`).
+        ``stability_map``, ``window``
+            Plain pendulum: the exact Mathieu map and window
+            (:meth:`KapitzaPendulum.stability_map`, :meth:`KapitzaPendulum.window`).
+            Otherwise the monodromy map (:func:`kapitza.stability_map`) and the averaging
+            window (:meth:`kapitza.AveragedSystem.window`).
+        ``measure``
+            Direct simulation measured from strobe samples (:func:`kapitza.measure`,
+            :class:`~kapitza.Measurement`), integrated by the method the effects allow
+            (RKN 12 without velocity forces, DOP853 with them).
+        ``simulate``
+            One trajectory (:meth:`lagrange_core.System.simulate`), ``samples`` equally
+            spaced output times.
+        ``verify``
+            Averaging, Floquet analysis and direct simulation compared over an (A, ω) grid
+            (:func:`kapitza.verify`; the upright plain pendulum:
+            :meth:`KapitzaPendulum.verify`, which adds the next order),
+            :class:`~kapitza.Verification`.  ``fit_order = true`` also fits the order of
+            averaging along its default line.
+
+        ``about`` (Floquet, maps, windows, measurements): "inverted" (every coordinate π),
+        "hanging" (0), a list of coordinate values, or "auto" (the default): the
+        persisting state nearest the initial state (each coordinate's nearest multiple of
+        π) — or, for a drive that leaves no equilibrium, the stable state of averaging
+        nearest it.
         """
         t0 = time.perf_counter()
         swept = self.spec.sweep["analyses"] if self.spec.sweep else ()
@@ -291,7 +315,7 @@ class Scene:
             if name in swept:
                 continue
             try:
-                results[name] = _POINT[name](self, settings, progress)
+                results[name] = POINT[name](self, settings, progress)
             except ValueError as e:
                 if type(e) is not ValueError:
                     raise
@@ -322,14 +346,14 @@ class Scene:
             subdirectory ``<analysis>-<key>``, ``key`` a hash of the scene, the analysis
             and the code: a changed scene or code starts a new dataset.
         executor, worker_threads, tile_points, tile_seconds, progress
-            See :func:`kapitza.sweep.run_sweep` (``tile_points`` default: the scene's
+            See :func:`kapitza.scenes._sweep.run_sweep` (``tile_points`` default: the scene's
             ``[sweep] tile_points``, else calibrated).
         csv : bool, optional
             Also write ``<dataset>.csv`` (default: "csv" in ``[output] formats``).
 
         Returns
         -------
-        kapitza.sweep.SweepResult
+        kapitza.SweepResult
         """
         s = self.spec.sweep
         if not s:
@@ -377,9 +401,9 @@ class SceneResults:
     scene : Scene
     results : dict
         Analysis name → its result at the scene's point (the types named in the
-        :mod:`kapitza.scene` docstring), in the file's order.
+        :meth:`Scene.run` notes), in the file's order.
     sweeps : dict
-        Analysis name → :class:`kapitza.sweep.SweepResult`.
+        Analysis name → :class:`kapitza.SweepResult`.
     written : tuple of Path
         Files and datasets written.
     seconds : float
@@ -427,7 +451,8 @@ def _write_tables(scene, results, directory, formats):
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     meta = {"scene": scene.spec.text, "source": scene.spec.source,
-            "settings": _plain(scene.spec.analyses), "system": scene.system.name, "parameters": scene.spec.params,
+            "settings": _plain(scene.spec.analyses), "system": scene.system.name,
+            "parameters": scene.spec.params,
             "initial": scene.spec.initial, "scene_key": scene.key(),
             "fingerprint": code_fingerprint(scene._user_module),
             "versions": sweeps.package_versions()}
@@ -457,138 +482,6 @@ def _plain(x):
     return x
 
 
-# -- where the analyses start ---------------------------------------------------------------
-
-def _about(scene, setting, q0=None):
-    """The state an analysis is about, (n,) or (points, n) coordinates."""
-    n = scene.system.n_dof
-    q0 = scene.q0 if q0 is None else np.asarray(q0, dtype=float)
-    if setting == "inverted":
-        return np.full(n, math.pi)
-    if setting == "hanging":
-        return np.zeros(n)
-    if setting not in (None, "auto"):
-        about = np.asarray(setting, dtype=float)
-        if about.shape != (n,):
-            raise ValueError(f"about needs {n} coordinate values "
-                             f"({list(scene.system.coordinates)}), got {list(setting)}.")
-        return about
-    if scene.capabilities["floquet"] == "equilibrium":
-        return math.pi * np.round(q0 / math.pi)
-    return _averaged_state(scene, scene.spec.params, q0)
-
-
-def _averaged_state(scene, params, q0):
-    """The stable state of averaging nearest ``q0`` (mod 2π) at scalar ``params``; the
-    nearest multiple of π where averaging finds none."""
-    stable = [e.about for e in average(scene.system).predict(params, warn=False).equilibria
-              if e.stable]
-    if not stable:
-        return math.pi * np.round(q0 / math.pi)
-    turns = [s + 2 * math.pi * np.round((q0 - s) / (2 * math.pi)) for s in stable]
-    return min(turns, key=lambda s: float(np.max(np.abs(s - q0))))
-
-
-def _pendulum_state(scene, about):
-    """"inverted" or "hanging": the pendulum's persisting state ``about`` names or is nearest."""
-    if about in ("inverted", "hanging"):
-        return about
-    theta = float(_about(scene, about)[0])
-    return "inverted" if abs(math.cos(theta) + 1) < 1e-9 else "hanging"
-
-
-def _frequency_axis(settings):
-    if "frequency_hz" in settings:
-        return 2 * math.pi * np.asarray(settings["frequency_hz"].values)
-    return np.asarray(settings["omega"].values)
-
-
-# -- the analyses at the scene's point ---------------------------------------------------------
-
-def _averaging(scene, s, progress):
-    p = scene.spec.params
-    pend = scene.pendulum
-    if pend is not None:
-        return pend.averaged(p["A"], p["omega"], order=s.get("order", 1), warn=False)
-    if s.get("order", 1) != 1:
-        raise ValueError("order 2 is the plain pendulum's closed form; general averaging is "
-                         "first order.")
-    return average(scene.system).predict(p, warn=False)
-
-
-def _floquet(scene, s, progress):
-    p = scene.spec.params
-    tol = s.get("tol", 1e-10)
-    if scene.capabilities["floquet"] == "equilibrium":
-        return floquet_point(scene.system, p, _about(scene, s.get("about")), tol=tol)
-    return periodic_orbit(scene.system, p, _about(scene, s.get("about")), tol=tol)
-
-
-def _stability_map(scene, s, progress):
-    A = np.asarray(s["A"].values)
-    omega = _frequency_axis(s)
-    about = s.get("about", "auto")
-    pend = scene.pendulum
-    if pend is not None and about in ("inverted", "hanging", "auto"):
-        return pend.stability_map(A, omega, about=_pendulum_state(scene, about),
-                                  tol=s.get("tol", 1e-10), progress=progress)
-    return stability_map(scene.system, A, omega, scene.spec.params, _about(scene, about),
-                         tol=s.get("tol", 1e-8), progress=progress)
-
-
-def _window(scene, s, progress):
-    omega = _frequency_axis(s)
-    about = s.get("about", "auto")
-    pend = scene.pendulum
-    if pend is not None and about in ("inverted", "hanging", "auto"):
-        return pend.stability_window(omega, about=_pendulum_state(scene, about))
-    return average(scene.system).stability_window(omega, _about(scene, about),
-                                                  params=scene.spec.params)
-
-
-def _measure(scene, s, progress):
-    from ..simulation import measure
-    return measure(scene.system, scene.spec.params, _about(scene, s.get("about")), scene.q0,
-                   scene.qdot0, periods=s.get("periods", 1000), band=s.get("band", math.pi / 2),
-                   rtol=s.get("rtol", 1e-9), progress=progress)
-
-
-def _span(scene, s, omega):
-    if "duration" in s:
-        return s["duration"]
-    if "omega" in scene.spec.params:
-        return s.get("periods", 100) * 2 * math.pi / omega
-    return 10.0
-
-
-def _simulate(scene, s, progress):
-    t1 = _span(scene, s, scene.spec.params.get("omega"))
-    t_eval = np.linspace(0.0, t1, s.get("samples", 1001))
-    return scene.system.simulate(scene.q0, scene.qdot0, (0.0, t1), scene.spec.params,
-                                 method=s.get("method"), rtol=s.get("rtol", 1e-9), t_eval=t_eval)
-
-
-def _verify(scene, s, progress):
-    from ..verification import verify
-    A = np.asarray(s["A"].values)[:, None]
-    omega = _frequency_axis(s)[None, :]
-    common = dict(periods=s.get("periods", 1000), tol=s.get("tol", 1e-10),
-                  rtol=s.get("rtol", 1e-9), line=None if s.get("fit_order") else False,
-                  progress=progress)
-    about = s.get("about", "auto")
-    pend = scene.pendulum
-    if pend is not None and _pendulum_state(scene, about) == "inverted" \
-            and "offset" not in s and "band" not in s:
-        near = 0 < abs(scene.q0[0] - math.pi) < math.pi / 2     # released near the upright
-        return pend.verify(A, omega, theta0=scene.q0[0] if near else math.pi - 0.01,
-                           theta_dot0=scene.qdot0[0] if near else 0.0, **common)
-    return verify(scene.system, scene.spec.params, _about(scene, about), A=A, omega=omega,
-                  offset=s.get("offset", 0.01), band=s.get("band", math.pi / 2), **common)
-
-
-_POINT = {"averaging": _averaging, "floquet": _floquet, "stability_map": _stability_map,
-          "window": _window, "measure": _measure, "simulate": _simulate, "verify": _verify}
-
 
 # -- the analyses over a sweep's tile -----------------------------------------------------------
 
@@ -612,10 +505,10 @@ class _SweepWork:
     def __call__(self, columns, points):
         with _BUILD_LOCK:           # a worker's threads build the scene and load its kernels once
             scene = _cached_scene(self.text, self.source)
-            scene.system.kernels
-        params, q0, qdot0 = _tile_inputs(scene, columns, len(points))
+            _ = scene.system.kernels
+        params, q0, qdot0 = tile_inputs(scene, columns, len(points))
         settings = scene.spec.analyses.get(self.analysis, {})
-        frame = _GRID[self.analysis](scene, settings, params, q0, qdot0)
+        frame = GRID[self.analysis](scene, settings, params, q0, qdot0)
         if "point" in frame:            # several rows per point, numbered in the tile
             local = frame.pop("point").to_numpy(dtype=np.int64)
         elif len(frame) == len(points):
@@ -626,130 +519,3 @@ class _SweepWork:
         frame.insert(0, "point", points[local])
         return frame
 
-
-def _tile_inputs(scene, columns, size):
-    params = dict(scene.spec.params)
-    q0 = np.tile(scene.q0, (size, 1))
-    qdot0 = np.tile(scene.qdot0, (size, 1))
-    coords = list(scene.system.coordinates)
-    for name, values in columns.items():
-        target = scene.spec.sweep["targets"][name]
-        if target == "frequency_hz":
-            params["omega"] = 2 * math.pi * values
-        elif target.startswith("initial."):
-            state = target[len("initial."):]
-            if state in coords:
-                q0[:, coords.index(state)] = values
-            else:
-                qdot0[:, coords.index(state[:-len("_dot")])] = values
-        else:
-            params[target] = values
-    return params, q0, qdot0
-
-
-def _point_params(params, i):
-    return {k: float(v[i]) if np.ndim(v) else v for k, v in params.items()}
-
-
-def _drop_params(frame, scene):
-    return frame.drop(columns=[c for c in scene.system.parameters if c in frame])
-
-
-def _grid_simulate(scene, s, params, q0, qdot0):
-    t1 = _span(scene, s, params.get("omega"))
-    system = scene.system
-    grid = system.simulate_grid(q0, qdot0, (0.0, t1), params, method=s.get("method"),
-                                rtol=s.get("rtol", 1e-9), energy=bool(
-                                    system.kernels.energy_conserved), progress=False)
-    return _drop_params(grid.to_dataframe(), scene)
-
-
-def _grid_measure(scene, s, params, q0, qdot0):
-    from ..simulation import measure_grid
-    about = s.get("about")
-    if about in (None, "auto") and scene.capabilities["floquet"] != "equilibrium":
-        about = np.array([_averaged_state(scene, _point_params(params, i), q0[i])
-                          for i in range(len(q0))])
-    else:
-        about = _about(scene, about, q0)
-    m = measure_grid(scene.system, params, about, q0, qdot0, periods=s.get("periods", 1000),
-                     band=s.get("band", math.pi / 2), rtol=s.get("rtol", 1e-9), progress=False)
-    return _drop_params(m.to_dataframe(), scene)
-
-
-def _grid_floquet(scene, s, params, q0, qdot0):
-    import pandas as pd
-    size = len(q0)
-    if scene.capabilities["floquet"] == "equilibrium":
-        g = floquet_grid(scene.system, params, _about(scene, s.get("about")),
-                         tol=s.get("tol", 1e-10), progress=False)
-        frame = _drop_params(g.to_dataframe(), scene)
-        slow = np.asarray(g.omega_slow).reshape(size, -1)
-        for k in range(slow.shape[1]):
-            frame[f"omega_slow_{k}"] = slow[:, k]
-        frame["flags"] = ["; ".join(f) for f in g.flags]
-        return frame
-    about = s.get("about", "auto")
-    rows = []
-    n = scene.system.n_dof
-    for i in range(size):
-        if interrupt_requested():
-            raise KeyboardInterrupt
-        p = _point_params(params, i)
-        row = {}
-        try:
-            guess = _averaged_state(scene, p, q0[i]) if about == "auto" \
-                else _about(scene, about)
-            o = periodic_orbit(scene.system, p, guess, tol=s.get("tol", 1e-10))
-            slow = np.atleast_1d(o.omega_slow)
-            row.update(stable=o.stable, max_abs_multiplier=float(np.max(np.abs(o.multipliers))),
-                       residual=o.residual, iterations=o.iterations, error="")
-            row.update({f"q_mean_{c}": o.q_mean[j] for j, c in enumerate(scene.system.coordinates)})
-            row.update({f"amplitude_{c}": o.amplitude[j]
-                        for j, c in enumerate(scene.system.coordinates)})
-            row.update({f"omega_slow_{k}": slow[k] for k in range(n)})
-        except ValueError as e:
-            row.update(stable=False, max_abs_multiplier=math.nan, residual=math.nan,
-                       iterations=-1, error=str(e))
-            row.update({f"q_mean_{c}": math.nan for c in scene.system.coordinates})
-            row.update({f"amplitude_{c}": math.nan for c in scene.system.coordinates})
-            row.update({f"omega_slow_{k}": math.nan for k in range(n)})
-        rows.append(row)
-    return pd.DataFrame(rows)
-
-
-def _grid_averaging(scene, s, params, q0, qdot0):
-    import pandas as pd
-    size = len(q0)
-    pend = scene.pendulum
-    if pend is not None and all(np.ndim(params[k]) == 0 for k in ("l", "g")) \
-            and np.ndim(params.get("gamma", 0.0)) == 0:
-        A, w = np.broadcast_arrays(np.asarray(params["A"], float),
-                                   np.asarray(params["omega"], float) + np.zeros(size))
-        res = pend.averaged(A, w, order=s.get("order", 1), warn=False)
-        frame = res.to_dataframe().drop(columns=["A", "omega"])
-        frame.insert(0, "point", np.tile(np.arange(size), len(res.equilibria)))
-        return frame.sort_values("point", kind="stable").reset_index(drop=True)
-    if s.get("order", 1) != 1:
-        raise ValueError("order 2 is the plain pendulum's closed form (with l, g and gamma not "
-                         "swept); general averaging is first order.")
-    avg = average(scene.system)
-    coords = scene.system.coordinates
-    rows = []
-    for i in range(size):
-        if interrupt_requested():
-            raise KeyboardInterrupt
-        for k, e in enumerate(avg.predict(_point_params(params, i), warn=False).equilibria):
-            for j in range(len(coords)):
-                row = {"point": i, "equilibrium": k}
-                row.update({f"about_{c}": float(e.about[a]) for a, c in enumerate(coords)})
-                row.update(mode=j, omega_squared=float(e.omega_squared[j]),
-                           frequency=float(e.frequencies[j]),
-                           damped_frequency=float(e.damped_frequencies[j]), stable=e.stable,
-                           decay_rate=e.decay_rate, valid=e.valid)
-                rows.append(row)
-    return pd.DataFrame(rows) if rows else pd.DataFrame({"point": np.zeros(0, np.int64)})
-
-
-_GRID = {"simulate": _grid_simulate, "measure": _grid_measure, "floquet": _grid_floquet,
-         "averaging": _grid_averaging}

@@ -1,6 +1,6 @@
 """Sweeps: a grid of points cut into tiles, each finished tile kept on disk at once.
 
-A sweep is the Cartesian product of its axes (:class:`kapitza.scene_file.Axis`; the
+A sweep is the Cartesian product of its axes (:class:`kapitza.scenes.Axis`; the
 first axis slowest), numbered 0 … N − 1 in C order.  :func:`run_sweep` cuts the
 points into *tiles* of consecutive points and computes each with one call of a
 *work* function (for a scene: one compiled grid call, :meth:`kapitza.Scene.sweep`).
@@ -11,9 +11,9 @@ Rules of the store (each holds for every executor)
    size is calibrated once: the work runs on one point (which also compiles or loads
    every kernel it needs into the on-disk cache), then on 8 points spread over the
    grid until two runs agree within 30 %, all on one numba thread; a tile gets
-   ``tile_seconds`` (default 0.5 s) of that one-thread work, by the fastest pilot run.  The plan (tile size, number of points) is written to the
-   dataset's ``_sweep.json`` before the first tile, and a restarted sweep uses it, so
-   its tiles are the same.
+   ``tile_seconds`` (default 0.5 s) of that one-thread work, by the fastest pilot run.
+   The plan (tile size, number of points) is written to the dataset's ``_sweep.json``
+   before the first tile, and a restarted sweep uses it, so its tiles are the same.
 2. **A finished tile is one Parquet part, written atomically**: to a temporary name
    in the same directory, then ``os.replace`` onto ``part-<index>-<key>.parquet``,
    where the key hashes the sweep's key (the scene and the analysis), the tile's
@@ -42,7 +42,7 @@ Executors
 ``executor=None`` or ``"local"`` (default): the tiles one after another in this
 process, each grid call parallel over numba's threads.  ``"serial"``: the same on
 one numba thread.  A ``distributed.Client``: one task per tile on the cluster
-(:mod:`kapitza.sweep_dask`); each task runs on ``worker_threads`` numba threads
+(:mod:`kapitza.scenes._sweep_dask`); each task runs on ``worker_threads`` numba threads
 (default 1, set in the task's own thread, as numba's count is per thread), so a worker
 with k threads uses k cores, and under numba's workqueue layer (which is not
 thread-safe) a worker's tasks call their kernels one at a time.  The client
@@ -132,7 +132,7 @@ def tile_columns(axes, points) -> dict:
     """Each axis's value at the flat grid indices ``points`` (C order: first axis slowest)."""
     points = np.asarray(points, dtype=np.int64)
     idx = np.unravel_index(points, tuple(len(a.values) for a in axes))
-    return {a.name: np.asarray(a.values, dtype=float)[i] for a, i in zip(axes, idx)}
+    return {a.name: np.asarray(a.values, dtype=float)[i] for a, i in zip(axes, idx, strict=True)}
 
 
 @contextlib.contextmanager
@@ -376,7 +376,7 @@ def run_sweep(work, axes, directory, *, key: str, fingerprint: str, metadata: di
         ``columns`` maps each axis name to its values at the flat indices ``points``; the
         frame has a column ``point`` (those indices) and one or more rows per point.
         Picklable (a module-level object) for a cluster.
-    axes : sequence of :class:`kapitza.scene_file.Axis`
+    axes : sequence of :class:`kapitza.scenes.Axis`
     directory : path
         The dataset's directory (created).
     key : str

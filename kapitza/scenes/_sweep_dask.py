@@ -1,8 +1,8 @@
 """Scale-out of sweeps on a Dask ``distributed`` cluster: one task per tile.
 
-Used by :func:`kapitza.sweep.run_sweep` when its ``executor`` is a
+Used by :func:`kapitza.scenes._sweep.run_sweep` when its ``executor`` is a
 ``distributed.Client`` (the optional extra ``kapitza[dask]``); the rules of the
-store and the guarantees are in :mod:`kapitza.sweep`.
+store and the guarantees are in :mod:`kapitza.scenes._sweep`.
 
 * One task per tile: a tile is ≥ ~100 ms of compiled work, far above Dask's
   0.2–1 ms per task.
@@ -10,7 +10,7 @@ store and the guarantees are in :mod:`kapitza.sweep`.
   its own thread (numba counts per thread) to ``worker_threads`` (default 1), so a
   worker with k threads runs at most k·worker_threads numba threads; under numba's
   workqueue layer a worker's tasks call their kernels one at a time
-  (:func:`kapitza.sweep.compute_tile`).
+  (:func:`kapitza.scenes._sweep.compute_tile`).
 * :class:`WorkerSettings`, registered once per client, imports kapitza in every
   worker and sets numba's count for the worker's own thread as well.  The kernels
   come from the on-disk cache (``$LAGRANGE_CORE_CACHE``, inherited by local workers;

@@ -35,7 +35,7 @@ Each method states an error for its Ω, and two methods agree on Ω when
 * Floquet: a pair of multipliers e^(±iΩT) whose monodromy is in error by
   δ = error_estimate · max(1, ‖M‖) turns by about δ / |sin ΩT| (first-order
   perturbation; √δ where sin ΩT → 0): tol = δ / (T max(|sin ΩT|, √δ)).
-* Simulation: the measurement's ``omega_slow_error`` (:mod:`kapitza.measurement`), plus the
+* Simulation: the measurement's ``omega_slow_error`` (:mod:`kapitza.simulation`), plus the
   two errors it states it leaves out: the integration's, rtol·|q|/(a T) (|q| =
   max(1, |about|), a the slow amplitude), and the amplitude's own shift of a finite
   oscillation from the linear Ω, O(a²).  The pendulum: |3 β a² / (8 Ω)| with
@@ -67,7 +67,7 @@ by A, ω, A/l, ω/ω0 and its distance to the nearest Floquet stability boundary
 |A − A_b| / A.
 
 * The pendulum: A_b are the edges of the exact window at the point's ω
-  (:func:`kapitza.mathieu.pendulum_stability_window`, certified to ``tol``).  For the
+  (:func:`kapitza.pendulum_window`, certified to ``tol``).  For the
   upright pendulum the first window is the only one below A/l = FIRST_WINDOW_ONLY (the
   next, a₁(q) < a, begins at q = 2A/l ≈ 7.5); beyond it the distance is NaN.
 * Any system: the boundaries are located along A at each frequency of the grid, between
@@ -114,15 +114,14 @@ from lagrange_core.checks import real_array
 
 from .. import _arguments as arguments
 from ..averaging import average
+from ..closed_forms import mathieu_parameters, pendulum_averaged, pendulum_window
 from ..floquet import floquet_grid
-from ..closed_forms import mathieu_parameters, pendulum_stability_window
-from ..simulation import DEFAULT_PERIODS, measure_grid
-from ..closed_forms import pendulum_averaged
-from ..figures import verification_figure
 from ..results import OrderFit, Verification
+from ..simulation import DEFAULT_PERIODS, measure_grid
 
-__all__ = ["verify", "pendulum_verification", "fit_order", "line_argument", "LINE_RATIOS", "ORDER2_FACTOR",
-           "RESOLVED", "BISECTIONS", "FIRST_WINDOW_ONLY", "SHIFT_SAFETY", "KAPPA"]
+__all__ = ["verify", "pendulum_verification", "fit_order", "line_argument", "LINE_RATIOS",
+           "ORDER2_FACTOR", "RESOLVED", "BISECTIONS", "FIRST_WINDOW_ONLY", "SHIFT_SAFETY",
+           "KAPPA"]
 
 #: The line on which the order of averaging is fitted: ω = Ω1 × these ratios (ε = 0.1 … 1/300).
 LINE_RATIOS = np.geomspace(10.0, 300.0, 12)
@@ -164,7 +163,7 @@ def _general_averaging(avg, p, about, frequency, shape, n):
     omega_slow = np.full(shape + (n,), np.nan)
     tol = np.full(shape + (n,), np.inf)
     for idx in np.ndindex(shape):
-        point = {k: float(a[idx]) for k, a in zip(names, arrays)}
+        point = {k: float(a[idx]) for k, a in zip(names, arrays, strict=True)}
         modes = avg.slow_modes(point, about, warn=False)
         freq = np.sort(modes.damped_frequencies)
         stable[idx], valid[idx] = modes.stable, modes.valid
@@ -376,7 +375,7 @@ def verify(system, params, about, *, A, omega, amplitude="A", frequency="omega",
         next-order averaging: ``*_averaging_2`` are None), ``agreement``,
         ``disagreements``, the boundary distances, ``fits`` (the order of first-order
         averaging), ``to_dataframe()``, ``figure()``.  Tolerances, boundaries and the
-        line: :mod:`kapitza.verify`.
+        line: :mod:`kapitza.verification`.
 
     Examples
     --------
@@ -419,7 +418,7 @@ def verify(system, params, about, *, A, omega, amplitude="A", frequency="omega",
     if q0 is None:
         q0 = qa + offset * (-1.0) ** np.arange(n)
     p = dict(fixed, **{amplitude: A, frequency: omega})
-    avg = average(system, frequency)
+    avg = average(system, frequency=frequency)
     stable_avg, omega_avg, tol_avg, valid = _general_averaging(avg, p, qa, frequency, S, n)
     stable_fl, omega_fl, tol_fl, margin = _floquet_fields(
         floquet_grid(system, p, qa, frequency=frequency, tol=tol, progress=progress))
@@ -455,7 +454,7 @@ def verify(system, params, about, *, A, omega, amplitude="A", frequency="omega",
         simulation_status=sim[4], fall_time=sim[5], amplitude=sim[3],
         boundary_distance=distance.reshape(S), nearest_boundary=nearest.reshape(S),
         boundary_A=A_b, boundary_omega=omega_b, window=None, fits=fits, periods=periods,
-        tol=tol, rtol=rtol, notes=tuple(notes), figure_function=verification_figure)
+        tol=tol, rtol=rtol, notes=tuple(notes))
 
 
 def _general_line(avg, system, fixed, about, amplitude, frequency, A, omega, stable, tol, line):
@@ -467,7 +466,8 @@ def _general_line(avg, system, fixed, about, amplitude, frequency, A, omega, sta
     if line is None:
         w_ref = float(omega.max())
         try:
-            a_min = avg.minimum_amplitude(dict(fixed, **{frequency: w_ref}), about, amplitude)
+            a_min = avg.minimum_amplitude(dict(fixed, **{frequency: w_ref}), about,
+                                          amplitude=amplitude)
         except ValueError as err:
             return None, f"no order fit: {err}"
         velocity = math.sqrt(2.0) * a_min * w_ref
@@ -483,7 +483,7 @@ def _general_line(avg, system, fixed, about, amplitude, frequency, A, omega, sta
     else:
         velocity, w_line = line
     a_line = velocity / w_line
-    averaged = np.array([slow(a, w) for a, w in zip(a_line, w_line)])
+    averaged = np.array([slow(a, w) for a, w in zip(a_line, w_line, strict=True)])
     top = np.fmax.reduce(averaged, axis=-1)
     spread = float(np.nanmax(np.abs(top / top[0] - 1))) if np.isfinite(top[0]) else math.inf
     stable_fl, omega_fl, tol_fl, _ = _floquet_fields(floquet_grid(
@@ -532,7 +532,7 @@ def pendulum_verification(A, omega, measured, *, system, params, l, g, damping, 
         tol_sim = tol_sim + (3 * np.abs(beta) * amp ** 2)[..., None] / (8 * omega_sim)
     # the exact window at the grid's frequencies (distances) and on a fine ω grid (figure)
     keys = np.unique(omega)
-    edges = pendulum_stability_window(keys, tol=tol, **constants)
+    edges = pendulum_window(keys, method="floquet", tol=tol, **constants)
     A_b = np.concatenate([edges.A_min, edges.A_max])
     omega_b = np.concatenate([keys, keys])
     candidates = _per_frequency(omega.ravel(), A_b, omega_b)
@@ -540,7 +540,7 @@ def pendulum_verification(A, omega, measured, *, system, params, l, g, damping, 
     beyond = A.ravel() / l > FIRST_WINDOW_ONLY
     distance[beyond], nearest[beyond] = np.nan, np.nan
     fine = np.linspace(keys[0], keys[-1], 200) if keys.size > 1 else keys
-    window = pendulum_stability_window(fine, tol=tol, **constants)
+    window = pendulum_window(fine, method="floquet", tol=tol, **constants)
     finite = np.isfinite(A_b)
     notes = [f"boundary distances: to the edges of the exact window at the point's ω (the "
              f"only window below A/l = {FIRST_WINDOW_ONLY}; NaN beyond; inf where ω holds no "
@@ -559,8 +559,7 @@ def pendulum_verification(A, omega, measured, *, system, params, l, g, damping, 
         simulation_status=sim[4], fall_time=sim[5], amplitude=amp,
         boundary_distance=distance.reshape(S), nearest_boundary=nearest.reshape(S),
         boundary_A=A_b[finite], boundary_omega=omega_b[finite], window=window, fits=fits,
-        periods=measured.periods, tol=tol, rtol=rtol, notes=tuple(notes),
-        figure_function=verification_figure)
+        periods=measured.periods, tol=tol, rtol=rtol, notes=tuple(notes))
 
 
 def _pendulum_averaging(A, omega, *, l, g, damping):

@@ -1,0 +1,272 @@
+"""Lyapunov exponents of driven systems: one trajectory's spectrum, and chaos maps over grids.
+
+Method
+------
+The exponents λ_1 ≥ … ≥ λ_2n of a trajectory y(t) of y′ = f(t, y) are the mean growth
+rates of the tangent flow v′ = J(t, y(t)) v along it.  Benettin's method (Benettin,
+Galgani, Giorgilli & Strelcyn, Meccanica 15, 9 and 21, 1980): integrate y and k tangent
+vectors together, re-orthonormalise them (V = QR), and average log R_cc over time.  The
+compiled kernel (:mod:`kapitza.chaos._kernels`) integrates [y, V] with DOP853 under one
+error control, with J the system's exact compiled Jacobian (or, with
+``tangent="difference"``, J v by a directional difference of the equations), and
+re-orthonormalises after every step — the same sums as once per drive period, in exact
+arithmetic, without the columns collapsing in between.  ``transient`` drive periods run
+first and are discarded: the trajectory settles on its attractor and the basis aligns
+with the leading directions.  The record of ``periods`` drive periods is cut into
+intervals (``every`` periods each; their running estimate is kept for convergence plots).
+
+The error estimate, and what it bounds
+--------------------------------------
+The record is cut into B blocks (default 8); each block's exponents are an estimate of
+their own, and ``error`` = 2.5 s_B/√B, with s_B the blocks' standard deviation, plus the
+integration's share (rtol + atol) × steps / time (the sum of the local tolerances per
+unit time: a bound on the drift of log‖v‖ if every step's error pushed the same way).
+
+* For a chaotic trajectory this is the batch-means confidence interval of the time
+  average: about 95 % (Student's t for 7 degrees of freedom is 2.36) when the blocks are
+  longer than the correlation time of the finite-time exponents, which a record of
+  hundreds of drive periods per block is.  The error shrinks as 1/√(record).
+* For a regular trajectory (a periodic or quasi-periodic attractor, an equilibrium) the
+  blocks differ only by the bounded wobble of log‖v‖ over an orbit (complex multipliers
+  turn v), O(1/block time), so the spread is a bound on the error of the mean, which is
+  O(1/record).  A stable periodic orbit's λ_1 is log|μ_max|/T of its Floquet
+  multipliers; tests check it against :func:`kapitza.floquet_point`.
+* The full spectrum's sum is the mean of tr J (the phase-space contraction rate: −γ for
+  the damped pendulum, 0 for a Hamiltonian system) to the integration error; its blocks
+  estimate it with the exponents' fluctuations cancelled (``sum_error``).
+
+Not included: the bias of ``tangent="difference"`` (about √eps ≈ 1.5e-8 of the
+tangent's instantaneous rates |J v|/|v|), and the fact that a finite record cannot tell a
+long transient from the attractor (a trajectory that leaves a chaotic saddle after the
+record ends, or a quasi-periodic exponent of 0 from a slowly decaying one).
+
+Speed
+-----
+:func:`lyapunov_grid` runs one compiled parallel call per chunk of points (numba
+``prange``; parameters, states and results as arrays; no Python per step or point);
+``benchmarks/bench_chaos.py`` measures it against a loop of :func:`lyapunov`.  The
+exact Jacobian costs about ten evaluations of the equations per stage
+(:mod:`lagrange_core.codegen`'s ``jacobian`` allocates its scratch on every call);
+``tangent="difference"`` replaces it by one evaluation per tangent vector.
+"""
+from __future__ import annotations
+
+import math
+import time
+import warnings
+
+import numpy as np
+
+from lagrange_core.batch import STATUS_NAMES
+from lagrange_core.checks import real_number
+from lagrange_core.progress import defer_ctrl_c, run_in_chunks
+
+from ..results import ComputationInterrupted
+from ..results._chaos import LyapunovGrid, LyapunovSpectrum
+from . import _kernels as _k
+from ._common import (block_error, drive_frequency, generic_basis, parameters, record_stops,
+                      state, tolerances, unconstrained, whole)
+
+__all__ = ["lyapunov", "lyapunov_grid"]
+
+_TANGENTS = ("jacobian", "difference")
+
+
+def _dop853():
+    from lagrange_core.integrate import METHODS
+    tab = METHODS["dop853"].table
+    return tab["A"], tab["B"], tab["C"], tab["E3"], tab["E5"]
+
+
+def _addresses(system, tangent, where):
+    if tangent not in _TANGENTS:
+        raise ValueError(f"{where}: tangent must be one of {list(_TANGENTS)}, got {tangent!r}.")
+    slots = ("rhs", "jacobian") if tangent == "jacobian" else ("rhs",)
+    return system.kernels.addresses(*slots)
+
+
+def _count(exponents, d, where):
+    """k, the number of exponents asked for."""
+    if exponents == "all":
+        return d
+    if exponents == "largest":
+        return 1
+    k = whole(exponents, "exponents", 1)
+    if k > d:
+        raise ValueError(f"{where}: exponents={k} but the phase space has only {d} "
+                         "dimensions; ask for 'all' (or fewer).")
+    return k
+
+
+class _Stopped(Exception):
+    """The kernel stopped a run (a non-finite state, a step below resolution, ...)."""
+
+
+def lyapunov(system, params, q0, qdot0=0.0, *, periods=1000, transient=100, exponents="all",
+             every=1, blocks=8, frequency="omega", t0=0.0, tangent="jacobian", rtol=1e-9,
+             atol=None, max_steps=None, progress=None) -> LyapunovSpectrum:
+    """The Lyapunov exponents of one trajectory of a driven system, with their error.
+
+    Parameters
+    ----------
+    system : lagrange_core.System
+        Unconstrained, driven with angular frequency ``params[frequency]`` (T = 2π/ω).
+    params : dict
+        Every parameter (scalars, SI).
+    q0, qdot0 : array_like (n,), float or dict coordinate -> value
+        The initial state at ``t0``.
+    periods : int
+        Drive periods of the record the exponents average over.
+    transient : int
+        Drive periods run first and discarded (settling on the attractor, aligning the
+        tangent basis).
+    exponents : "all", "largest" or int
+        How many: all 2n (the full spectrum: small systems), the largest (large ones), or
+        the k largest.
+    every : int
+        Drive periods per recorded interval of the running estimate (``running``).
+    blocks : int
+        B ≥ 2 blocks of the record whose spread is the error estimate.
+    frequency : str or float
+        The drive's angular-frequency parameter, or ω (rad/s).
+    t0 : float
+        Start time (s): the drive's phase at the start.
+    tangent : {"jacobian", "difference"}
+        J v from the exact compiled Jacobian, or a directional difference of the
+        equations (faster; relative error ~1e-8).
+    rtol, atol : float
+        DOP853's tolerances on the trajectory and the (orthonormal) tangent vectors.
+    max_steps : int, optional
+        Step budget.
+    progress : None, bool or callable
+        As :func:`lagrange_core.progress.run_in_chunks` (a line on stderr when it is a
+        terminal).
+
+    Returns
+    -------
+    kapitza.results.LyapunovSpectrum
+        Exponents (1/s) with ``error`` (the module docstring says how it bounds), the
+        block estimates and the running estimate.
+
+    Raises
+    ------
+    ValueError
+        Bad input, a constrained system.
+    FloatingPointError
+        The run failed before the record began (a non-finite state, a step size below
+        resolution, a singular mass matrix, the step budget); a failure later is warned
+        about and the exponents are those of the record so far (``status``).
+    kapitza.results.ComputationInterrupted
+        On Ctrl-C, with the exponents of the record so far in ``.result``.
+
+    Examples
+    --------
+    The damped driven pendulum θ̈ + θ̇/Q + sin θ = F cos ω_d t at Q = 2, F = 1.5,
+    ω_d = 2/3 (units of ω0 = 1) is chaotic: λ_1 > 0, and λ_1 + λ_2 = −1/Q exactly.
+
+    >>> import sympy as sp
+    >>> from lagrange_core import System, coordinates, t
+    >>> (th,), (thd,) = coordinates("theta")
+    >>> Q, F, w = sp.symbols("Q F omega", positive=True)
+    >>> ddp = System([th], lagrangian=thd**2 / 2 + sp.cos(th), dissipation=thd**2 / (2 * Q),
+    ...              forces={th: F * sp.cos(w * t)})
+    >>> s = lyapunov(ddp, dict(Q=2.0, F=1.5, omega=2 / 3), 0.2, periods=500, progress=False)
+    >>> bool(s.exponents[0] > 0), round(float(s.exponents.sum()), 9)
+    (True, -0.5)
+    """
+    where = "lyapunov"
+    start_clock = time.perf_counter()
+    unconstrained(system, where)
+    pv = parameters(system, params, where, scalar=True)
+    omega = float(drive_frequency(system, pv, frequency, where))
+    T = 2 * math.pi / omega
+    n = system.n_dof
+    d = 2 * n
+    y = np.concatenate([state(system, q0, "q0", single=True),
+                        state(system, qdot0, "qdot0", single=True)])
+    k = _count(exponents, d, where)
+    periods = whole(periods, "periods", 1)
+    transient = whole(transient, "transient", 0)
+    every = whole(every, "every", 1)
+    blocks = whole(blocks, "blocks", 2)
+    t0 = real_number(t0, "t0", unit="s")
+    rtol, atol = tolerances(rtol, atol)
+    budget = (1 << 62) if max_steps is None else whole(max_steps, "max_steps", 1)
+    intervals = -(-periods // every)
+    if intervals < blocks:
+        raise ValueError(f"{where}: {periods} periods in intervals of every={every} give "
+                         f"{intervals} intervals, fewer than blocks={blocks}; lengthen the "
+                         "record or shorten every.")
+    ka = _addresses(system, tangent, where)
+    p = system.parameter_array({name: float(v) for name, v in pv.items()})
+    stops = record_stops(transient, periods, intervals)
+    first = 1 if transient else 0
+    V = generic_basis(d, k)
+    logs = np.zeros((stops.size, k))
+    counts = np.zeros(3, dtype=np.int64)
+    tv = np.array([t0, 0.0])
+    status = np.array([_k.FINISHED])
+    y_start = y.copy()
+    tables = _dop853()
+
+    def work(a, b):
+        status[0] = _k.advance(ka, tangent == "jacobian", p, T, t0, stops, a, b, y, V, tv,
+                               rtol, atol, budget, *tables, logs, counts)
+        if status[0] != _k.FINISHED:
+            raise _Stopped
+
+    stopped = False
+    with defer_ctrl_c():
+        try:
+            done, interrupted = run_in_chunks(work, stops.size, progress=progress,
+                                              label=where, unit="intervals", first=4)
+        except _Stopped:
+            stopped, interrupted = True, False
+            done = int(np.searchsorted(stops, (tv[0] - t0) / T * (1 + 1e-12), side="right"))
+    recorded = max(0, done - first)
+    if recorded == 0 and not interrupted:
+        raise FloatingPointError(
+            f"{where}: the run stopped ({STATUS_NAMES[status[0]]}) at t = {tv[0]:.6g} s, before "
+            f"the record began (after {transient} transient periods); loosen nothing blindly: "
+            "check the parameters, or shorten the transient.")
+    rec = slice(first, first + recorded)
+    lengths = np.diff(np.concatenate([[stops[first - 1] if first else 0.0], stops]))[rec] * T
+    result = _spectrum(system, pv, y_start, y, t0, float(tv[0]), T, logs[rec], lengths,
+                       transient, every, blocks, k == d, tangent, rtol, atol, counts,
+                       STATUS_NAMES[status[0]], start_clock)
+    if interrupted:
+        raise ComputationInterrupted(result, np.array(recorded > 0))
+    if stopped:
+        warnings.warn(f"{where}: the run stopped ({result.status}) at t = {tv[0]:.6g} s; the "
+                      f"exponents are those of the first {result.periods} of {periods} record "
+                      "periods.", RuntimeWarning, stacklevel=2)
+    return result
+
+
+def _spectrum(system, pv, y_start, y, t0, t_final, T, logs, lengths, transient, every, blocks,
+              complete, tangent, rtol, atol, counts, status, start_clock) -> LyapunovSpectrum:
+    """The spectrum of the record's intervals ``logs`` (m, k) of ``lengths`` (m,) seconds."""
+    n = system.n_dof
+    k = logs.shape[1]
+    if logs.shape[0]:
+        lam, err, per_block, sum_err = block_error(logs, lengths, blocks)
+        # the integration's share: the local tolerances summed per unit time
+        drift = (rtol + atol) * counts[_k.STEPS] / max(t_final - t0, 1e-300)
+        err, sum_err = err + drift, sum_err + k * drift
+        times = np.cumsum(lengths)
+        running = np.cumsum(logs, axis=0) / times[:, None]
+    else:
+        lam = err = np.full(k, np.nan)
+        per_block = np.zeros((0, k))
+        sum_err = math.nan
+        times = np.zeros(0)
+        running = np.zeros((0, k))
+    return LyapunovSpectrum(
+        exponents=lam, error=err, sum_error=float(sum_err), complete=complete, period=T,
+        periods=int(round(float(lengths.sum()) / T)), transient=transient, every=every,
+        blocks=per_block.shape[0], block_exponents=per_block, times=times, running=running,
+        coordinates=tuple(system.coordinates), params={name: float(v) for name, v in pv.items()},
+        q0=y_start[:n].copy(), qdot0=y_start[n:].copy(), q=y[:n].copy(), qdot=y[n:].copy(),
+        t0=t0, t_final=t_final, tangent=tangent, rtol=rtol, atol=atol,
+        steps=int(counts[_k.STEPS]), rejected=int(counts[_k.REJECTED]), status=status,
+        wall_time=time.perf_counter() - start_clock)

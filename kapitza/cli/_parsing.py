@@ -1,0 +1,313 @@
+"""The ``kapitza`` command line.
+
+Commands (``kapitza COMMAND --help`` shows each one's options and an example):
+
+  predict   averaging and Floquet analysis at one drive (A, ω)
+  window    the exact window of stabilising amplitudes per ω, the averaging one beside it
+  map       the exact (A, ω) stability map: a PNG and the data (CSV or Parquet)
+  measure   simulate the full nonlinear motion at one drive and measure it
+  verify    averaging, Floquet and simulation compared over a grid (exit 1: disagreement)
+  animate   a GIF of the stabilised inverted pendulum beside one that falls
+  report    the whole story in one folder: an HTML page, figures, a GIF and the data
+  run       run the analyses a scene file asks for
+  sweep     run a scene's [sweep] over its grid, in resumable tiles
+  warmup    compile what every analysis needs, once per installation
+  summary   derive, compile and integrate the catalogue (the default: ``kapitza --rtol 1e-6``)
+
+Drive parameters are SI numbers (``--A`` m, ``--omega`` rad/s or ``--f`` Hz) or
+dimensionless ratios (``--A-over-l``, ``--omega-over-omega0`` with ω0 = √(g/l)).
+``--json`` writes the results as JSON on stdout; messages and progress go to stderr.
+Exit codes: 0 success, 1 a verification found disagreement beyond the methods'
+tolerances (or a catalogue problem failed), 2 a usage or scene error, 130 interrupted.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+import numpy as np
+
+
+class UsageError(Exception):
+    """A command's arguments are wrong (exit code 2); the message names what."""
+
+
+def pendulum_from(args):
+    """The pendulum the options describe (--l, --g, --damping, --drive)."""
+    from ..pendulum import KapitzaPendulum
+    return KapitzaPendulum(l=args.l, g=args.g, damping=args.damping, drive=args.drive)
+
+
+def number_list(text: str, name: str) -> np.ndarray:
+    """``"0.05"``, ``"0.01,0.03,0.1"`` or ``"START:STOP:NUM"`` (NUM points, linear)."""
+    try:
+        if ":" in text:
+            parts = text.split(":")
+            if len(parts) != 3:
+                raise ValueError
+            start, stop, num = float(parts[0]), float(parts[1]), int(parts[2])
+            if num < 1:
+                raise ValueError
+            return np.linspace(start, stop, num)
+        values = np.array([float(v) for v in text.split(",") if v.strip()])
+        if not values.size:
+            raise ValueError
+        return values
+    except ValueError:
+        raise UsageError(f"{name}: expected a number, a comma-separated list or START:STOP:NUM, "
+                         f"got {text!r}.") from None
+
+
+def geometric(text: str, name: str) -> np.ndarray:
+    """As :func:`number_list`, but START:STOP:NUM spaced geometrically (for ω)."""
+    values = number_list(text, name)
+    if ":" in text and len(values) > 1:
+        if values[0] <= 0 or values[-1] <= 0:
+            raise UsageError(f"{name}: a logarithmic range needs positive ends, got {text!r}.")
+        values = np.geomspace(values[0], values[-1], len(values))
+    return values
+
+
+def parse_amplitude(args, grid: bool = False):
+    """Drive amplitude (m) from --A or --A-over-l (times l)."""
+    text = args.A if args.A is not None else args.A_over_l
+    if text is None:
+        raise UsageError("give the drive amplitude: --A (m) or --A-over-l.")
+    name = "--A" if args.A is not None else "--A-over-l"
+    values = number_list(text, name)
+    if args.A is None:
+        values = values * args.l
+    if not grid:
+        if values.size != 1:
+            raise UsageError(f"{name}: one value here, got {text!r}.")
+        return float(values[0])
+    return values
+
+
+def parse_frequency(args, grid: bool = False):
+    """Drive angular frequency (rad/s) from --omega, --f (Hz) or --omega-over-omega0."""
+    given = [(n, getattr(args, k)) for n, k in (("--omega", "omega"), ("--f", "f"),
+                                                 ("--omega-over-omega0", "omega_over_omega0"))
+             if getattr(args, k) is not None]
+    if not given:
+        raise UsageError("give the drive frequency: --omega (rad/s), --f (Hz) or "
+                         "--omega-over-omega0.")
+    name, text = given[0]
+    log = getattr(args, "log_omega", False)
+    values = geometric(text, name) if log else number_list(text, name)
+    if name == "--f":
+        values = 2 * math.pi * values
+    elif name == "--omega-over-omega0":
+        values = values * math.sqrt(args.g / args.l)
+    if not grid:
+        if values.size != 1:
+            raise UsageError(f"{name}: one value here, got {text!r}.")
+        return float(values[0])
+    return values
+
+
+def drive_point(args, A, omega) -> dict:
+    """The drive (SI and dimensionless) and the pendulum, as every command's JSON states them."""
+    omega0 = math.sqrt(args.g / args.l)
+    return {"A": A, "omega": omega, "A_over_l": np.asarray(A) / args.l,
+            "omega_over_omega0": np.asarray(omega) / omega0,
+            "pendulum": {"l": args.l, "g": args.g, "damping": args.damping,
+                         "drive": args.drive, "omega0": omega0}}
+
+
+def data_file(text):
+    """A data file's path: .csv or .parquet."""
+    if text is None:
+        return None
+    path = Path(text)
+    if path.suffix not in (".csv", ".parquet"):
+        raise UsageError(f"--data must end in .csv or .parquet, got {text!r}.")
+    return path
+
+
+def read_scene(path):
+    """The scene file ``path`` (a usage error if there is none)."""
+    from ..scenes import Scene
+    if not Path(path).is_file():
+        raise UsageError(f"no scene file {path!r}.")
+    return Scene.from_toml(path)
+
+
+_EXAMPLES = {
+    "predict": ["kapitza predict --A 0.05 --f 60",
+                "kapitza predict --A-over-l 0.05 --omega-over-omega0 120.4 --json",
+                "kapitza predict --drive horizontal --A 0.05 --omega 377"],
+    "window": ["kapitza window --omega 100,200,400",
+               "kapitza window --omega-over-omega0 10:1000:30 --log-omega --json"],
+    "map": ["kapitza map --A 0:0.5:101 --omega 20:2000:100 --log-omega --out map.png",
+            "kapitza map --A-over-l 0:0.5:51 --omega-over-omega0 5:500:60 --log-omega "
+            "--data map.parquet --dimensionless"],
+    "measure": ["kapitza measure --A 0.05 --f 60 --theta0 3.13",
+                "kapitza measure --A 0.05 --omega 377 --drive horizontal --theta0 1.0 --json"],
+    "verify": ["kapitza verify --A 0.01,0.03,0.1 --f 40 --periods 400",
+               "kapitza verify --A 0.01:0.3:10 --omega 50:500:5 --log-omega --data v.csv --json"],
+    "animate": ["kapitza animate --A-over-l 0.25 --omega-over-omega0 10 --out pendulum.gif",
+                "kapitza animate --A 0.2 --omega 40 --A-fall 0.05 --duration 3 --json",
+                "kapitza animate kapitza/scenes/report.toml --out report.gif",
+                "kapitza animate up.toml undriven.toml --out chains.gif"],
+    "report": ["kapitza report                      # the default scene, into ./kapitza-report",
+               "kapitza report kapitza/scenes/double_pendulum.toml --out dp-report",
+               "kapitza report --quick --out /tmp/r --json"],
+    "run": ["kapitza run kapitza/scenes/kapitza_pendulum.toml",
+            "kapitza run my_scene.toml --json --no-write"],
+    "sweep": ["kapitza sweep kapitza/scenes/kapitza_pendulum_map.toml",
+              "kapitza sweep scene.toml --analysis measure --directory out/"],
+    "warmup": ["kapitza warmup"],
+    "summary": ["kapitza summary --rtol 1e-8", "kapitza --rtol 1e-6"],
+}
+
+
+def _epilog(name):
+    return "examples:\n" + "\n".join(f"  {e}" for e in _EXAMPLES[name])
+
+
+def _common(p, json_only=False):
+    """The options every command shares (added to each parser: argparse's ``parents``
+    would lose the drive's group title in the help)."""
+    p.add_argument("--json", action="store_true",
+                   help="write the results as JSON on stdout (messages go to stderr)")
+    if json_only:
+        return
+    g = p.add_argument_group("the pendulum")
+    g.add_argument("--l", type=float, default=1.0, help="length l (m; default 1)")
+    g.add_argument("--g", type=float, default=9.81, help="gravity g (m/s²; default 9.81)")
+    g.add_argument("--damping", type=float, default=0.0, help="damping rate γ (1/s; default 0)")
+    g.add_argument("--drive", choices=("vertical", "horizontal"), default="vertical",
+                   help="direction of the pivot's oscillation A cos ωt (default vertical)")
+    d = p.add_argument_group("the drive (SI numbers or dimensionless ratios; grids as "
+                             "a,b,c or START:STOP:NUM where a command takes several)")
+    a = d.add_mutually_exclusive_group()
+    a.add_argument("--A", metavar="A", help="amplitude A (m)")
+    a.add_argument("--A-over-l", dest="A_over_l", metavar="A/l", help="amplitude as A/l")
+    f = d.add_mutually_exclusive_group()
+    f.add_argument("--omega", metavar="ω", help="angular frequency ω (rad/s)")
+    f.add_argument("--f", metavar="Hz", help="frequency f = ω/2π (Hz)")
+    f.add_argument("--omega-over-omega0", dest="omega_over_omega0", metavar="ω/ω0",
+                   help="ω as a ratio to ω0 = √(g/l)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``kapitza`` parser: one sub-command each, its name in ``args.command``."""
+    from .._version import __version__
+    raw = argparse.RawDescriptionHelpFormatter
+    parser = argparse.ArgumentParser(prog="kapitza", description=__doc__, formatter_class=raw)
+    parser.add_argument("--version", action="version", version=f"kapitza {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    pend, plain = False, True
+
+    def add(name, helptext, json_only):
+        p = sub.add_parser(name, help=helptext, description=helptext, epilog=_epilog(name),
+                           formatter_class=raw)
+        _common(p, json_only)
+        return p
+
+    p = add("predict", "averaging and Floquet analysis at one drive (A, ω)", pend)
+    p.add_argument("--about", help="Floquet about: inverted (default) or hanging; horizontal "
+                   "drive: tilted (default), tilted-, hanging, inverted")
+    p.add_argument("--order", type=int, choices=(1, 2), default=1, help="order of averaging")
+    p.add_argument("--tol", type=float, default=1e-10, help="Floquet tolerance (default 1e-10)")
+
+    p = add("window", "the exact window A_min < A < A_max per ω (vertical drive), the "
+            "averaging window beside it", pend)
+    p.add_argument("--about", choices=("inverted", "hanging"), default="inverted")
+    p.add_argument("--order", type=int, choices=(1, 2), default=1,
+                   help="order of the averaging window (default 1)")
+    p.add_argument("--tol", type=float, default=1e-10, help="relative accuracy of the edges")
+    p.add_argument("--log-omega", action="store_true", help="START:STOP:NUM of ω geometric")
+
+    p = add("map", "the exact (A, ω) stability map (vertical drive): a PNG and its data",
+            pend)
+    p.add_argument("--about", choices=("inverted", "hanging"), default="inverted")
+    p.add_argument("--out", default="kapitza-map.png", help="figure (default kapitza-map.png)")
+    p.add_argument("--data", help="data file, .csv or .parquet (default: the figure's name "
+                   "with .csv)")
+    p.add_argument("--trace", action="store_true", help="compute the monodromy trace everywhere")
+    p.add_argument("--tol", type=float, default=1e-10, help="Floquet tolerance (with --trace "
+                   "or damping)")
+    p.add_argument("--log-omega", action="store_true",
+                   help="START:STOP:NUM of ω geometric, and a logarithmic ω axis")
+    p.add_argument("--dimensionless", action="store_true", help="axes A/l and ω/ω0")
+
+    p = add("measure", "simulate the full nonlinear motion at one drive and measure it", pend)
+    p.add_argument("--theta0", type=float, default=math.pi - 0.01,
+                   help="release angle from the downward vertical (rad; default π − 0.01)")
+    p.add_argument("--theta-dot0", dest="theta_dot0", type=float, default=0.0,
+                   help="release angular velocity (rad/s; default 0)")
+    p.add_argument("--periods", type=int, default=None,
+                   help="drive periods simulated (default: measure's)")
+    p.add_argument("--about", help="inverted, hanging, tilted or an angle (default: inverted "
+                   "for the vertical drive, tilted for the horizontal)")
+    p.add_argument("--rtol", type=float, default=1e-9, help="integration tolerance")
+
+    p = add("verify", "averaging, Floquet and simulation of the upright pendulum compared "
+            "over an A × ω grid; exit code 1 where they disagree beyond tolerance", pend)
+    p.add_argument("--theta0", type=float, default=math.pi - 0.01,
+                   help="the simulations' release angle (rad; default π − 0.01)")
+    p.add_argument("--periods", type=int, default=None,
+                   help="drive periods simulated per point (default: measure's)")
+    p.add_argument("--tol", type=float, default=1e-10, help="Floquet tolerance")
+    p.add_argument("--rtol", type=float, default=1e-9, help="integration tolerance")
+    p.add_argument("--fit-order", action="store_true",
+                   help="also fit the order of averaging along A ω = 2√(gl)")
+    p.add_argument("--data", help="write the per-point table (.csv or .parquet)")
+    p.add_argument("--log-omega", action="store_true", help="START:STOP:NUM of ω geometric")
+
+    p = add("animate", "a looping GIF of the stabilised inverted pendulum beside one that "
+            "falls (vertical drive, slow motion)", pend)
+    p.add_argument("scene", metavar="SCENE.toml", nargs="*",
+                   help="one pendulum scene: l, g, damping, the drive and θ0 from it (the "
+                   "falling one beside it as with the options); a chain's scene, or several "
+                   "scenes: one panel each, from their [initial] states")
+    p.add_argument("--theta0", type=float, default=math.pi - 0.1,
+                   help="release angle of both (rad from the downward vertical; default "
+                   "π − 0.1)")
+    p.add_argument("--A-fall", dest="A_fall", type=float, default=0.0,
+                   help="drive amplitude of the falling one (m; default 0, undriven; "
+                   "must lie outside the window)")
+    p.add_argument("--duration", type=float, default=4.0, help="simulated time (s; default 4)")
+    p.add_argument("--fps", type=float, default=20.0, help="playback frames/s (default 20)")
+    p.add_argument("--frames-per-period", dest="frames_per_period", type=int, default=8,
+                   help="frames per drive period, ≥ 4 (default 8; sets the slow motion)")
+    p.add_argument("--width", type=int, default=720, help="frame width (px; default 720)")
+    p.add_argument("--max-frames", dest="max_frames", type=int, default=600,
+                   help="refuse to render more frames (default 600)")
+    p.add_argument("--mode", choices=("auto", "slow", "strobe"), default="auto",
+                   help="slow motion (n frames a drive period), strobe (one frame every few "
+                   "periods at one phase, the period drawn faint) or auto (slow motion when "
+                   "it fits --max-frames and is at most 10× slower than real; default)")
+    p.add_argument("--out", default="pendulum.gif", help="the GIF (default pendulum.gif)")
+
+    p = add("report", "the main job: run a scene (default: a 1 m pendulum shaken "
+            "vertically) through every analysis and write a self-contained folder: "
+            "index.html, PNG figures, a GIF and the data (Parquet and CSV); progress on "
+            "stderr, Ctrl-C keeps the finished sections (exit 130), exit 1 if a section "
+            "failed. The default scene takes about 1.5 min on a fresh installation "
+            "(compiling included) and 20 s after", plain)
+    p.add_argument("scene", metavar="SCENE.toml", nargs="?", default=None,
+                   help="a scene file (default: the embedded kapitza/scenes/report.toml)")
+    p.add_argument("--out", default="kapitza-report",
+                   help="the report folder (default ./kapitza-report)")
+    p.add_argument("--quick", action="store_true", help="small grids and short runs")
+
+    p = add("run", "run the analyses a scene file (TOML) asks for", plain)
+    p.add_argument("scene", metavar="SCENE.toml")
+    p.add_argument("--no-write", action="store_true", help="do not write [output] tables")
+
+    p = add("sweep", "run a scene's [sweep] over its grid in resumable tiles", plain)
+    p.add_argument("scene", metavar="SCENE.toml")
+    p.add_argument("--analysis", help="the swept analysis (default: the only one)")
+    p.add_argument("--directory", help="where the dataset goes (default: the scene's output)")
+    p.add_argument("--tile-points", dest="tile_points", type=int)
+
+    add("warmup", "compile what every analysis needs, once per installation", plain)
+
+    p = add("summary", "derive, compile and integrate the catalogue (the default)", plain)
+    p.add_argument("--rtol", type=float, default=1e-10,
+                   help="integration tolerance (default 1e-10)")
+    return parser

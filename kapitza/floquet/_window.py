@@ -1,0 +1,247 @@
+"""Where stability changes, exactly: :func:`window` (the stabilising amplitudes per ω,
+certified edges → :class:`~kapitza.results.StabilityWindow`) and :func:`boundaries` (the
+curves A_k(ω) by continuation → :class:`~kapitza.results.BoundaryCurves`).
+
+Both find the roots of smooth margins such as det(M ∓ I) (:mod:`kapitza.floquet._margins`),
+not bisection on the flag "stable": a classification scan brackets each change, the
+Anderson–Björck method solves it (:mod:`kapitza.floquet._edges`), continuation follows it
+over ω (:mod:`kapitza.floquet._curves`), all on the monodromies of
+:class:`kapitza.floquet._probe._Probe`.  The single pendulum's windows go through the
+Mathieu equation instead (:func:`kapitza.closed_forms.pendulum_window`), which is
+faster and exact to rounding.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from lagrange_core.checks import real_number
+
+from .. import _arguments as arguments
+from ..results import BoundaryCurves, StabilityWindow
+from ._curves import trace_curves
+from ._edges import first_window
+from ._margins import KINDS
+from ._old_spellings import frequency_as_keyword
+from ._probe import _Probe
+
+__all__ = ["window", "boundaries"]
+
+#: the monodromies' tolerance of the classification scans and side checks of windows and
+#: boundaries (their brackets are then solved on margins at the edges' own tolerance)
+CLASSIFY_TOL = 1e-8
+
+
+def _margin_tol(tol):
+    """The monodromies' tolerance for edges wanted to ``tol`` (relative, in A): 1e-5 tol,
+    at least 1e-15 (each factor 100 costs about 30 % more Taylor steps)."""
+    return float(min(1e-8, max(1e-15, 1e-5 * tol)))
+
+
+def _scan_grid(lo, hi, points):
+    """Ascending amplitudes from lo to hi: ``points`` evenly spaced plus a third as many
+    spaced geometrically towards lo (edges near lo, e.g. at fast drives, are resolved)."""
+    u = np.unique(np.r_[0.0, np.geomspace(1e-4, 1.0, max(2, points // 3)),
+                        np.linspace(0.0, 1.0, points + 1)])
+    return lo + (hi - lo) * u
+
+
+@frequency_as_keyword
+def window(system, params, about, *, omega, A_range=None, amplitude="A", frequency="omega",
+           tol=1e-10, scan=96, order=16, guard_tol=1e-8) -> StabilityWindow:
+    """The exact window of drive amplitudes A_min < A < A_max that stabilises ``about``,
+    per ω, with certified edges.
+
+    At each ω the amplitudes 0 … ``A_range[1]`` are classified (``scan`` points, plus
+    geometric ones towards 0) to find the lowest stable interval; each of its edges is
+    then the root of the smooth margin of the boundary's kind — det(M − I) where a
+    multiplier reaches +1 ("T"), det(M + I) at −1 ("2T"), the reduced polynomial's
+    discriminant or the leading log|λ| where a complex pair leaves the circle — found by
+    the Anderson–Björck method in the scan's bracket, with the monodromies integrated to
+    1e-5 tol and their error measured against a second monodromy at 100× that
+    tolerance (:mod:`kapitza.floquet._margins`, :mod:`kapitza.floquet._edges`).  Not
+    bisection on the flag "stable": after the scan, each edge takes six or seven margin
+    evaluations.
+
+    kapitza 0.1's ``window(system, params, about, omega)`` and ``A_limit=x`` still work in
+    0.2, with a DeprecationWarning (now ``omega=omega`` and ``A_range=(0, x)``).
+
+    Parameters
+    ----------
+    system : lagrange_core.System
+    params : dict
+        The other parameters (scalars); values of ``amplitude`` and ``frequency`` in
+        it are ignored.
+    about : sequence or dict
+        The driven equilibrium's coordinates (velocities zero).
+    omega : float or 1-d array
+        Drive angular frequencies (rad/s), keyword; a scalar gives a window of scalar
+        fields.
+    A_range : (0, float), optional
+        The amplitudes scanned (m), ``(0, high)``; default, per ω, up to where the drive's
+        modulation of the linearised equations reaches 2 in the balanced variables (2 l
+        for a pendulum of length l: Mathieu q = 4).  The window is the *lowest* stable
+        interval, from A = 0 (A_min = 0 where the undriven state is stable), so a lower
+        end above 0 is refused; the boundaries inside a band of amplitudes are
+        :func:`boundaries`' ``A_range``.
+    amplitude, frequency : str
+        The names of the drive's amplitude and angular frequency parameters.
+    tol : float
+        Requested relative accuracy of the edges.
+    scan : int
+        Evenly spaced scan points; a window narrower than A_range[1]/scan can be missed.
+
+    Returns
+    -------
+    kapitza.results.StabilityWindow
+        ``method="floquet"``: A_min, A_max per ω; NaN where no scanned amplitude is
+        stable; A_min = 0 where the undriven state is already stable (the hanging
+        chain); A_max = inf where the scan ends stable.  ``accuracy``: the larger
+        certified relative accuracy of the two edges.  ``l``, ``g`` are None.
+
+    Warns
+    -----
+    RuntimeWarning
+        Where the certified ``accuracy`` is coarser than ``tol``: at fast drives the
+        monodromy is near the identity and float64 fixes the margins' sign only to about
+        ε_mach (ω/ω0)² (so 1e-10 is out of reach from ~100–300 ω0 on; ask for 1e-8 there).
+        Where a solved edge fails its check on both sides (A(1 ∓ η) classified on the fine
+        monodromies), or a stable amplitude was scanned but an edge not found, both edges
+        of that ω are NaN and the warning names the frequencies: never a wrong window.
+
+    Examples
+    --------
+    The upright pendulum's window at ω = 60 rad/s agrees with the Mathieu equation's
+    characteristic values (:func:`kapitza.closed_forms.pendulum_window`):
+
+    >>> import math
+    >>> from lagrange_core import problems
+    >>> from kapitza.closed_forms import pendulum_window
+    >>> win = window(problems.driven_pendulum("vertical"), dict(m=1.0, l=1.0, g=9.81),
+    ...              [math.pi], omega=60.0)
+    >>> ref = pendulum_window(60.0, l=1.0, g=9.81)
+    >>> print(f"{win.A_min:.10f} {win.A_max:.10f}")
+    0.0739120532 0.4585959178
+    >>> bool(abs(win.A_min / ref.A_min - 1) < 1e-10 and win.accuracy <= 1e-10)
+    True
+    """
+    scalar = np.ndim(omega) == 0
+    w = arguments.grid_axis(frequency, omega, "rad/s", positive=True)
+    _check_tol(tol)
+    if A_range is not None:
+        lo, hi = _amplitude_range(A_range)
+        if lo != 0.0:
+            raise ValueError(
+                f"window: A_range={A_range!r} starts above 0, but the window is the lowest "
+                "interval of stabilising amplitudes, found by a scan from A = 0 (A_min = 0 "
+                f"where the undriven state is stable); pass A_range=(0, {hi!r}).  For the "
+                "stability boundaries within a band of amplitudes use "
+                "kapitza.boundaries(..., A_range=(low, high)).")
+    probe = _Probe(system, params, about, amplitude, frequency, _margin_tol(tol), order,
+                   guard_tol, paired=True, classify_tol=CLASSIFY_TOL)
+    if w.size == 0:
+        edges = dict(A_min=np.zeros(0), A_max=np.zeros(0), accuracy=np.zeros(0))
+    else:
+        limit = probe.amplitude_scale(w) if A_range is None else np.full(w.size, hi)
+        grid = np.stack([_scan_grid(0.0, top, scan) for top in limit])
+        edges = first_window(probe, w, grid, tol)
+    pick = (lambda x: float(x[0])) if scalar else (lambda x: x)
+    return StabilityWindow(omega=pick(w), A_min=pick(edges["A_min"]),
+                           A_max=pick(edges["A_max"]), method="floquet", about=str(about),
+                           accuracy=pick(edges["accuracy"]), tol=tol)
+
+
+def _check_tol(tol):
+    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (1e-13 <= tol < 1e-2):
+        raise ValueError(f"tol must be a number in [1e-13, 1e-2) (relative, in A), got {tol!r}.")
+
+
+def _amplitude_range(A_range):
+    """``A_range`` as floats (low, high), checked: finite, 0 ≤ low < high (m)."""
+    try:
+        lo, hi = (real_number(x, "A_range") for x in A_range)
+    except (TypeError, ValueError):
+        lo = hi = math.nan
+    if not (0.0 <= lo < hi and math.isfinite(hi)):
+        raise ValueError(f"A_range must be (low, high) in m with 0 ≤ low < high, both finite, "
+                         f"got {A_range!r}.")
+    return float(lo), float(hi)
+
+
+@frequency_as_keyword
+def boundaries(system, params, about, *, omega, A_range=None, amplitude="A",
+               frequency="omega", tol=1e-10, seed_every=10, scan=64, side=1e-6, order=16,
+               guard_tol=1e-8) -> BoundaryCurves:
+    """The stability boundaries A_k(ω) of ``about`` over a frequency grid, by continuation.
+
+    Every ``seed_every``-th frequency (and the last) is scanned over ``A_range`` for
+    changes between stable and unstable; each is solved to ``tol`` on the smooth margin
+    of its kind ("T", "2T", "complex"; see :func:`window`), and followed through the
+    frequencies in between by predictor–corrector continuation (a few monodromies per
+    point), all curves together; finally every point is classified at A(1 ∓ ``side``)
+    and kept only where exactly its stable side is stable
+    (:func:`kapitza.floquet._curves.trace_curves`).
+
+    Parameters
+    ----------
+    system, params, about, amplitude, frequency, tol, order, guard_tol
+        As for :func:`window`.
+    omega : 1-d array
+        Drive angular frequencies (rad/s), ascending, keyword; the finer, the shorter each
+        continuation step.  (kapitza 0.1's ``boundaries(system, params, about, omega)``
+        still works in 0.2, with a DeprecationWarning.)
+    A_range : (float, float), optional
+        Amplitudes searched (m), ``(low, high)`` with 0 ≤ low < high; default from 0 to
+        the largest scan limit of :func:`window`.
+    seed_every, scan : int
+        Seed frequencies' spacing (in grid points) and their scans' evenly spaced
+        points (a boundary inside a stable or unstable sliver thinner than the scan's
+        spacing at every seed frequency is not found).
+    side : float
+        Relative offset of the side checks.
+
+    Returns
+    -------
+    kapitza.results.BoundaryCurves
+        ``A`` (curves × ω; NaN where a curve does not bound the stable region),
+        ``accuracy``, ``kind``, ``stable_below``; draw them over a map with
+        ``kapitza.stability_map_figure(map, overlays=[curves])``.
+
+    Examples
+    --------
+    The upright pendulum: the Kapitza limit (a multiplier at +1, stable above) and the
+    first parametric resonance (at −1, stable below), as the Mathieu equation has them:
+
+    >>> import math
+    >>> import numpy as np
+    >>> from lagrange_core import problems
+    >>> from kapitza.closed_forms import pendulum_window
+    >>> w = np.linspace(30.0, 60.0, 7)
+    >>> curves = boundaries(problems.driven_pendulum("vertical"), dict(m=1.0, l=1.0, g=9.81),
+    ...                     [math.pi], omega=w, A_range=(0.0, 0.6))
+    >>> curves.kind, curves.stable_below.tolist()
+    (('T', '2T'), [False, True])
+    >>> ref = pendulum_window(w, l=1.0, g=9.81)
+    >>> bool(np.allclose(curves.A, [ref.A_min, ref.A_max], rtol=1e-9))
+    True
+    """
+    t0 = time.perf_counter()
+    w = arguments.grid_axis(frequency, omega, "rad/s", positive=True)
+    if w.size < 2 or not np.all(np.diff(w) > 0):
+        raise ValueError(f"{frequency} must be an ascending grid of at least 2 frequencies.")
+    _check_tol(tol)
+    probe = _Probe(system, params, about, amplitude, frequency, _margin_tol(tol), order,
+                   guard_tol, paired=True, classify_tol=CLASSIFY_TOL)
+    if A_range is None:
+        lo, hi = 0.0, float(np.max(probe.amplitude_scale(w[[0, -1]])))
+    else:
+        lo, hi = _amplitude_range(A_range)
+    found = trace_curves(probe, w, _scan_grid(lo, hi, scan), tol, seed_every=seed_every,
+                         side=side)
+    return BoundaryCurves(omega=w, A=found["A"], accuracy=found["accuracy"],
+                          kind=tuple(KINDS[int(k)] for k in found["kind"]),
+                          stable_below=found["stable_below"], about=str(about),
+                          params=dict(probe.fixed), A_range=(lo, hi), tol=tol,
+                          seconds=time.perf_counter() - t0, monodromies=probe.count)

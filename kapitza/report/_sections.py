@@ -1,0 +1,24 @@
+"""The report's sections, in page order: each name, its heading and the function that
+computes it (``section(job) -> SectionResult``, raising ``Skip`` where it does not apply).
+"""
+from __future__ import annotations
+
+from ._animation_section import animation_section
+from ._checks import slow_section, verification_section, work_precision_section
+from ._stability import map_section, potential_section, spots_section
+
+#: The report's sections, in order: name → heading.
+SECTIONS = {
+    "potential": "Effective potential",
+    "map": "Stability map: exact boundaries and the averaging prediction",
+    "spots": "Direct-simulation spot checks on the map",
+    "slow": "Slow frequency: predicted against measured",
+    "verification": "Verification summary",
+    "work_precision": "What accuracy costs in time",
+    "animation": "Animation: stabilised and falling",
+}
+
+#: Section name → the function that computes it.
+BUILDERS = {"potential": potential_section, "map": map_section, "spots": spots_section,
+            "slow": slow_section, "verification": verification_section,
+            "work_precision": work_precision_section, "animation": animation_section}

@@ -1,0 +1,406 @@
+"""Results of verification: the four methods side by side, and the measured order of averaging.
+
+:class:`Verification` (:func:`kapitza.verify`, :meth:`kapitza.KapitzaPendulum.verify`)
+holds every method's classification, slow frequencies and their stated errors per grid
+point; :class:`OrderFit` the order of averaging measured along a line of drives.
+
+Why the comparison is here and not in :mod:`kapitza.verification`: two methods agree
+when their fields say so (the same classification; |Ω_a − Ω_b| ≤ tolerance_a +
+tolerance_b), a rule on this result's own numbers, like a map's ``boundary`` names.
+:mod:`kapitza.verification` computes the numbers and the tolerances; the result reads
+them, and the figures (a room below the analyses, which they may not import) ask the
+result.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._maps import StabilityWindow
+
+__all__ = ["VERIFICATION_METHODS", "OrderFit", "Verification"]
+
+#: The methods a :class:`Verification` compares: first-order averaging, next-order
+#: averaging, Floquet analysis (exact, linear) and direct simulation (full, nonlinear).
+VERIFICATION_METHODS = ("averaging", "averaging_2", "floquet", "simulation")
+#: Simulation statuses that classify a point (the others are failed integrations).
+_CLASSIFIED = ("finished", "left_band")
+#: What two methods are compared on: the classification, and the slow frequency Ω.
+_QUANTITIES = ("stability", "omega_slow")
+
+
+def _at(x, j):
+    """Row i's entry x[i, j[i]] of a (points, modes) array."""
+    return np.take_along_axis(x, j, axis=1)[:, 0]
+
+
+@dataclass(frozen=True)
+class OrderFit:
+    """The order of an averaging approximation, measured: its relative error in Ω
+    against Floquet's exact Ω along a line of drives, fitted as c ε^p.
+
+    Built by :func:`kapitza.verify` (and :meth:`kapitza.KapitzaPendulum.verify`); the line
+    and the small parameter ε are stated in ``small_parameter`` (the default line keeps
+    the drive's velocity A ω fixed, so that the first-order prediction is fixed and ω0/ω
+    and A/l shrink together; see :mod:`kapitza.verification`).
+
+    Attributes
+    ----------
+    order : int
+        1 (first-order averaging) or 2 (next order).
+    small_parameter : str
+        What ε is and along which line, e.g. "ε = ω0/ω along A ω = 2 √(g l)".
+    epsilon, omega, A : ndarray (k,)
+        ε, the drive frequency (rad/s) and amplitude (m) of each point of the line.
+    error : ndarray (k,)
+        |Ω_averaging − Ω_Floquet| / Ω_Floquet (largest over the slow modes).
+    floor : ndarray (k,)
+        Floquet's own relative error bound on Ω (the fit leaves out points whose
+        error is not above ``RESOLVED`` × floor, :mod:`kapitza.verification`).
+    used : bool ndarray (k,)
+        The points fitted.
+    exponent, exponent_error : float
+        p of the least-squares line log error = log c + p log ε, and its standard
+        error (from the residuals); NaN with fewer than 3 points used.
+    prefactor : float
+        c.
+    theory : float
+        The exponent theory predicts (2 for order 1, 4 for order 2; NaN if unknown).
+    """
+
+    order: int
+    small_parameter: str
+    epsilon: np.ndarray
+    omega: np.ndarray
+    A: np.ndarray
+    error: np.ndarray
+    floor: np.ndarray
+    used: np.ndarray
+    exponent: float
+    exponent_error: float
+    prefactor: float
+    theory: float
+
+    def to_dataframe(self):
+        """One row per point of the line: epsilon, omega, A, error, floor, used (and order)."""
+        import pandas as pd
+        return pd.DataFrame({"epsilon": self.epsilon, "omega": self.omega, "A": self.A,
+                             "error": self.error, "floor": self.floor, "used": self.used,
+                             "order": self.order})
+
+
+@dataclass(frozen=True)
+class Verification:
+    """Averaging, Floquet analysis and direct simulation of one driven equilibrium,
+    compared point by point over a broadcast (A, ω) grid.
+
+    Built by :func:`kapitza.verify` (any driven system) and
+    :meth:`kapitza.KapitzaPendulum.verify`; how each number is obtained, and the
+    tolerances, are in :mod:`kapitza.verification`.  Method names:
+    :data:`VERIFICATION_METHODS` ("averaging" is first order, "averaging_2" the next
+    order, absent (None fields) where there is none).  The methods compare the fields
+    (:meth:`compare`, :attr:`agreement`, :attr:`disagreements`) and draw them
+    (:meth:`figure`); they compute no physics.
+
+    Per-point fields have the grid's shape S; the slow frequencies and their
+    tolerances have shape S for a system of one coordinate and S + (n,) otherwise
+    (modes in ascending order of Ω).
+
+    Attributes
+    ----------
+    A, omega : ndarray (S)
+        Drive amplitude (units of the amplitude parameter; m for a pivot) and angular
+        frequency (rad/s) of every point.
+    about : str
+        The equilibrium verified ("inverted", or the coordinates as text).
+    length, omega0 : float or None
+        The length and frequency that make A/l and ω/ω0 (the pendulum's l and √(g/l));
+        None where not given.
+    stable_averaging, stable_averaging_2, stable_floquet, stable_simulation : bool ndarray (S)
+        The classification by each method: linear stability of the averaged motion
+        (first and next order), of the exact linearisation (Floquet), and "stayed
+        near the equilibrium" in the full simulation (the band of
+        :func:`kapitza.measure_grid`; for the pendulum |θ − π| < π/2 throughout).
+    omega_slow_averaging, omega_slow_averaging_2, omega_slow_floquet, omega_slow_simulation
+        Ω (rad/s) by each method, NaN where that method finds no stable oscillation
+        (the simulation's Ω is measured up to a fall; it is compared only where the
+        run stayed up).  With damping, the damped slow frequency.
+    tolerance_averaging, tolerance_averaging_2, tolerance_floquet, tolerance_simulation
+        Each method's stated error of its Ω (rad/s; inf: no claim).  Two methods
+        agree on Ω when |Ω_a − Ω_b| ≤ tolerance_a + tolerance_b for every mode.
+    averaging_valid : bool ndarray (S)
+        First-order averaging's own validity flag (``valid`` of its prediction).
+    floquet_margin : ndarray (S)
+        Distance of the Floquet stability test from its threshold in units of its
+        error bound (> 1: certified).
+    simulation_status : str ndarray (S)
+        How each run ended ("finished", "left_band", or a failure, which leaves the
+        point unclassified by simulation).
+    fall_time : ndarray (S)
+        Time to leaving the band (s), NaN where the run stayed.
+    amplitude : ndarray (S)
+        The simulated slow amplitude (largest over the coordinates).
+    boundary_distance : ndarray (S)
+        |A − A_b| / A to the nearest Floquet stability boundary A_b at the point's ω
+        (along A); inf where none was found (see :mod:`kapitza.verification` for where
+        each builder looks), NaN where not located.
+    nearest_boundary : ndarray (S)
+        That A_b (NaN where none).
+    boundary_A, boundary_omega : ndarray (m,)
+        Every boundary located at the grid's frequencies (for the figure).
+    window : StabilityWindow or None
+        The exact window on a fine ω grid over the grid's range (the pendulum), drawn
+        as the boundary lines; None for a general system.
+    fits : tuple of OrderFit
+        The order of averaging, measured (order 1, and 2 where there is a next order);
+        empty if not computed.
+    periods : int
+        Drive periods simulated per point.
+    tol, rtol : float
+        Floquet's tolerance and the simulation's relative tolerance.
+    notes : tuple of str
+        What was not available or not located, said once.
+    """
+
+    A: np.ndarray
+    omega: np.ndarray
+    about: str
+    length: float | None
+    omega0: float | None
+    stable_averaging: np.ndarray
+    stable_averaging_2: np.ndarray | None
+    stable_floquet: np.ndarray
+    stable_simulation: np.ndarray
+    omega_slow_averaging: np.ndarray
+    omega_slow_averaging_2: np.ndarray | None
+    omega_slow_floquet: np.ndarray
+    omega_slow_simulation: np.ndarray
+    tolerance_averaging: np.ndarray
+    tolerance_averaging_2: np.ndarray | None
+    tolerance_floquet: np.ndarray
+    tolerance_simulation: np.ndarray
+    averaging_valid: np.ndarray
+    floquet_margin: np.ndarray
+    simulation_status: np.ndarray
+    fall_time: np.ndarray
+    amplitude: np.ndarray
+    boundary_distance: np.ndarray
+    nearest_boundary: np.ndarray
+    boundary_A: np.ndarray
+    boundary_omega: np.ndarray
+    window: StabilityWindow | None
+    fits: tuple
+    periods: int
+    tol: float
+    rtol: float
+    notes: tuple = ()
+
+    @property
+    def shape(self) -> tuple:
+        """The grid's shape S."""
+        return np.shape(self.stable_floquet)
+
+    @property
+    def methods(self) -> tuple:
+        """The methods present (next-order averaging only where there is one)."""
+        return tuple(m for m in VERIFICATION_METHODS if getattr(self, f"stable_{m}") is not None)
+
+    @property
+    def exponent(self) -> float:
+        """The fitted order of first-order averaging's relative error in Ω (NaN if not fitted)."""
+        return self._fit(1, "exponent")
+
+    @property
+    def exponent_error(self) -> float:
+        """Standard error of :attr:`exponent`."""
+        return self._fit(1, "exponent_error")
+
+    @property
+    def exponent_theory(self) -> float:
+        """The exponent theory gives for first-order averaging (2)."""
+        return self._fit(1, "theory")
+
+    def _fit(self, order, name):
+        for f in self.fits:
+            if f.order == order:
+                return getattr(f, name)
+        return math.nan
+
+    def modes(self, name: str) -> np.ndarray:
+        """A slow-frequency field with its mode axis always present: shape S + (n,).
+
+        Parameters
+        ----------
+        name : str
+            ``"omega_slow_<method>"`` or ``"tolerance_<method>"`` for a method of
+            :attr:`methods`, e.g. ``"omega_slow_floquet"``.
+
+        Returns
+        -------
+        float ndarray (S + (n,))
+            The field (rad/s), with a last axis of length 1 for a system of one
+            coordinate (whose fields have shape S), as is for several (S + (n,), modes in
+            ascending order of Ω).
+
+        Raises
+        ------
+        ValueError
+            ``name`` is not such a field of this verification.
+        """
+        allowed = [f"{kind}_{m}" for kind in ("omega_slow", "tolerance") for m in self.methods]
+        if name not in allowed:
+            raise ValueError(f"Verification.modes: no field {name!r} here; pass one of "
+                             f"{allowed}.")
+        x = np.asarray(getattr(self, name), dtype=float)
+        return x[..., None] if x.ndim == len(self.shape) else x
+
+    def compare(self, first: str, second: str, quantity: str = "stability"):
+        """Which points two methods were compared on, and which of them agree.
+
+        Parameters
+        ----------
+        first, second : str
+            Method names (:data:`VERIFICATION_METHODS`).
+        quantity : {"stability", "omega_slow"}
+            The classification (compared wherever both methods classified the point;
+            simulation failures are not), or Ω (compared where both call the point
+            stable and give a finite Ω for some mode; agree when |Ω_a − Ω_b| ≤
+            tolerance_a + tolerance_b for every such mode).
+
+        Returns
+        -------
+        compared, agree : bool ndarray (S)
+            ``agree`` is True where the point was not compared.
+
+        Raises
+        ------
+        ValueError
+            A method this verification does not have, or another quantity.
+        """
+        for m in (first, second):
+            if m not in self.methods:
+                raise ValueError(f"no method {m!r} in this verification; it has "
+                                 f"{list(self.methods)}.")
+        if quantity not in _QUANTITIES:
+            raise ValueError(f"quantity must be 'stability' or 'omega_slow', got {quantity!r}.")
+        sa, sb = (np.asarray(getattr(self, f"stable_{m}"), bool) for m in (first, second))
+        compared = np.ones(self.shape, bool)
+        if "simulation" in (first, second):
+            compared &= np.isin(self.simulation_status, _CLASSIFIED)
+        if quantity == "stability":
+            return compared, ~compared | (sa == sb)
+        wa, wb = (self.modes(f"omega_slow_{m}") for m in (first, second))
+        ta, tb = (self.modes(f"tolerance_{m}") for m in (first, second))
+        both = np.isfinite(wa) & np.isfinite(wb)
+        with np.errstate(invalid="ignore"):
+            close = ~both | (np.abs(wa - wb) <= ta + tb)
+        compared &= sa & sb & both.any(axis=-1)
+        return compared, ~compared | close.all(axis=-1)
+
+    def _comparisons(self):
+        """(first, second, quantity, compared, agree) for every pair of methods and quantity."""
+        ms = self.methods
+        for i, a in enumerate(ms):
+            for b in ms[i + 1:]:
+                for quantity in _QUANTITIES:
+                    yield (a, b, quantity, *self.compare(a, b, quantity))
+
+    @property
+    def agreement(self):
+        """Agreement statistics: one row per pair of methods and quantity ("stability",
+        "omega_slow") with the points compared, agreeing, disagreeing and the fraction
+        agreeing (NaN where none was compared)."""
+        import pandas as pd
+        rows = []
+        for a, b, quantity, compared, agree in self._comparisons():
+            n, k = int(compared.sum()), int((compared & agree).sum())
+            rows.append({"first": a, "second": b, "quantity": quantity, "compared": n,
+                         "agreeing": k, "disagreeing": n - k,
+                         "fraction": k / n if n else math.nan})
+        return pd.DataFrame(rows)
+
+    def _location(self) -> dict:
+        """Per-point columns that locate a point (flat, C order)."""
+        cols = {"A": np.ravel(self.A), "omega": np.ravel(self.omega)}
+        if self.length is not None:
+            cols["A_over_l"] = np.ravel(self.A) / self.length
+        if self.omega0 is not None:
+            cols["omega_over_omega0"] = np.ravel(self.omega) / self.omega0
+        cols.update(boundary_distance=np.ravel(self.boundary_distance),
+                    nearest_boundary=np.ravel(self.nearest_boundary))
+        return cols
+
+    @property
+    def disagreements(self):
+        """Every disagreement, located: one row per point, pair of methods and quantity
+        that disagree, with the point's A, ω (A/l, ω/ω0), distance to the nearest Floquet
+        boundary, both methods' classifications and Ω (the mode that differs most,
+        relative to the tolerance), the tolerance, first-order averaging's validity and
+        the simulation's status."""
+        import pandas as pd
+        where = self._location()
+        frames = []
+        for a, b, quantity, compared, agree in self._comparisons():
+            bad = np.flatnonzero(np.ravel(compared & ~agree))
+            if not bad.size:
+                continue
+            wa, wb = (self.modes(f"omega_slow_{m}") for m in (a, b))
+            wa, wb = (x.reshape(-1, x.shape[-1])[bad] for x in (wa, wb))
+            tt = self.modes(f"tolerance_{a}") + self.modes(f"tolerance_{b}")
+            tt = tt.reshape(-1, tt.shape[-1])[bad]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                score = np.where(np.isfinite(wa) & np.isfinite(wb), np.abs(wa - wb) / tt,
+                                 -np.inf)
+            j = np.argmax(score, axis=1)[:, None]      # the mode that differs most
+            frames.append(pd.DataFrame({
+                "point": bad, **{k: v[bad] for k, v in where.items()},
+                "quantity": quantity, "first": a, "second": b,
+                "first_stable": np.ravel(getattr(self, f"stable_{a}"))[bad],
+                "second_stable": np.ravel(getattr(self, f"stable_{b}"))[bad],
+                "first_omega_slow": _at(wa, j), "second_omega_slow": _at(wb, j),
+                "tolerance": _at(tt, j) if quantity == "omega_slow" else math.nan,
+                "averaging_valid": np.ravel(self.averaging_valid)[bad],
+                "simulation_status": np.ravel(self.simulation_status)[bad]}))
+        if not frames:
+            return pd.DataFrame(columns=["point", *where, "quantity", "first", "second",
+                                         "first_stable", "second_stable", "first_omega_slow",
+                                         "second_omega_slow", "tolerance", "averaging_valid",
+                                         "simulation_status"])
+        return pd.concat(frames, ignore_index=True)
+
+    def to_dataframe(self):
+        """One row per point: A, omega (A_over_l, omega_over_omega0), boundary_distance,
+        nearest_boundary, then per method stable_<method>, omega_slow_<method> and
+        tolerance_<method> (``_0``, ``_1``, ... per mode for several coordinates), then
+        averaging_valid, floquet_margin, simulation_status, fall_time, amplitude and
+        disagreements (the pairs of methods that disagree at the point, "; "-joined)."""
+        import pandas as pd
+        data = self._location()
+        for m in self.methods:
+            data[f"stable_{m}"] = np.ravel(getattr(self, f"stable_{m}"))
+            for name in (f"omega_slow_{m}", f"tolerance_{m}"):
+                x = np.asarray(getattr(self, name), dtype=float)
+                if x.ndim == len(self.shape):
+                    data[name] = np.ravel(x)
+                else:
+                    for k in range(x.shape[-1]):
+                        data[f"{name}_{k}"] = x[..., k].ravel()
+        data.update(averaging_valid=np.ravel(self.averaging_valid),
+                    floquet_margin=np.ravel(self.floquet_margin),
+                    simulation_status=np.ravel(self.simulation_status),
+                    fall_time=np.ravel(self.fall_time), amplitude=np.ravel(self.amplitude))
+        labels: list[list[str]] = [[] for _ in range(int(np.prod(self.shape, dtype=np.int64)))]
+        for a, b, quantity, compared, agree in self._comparisons():
+            for i in np.flatnonzero(np.ravel(compared & ~agree)):
+                labels[i].append(f"{a}≠{b} ({quantity})")
+        data["disagreements"] = ["; ".join(x) for x in labels]
+        return pd.DataFrame(data)
+
+    def figure(self, **options):
+        """The verification map with every disagreement marked, and the measured order
+        of averaging: :func:`kapitza.figures.verification_figure` (``options`` go to it).
+        Returns a :class:`matplotlib.figure.Figure`."""
+        from ..figures import verification_figure  # lazily: results never import figures at load
+        return verification_figure(self, **options)

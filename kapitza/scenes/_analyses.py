@@ -1,0 +1,275 @@
+"""How a scene's analyses are computed: once at the scene's point, or over a sweep's tile.
+
+The method each analysis uses (the best its effects allow) is stated in
+:meth:`kapitza.Scene.run`; here are the functions: ``POINT[name](scene, settings,
+progress)`` returns the analysis's result at the scene's point, ``GRID[name](scene,
+settings, params, q0, qdot0)`` a DataFrame over the points of a tile (``params`` values
+arrays where swept), and :func:`tile_inputs` turns a tile's axis columns into those
+inputs.  Every quantity arrives in SI units (the scene file's Hz were converted as it was
+read, :mod:`._file`).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from lagrange_core.progress import interrupt_requested
+
+from ..averaging import average
+from ..floquet import floquet_grid, floquet_point, stability_map
+from ..simulation import measure, measure_grid, periodic_orbit
+from ..verification import verify
+
+__all__ = ["POINT", "GRID", "tile_inputs"]
+
+
+def _about(scene, setting, q0=None):
+    """The state an analysis is about, (n,) or (points, n) coordinates."""
+    n = scene.system.n_dof
+    q0 = scene.q0 if q0 is None else np.asarray(q0, dtype=float)
+    if setting == "inverted":
+        return np.full(n, math.pi)
+    if setting == "hanging":
+        return np.zeros(n)
+    if setting not in (None, "auto"):
+        about = np.asarray(setting, dtype=float)
+        if about.shape != (n,):
+            raise ValueError(f"about needs {n} coordinate values "
+                             f"({list(scene.system.coordinates)}), got {list(setting)}.")
+        return about
+    if scene.capabilities["floquet"] == "equilibrium":
+        return math.pi * np.round(q0 / math.pi)
+    return _averaged_state(scene, scene.spec.params, q0)
+
+
+def _averaged_state(scene, params, q0):
+    """The stable state of averaging nearest ``q0`` (mod 2π) at scalar ``params``; the
+    nearest multiple of π where averaging finds none."""
+    stable = [e.about for e in average(scene.system).predict(params, warn=False).equilibria
+              if e.stable]
+    if not stable:
+        return math.pi * np.round(q0 / math.pi)
+    turns = [s + 2 * math.pi * np.round((q0 - s) / (2 * math.pi)) for s in stable]
+    return min(turns, key=lambda s: float(np.max(np.abs(s - q0))))
+
+
+def _pendulum_state(scene, about):
+    """"inverted" or "hanging": the pendulum's persisting state ``about`` names or is nearest."""
+    if about in ("inverted", "hanging"):
+        return about
+    theta = float(_about(scene, about)[0])
+    return "inverted" if abs(math.cos(theta) + 1) < 1e-9 else "hanging"
+
+
+# -- the analyses at the scene's point ---------------------------------------------------------
+
+def _averaging(scene, s, progress):
+    p = scene.spec.params
+    pend = scene.pendulum
+    if pend is not None:
+        return pend.averaged(p["A"], p["omega"], order=s.get("order", 1), warn=False)
+    if s.get("order", 1) != 1:
+        raise ValueError("order 2 is the plain pendulum's closed form; general averaging is "
+                         "first order.")
+    return average(scene.system).predict(p, warn=False)
+
+
+def _floquet(scene, s, progress):
+    p = scene.spec.params
+    tol = s.get("tol", 1e-10)
+    if scene.capabilities["floquet"] == "equilibrium":
+        return floquet_point(scene.system, p, _about(scene, s.get("about")), tol=tol)
+    return periodic_orbit(scene.system, p, _about(scene, s.get("about")), tol=tol)
+
+
+def _stability_map(scene, s, progress):
+    A = np.asarray(s["A"].values)
+    omega = np.asarray(s["omega"].values)
+    about = s.get("about", "auto")
+    pend = scene.pendulum
+    if pend is not None and about in ("inverted", "hanging", "auto"):
+        return pend.stability_map(A, omega, about=_pendulum_state(scene, about),
+                                  tol=s.get("tol", 1e-10), progress=progress)
+    return stability_map(scene.system, scene.spec.params, _about(scene, about), A=A,
+                         omega=omega, tol=s.get("tol", 1e-8), progress=progress)
+
+
+def _window(scene, s, progress):
+    omega = np.asarray(s["omega"].values)
+    about = s.get("about", "auto")
+    pend = scene.pendulum
+    if pend is not None and about in ("inverted", "hanging", "auto"):
+        return pend.window(omega, about=_pendulum_state(scene, about))
+    return average(scene.system).window(scene.spec.params, _about(scene, about), omega=omega)
+
+
+def _measure(scene, s, progress):
+    return measure(scene.system, scene.spec.params, _about(scene, s.get("about")), scene.q0,
+                   scene.qdot0, periods=s.get("periods", 1000), band=s.get("band", math.pi / 2),
+                   rtol=s.get("rtol", 1e-9), progress=progress)
+
+
+def _span(scene, s, omega):
+    if "duration" in s:
+        return s["duration"]
+    if "omega" in scene.spec.params:
+        return s.get("periods", 100) * 2 * math.pi / omega
+    return 10.0
+
+
+def _simulate(scene, s, progress):
+    t1 = _span(scene, s, scene.spec.params.get("omega"))
+    t_eval = np.linspace(0.0, t1, s.get("samples", 1001))
+    return scene.system.simulate(scene.q0, scene.qdot0, (0.0, t1), scene.spec.params,
+                                 method=s.get("method"), rtol=s.get("rtol", 1e-9), t_eval=t_eval)
+
+
+def _verify(scene, s, progress):
+    A = np.asarray(s["A"].values)[:, None]
+    omega = np.asarray(s["omega"].values)[None, :]
+    common = dict(periods=s.get("periods", 1000), tol=s.get("tol", 1e-10),
+                  rtol=s.get("rtol", 1e-9), line=None if s.get("fit_order") else False,
+                  progress=progress)
+    about = s.get("about", "auto")
+    pend = scene.pendulum
+    if pend is not None and _pendulum_state(scene, about) == "inverted" \
+            and "offset" not in s and "band" not in s:
+        near = 0 < abs(scene.q0[0] - math.pi) < math.pi / 2     # released near the upright
+        return pend.verify(A, omega, theta0=scene.q0[0] if near else math.pi - 0.01,
+                           theta_dot0=scene.qdot0[0] if near else 0.0, **common)
+    return verify(scene.system, scene.spec.params, _about(scene, about), A=A, omega=omega,
+                  offset=s.get("offset", 0.01), band=s.get("band", math.pi / 2), **common)
+
+
+POINT = {"averaging": _averaging, "floquet": _floquet, "stability_map": _stability_map,
+         "window": _window, "measure": _measure, "simulate": _simulate, "verify": _verify}
+
+
+# -- the analyses over a sweep's tile -----------------------------------------------------------
+
+def tile_inputs(scene, columns, size):
+    """A tile's inputs from its axis columns (name → values): the parameters (arrays where
+    swept), and the initial coordinates and velocities, (size, n) each."""
+    params = dict(scene.spec.params)
+    q0 = np.tile(scene.q0, (size, 1))
+    qdot0 = np.tile(scene.qdot0, (size, 1))
+    coords = list(scene.system.coordinates)
+    for name, values in columns.items():
+        target = scene.spec.sweep["targets"][name]
+        if target.startswith("initial."):
+            state = target[len("initial."):]
+            if state in coords:
+                q0[:, coords.index(state)] = values
+            else:
+                qdot0[:, coords.index(state[:-len("_dot")])] = values
+        else:
+            params[target] = values
+    return params, q0, qdot0
+
+
+def _point_params(params, i):
+    return {k: float(v[i]) if np.ndim(v) else v for k, v in params.items()}
+
+
+def _drop_params(frame, scene):
+    return frame.drop(columns=[c for c in scene.system.parameters if c in frame])
+
+
+def _grid_simulate(scene, s, params, q0, qdot0):
+    t1 = _span(scene, s, params.get("omega"))
+    system = scene.system
+    grid = system.simulate_grid(q0, qdot0, (0.0, t1), params, method=s.get("method"),
+                                rtol=s.get("rtol", 1e-9), energy=bool(
+                                    system.kernels.energy_conserved), progress=False)
+    return _drop_params(grid.to_dataframe(), scene)
+
+
+def _grid_measure(scene, s, params, q0, qdot0):
+    about = s.get("about")
+    if about in (None, "auto") and scene.capabilities["floquet"] != "equilibrium":
+        about = np.array([_averaged_state(scene, _point_params(params, i), q0[i])
+                          for i in range(len(q0))])
+    else:
+        about = _about(scene, about, q0)
+    m = measure_grid(scene.system, params, about, q0, qdot0, periods=s.get("periods", 1000),
+                     band=s.get("band", math.pi / 2), rtol=s.get("rtol", 1e-9), progress=False)
+    return _drop_params(m.to_dataframe(), scene)
+
+
+def _grid_floquet(scene, s, params, q0, qdot0):
+    import pandas as pd
+    size = len(q0)
+    if scene.capabilities["floquet"] == "equilibrium":
+        g = floquet_grid(scene.system, params, _about(scene, s.get("about")),
+                         tol=s.get("tol", 1e-10), progress=False)
+        frame = _drop_params(g.to_dataframe(), scene)
+        slow = np.asarray(g.omega_slow).reshape(size, -1)
+        for k in range(slow.shape[1]):
+            frame[f"omega_slow_{k}"] = slow[:, k]
+        frame["flags"] = ["; ".join(f) for f in g.flags]
+        return frame
+    about = s.get("about", "auto")
+    rows = []
+    n = scene.system.n_dof
+    for i in range(size):
+        if interrupt_requested():
+            raise KeyboardInterrupt
+        p = _point_params(params, i)
+        row = {}
+        try:
+            guess = _averaged_state(scene, p, q0[i]) if about == "auto" \
+                else _about(scene, about)
+            o = periodic_orbit(scene.system, p, guess, tol=s.get("tol", 1e-10))
+            slow = np.atleast_1d(o.omega_slow)
+            row.update(stable=o.stable, max_abs_multiplier=float(np.max(np.abs(o.multipliers))),
+                       residual=o.residual, iterations=o.iterations, error="")
+            row.update({f"q_mean_{c}": o.q_mean[j] for j, c in enumerate(scene.system.coordinates)})
+            row.update({f"amplitude_{c}": o.amplitude[j]
+                        for j, c in enumerate(scene.system.coordinates)})
+            row.update({f"omega_slow_{k}": slow[k] for k in range(n)})
+        except ValueError as e:
+            row.update(stable=False, max_abs_multiplier=math.nan, residual=math.nan,
+                       iterations=-1, error=str(e))
+            row.update({f"q_mean_{c}": math.nan for c in scene.system.coordinates})
+            row.update({f"amplitude_{c}": math.nan for c in scene.system.coordinates})
+            row.update({f"omega_slow_{k}": math.nan for k in range(n)})
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _grid_averaging(scene, s, params, q0, qdot0):
+    import pandas as pd
+    size = len(q0)
+    pend = scene.pendulum
+    if pend is not None and all(np.ndim(params[k]) == 0 for k in ("l", "g")) \
+            and np.ndim(params.get("gamma", 0.0)) == 0:
+        A, w = np.broadcast_arrays(np.asarray(params["A"], float),
+                                   np.asarray(params["omega"], float) + np.zeros(size))
+        res = pend.averaged(A, w, order=s.get("order", 1), warn=False)
+        frame = res.to_dataframe().drop(columns=["A", "omega"])
+        frame.insert(0, "point", np.tile(np.arange(size), len(res.equilibria)))
+        return frame.sort_values("point", kind="stable").reset_index(drop=True)
+    if s.get("order", 1) != 1:
+        raise ValueError("order 2 is the plain pendulum's closed form (with l, g and gamma not "
+                         "swept); general averaging is first order.")
+    avg = average(scene.system)
+    coords = scene.system.coordinates
+    rows = []
+    for i in range(size):
+        if interrupt_requested():
+            raise KeyboardInterrupt
+        for k, e in enumerate(avg.predict(_point_params(params, i), warn=False).equilibria):
+            for j in range(len(coords)):
+                row = {"point": i, "equilibrium": k}
+                row.update({f"about_{c}": float(e.about[a]) for a, c in enumerate(coords)})
+                row.update(mode=j, omega_squared=float(e.omega_squared[j]),
+                           frequency=float(e.frequencies[j]),
+                           damped_frequency=float(e.damped_frequencies[j]), stable=e.stable,
+                           decay_rate=e.decay_rate, valid=e.valid)
+                rows.append(row)
+    return pd.DataFrame(rows) if rows else pd.DataFrame({"point": np.zeros(0, np.int64)})
+
+
+GRID = {"simulate": _grid_simulate, "measure": _grid_measure, "floquet": _grid_floquet,
+        "averaging": _grid_averaging}
