@@ -2,154 +2,99 @@
 
 Conventions (shared/PHYSICS.md): SI units; θ from the downward vertical (θ = π upright);
 pivot A cos ωt; damping γ (1/s); Mathieu form τ = ωt/2, a = ±4ω0²/ω², q = 2A/l.
+The API's one rule (docs/api-conventions.md): functions on any system take
+``(system, params, about, *, A=, omega=, ...)``; ``KapitzaPendulum`` methods take the drive
+``(A, omega)`` first and the state after; windows are one family, ``window``.
 
-Public API
-----------
-The pendulum
+This module lists the whole public API; each name lives in a room (a subpackage that
+answers one question, its ``__init__`` the room's public face):
+
+The pendulum (:mod:`kapitza.pendulum`)
     KapitzaPendulum
         The driven pendulum: averaging, Floquet stability and direct integration in
-        one object (:mod:`kapitza.pendulum`).
+        one object.
 
 Averaging of any system (:mod:`kapitza.averaging`)
     average
         Average a lagrange_core System over its fast periodic drive (Landau–Lifshitz §30).
     AveragedSystem
-        The slow description: U_eff (sympy and compiled), equilibria, slow modes, sweeps.
+        The slow description: U_eff (sympy and compiled), equilibria, slow modes, the
+        averaging window (``AveragedSystem.window``).
     AveragingValidityWarning
         Warns when a scalar prediction lies outside the regime where averaging holds.
 
-The pendulum and Acheson's chain in closed form (:mod:`kapitza.pendulum_closed_forms`)
-    pendulum_effective_potential
-        U_eff(θ)/m of the vertically or horizontally driven pendulum (J/kg).
-    pendulum_averaged
-        Equilibria, stability and slow frequencies by averaging, order 1 or 2, over arrays.
-    averaging_window
-        The averaging prediction of the amplitudes that hold the pendulum upright, per ω
-        (the exact window: ``KapitzaPendulum.stability_window``).
+Floquet analysis of any system (:mod:`kapitza.floquet`)
+    floquet_point, floquet_grid, monodromy_data
+        Monodromy, multipliers and stability about a driven equilibrium; over a grid.
+    stability_map, adaptive_map
+        Stability over an (A, ω) grid; refined only where the classification changes.
+    window
+        The exact window of stabilising amplitudes, per ω, with certified edges.
+    boundaries
+        The stability boundaries A_k(ω) by continuation, with their kind.
+
+Closed forms: the Mathieu equation and the pendulum (:mod:`kapitza.closed_forms`)
+    mathieu_parameters, characteristic_value, mathieu_monodromy_trace, ince_strutt_chart
+        The Mathieu form (a, q, c), characteristic values to rounding, tr M, the chart.
+    pendulum_window
+        The pendulum's window per ω: exact (Mathieu characteristic values) or, with
+        ``method="averaging"``, averaging of order 1 or 2.
+    pendulum_stability_map
+        The exact stability map over A × ω (characteristic values: milliseconds).
+    pendulum_effective_potential, pendulum_averaged
+        U_eff(θ)/m; equilibria, stability and slow frequencies by averaging, over arrays.
     multiple_pendulum_upright
         Minimum drive and slow modes of the upright N-link chain (Acheson's theorem).
 
-Floquet analysis (:mod:`kapitza.floquet`)
-    floquet_point
-        Monodromy, multipliers and stability about a driven equilibrium of any system.
-    floquet_grid
-        The same over a broadcast grid of parameter sets.
-    monodromy_data
-        Only the monodromy matrices over a grid.
-    stability_map
-        Stability of any system's driven equilibrium over an (A, ω) grid.
-    window
-        The exact window of stabilising amplitudes of any system, per ω, with certified
-        edges (roots of smooth margins such as det(M ∓ I)).
-    boundaries
-        The stability boundaries A_k(ω) of any system by continuation, with their kind.
-    adaptive_map
-        A stability map refined only where the classification changes.
-
-Periodic orbits (:mod:`kapitza.periodic_orbit`)
+Direct simulation (:mod:`kapitza.simulation`)
+    measure, measure_grid
+        Simulate and measure: stayed near ``about`` or fell (when), slow frequencies with
+        error estimates, slow amplitude, mean position; over a broadcast grid in one
+        compiled parallel integration.
     periodic_orbit
-        The T-periodic orbit of any driven system (Newton shooting on the period map) and
-        its Floquet multipliers: the slow states of drives that leave no equilibrium.
+        The T-periodic orbit of any driven system (shooting on the period map) and its
+        Floquet multipliers: the slow states of drives that leave no equilibrium.
 
-Measurements from direct simulation (:mod:`kapitza.measurement`)
-    measure
-        Simulate one parameter set of any driven system and measure the motion: stayed
-        near ``about`` or fell (when), slow frequencies with error estimates, slow
-        amplitude, mean position, energy drift.
-    measure_grid
-        The same over a broadcast grid, in one compiled parallel integration.
-
-Verification (:mod:`kapitza.verify`)
+Verification (:mod:`kapitza.verification`)
     verify
-        Averaging, Floquet analysis and direct simulation of any driven equilibrium over
-        an (A, ω) grid, compared point by point: agreement, every disagreement located,
-        the measured order of averaging (``KapitzaPendulum.verify`` for the pendulum).
-
-The Mathieu equation of the single pendulum (:mod:`kapitza.mathieu`)
-    mathieu_parameters
-        The mapping (A, ω, l, g, γ, about) → (a, q, c), written once.
-    characteristic_value
-        a_r(q), b_r(q) to rounding (where scipy.special is wrong too).
-    mathieu_monodromy_trace
-        tr M of the (damped) Mathieu equation by integration, with error estimate.
-    pendulum_stability_window
-        The exact window A_min < A < A_max per ω, certified.
-    pendulum_stability_map
-        The exact stability map over A × ω (characteristic values: milliseconds).
-    ince_strutt_chart
-        The Mathieu equation's stability chart and characteristic curves.
+        Averaging, Floquet analysis and direct simulation over an (A, ω) grid, compared
+        point by point; every disagreement located; the measured order of averaging.
 
 Results (:mod:`kapitza.results`; frozen dataclasses with ``to_dataframe()``)
     ComputationInterrupted
-        Ctrl-C during a long map, grid or sweep (a KeyboardInterrupt); ``.result`` holds
-        the finished points, ``.computed`` which they are.
-    FloquetResult
-        One point's Floquet analysis: multipliers, trace, stability, slow frequency, guards.
-    FloquetGrid, MonodromyData
-        Floquet analysis / monodromies over a parameter grid.
-    StabilityMap
-        Stability labels over (A, ω) with the pendulum's l, g, damping, about, method.
-    StabilityWindow
-        A_min, A_max per ω, exact (``method="floquet"``) or by averaging
-        (``method="averaging"``); ``FloquetWindow`` is its old name.
-    BoundaryCurves, AdaptiveMap
-        Exact boundary curves over (A, ω); a map with its continuous margin.
-    InceStruttChart
-        Stability grid and characteristic curves in the (q, a) plane.
-    SlowModes, AveragingPrediction, SlowModeSweep
-        Results of the general averaging.
-    PendulumAveraging, EquilibriumPrediction, MultiplePendulumPrediction
-        Results of the pendulum's closed forms.
-    PeriodicOrbit
-        A periodic orbit: state, period mean, fast amplitude, multipliers, stability.
-    Measurement
-        What direct simulation measured, per point (``measure``, ``measure_grid``,
-        ``KapitzaPendulum.measure``).
-    Verification, OrderFit
-        The four methods compared per point, with agreement statistics and located
-        disagreements (``verify``); the measured order of averaging.
+        Ctrl-C during a long map, grid or sweep; ``.result`` holds the finished points.
+    FloquetResult, FloquetGrid, MonodromyData, StabilityMap, StabilityWindow,
+    BoundaryCurves, AdaptiveMap, InceStruttChart, SlowModes, AveragingPrediction,
+    SlowModeSweep, PendulumAveraging, EquilibriumPrediction, MultiplePendulumPrediction,
+    PeriodicOrbit, Measurement, Verification, OrderFit
 
-Figures (:mod:`kapitza.plots`; they draw results and compute nothing)
-    stability_map_figure
-        A stability map with stability windows (e.g. the averaging limit) drawn over it.
-    effective_potential_figure
-        U_eff(θ) with the averaged equilibria marked (stable / unstable).
-    ince_strutt_figure
-        The Ince–Strutt chart.
+Figures (:mod:`kapitza.figures`; they draw results and compute nothing)
+    stability_map_figure, effective_potential_figure, ince_strutt_figure,
     verification_figure
-        A verification's map with its disagreements marked, and the order of averaging.
 
 Animation (:mod:`kapitza.animation`)
-    pendulum_animation
-        A looping GIF of the stabilised inverted pendulum beside one that falls, drawn
-        from the simulation in stated slow motion; returns an ``Animation``.
-    system_animation
-        The same for planar chains of particles from scenes, side by side (e.g.
-        Acheson's double pendulum upright vs falling); returns a ``SystemAnimation``.
+    pendulum_animation, system_animation, Animation, SystemAnimation
+        GIFs drawn from the simulation: the stabilised pendulum beside one that falls;
+        planar chains from scenes.
 
-Scenes and sweeps (:mod:`kapitza.scene`, :mod:`kapitza.scene_file`, :mod:`kapitza.sweep`)
-    Scene
-        A set-up in a TOML file (``Scene.from_toml(path)``): ``.system`` with only the
-        effects it names, ``.run()`` the analyses it asks for, ``.sweep()`` over its grid.
-    SceneResults, SceneError
-        What ``Scene.run`` computed; every problem of a scene file, reported together.
-    SweepResult
-        A sweep's tidy DataFrame and its Parquet dataset (tiles kept on disk, resumable;
-        serial, numba threads or a Dask cluster).
-    example_scenes
-        The scene files that ship with kapitza.
+Scenes and sweeps (:mod:`kapitza.scenes`)
+    Scene, SceneResults, SceneError, SweepResult, example_scenes
+        A set-up in a TOML file, the analyses it asks for, resumable Parquet sweeps.
 
 The report (:mod:`kapitza.report`; the CLI's ``kapitza report``)
-    build_report
-        Run a scene (default: a 1 m pendulum shaken vertically) through every analysis
-        and write one folder: index.html, PNG figures, a GIF and the data (Parquet, CSV).
-    Report
-        What it wrote: paths, per-section wall times and status, the headline numbers.
+    build_report, Report
 
 Installation
     warmup
-        Compile the integrators and the Floquet and Mathieu kernels once per
-        installation (:mod:`kapitza.warmup`; includes :func:`lagrange_core.warmup`).
+        Compile the integrators and the Floquet and Mathieu kernels once per installation.
+
+Deprecated (0.2; removed in 0.3; each warns and names its replacement)
+    averaging_window
+        → ``pendulum_window(omega, method="averaging")``.
+    pendulum_stability_window
+        → ``pendulum_window(omega)``.
+    FloquetWindow
+        → ``StabilityWindow``.
 
 Examples
 --------
@@ -161,48 +106,106 @@ True
 >>> pend.floquet(A=0.05, omega=2 * math.pi * 60, about="inverted").stable   # exact, linear
 True
 """
-from ._version import __version__
-from .averaging import AveragedSystem, AveragingValidityWarning, average
-from .floquet import (adaptive_map, boundaries, floquet_grid, floquet_point, monodromy_data,
-                      stability_map, window)
-from .closed_forms import (characteristic_value, ince_strutt_chart, mathieu_monodromy_trace,
-                           mathieu_parameters, pendulum_stability_map, pendulum_stability_window)
-from .closed_forms import (multiple_pendulum_upright, pendulum_averaged,
-                           pendulum_effective_potential, averaging_window)
-from .simulation import measure, measure_grid, periodic_orbit
-from .pendulum import KapitzaPendulum
-from .figures import (effective_potential_figure, ince_strutt_figure, stability_map_figure,
-                      verification_figure)
-from .verification import verify
-from .animation import Animation, SystemAnimation, pendulum_animation, system_animation
-from .report import Report, build_report
-from .warmup import warmup
-from .scenes import Scene, SceneError, SceneResults, SweepResult, example_scenes
-from .results import (AveragingPrediction, ComputationInterrupted, EquilibriumPrediction,
-                      FloquetGrid, FloquetResult, FloquetWindow, InceStruttChart, Measurement,
-                      MonodromyData, MultiplePendulumPrediction, PendulumAveraging,
-                      PeriodicOrbit, SlowModes, SlowModeSweep, StabilityMap, StabilityWindow)
-from .results import OrderFit, Verification
-from .results import AdaptiveMap, BoundaryCurves
+from ._version import __version__ as __version__
+from .animation import Animation as Animation
+from .animation import SystemAnimation as SystemAnimation
+from .animation import pendulum_animation as pendulum_animation
+from .animation import system_animation as system_animation
+from .averaging import AveragedSystem as AveragedSystem
+from .averaging import AveragingValidityWarning as AveragingValidityWarning
+from .averaging import average as average
+from .closed_forms import averaging_window as averaging_window  # deprecated
+from .closed_forms import characteristic_value as characteristic_value
+from .closed_forms import ince_strutt_chart as ince_strutt_chart
+from .closed_forms import mathieu_monodromy_trace as mathieu_monodromy_trace
+from .closed_forms import mathieu_parameters as mathieu_parameters
+from .closed_forms import multiple_pendulum_upright as multiple_pendulum_upright
+from .closed_forms import pendulum_averaged as pendulum_averaged
+from .closed_forms import pendulum_effective_potential as pendulum_effective_potential
+from .closed_forms import pendulum_stability_map as pendulum_stability_map
+from .closed_forms import pendulum_stability_window as pendulum_stability_window  # deprecated
+from .closed_forms import pendulum_window as pendulum_window
+from .figures import effective_potential_figure as effective_potential_figure
+from .figures import ince_strutt_figure as ince_strutt_figure
+from .figures import stability_map_figure as stability_map_figure
+from .figures import verification_figure as verification_figure
+from .floquet import adaptive_map as adaptive_map
+from .floquet import boundaries as boundaries
+from .floquet import floquet_grid as floquet_grid
+from .floquet import floquet_point as floquet_point
+from .floquet import monodromy_data as monodromy_data
+from .floquet import stability_map as stability_map
+from .floquet import window as window
+from .pendulum import KapitzaPendulum as KapitzaPendulum
+from .report import Report as Report
+from .report import build_report as build_report
+from .results import AdaptiveMap as AdaptiveMap
+from .results import AveragingPrediction as AveragingPrediction
+from .results import BoundaryCurves as BoundaryCurves
+from .results import ComputationInterrupted as ComputationInterrupted
+from .results import EquilibriumPrediction as EquilibriumPrediction
+from .results import FloquetGrid as FloquetGrid
+from .results import FloquetResult as FloquetResult
+from .results import InceStruttChart as InceStruttChart
+from .results import Measurement as Measurement
+from .results import MonodromyData as MonodromyData
+from .results import MultiplePendulumPrediction as MultiplePendulumPrediction
+from .results import OrderFit as OrderFit
+from .results import PendulumAveraging as PendulumAveraging
+from .results import PeriodicOrbit as PeriodicOrbit
+from .results import SlowModes as SlowModes
+from .results import SlowModeSweep as SlowModeSweep
+from .results import StabilityMap as StabilityMap
+from .results import StabilityWindow as StabilityWindow
+from .results import Verification as Verification
+from .scenes import Scene as Scene
+from .scenes import SceneError as SceneError
+from .scenes import SceneResults as SceneResults
+from .scenes import SweepResult as SweepResult
+from .scenes import example_scenes as example_scenes
+from .simulation import measure as measure
+from .simulation import measure_grid as measure_grid
+from .simulation import periodic_orbit as periodic_orbit
+from .verification import verify as verify
+from .warmup import warmup as warmup
+
+#: Names kept for 0.2 only, each → the call that replaces it (they warn when used).
+DEPRECATED = {
+    "averaging_window": "kapitza.pendulum_window(omega, method='averaging')",
+    "pendulum_stability_window": "kapitza.pendulum_window(omega)",
+    "FloquetWindow": "kapitza.StabilityWindow",
+}
 
 __all__ = [
     "KapitzaPendulum",
     "average", "AveragedSystem", "AveragingValidityWarning",
-    "pendulum_effective_potential", "pendulum_averaged", "averaging_window",
-    "multiple_pendulum_upright",
-    "floquet_point", "floquet_grid", "monodromy_data", "stability_map",
-    "window", "boundaries", "adaptive_map", "BoundaryCurves", "AdaptiveMap",
-    "periodic_orbit", "PeriodicOrbit",
-    "measure", "measure_grid",
-    "verify", "Verification", "OrderFit", "verification_figure",
+    "floquet_point", "floquet_grid", "monodromy_data", "stability_map", "adaptive_map",
+    "window", "boundaries",
     "mathieu_parameters", "characteristic_value", "mathieu_monodromy_trace",
-    "pendulum_stability_window", "pendulum_stability_map", "ince_strutt_chart",
-    "ComputationInterrupted", "FloquetResult", "FloquetGrid", "MonodromyData", "StabilityMap",
-    "StabilityWindow",
-    "FloquetWindow", "InceStruttChart", "SlowModes", "AveragingPrediction", "SlowModeSweep",
-    "PendulumAveraging", "EquilibriumPrediction", "MultiplePendulumPrediction", "Measurement",
-    "stability_map_figure", "effective_potential_figure", "ince_strutt_figure", "warmup",
+    "ince_strutt_chart", "pendulum_window", "pendulum_stability_map",
+    "pendulum_effective_potential", "pendulum_averaged", "multiple_pendulum_upright",
+    "measure", "measure_grid", "periodic_orbit",
+    "verify",
+    "ComputationInterrupted", "FloquetResult", "FloquetGrid", "MonodromyData",
+    "StabilityMap", "StabilityWindow", "BoundaryCurves", "AdaptiveMap", "InceStruttChart",
+    "SlowModes", "AveragingPrediction", "SlowModeSweep", "PendulumAveraging",
+    "EquilibriumPrediction", "MultiplePendulumPrediction", "PeriodicOrbit", "Measurement",
+    "Verification", "OrderFit",
+    "stability_map_figure", "effective_potential_figure", "ince_strutt_figure",
+    "verification_figure",
+    "pendulum_animation", "system_animation", "Animation", "SystemAnimation",
     "Scene", "SceneResults", "SceneError", "SweepResult", "example_scenes",
-    "pendulum_animation", "Animation", "build_report", "Report",
-    "system_animation", "SystemAnimation",
+    "build_report", "Report",
+    "warmup",
+    # deprecated (DEPRECATED): they warn and name their replacement
+    "averaging_window", "pendulum_stability_window", "FloquetWindow",
 ]
+
+
+def __getattr__(name):
+    # a deprecated class alias warns when it is looked up (a function alias when called)
+    if name == "FloquetWindow":
+        from ._deprecation import warn_deprecated
+        warn_deprecated("kapitza.FloquetWindow", DEPRECATED[name], stacklevel=3)
+        return StabilityWindow
+    raise AttributeError(f"module 'kapitza' has no attribute {name!r}")

@@ -13,7 +13,7 @@ from collections.abc import Callable
 from typing import Any
 
 __all__ = ["SINCE", "REMOVED_IN", "warn_deprecated", "deprecated_alias",
-           "renamed_keywords"]
+           "renamed_keywords", "keyword_options"]
 
 SINCE = "0.2.0"
 REMOVED_IN = "0.3"
@@ -68,3 +68,59 @@ def renamed_keywords(where: str, kwargs: dict, renames: dict[str, str],
                             stacklevel=stacklevel)
             out[new] = out.pop(old)
     return out
+
+
+def keyword_options(where: str, positional: int, options: tuple[str, ...] = (),
+                    renames: dict | None = None) -> Callable:
+    """Decorate a function whose ``options`` were positional, or named otherwise, before 0.2.
+
+    Parameters
+    ----------
+    where : str
+        The call as a user writes it, without arguments (``"AveragedSystem.slow_modes"``).
+    positional : int
+        How many arguments are positional now (``self`` included for a method).
+    options : tuple of str
+        The arguments that followed them in their old positional order (old names allowed:
+        they are then renamed as below).
+    renames : dict, optional
+        Old keyword → new keyword, or → ``(new keyword, convert, shown)`` where the value
+        changes too (``convert(old value)`` is the new value, ``shown`` the new spelling,
+        e.g. ``"A_range=(0.0, upper)"``).
+    """
+    renames = dict(renames or {})
+
+    def decorate(function: Callable) -> Callable:
+        @functools.wraps(function)
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            extra = args[positional:]
+            if extra:
+                if len(extra) > len(options):
+                    raise TypeError(f"{where}() takes at most {positional + len(options)} "
+                                    f"positional arguments ({len(args)} given).")
+                names = options[:len(extra)]
+                for name in names:
+                    if name in kwargs:
+                        raise TypeError(f"{where}() got {name} both by position (deprecated) "
+                                        f"and as {name}=; pass only {name}=.")
+                shown = ", ".join(f"{name}=..." for name in names)
+                warn_deprecated(f"{where}(...) with {', '.join(names)} by position",
+                                f"{where}(..., {shown})")
+                kwargs.update(zip(names, extra, strict=True))
+                args = args[:positional]
+            for old, rule in renames.items():
+                if old not in kwargs:
+                    continue
+                new, convert, shown = ((rule, None, f"{rule}=...") if isinstance(rule, str)
+                                       else rule)
+                if new in kwargs:
+                    raise TypeError(f"{where}: got both {old}= (deprecated) and {new}=; pass "
+                                    f"only {new}=.")
+                warn_deprecated(f"{where}({old}=...)", f"{where}({shown})")
+                value = kwargs.pop(old)
+                kwargs[new] = value if convert is None else convert(value)
+            return function(*args, **kwargs)
+
+        return wrapper
+
+    return decorate

@@ -26,11 +26,17 @@ from lagrange_core.checks import real_array
 
 from . import _arguments as arguments
 from . import closed_forms
-from ._deprecation import warn_deprecated
-from .averaging import keyword_options
+from ._deprecation import keyword_options, warn_deprecated
 from .floquet import floquet_point
-from .results import (FloquetResult, Measurement, PendulumAveraging, PeriodicOrbit,
-                      StabilityMap, StabilityWindow, Verification)
+from .results import (
+    FloquetResult,
+    Measurement,
+    PendulumAveraging,
+    PeriodicOrbit,
+    StabilityMap,
+    StabilityWindow,
+    Verification,
+)
 from .simulation import DEFAULT_PERIODS, pendulum_about, periodic_orbit, point, squeeze
 from .simulation import measure_grid as measure_system_grid
 from .verification import line_argument, pendulum_verification
@@ -299,8 +305,23 @@ class KapitzaPendulum:
                              "stability_map for grids.")
         params = self.params(float(A), float(omega))
         if self.drive == "horizontal":
-            return periodic_orbit(self.system, params, [self._orbit_guess(about, A, omega)],
-                                  tol=tol)
+            guess = self._orbit_guess(about, A, omega)
+            if about in ("hanging", "inverted"):
+                # the symmetric orbit θ(t + T/2) = 2θc − θ(t), shot on the half period:
+                # regular at the pitchfork where the full period map is singular
+                return periodic_orbit(self.system, params, [guess], symmetry=[guess],
+                                      tol=tol)
+            orbit = periodic_orbit(self.system, params, [guess], symmetry=None, tol=tol)
+            mean = abs(float(orbit.q_mean[0]))
+            if mean < 1e-9 or abs(mean - math.pi) < 1e-9:
+                raise ValueError(
+                    f"KapitzaPendulum.floquet(about={about!r}): shooting from the averaged "
+                    f"tilt {guess:.6g} rad converged to the symmetric orbit about "
+                    f"θ = {float(orbit.q_mean[0]):.3g} rad, not a tilted one: at A = "
+                    f"{float(A):.6g} m, ω = {float(omega):.6g} rad/s the tilted orbits have "
+                    "not yet branched off (or are too close to the hanging one to tell "
+                    "apart). Use about='hanging', or a larger A.")
+            return orbit
         theta = arguments.about_angle(about)
         return floquet_point(self.system, params, [theta], tol=tol)
 

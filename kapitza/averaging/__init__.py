@@ -3,17 +3,14 @@ equilibria and slow modes, the averaging window, and where averaging holds.
 
 Public: :func:`average`, :class:`AveragedSystem`, :class:`AveragingValidityWarning`,
 :func:`fourier_split`, and the validity limits ``MIN_FREQUENCY_RATIO`` and
-``MAX_AMPLITUDE_RATIO``.  For sibling subpackages (not in ``__all__``):
-``keyword_options`` (old positional options and keywords that still work in 0.2, with a
-warning).
+``MAX_AMPLITUDE_RATIO``.
 
 Modules: ``_average`` (the method and :class:`AveragedSystem`), ``_fourier`` (the
 harmonic split), ``_codegen`` (the compiled U_eff kernels), ``_window`` (the averaging
-window per ω), ``_validity`` (the thresholds), ``_legacy`` (old spellings).
+window per ω), ``_validity`` (the thresholds), ``_legacy`` (the old ``(q, params)`` order).
 """
 from ._average import AveragedSystem, average
 from ._fourier import fourier_split
-from ._legacy import keyword_options as keyword_options
 from ._validity import MAX_AMPLITUDE_RATIO, MIN_FREQUENCY_RATIO, AveragingValidityWarning
 
 __all__ = ["average", "AveragedSystem", "AveragingValidityWarning", "fourier_split",

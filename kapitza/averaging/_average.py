@@ -110,12 +110,17 @@ from lagrange_core.progress import run_in_chunks
 from lagrange_core.systems import System
 from lagrange_core.systems import t as t_symbol
 
-from .._deprecation import warn_deprecated
-from ..results import (AveragingPrediction, ComputationInterrupted, SlowModes, SlowModeSweep,
-                       StabilityWindow)
+from .._deprecation import keyword_options, warn_deprecated
+from ..results import (
+    AveragingPrediction,
+    ComputationInterrupted,
+    SlowModes,
+    SlowModeSweep,
+    StabilityWindow,
+)
 from ._codegen import load_kernels, terms
 from ._fourier import fourier_split
-from ._legacy import keyword_options, params_first
+from ._legacy import params_first
 from ._validity import AveragingValidityWarning, reasons
 from ._window import amplitude_range, averaged_system_window
 

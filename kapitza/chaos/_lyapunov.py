@@ -64,6 +64,7 @@ from lagrange_core.progress import defer_ctrl_c, run_in_chunks
 from ..results import ComputationInterrupted
 from ..results._chaos import LyapunovGrid, LyapunovSpectrum
 from . import _kernels as _k
+from ._figures import lyapunov_map_figure
 from ._common import (block_error, drive_frequency, generic_basis, parameters, record_stops,
                       state, tolerances, unconstrained, whole)
 
@@ -227,10 +228,10 @@ def lyapunov(system, params, q0, qdot0=0.0, *, periods=1000, transient=100, expo
     if recorded == 0 and not interrupted:
         raise FloatingPointError(
             f"{where}: the run stopped ({STATUS_NAMES[status[0]]}) at t = {tv[0]:.6g} s, before "
-            f"the record began (after {transient} transient periods); loosen nothing blindly: "
-            "check the parameters, or shorten the transient.")
+            f"the record began (after {transient} transient periods); check the parameters and "
+            "the initial state, or raise max_steps.")
     rec = slice(first, first + recorded)
-    lengths = np.diff(np.concatenate([[stops[first - 1] if first else 0.0], stops]))[rec] * T
+    lengths = np.diff(np.concatenate([[0.0], stops]))[rec] * T
     result = _spectrum(system, pv, y_start, y, t0, float(tv[0]), T, logs[rec], lengths,
                        transient, every, blocks, k == d, tangent, rtol, atol, counts,
                        STATUS_NAMES[status[0]], start_clock)
@@ -270,3 +271,126 @@ def _spectrum(system, pv, y_start, y, t0, t_final, T, logs, lengths, transient, 
         t0=t0, t_final=t_final, tangent=tangent, rtol=rtol, atol=atol,
         steps=int(counts[_k.STEPS]), rejected=int(counts[_k.REJECTED]), status=status,
         wall_time=time.perf_counter() - start_clock)
+
+
+def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200, blocks=8,
+                  frequency="omega", t0=0.0, tangent="jacobian", rtol=1e-6, atol=None,
+                  max_steps=None, progress=None) -> LyapunovGrid:
+    """The largest Lyapunov exponent over a broadcast grid of parameters and initial states:
+    a chaos map, in compiled parallel code.
+
+    Parameters
+    ----------
+    system : lagrange_core.System
+        Unconstrained, driven with angular frequency ``params[frequency]``.
+    params : dict
+        Every parameter: scalars or arrays that broadcast with each other and with ``q0``
+        and ``qdot0`` (``A=A[:, None], omega=omega[None, :]`` for an (A, ω) map).
+    q0, qdot0 : array_like (..., n), float or dict coordinate -> value(s)
+        Initial states at ``t0`` (for a system of one coordinate any array).
+    periods, transient : int
+        Drive periods of the record (per point, its own T), and before it (discarded).
+    blocks : int
+        B ≥ 2: the record is run as B intervals whose spread is the error estimate.
+    frequency, t0, tangent, rtol, atol, max_steps, progress
+        As :func:`lyapunov` (``max_steps`` per point); rtol defaults to 1e-6 here (the
+        exponent of a chaotic point is a statistical quantity: its error over 2000 periods
+        is far above the integration's).
+
+    Returns
+    -------
+    kapitza.results.LyapunovGrid
+        λ_max and its error per point (NaN where a run failed: ``status``); ``figure()``
+        draws the map.
+
+    Raises
+    ------
+    ValueError
+        Bad input.
+    kapitza.results.ComputationInterrupted
+        On Ctrl-C: ``.result`` holds the finished points, ``.computed`` marks them.
+    """
+    where = "lyapunov_grid"
+    start_clock = time.perf_counter()
+    unconstrained(system, where)
+    pv = parameters(system, params, where, scalar=False)
+    omega = drive_frequency(system, pv, frequency, where)
+    Q0 = state(system, q0, "q0")
+    V0 = state(system, qdot0, "qdot0")
+    periods = whole(periods, "periods", 1)
+    transient = whole(transient, "transient", 0)
+    blocks = whole(blocks, "blocks", 2)
+    if periods < blocks:
+        raise ValueError(f"{where}: periods={periods} must be at least blocks={blocks}.")
+    t0 = real_number(t0, "t0", unit="s")
+    rtol, atol = tolerances(rtol, atol)
+    budget = (1 << 62) if max_steps is None else whole(max_steps, "max_steps", 1)
+    shapes = [v.shape for v in pv.values()] + [omega.shape, Q0.shape[:-1], V0.shape[:-1]]
+    try:
+        S = np.broadcast_shapes(*shapes)
+    except ValueError:
+        raise ValueError(f"{where}: the parameters and initial states do not broadcast "
+                         f"together (shapes {shapes}); give each axis its own dimension, e.g. "
+                         "A[:, None] and omega[None, :].") from None
+    N = int(np.prod(S, dtype=np.int64))
+    n = system.n_dof
+    d = 2 * n
+    ka = _addresses(system, tangent, where)
+    names = system.parameters
+
+    def flat(a, tail=()):
+        return np.ascontiguousarray(np.broadcast_to(a, S + tail).reshape((N,) + tail),
+                                    dtype=float)
+
+    Y0 = np.hstack([flat(Q0, (n,)), flat(V0, (n,))])
+    P = np.stack([flat(pv[name]) for name in names], axis=1) if names else np.zeros((N, 0))
+    P = np.ascontiguousarray(P.reshape(N, len(names)))
+    T = 2 * np.pi / flat(omega)
+    T0 = np.full(N, t0)
+    stops = record_stops(transient, periods, blocks)
+    first = 1 if transient else 0
+    LOGS = np.zeros((N, stops.size))
+    YF = np.full((N, d), np.nan)
+    TF = np.full(N, np.nan)
+    COUNTS = np.zeros((N, 3), dtype=np.int64)
+    STATUS = np.full(N, _k.NOT_RUN, dtype=np.int64)
+    v0 = np.ascontiguousarray(generic_basis(d, 1)[:, 0])
+    tables = _dop853()
+    exact = tangent == "jacobian"
+
+    def work(a, b):
+        _k.grid_largest(ka, exact, np.arange(a, b, dtype=np.int64), Y0, P, T, T0, stops, v0,
+                        rtol, atol, budget, *tables, LOGS, YF, TF, COUNTS, STATUS)
+
+    import numba
+    with defer_ctrl_c(), numba.parallel_chunksize(1):
+        done, interrupted = run_in_chunks(work, N, progress=progress, label=where,
+                                          first=4 * numba.get_num_threads())
+    ok = STATUS == _k.FINISHED
+    lengths = np.diff(np.concatenate([[0.0], stops]))[first:]          # periods per block
+    per_block = LOGS[:, first:] / (lengths[None, :] * T[:, None])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lam = LOGS[:, first:].sum(axis=1) / (periods * T)
+        err = 2.5 * per_block.std(axis=1, ddof=1) / math.sqrt(blocks) \
+            + (rtol + atol) * COUNTS[:, _k.STEPS] / (TF - T0)
+    lam[~ok] = np.nan
+    err[~ok] = np.nan
+    per_block[~ok] = np.nan
+    result = LyapunovGrid(
+        shape=S, params={name: np.broadcast_to(v, S) for name, v in pv.items()},
+        coordinates=tuple(system.coordinates), exponent=lam.reshape(S), error=err.reshape(S),
+        period=T.reshape(S), periods=periods, transient=transient, blocks=blocks,
+        block_exponents=per_block.reshape(S + (blocks,)), q0=Y0[:, :n].reshape(S + (n,)),
+        qdot0=Y0[:, n:].reshape(S + (n,)), q=YF[:, :n].reshape(S + (n,)),
+        qdot=YF[:, n:].reshape(S + (n,)),
+        status=np.asarray(STATUS_NAMES, dtype=object)[STATUS].reshape(S),
+        steps=COUNTS[:, _k.STEPS].reshape(S), tangent=tangent, rtol=rtol, atol=atol,
+        wall_time=time.perf_counter() - start_clock, figure_function=lyapunov_map_figure)
+    if interrupted:
+        raise ComputationInterrupted(result, (STATUS != _k.NOT_RUN).reshape(S))
+    failed = ~ok & (STATUS != _k.NOT_RUN)
+    if failed.any():
+        counts = {STATUS_NAMES[c]: int(np.sum(STATUS == c)) for c in np.unique(STATUS[failed])}
+        warnings.warn(f"{where}: {int(failed.sum())} of {N} runs failed ({counts}); their "
+                      "exponents are NaN (status says why).", RuntimeWarning, stacklevel=2)
+    return result

@@ -34,6 +34,7 @@ certified bracket's ends, plus the parameter component of the next Newton correc
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -41,7 +42,7 @@ import numpy as np
 from ._points import make_point
 from ._shooting import CorrectorFailed, correct, null_directions
 
-__all__ = ["detect", "TEST_FUNCTIONS"]
+__all__ = ["detect", "detect_half_period", "TEST_FUNCTIONS"]
 
 TEST_FUNCTIONS = ("det(M − I)", "det(M + I)", "det(M ⊙ M − I)")
 #: Distance (scaled units, ~rad) of the probes that classify branch points.
@@ -57,35 +58,39 @@ def _at(pm, cur, a, b, sigma, Gs):
     v_pred = (1 - w) * a.v + w * b.v
     # the interpolation lies on the hyperplane already; project to remove rounding
     v_pred = v_pred + (sigma - cur.t @ (v_pred - cur.v)) * cur.t
-    ev, _ = correct(pm, v_pred, cur.t, Gs)
+    try:
+        ev, _ = correct(pm, v_pred, cur.t, Gs)
+    except CorrectorFailed:          # the chord ∂G/∂s from ``cur``: exact at every iterate
+        ev, _ = correct(pm, v_pred, cur.t, None)
     return ev
 
 
 def _point(engine, pm, cur, a, b, sigma):
     ev = _at(pm, cur, a, b, sigma, cur.Gs)
-    return make_point(ev, cur.Gs, cur.t, sigma, conservative=engine.conservative)
+    return make_point(pm, ev, cur.Gs, cur.t, sigma, conservative=engine.conservative)
 
 
-def _certified_bracket(engine, pm, cur, a, b, c, i):
-    """Ends, on each side of ``c`` (whose test function is within its error bound), as
+def _certified_bracket(engine, pm, cur, a, b, c, f):
+    """Ends, on each side of ``c`` (whose test function f is within its error bound), as
     close to it as the error allows and with certified signs: from c outwards by 4, 16,
     64 … times the error's width along the arclength (the secant slope of a, b)."""
-    slope = abs((b.psi[i] - a.psi[i]) / (b.sigma - a.sigma)) if b.sigma != a.sigma else 0.0
+    (fa, _), (fb, _), (_, ec) = f(a), f(b), f(c)
+    slope = abs((fb - fa) / (b.sigma - a.sigma)) if b.sigma != a.sigma else 0.0
     ends = sorted((a, b), key=lambda q: q.sigma)
     out = []
     for end, sign in ((ends[0], -1.0), (ends[1], 1.0)):
-        width = 4 * c.psi_error[i] / slope if slope > 0 else math.inf
-        found = end
+        width = 4 * ec / slope if slope > 0 else math.inf
+        found, f_end = end, f(end)[0]
         for _ in range(6):
             sigma = c.sigma + sign * width
-            if not (min(ends[0].sigma, ends[1].sigma) < sigma < max(ends[0].sigma,
-                                                                    ends[1].sigma)):
+            if not ends[0].sigma < sigma < ends[1].sigma:
                 break
             try:
                 q = _point(engine, pm, cur, ends[0], ends[1], sigma)
             except CorrectorFailed:
                 break
-            if abs(q.psi[i]) > q.psi_error[i] and q.psi[i] * end.psi[i] > 0:
+            fq, eq = f(q)
+            if abs(fq) > eq and fq * f_end > 0:
                 found = q
                 break
             width *= 4
@@ -93,18 +98,16 @@ def _certified_bracket(engine, pm, cur, a, b, c, i):
     return out[0], out[1]
 
 
-def _locate(engine, pm, cur, new, i):
-    """Anderson–Björck on test function ``i`` between ``cur`` (σ = 0) and ``new``.
-    Returns (point, accuracy in the parameter)."""
-    cons = engine.conservative
-    a = make_point(cur.ev, cur.Gs, cur.t, 0.0, conservative=cons)
-    b = make_point(new.ev, new.Gs, new.t, float(cur.t @ (new.v - cur.v)), conservative=cons)
-    fa, fb = a.psi[i], b.psi[i]
+def _locate(engine, pm, cur, new, f, *, fold=False):
+    """Anderson–Björck on the test function f(point) → (value, error bound) between
+    ``cur`` (σ = 0) and ``new``.  Returns (point, accuracy in the parameter)."""
+    a = dataclasses.replace(cur, sigma=0.0)
+    b = dataclasses.replace(new, sigma=float(cur.t @ (new.v - cur.v)))
+    fa, fb = f(a)[0], f(b)[0]
     ptol = max(1e-3 * pm.tol * pm.p_scale, 4 * np.finfo(float).eps * max(abs(a.p), abs(b.p)))
     best, history, uncertain = (a if abs(fa) < abs(fb) else b), [a, b], False
     for _ in range(MAX_EVALUATIONS):
-        if abs(a.p - b.p) <= ptol and abs(a.sigma - b.sigma) <= 1e-6 * abs(new.sigma -
-                                                                            cur.sigma):
+        if abs(a.p - b.p) <= ptol and abs(a.sigma - b.sigma) <= 1e-6 * abs(b.sigma):
             break
         sigma = (a.sigma * fb - b.sigma * fa) / (fb - fa)
         lo, hi = sorted((a.sigma, b.sigma))
@@ -115,10 +118,10 @@ def _locate(engine, pm, cur, new, i):
         except CorrectorFailed:
             break
         history.append(c)
-        fc = c.psi[i]
-        if abs(fc) < abs(best.psi[i]):
+        fc, ec = f(c)
+        if abs(fc) < abs(f(best)[0]):
             best = c
-        if abs(fc) <= c.psi_error[i] or fc == 0:  # its sign is not certified: stop here
+        if abs(fc) <= ec or fc == 0:              # its sign is not certified: stop here
             best, uncertain = c, True
             break
         if fc * fb < 0:
@@ -128,7 +131,7 @@ def _locate(engine, pm, cur, new, i):
             fa *= m if m > 0 else 0.5
         b, fb = c, fc
     if uncertain:
-        a, b = _certified_bracket(engine, pm, cur, a, b, best, i)
+        a, b = _certified_bracket(engine, pm, cur, a, b, best, f)
     acc = max(abs(best.p - a.p), abs(best.p - b.p))
     # the corrector tolerance's effect: the parameter part of the next Newton correction
     try:
@@ -137,11 +140,11 @@ def _locate(engine, pm, cur, new, i):
         acc += abs(step[-1]) * pm.p_scale
     except np.linalg.LinAlgError:
         acc = math.inf
-    if i == 0 and cur.t[-1] * new.t[-1] < 0 and len(history) >= 3:
+    if fold and len(history) >= 3:
         # a fold: the parameter's extreme lies between the bracket's ends
         s = np.array([h.sigma for h in history[-3:]])
         p = np.array([h.p for h in history[-3:]])
-        if np.ptp(s) > 0 and len(set(s.tolist())) == 3:
+        if len(set(s.tolist())) == 3:
             curv = abs(np.polyfit(s, p, 2)[0])
             acc += curv * (a.sigma - b.sigma) ** 2
     acc = max(acc, 4 * np.finfo(float).eps * abs(best.p))
@@ -250,6 +253,10 @@ def _neimark_sacker(pt):
     return bool(np.any(pair))
 
 
+def _test(i):
+    return lambda q: (q.psi[i], q.psi_error[i])
+
+
 def detect(engine, pm, cur, new):
     """The bifurcations between ``cur`` and ``new`` as (Point, dict of Bifurcation
     fields), in arclength order."""
@@ -258,14 +265,14 @@ def detect(engine, pm, cur, new):
         fa, fb = cur.psi[i], new.psi[i]
         if not (math.isfinite(fa) and math.isfinite(fb)) or fa * fb >= 0:
             continue
-        pt, acc = _locate(engine, pm, cur, new, i)
-        if i == 0:
-            if cur.t[-1] * new.t[-1] < 0:
-                info = dict(kind="fold", test_function=TEST_FUNCTIONS[0],
-                            note="the parameter turns (the tangent's parameter component "
-                                 "changes sign)")
-            else:
-                info = _classify_branch_point(engine, pm, cur, new, pt, acc)
+        fold = i == 0 and cur.t[-1] * new.t[-1] < 0
+        pt, acc = _locate(engine, pm, cur, new, _test(i), fold=fold)
+        if fold:
+            info = dict(kind="fold", test_function=TEST_FUNCTIONS[0],
+                        note="the parameter turns (the tangent's parameter component "
+                             "changes sign)")
+        elif i == 0:
+            info = _classify_branch_point(engine, pm, cur, new, pt, acc)
         elif i == 1:
             info = _classify_period_doubling(engine, pm, cur, new, pt, acc)
         else:
@@ -279,3 +286,36 @@ def detect(engine, pm, cur, new):
         found.append((pt, info))
     found.sort(key=lambda f: f[0].sigma)
     return found
+
+
+def detect_half_period(engine, pm, cur, new):
+    """Where a branch of n T-periodic orbits (n even) passes through an orbit of period
+    n T/2 — it meets the branch of those, at their period doubling, and beyond it
+    retraces its own orbits shifted by n T/2: (Point, dict of Bifurcation fields), or
+    None.  Found where D (φ_{nT/2}(x) − x), which vanishes there and changes its sign
+    through it, turns by more than 90° in one step; located as the root of its component
+    along its direction at ``cur``."""
+    if cur.half is None or new.half is None:
+        return None
+    ref = np.linalg.norm(cur.half)
+    if not ref > 0 or float(cur.half @ new.half) >= 0:
+        return None
+    e = cur.half / ref
+
+    def f(q):
+        if q.half is None:
+            return math.nan, math.inf
+        return float(q.half @ e), 100 * pm.d * max(q.half_error, q.ev.error)
+
+    pt, acc = _locate(engine, pm, cur, new, f)
+    scale = max(1.0, float(np.max(np.abs(pt.v[:-1]))))
+    if pt.half is None or float(np.max(np.abs(pt.half))) > 1e-6 * scale:
+        return None                       # it only turned: no orbit of half the period
+    pt.label = "period_doubling"
+    pt.sigma += cur.sigma
+    n = pm.periods
+    return pt, dict(kind="period_doubling", parameter=pt.p, accuracy=acc,
+                    test_function=f"φ_{n // 2}T(x) − x",
+                    note=f"the {n}T branch meets the orbits of period {n // 2}T, which "
+                         "period-double here; beyond, it retraces its own orbits shifted "
+                         f"by {n // 2}T")

@@ -11,7 +11,7 @@ from lagrange_core.progress import ProgressLine
 
 from ..results import ComputationInterrupted
 from ..results._branches import Bifurcation, Branch, BranchPoints
-from ._bifurcations import detect
+from ._bifurcations import detect, detect_half_period
 from ._points import make_point, orbit_statistics
 from ._shooting import CorrectorFailed, PeriodMap, correct, tangent
 
@@ -83,12 +83,21 @@ class Engine:
                             continue
                         status, message = "corrector_failed", f"at the interval's end: {e}"
                         break
+                half = detect_half_period(self, pm, cur, new)
+                if half is not None:
+                    new, ended = half[0], True     # the branch ends at the meeting point
                 for pt, info in detect(self, pm, cur, new):
                     bifurcations.append((pt, info))
                     points.append(pt)
+                if half is not None:
+                    bifurcations.append(half)
                 points.append(new)
                 previous = cur
                 bar.update(min(len(points), max_points))
+                if half is not None:
+                    status, message = "completed", half[1]["note"].replace(
+                        "the ", f"at {self.parameter} = {new.p:.10g} the ", 1)
+                    break
                 if ended:
                     new.label = "end"
                     status = "completed"
@@ -144,7 +153,7 @@ class Engine:
         if float(t @ cur.t) < MIN_COSINE:
             raise CorrectorFailed("the branch's tangent turned by more than 25° in one step",
                                   retry=True)
-        new = make_point(ev, Gs, t, cur.sigma + h, conservative=self.conservative)
+        new = make_point(pm, ev, Gs, t, cur.sigma + h, conservative=self.conservative)
         new.iterations = its
         return new
 
@@ -158,7 +167,7 @@ class Engine:
         ev, _ = correct(pm, v_pred, row, cur.Gs)
         Gs = pm.derivative_s(ev)
         t = tangent(pm, ev, Gs, cur.t)
-        return make_point(ev, Gs, t, cur.sigma + float(cur.t @ (ev.v - cur.v)),
+        return make_point(pm, ev, Gs, t, cur.sigma + float(cur.t @ (ev.v - cur.v)),
                           conservative=self.conservative)
 
     # -- results ---------------------------------------------------------------------
@@ -217,7 +226,7 @@ class Engine:
                              f"{x0.tolist()} at {self.parameter} = {p0!r} ({e}); start from "
                              "a state on the orbit (e.g. kapitza.periodic_orbit's .state).") \
                 from None
-        first = make_point(ev, Gs, t, 0.0, conservative=self.conservative, label="start")
+        first = make_point(pm, ev, Gs, t, 0.0, conservative=self.conservative, label="start")
         return self.trace(pm, [first], domain=(min(p0, stop), max(p0, stop)), step=step,
                           max_step=max_step, max_points=max_points)
 
@@ -254,11 +263,11 @@ class Engine:
             row = np.zeros(new_pm.d + 1)
             row[-1] = float(direction)
             t0 = tangent(new_pm, ev0, Gs0, row)
-            first = make_point(ev0, Gs0, t0, 0.0, conservative=self.conservative,
+            first = make_point(new_pm, ev0, Gs0, t0, 0.0, conservative=self.conservative,
                                label=b.kind)
             return self.trace(new_pm, [first], domain=domain, step=step,
                               max_step=opts["max_step"], max_points=max_points)
-        first = make_point(ev0, Gs0, d, 0.0, conservative=self.conservative, label=b.kind)
+        first = make_point(new_pm, ev0, Gs0, d, 0.0, conservative=self.conservative, label=b.kind)
         for _ in range(12):
             try:
                 ev1, _ = correct(new_pm, v_star + h * d, d, None)
@@ -271,7 +280,7 @@ class Engine:
             raise ValueError(f"could not start the branch emanating from the {b.kind} at "
                              f"{self.parameter} = {b.parameter:.10g}: the corrector failed "
                              "even at small distances.")
-        second = make_point(ev1, Gs1, t1, h, conservative=self.conservative)
+        second = make_point(new_pm, ev1, Gs1, t1, h, conservative=self.conservative)
         return self.trace(new_pm, [first, second], domain=domain, step=step,
                           max_step=opts["max_step"], max_points=max_points)
 

@@ -18,7 +18,9 @@ class Point:
     """One point: ``ev`` (the period map there), ``Gs`` (∂G/∂s), ``t`` (unit tangent,
     scaled), ``sigma`` (arclength), ``psi``/``psi_error`` (the three test functions and
     their error bounds), ``multipliers`` (by decreasing modulus), ``stable``,
-    ``unstable`` (count of |λ| > 1 + δ), ``label``."""
+    ``unstable`` (count of |λ| > 1 + δ), ``label``; on a branch of an even number n of
+    drive periods ``half`` = D (φ_{nT/2}(x) − x) (scaled; zero where the orbit has half
+    the period) and ``half_error`` (its flow's error estimate), else None and 0."""
 
     ev: object
     Gs: np.ndarray | None
@@ -30,6 +32,9 @@ class Point:
     stable: bool
     unstable: int
     label: str = ""
+    half: np.ndarray | None = None
+    half_error: float = 0.0
+    iterations: int = 0
 
     @property
     def v(self):
@@ -51,13 +56,19 @@ def unstable_count(multipliers, error) -> int:
     return int(np.sum(np.abs(multipliers) > 1.0 + stability_margin(error)))
 
 
-def make_point(ev, Gs, t, sigma, *, conservative, label="") -> Point:
+def make_point(pm, ev, Gs, t, sigma, *, conservative, label="") -> Point:
     mult = np.linalg.eigvals(ev.M).astype(complex)
     mult = mult[np.argsort(-np.abs(mult), kind="stable")]
     psi, err = test_functions(ev.M, ev.error, conservative=conservative)
     k = unstable_count(mult, ev.error)
+    half, half_error = None, 0.0
+    if pm.periods % 2 == 0:
+        e = pm.half.evaluate(ev.v)
+        if e is not None:
+            half, half_error = e.G, e.error
     return Point(ev=ev, Gs=Gs, t=t, sigma=float(sigma), psi=psi, psi_error=err,
-                 multipliers=mult, stable=k == 0, unstable=k, label=label)
+                 multipliers=mult, stable=k == 0, unstable=k, label=label, half=half,
+                 half_error=half_error)
 
 
 def _persists(system, P, x, T) -> bool:

@@ -96,11 +96,19 @@ class PeriodMap:
         self.steps = 32            # the last accepted step count (flows start at half)
         self.flows = 0             # flows computed (for the benchmark and the tests)
 
+    @property
+    def half(self):
+        """The map over half the periods (an even number of them)."""
+        if getattr(self, "_half", None) is None:
+            self._half = self.with_periods(self.periods // 2)
+        return self._half
+
     def with_periods(self, periods):
         """The same map over ``periods`` drive periods (the same scaling)."""
         other = PeriodMap.__new__(PeriodMap)
         other.__dict__.update(self.__dict__)
         other.periods = int(periods)
+        other._half = None
         other.steps = self.steps * periods // self.periods or 32
         return other
 

@@ -30,7 +30,6 @@ from ._floquet import FloquetGrid, FloquetResult, MonodromyData
 from ._maps import (
     AdaptiveMap,
     BoundaryCurves,
-    FloquetWindow,
     InceStruttChart,
     StabilityMap,
     StabilityWindow,
@@ -41,7 +40,17 @@ from ._verification import OrderFit, Verification
 
 __all__ = [
     "ComputationInterrupted", "FloquetResult", "MonodromyData", "FloquetGrid", "StabilityMap",
-    "StabilityWindow", "FloquetWindow", "InceStruttChart", "SlowModes", "AveragingPrediction",
+    "StabilityWindow", "InceStruttChart", "SlowModes", "AveragingPrediction",
     "SlowModeSweep", "EquilibriumPrediction", "PendulumAveraging", "MultiplePendulumPrediction",
     "Measurement", "PeriodicOrbit", "OrderFit", "Verification", "BoundaryCurves", "AdaptiveMap",
 ]
+
+
+def __getattr__(name):
+    # FloquetWindow: StabilityWindow's name before 0.2 (deprecated; removed in 0.3)
+    if name == "FloquetWindow":
+        from .._deprecation import warn_deprecated
+        warn_deprecated("kapitza.results.FloquetWindow", "kapitza.results.StabilityWindow",
+                        stacklevel=3)
+        return StabilityWindow
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -284,7 +284,7 @@ class Branch:
             fig = ax.figure
         pts = self.points
         values = getattr(pts, choices[y])[:, coordinate]
-        color = color or f"C{len(ax.lines) % 10}"
+        color = color or f"C{len(ax.get_legend_handles_labels()[0]) % 10}"
         label = label or (f"{self.periods}T orbits" if self.periods > 1 else "T orbits")
         _draw_runs(ax, pts.parameter, values, pts.stable, color, label)
         for b in self.bifurcations:
@@ -296,11 +296,11 @@ class Branch:
         ax.set_ylabel({"amplitude": f"amplitude of {name} (half peak-to-peak)",
                        "mean": f"period mean of {name}", "state": f"{name} at t = 0"}[y])
         from matplotlib.lines import Line2D
-        handles = [h for h in ax.get_legend_handles_labels()[0]]
+        handles = list(ax.get_legend_handles_labels()[0])
+        own = {h.get_label() for h in handles}
         extra = [Line2D([], [], color="0.3", ls="-", label="stable"),
                  Line2D([], [], color="0.3", ls="--", label="unstable")]
-        labels = {h.get_label() for h in handles}
-        ax.legend(handles=handles + [h for h in extra if h.get_label() not in labels],
+        ax.legend(handles=handles + [h for h in extra if h.get_label() not in own],
                   fontsize=8, frameon=False)
         return fig
 
@@ -312,17 +312,15 @@ _MARKERS = {"fold": "s", "pitchfork": "D", "transcritical": "X", "period_doublin
 def _draw_runs(ax, x, y, stable, color, label):
     """Consecutive points of equal stability as one line (solid/dashed), joined where
     the stability changes so the curve is unbroken."""
+    ax.plot([], [], color=color, ls="-", lw=1.8, label=label)   # the legend's entry
     if x.size == 0:
         return
     start = 0
-    first = True
     for k in range(1, x.size + 1):
         if k == x.size or stable[k] != stable[start]:
             stop = min(k + 1, x.size)
             ax.plot(x[start:stop], y[start:stop], color=color,
-                    ls="-" if stable[start] else "--", lw=1.8,
-                    label=label if first else None)
-            first = False
+                    ls="-" if stable[start] else "--", lw=1.8)
             start = k
     if math.isfinite(float(np.max(np.abs(y)))) and np.ptp(y) == 0:
         ax.margins(y=0.2)

@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike
 
 from ._base import BOUNDARIES, boundary_names
 
-__all__ = ["StabilityMap", "StabilityWindow", "FloquetWindow", "InceStruttChart",
+__all__ = ["StabilityMap", "StabilityWindow", "InceStruttChart",
            "BoundaryCurves", "AdaptiveMap"]
 
 
@@ -195,8 +195,6 @@ class StabilityWindow:
         return pd.DataFrame(data)
 
 
-#: The exact window's old name (one type serves exact and averaging windows).
-FloquetWindow = StabilityWindow
 
 
 @dataclass(frozen=True)

@@ -6,6 +6,8 @@
 """
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -170,12 +172,24 @@ class PeriodicOrbit:
         Slow frequency |arg λ|/T of each stable pair (rad/s, in [0, ω/2]); NaN if
         unstable; a float for one coordinate.
     residual : float
-        |φ_T(y0) − y0| at the returned state.
+        The residual of the equations shot at the returned state: |φ_T(y0) − y0|, or for
+        a symmetric orbit shot on the half period |φ_{T/2}(y0) − S y0|.
     error_estimate : float
-        Error estimate of the monodromy (the flow's step-doubling difference).
+        A bound on the error of the state and the monodromy: the larger of
+        ‖J⁻¹‖ (residual + integration error) for the state (J the Newton matrix of the
+        equations shot) and the monodromy's integration error plus the state's error
+        carried through it.
     iterations : int
-        Newton iterations (0: a persisting equilibrium).
+        Newton steps taken (0: a persisting equilibrium).
     method : str
+        Which map was shot ("period map", "half-period map (symmetric)") and, where
+        it is ill-conditioned, by how much.
+    condition : float
+        ‖J⁻¹‖∞ of the Newton matrix of the equations shot (NaN for a persisting
+        equilibrium): how much a residual is amplified into an error of the state.
+    flags : tuple of str
+        Accuracy warnings (each also raised as a RuntimeWarning); empty when the
+        orbit is decided to its tolerance.
     """
 
     coordinates: tuple
@@ -193,6 +207,8 @@ class PeriodicOrbit:
     error_estimate: float
     iterations: int
     method: str
+    condition: float = math.nan
+    flags: tuple = ()
 
     def to_dataframe(self):
         """One row per coordinate: state at t = 0, period mean, fast amplitude (and the

@@ -61,7 +61,6 @@ says cos θ* = 2 g l/(A ω)²; the exact orbit's period mean is 9e-6 rad away:
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 import warnings
 
@@ -304,17 +303,10 @@ def _result(system, params, y, T, periods, mult, M, res, err, monodromy_err, ite
     slow = slow[:n] if stable else np.full(n, np.nan)
     if decided is not None:
         stable, slow = decided[0], np.atleast_1d(np.asarray(decided[1], dtype=float))
-    # ``condition`` and ``flags`` where PeriodicOrbit has them (kapitza 0.2 adds them; until
-    # then the same facts are in ``method``, ``error_estimate`` and the warning)
-    extra: dict[str, object] = {}
-    names = {f.name for f in dataclasses.fields(PeriodicOrbit)}
-    if "condition" in names:
-        extra["condition"] = float(condition)
-    if "flags" in names:
-        extra["flags"] = tuple(flags)
     return PeriodicOrbit(
         coordinates=tuple(system.coordinates), params=dict(params), period=float(T),
         periods=int(periods), state=y.copy(), q_mean=q_mean, amplitude=amplitude,
         multipliers=mult, monodromy=M, stable=stable,
         omega_slow=float(slow[0]) if n == 1 else slow, residual=float(res),
-        error_estimate=float(err), iterations=int(iterations), method=method, **extra)
+        error_estimate=float(err), iterations=int(iterations), method=method,
+        condition=float(condition), flags=tuple(flags))
