@@ -200,18 +200,18 @@ def rk4_grid(A, w, steps_per_period=50):
 
         @njit(parallel=True)
         def run(Af, wf, out):
+            def acc(x, tt, a, om):
+                return -(G - a * om * om * np.cos(om * tt)) * np.sin(x) / L
             for i in prange(Af.shape[0]):
                 a, om = Af[i], wf[i]
                 h = 2 * np.pi / om / steps_per_period
                 th, v, t = THETA0, 0.0, 0.0
                 ok = True
                 for k in range(PERIODS * steps_per_period):
-                    def acc(x, tt):
-                        return -(G - a * om * om * np.cos(om * tt)) * np.sin(x) / L
-                    k1x, k1v = v, acc(th, t)
-                    k2x, k2v = v + 0.5 * h * k1v, acc(th + 0.5 * h * k1x, t + 0.5 * h)
-                    k3x, k3v = v + 0.5 * h * k2v, acc(th + 0.5 * h * k2x, t + 0.5 * h)
-                    k4x, k4v = v + h * k3v, acc(th + h * k3x, t + h)
+                    k1x, k1v = v, acc(th, t, a, om)
+                    k2x, k2v = v + 0.5 * h * k1v, acc(th + 0.5 * h * k1x, t + 0.5 * h, a, om)
+                    k3x, k3v = v + 0.5 * h * k2v, acc(th + 0.5 * h * k2x, t + 0.5 * h, a, om)
+                    k4x, k4v = v + h * k3v, acc(th + h * k3x, t + h, a, om)
                     th += h * (k1x + 2 * k2x + 2 * k3x + k4x) / 6
                     v += h * (k1v + 2 * k2v + 2 * k3v + k4v) / 6
                     t = (k + 1) * h
@@ -235,7 +235,7 @@ def scipy_sample(A, w, k=24):
     for i in idx:
         a, om = A.ravel()[i], w.ravel()[i]
 
-        def f(t, y):
+        def f(t, y, a=a, om=om):
             return [y[1], -(G - a * om * om * np.cos(om * t)) * np.sin(y[0]) / L]
 
         def fall(t, y):

@@ -37,9 +37,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from bench_work_precision import OMEGA, PARAMS, THETA0, have_heyoka, heyoka_integrator  # noqa: E402
 from lagrange_core import _integrator_kernels as kern  # noqa: E402
 from lagrange_core import integrate, problems  # noqa: E402
+
+from bench_work_precision import OMEGA, PARAMS, THETA0, have_heyoka, heyoka_integrator  # noqa: E402
 
 PERIODS = 10
 RTOL = 1e-9

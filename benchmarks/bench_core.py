@@ -65,8 +65,8 @@ def bench_derive(n, check=True):
     err = float("nan")
     if check:
         rng = np.random.default_rng(0)
-        sub_plain = {d.diff(dynamicsymbols._t): v for d, v in zip(qdyn, system.qdot)}
-        sub_plain.update(dict(zip(qdyn, system.q)))
+        sub_plain = {d.diff(dynamicsymbols._t): v for d, v in zip(qdyn, system.qdot, strict=True)}
+        sub_plain.update(dict(zip(qdyn, system.q, strict=True)))
         args = [*system.q, *system.qdot, *system.parameter_symbols]
         f_ref = sp.lambdify(args, [M_ref.xreplace(sub_plain), F_ref.xreplace(sub_plain)])
         kern = system.kernels
@@ -187,7 +187,8 @@ def _ns_per_call(loop, y, p, W, n_calls):
 @njit(cache=True)
 def _hand_rhs_chain(t, y, p, dydt, W):
     """N-link pendulum by hand (p = g, l1..lN, m1..mN): M_ij = μ_ij l_i l_j cos(θ_i − θ_j),
-    F_i = −Σ_j μ_ij l_i l_j sin(θ_i − θ_j) ω_j² − μ_ii g l_i sin θ_i, μ_ij = Σ_{k ≥ max(i,j)} m_k."""
+    F_i = −Σ_j μ_ij l_i l_j sin(θ_i − θ_j) ω_j² − μ_ii g l_i sin θ_i,
+    μ_ij = Σ_{k ≥ max(i,j)} m_k."""
     n = y.shape[0] // 2
     g = p[0]
     mu = np.empty(n)                   # mu[i] = Σ_{k ≥ i} m_k
@@ -228,12 +229,14 @@ def bench_chain_rhs(n, n_calls):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="smaller sizes (a smoke run)")
     args = ap.parse_args()
 
     print("1. derivation of the N-link pendulum (s)")
-    print(f"{'N':>4} {'LagrangesMethod':>16} {'lagrange_core':>14} {'ratio':>8} {'max rel diff':>13}")
+    print(f"{'N':>4} {'LagrangesMethod':>16} {'lagrange_core':>14} {'ratio':>8} "
+          f"{'max rel diff':>13}")
     for n in ((3,) if args.quick else (4, 8)):
         t_ref, t_ours, err = bench_derive(n)
         print(f"{n:>4} {t_ref:16.3f} {t_ours:14.4f} {t_ref / t_ours:8.0f} {err:13.1e}")
@@ -245,7 +248,8 @@ def main():
     print("\n2. statement -> compiled kernels, fresh process (s; import of the package separate)")
     print("   rhs: derive, generate, compile M, F and the solve; total = rhs + Jacobian;")
     print("   rest: every other kernel (compiled on first use); medians of 3 runs")
-    print(f"{'N':>4} {'cache':>6} {'import':>7} {'rhs':>6} {'+jacobian':>10} {'total':>6} {'rest':>6}")
+    print(f"{'N':>4} {'cache':>6} {'import':>7} {'rhs':>6} {'+jacobian':>10} {'total':>6} "
+          f"{'rest':>6}")
     for n in ((2,) if args.quick else (8, 16)):
         res = bench_compile(n, 1 if args.quick else 3)
         for label, r in res.items():

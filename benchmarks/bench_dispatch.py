@@ -25,6 +25,7 @@ from numba import njit
 from lagrange_core import problems
 from lagrange_core._kernel_calls import RHS, call_rhs
 
+
 @njit(cache=True)
 def rk4_by_address(ka, y, p, W, h, steps):
     """RK4 steps of y' = f(t, y), f the system's rhs reached by address (slot RHS of ka)."""
@@ -80,13 +81,15 @@ def ns_per_step(run, steps):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="fewer steps (a smoke run)")
     args = ap.parse_args()
     print("first call: compile (or load) everything the loop needs for this system, in s")
     print(f"{'system':>16} {'address ns/step':>16} {'inlined ns/step':>16} {'ratio':>6} "
           f"{'address 1st call':>17} {'inlined 1st call':>17}")
-    for name, system in (("pendulum", problems.pendulum()), ("double pendulum", problems.double_pendulum()),
+    for name, system in (("pendulum", problems.pendulum()),
+                         ("double pendulum", problems.double_pendulum()),
                          ("8-link pendulum", problems.n_link_pendulum(8))):
         k = system.kernels
         p = np.random.default_rng(0).uniform(0.5, 1.5, len(system.parameters))
@@ -101,8 +104,10 @@ def main():
         first_inlined = time.perf_counter() - t0
         np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-14)
         steps = (20_000 if args.quick else 200_000) // max(1, k.n_dof // 2)
-        tp = ns_per_step(lambda s: rk4_by_address(ka, y0.copy(), p, W, 1e-3, s), steps)
-        ti = ns_per_step(lambda s: inlined(y0.copy(), p, W, 1e-3, s), steps)
+        tp = ns_per_step(lambda s, ka=ka, y0=y0, p=p, W=W:
+                         rk4_by_address(ka, y0.copy(), p, W, 1e-3, s), steps)
+        ti = ns_per_step(lambda s, inlined=inlined, y0=y0, p=p, W=W:
+                         inlined(y0.copy(), p, W, 1e-3, s), steps)
         print(f"{name:>16} {tp:16.0f} {ti:16.0f} {tp / ti:6.2f} {first_address:17.2f} "
               f"{first_inlined:17.2f}")
 

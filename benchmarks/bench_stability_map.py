@@ -149,7 +149,7 @@ def section_single(quick):
     rng = np.random.default_rng(1)
     ii, jj = rng.integers(0, n, k), rng.integers(0, n, k)
     t0 = time.perf_counter()
-    for i, j in zip(ii, jj):
+    for i, j in zip(ii, jj, strict=True):
         ivp_trace(a[j], q[i])
     t_ivp = (time.perf_counter() - t0) / k * n * n
     print(f"per-point solve_ivp (DOP853, rtol 1e-11):    {t_ivp:8.1f} s    "
@@ -203,7 +203,7 @@ def section_tolerance(quick):
           f"{'max actual error (trace)':>25}   [{n}x{n} damped pendulum grid]")
     rows = []
     for tol in (1e-4, 1e-6, 1e-8, 1e-10, 1e-12):
-        tt, g = best(lambda: fqm.floquet_grid(sysm, params, [math.pi], tol=tol), 2)
+        tt, g = best(lambda tol=tol: fqm.floquet_grid(sysm, params, [math.pi], tol=tol), 2)
         err = np.max(np.abs(g.trace[ii, jj] - ref) / np.maximum(1, np.abs(ref)))
         rows.append((tol, tt, int(g.steps.max()), float(g.error_estimate.max()), err))
         print(f"{tol:8.0e} {tt:9.3f} {rows[-1][2]:19d} {rows[-1][3]:13.1e} {err:25.1e}")
@@ -221,7 +221,8 @@ def section_double(quick):
     up = [math.pi, math.pi]
     fqm.stability_map(dp, base, up, A=A[:4], omega=w[:4], tol=1e-8)
     for tol in (1e-6, 1e-8):
-        tt, m = best(lambda: fqm.stability_map(dp, base, up, A=A, omega=w, tol=tol), 2)
+        tt, m = best(lambda tol=tol: fqm.stability_map(dp, base, up, A=A, omega=w, tol=tol),
+                     2)
         print(f"kapitza tol {tol:.0e}: {tt:6.2f} s  stable fraction {m.stable.mean():.4f}, "
               f"refined {m.refined_points}, uncertified {m.uncertified_points}, "
               f"flagged {m.flagged_points}, max error estimate {m.error_estimate:.1e}")
@@ -234,10 +235,10 @@ def section_double(quick):
     ii, jj = rng.integers(0, n, npts), rng.integers(0, n, npts)
     t0 = time.perf_counter()
     agree = 0
-    for i, j in zip(ii, jj):
+    for i, j in zip(ii, jj, strict=True):
         P = dp.parameter_array(dict(base, A=A[i], omega=w[j]))
 
-        def rhs(t, x):
+        def rhs(t, x, P=P):
             k.jacobian(t, ystar, P, J)
             return J @ x
         M = np.empty((4, 4))
@@ -298,8 +299,8 @@ def section_boundaries(quick, figure=None):
         for mode, below in (("pool", 0), ("thread", serial)):
             _kernels.SERIAL_BELOW = below
             for s_, p_, u_ in cases:
-                t, _ = best(lambda: fqm.floquet_point(s_, dict(p_, A=0.07, omega=100.0), u_),
-                            reps)
+                t, _ = best(lambda s_=s_, p_=p_, u_=u_:
+                            fqm.floquet_point(s_, dict(p_, A=0.07, omega=100.0), u_), reps)
                 key = (mode, s_.n_dof)
                 cost[key] = min(cost.get(key, np.inf), t)
     _kernels.SERIAL_BELOW = serial
@@ -350,10 +351,10 @@ def section_boundaries(quick, figure=None):
     for N in ((129, 257) if quick else (257, 513)):
         A = np.linspace(0.0, 0.3, N)
         w = np.linspace(10.0, 150.0, N)
-        t_u, uni = best(lambda: fqm.stability_map(dp, dpar, up2, A=A, omega=w, progress=False),
-                          1)
-        t_a, ada = best(lambda: fqm.adaptive_map(dp, dpar, up2, A=A, omega=w, coarse_step=16),
-                          2)
+        t_u, uni = best(lambda A=A, w=w: fqm.stability_map(dp, dpar, up2, A=A, omega=w,
+                                                           progress=False), 1)
+        t_a, ada = best(lambda A=A, w=w: fqm.adaptive_map(dp, dpar, up2, A=A, omega=w,
+                                                          coarse_step=16), 2)
         print(f"adaptive map {N} x {N}: {ada.monodromies} monodromies vs {N * N} "
               f"({N * N / ada.monodromies:.0f}x fewer), {t_a:.2f} s vs {t_u:.2f} s "
               f"({t_u / t_a:.1f}x), {int(np.sum(ada.label != uni.label))} labels differ")

@@ -55,6 +55,13 @@ Direct simulation (:mod:`kapitza.simulation`)
         The T-periodic orbit of any driven system (shooting on the period map) and its
         Floquet multipliers: the slow states of drives that leave no equilibrium.
 
+Continuation and bifurcations (:mod:`kapitza.continuation`)
+    continuation
+        Follow a branch of (n)T-periodic orbits in one parameter through folds, with the
+        multipliers along it and its bifurcations located and classified; returns a
+        ``Branch`` (``Branch.switch(bifurcation)`` starts the emanating branch).
+    Branch, Bifurcation
+
 Verification (:mod:`kapitza.verification`)
     verify
         Averaging, Floquet analysis and direct simulation over an (A, ω) grid, compared
@@ -125,6 +132,7 @@ from .closed_forms import pendulum_effective_potential as pendulum_effective_pot
 from .closed_forms import pendulum_stability_map as pendulum_stability_map
 from .closed_forms import pendulum_stability_window as pendulum_stability_window  # deprecated
 from .closed_forms import pendulum_window as pendulum_window
+from .continuation import continuation as continuation
 from .figures import effective_potential_figure as effective_potential_figure
 from .figures import ince_strutt_figure as ince_strutt_figure
 from .figures import stability_map_figure as stability_map_figure
@@ -141,7 +149,9 @@ from .report import Report as Report
 from .report import build_report as build_report
 from .results import AdaptiveMap as AdaptiveMap
 from .results import AveragingPrediction as AveragingPrediction
+from .results import Bifurcation as Bifurcation
 from .results import BoundaryCurves as BoundaryCurves
+from .results import Branch as Branch
 from .results import ComputationInterrupted as ComputationInterrupted
 from .results import EquilibriumPrediction as EquilibriumPrediction
 from .results import FloquetGrid as FloquetGrid
@@ -185,6 +195,7 @@ __all__ = [
     "ince_strutt_chart", "pendulum_window", "pendulum_stability_map",
     "pendulum_effective_potential", "pendulum_averaged", "multiple_pendulum_upright",
     "measure", "measure_grid", "periodic_orbit",
+    "continuation", "Branch", "Bifurcation",
     "verify",
     "ComputationInterrupted", "FloquetResult", "FloquetGrid", "MonodromyData",
     "StabilityMap", "StabilityWindow", "BoundaryCurves", "AdaptiveMap", "InceStruttChart",

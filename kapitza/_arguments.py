@@ -12,8 +12,8 @@ import numpy as np
 
 from lagrange_core.checks import real_array, real_number
 
-__all__ = ["ABOUT", "DRIVES", "real_number", "pendulum_constants", "amplitude", "frequency", "drive",
-           "grid_axis", "about_sign",
+__all__ = ["ABOUT", "DRIVES", "real_number", "pendulum_constants", "amplitude", "frequency",
+           "drive", "grid_axis", "about_sign",
            "about_angle", "drive_direction", "averaging_order"]
 
 #: The pendulum's equilibria that persist under a vertical drive: name → (θ (rad), sign of
@@ -39,7 +39,7 @@ def pendulum_constants(l, g, damping=0.0, *, where: str = "",
     """
     out = []
     for name, v, unit, strict in zip(names, (l, g, damping), ("m", "m/s²", "1/s"),
-                                     (True, False, False)):
+                                     (True, False, False), strict=True):
         try:    # numbers of every kind (numpy scalars, 0-d arrays); no strings or booleans
             out.append(real_number(v, name, unit=unit, minimum=0.0, strict=strict))
         except ValueError:

@@ -47,7 +47,7 @@ def deprecated_alias(function: Callable, old: str, new: str) -> Callable:
 
     alias.__doc__ = (f"Deprecated since kapitza {SINCE}: {old} → {new}.\n\n"
                      + (function.__doc__ or ""))
-    alias.__deprecated__ = new        # marks it for tests/test_api.py and the reference
+    alias.__deprecated__ = new  # type: ignore[attr-defined]  # the mark tests/test_api.py reads
     return alias
 
 

@@ -44,7 +44,7 @@ from .verification import line_argument, pendulum_verification
 __all__ = ["KapitzaPendulum"]
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _driven_pendulum(drive: str, damped: bool):
     # one System per variant and process: derivation and kernels are shared
     return problems.driven_pendulum(drive, damping=damped)
@@ -142,7 +142,7 @@ class KapitzaPendulum:
 
     @classmethod
     def physical(cls, inertia: float, distance: float, mass: float = 1.0, *, g: float = 9.81,
-                 damping: float = 0.0, drive: str = "vertical") -> "KapitzaPendulum":
+                 damping: float = 0.0, drive: str = "vertical") -> KapitzaPendulum:
         """A physical pendulum: any rigid body pivoted at a shaken point.
 
         Parameters
@@ -177,7 +177,7 @@ class KapitzaPendulum:
 
     @classmethod
     def rod(cls, length: float, *, g: float = 9.81, damping: float = 0.0,
-            drive: str = "vertical") -> "KapitzaPendulum":
+            drive: str = "vertical") -> KapitzaPendulum:
         """A uniform rod of ``length`` L (m) pivoted at one end: l_eq = 2L/3 (I = m L²/3,
         d = L/2; see :meth:`physical`).
 
@@ -360,9 +360,9 @@ class KapitzaPendulum:
             (overlay e.g. ``window(omega, method="averaging", order=1)``).
         """
         self._vertical("stability_map")
-        return closed_forms.pendulum_stability_map(A, omega, l=self.l, g=self.g, damping=self.damping,
-                                              about=about, trace=trace, tol=tol,
-                                              progress=progress)
+        return closed_forms.pendulum_stability_map(A, omega, l=self.l, g=self.g,
+                                                   damping=self.damping, about=about,
+                                                   trace=trace, tol=tol, progress=progress)
 
     # -- direct integration (lagrange_core) --------------------------------------------
     @_drive_was_last

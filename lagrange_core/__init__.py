@@ -29,17 +29,24 @@ work_precision, WorkPrecision
     and tolerance, with scipy and heyoka as peers (:mod:`lagrange_core.accuracy_cost`).
 """
 from . import effects, fields, problems
+from ._version import __version__ as __version__
+from .accuracy_cost import WorkPrecision, work_precision
+from .bodies import RigidBody, rotation_matrix
 from .codegen import Kernels, compile_kernels
 from .derive import Equations, derive
-from .integrate import (METHODS, Event, SimulationInterrupted, Trajectory, crossing,
-                        multiplier_zero, turning_point)
+from .integrate import (
+    METHODS,
+    Event,
+    SimulationInterrupted,
+    Trajectory,
+    crossing,
+    multiplier_zero,
+    turning_point,
+)
 from .linearize import Linearization
-from .bodies import RigidBody, rotation_matrix
 from .symbols import coordinates, t
 from .systems import Particle, System
 from .warmup import warmup
-from .accuracy_cost import WorkPrecision, work_precision
-from ._version import __version__
 
 __all__ = ["System", "Particle", "RigidBody", "rotation_matrix", "coordinates", "t", "derive",
            "Equations", "compile_kernels", "Kernels", "Linearization", "problems", "fields",

@@ -62,13 +62,38 @@ import sys
 import numpy as np
 from numba import njit, prange
 
-from ._integrator_kernels import (DRIVE_STEP, FAST_MATH, INLINE, ST_BLOCK, STATS_SIZE, TV_HOLD,
-                                  TV_HREF, TV_SIZE, drive_rates, held_step_record,
-                                  project_constraints, rkn_combine, rkn_next_step, rkn_stages,
-                                  rotate_drive, second_order_step, starting_step)
-from ._kernel_calls import (DRIVE_RATES, ENERGY, FAST_ACCEL, FAST_ACCEL_LANES, MAX_DRIVE_RATES,
-                            RHS, call_drive_rates, call_energy, call_fast_accel,
-                            call_fast_accel_lanes, call_rhs)
+from ._integrator_kernels import (
+    DRIVE_STEP,
+    FAST_MATH,
+    INLINE,
+    ST_BLOCK,
+    STATS_SIZE,
+    TV_HOLD,
+    TV_HREF,
+    TV_SIZE,
+    drive_rates,
+    held_step_record,
+    project_constraints,
+    rkn_combine,
+    rkn_next_step,
+    rkn_stages,
+    rotate_drive,
+    second_order_step,
+    starting_step,
+)
+from ._kernel_calls import (
+    DRIVE_RATES,
+    ENERGY,
+    FAST_ACCEL,
+    FAST_ACCEL_LANES,
+    MAX_DRIVE_RATES,
+    RHS,
+    call_drive_rates,
+    call_energy,
+    call_fast_accel,
+    call_fast_accel_lanes,
+    call_rhs,
+)
 from ._lane_math import lane_sincos_rows
 
 #: per-point status (``GridTrajectories.status``)
@@ -118,7 +143,7 @@ def _band_exit(q, v, qn, vn, h, lo, hi):
         fa = q[j] - bound
         fb = qn[j] - bound
         side = 0
-        for it in range(100):
+        for _it in range(100):
             if b - a <= 4 * _EPS:
                 break
             x = (a * fb - b * fa) / (fb - fa)
@@ -229,7 +254,7 @@ def _rkn_band_exit(ka, t, h, q, v, a0, qn, vn, p, lo, hi, c, A, b, bp, rates, y)
     for i in range(n):
         y[i] = qn[i]
         y[n + i] = vn[i]
-    for attempt in range(n):
+    for _attempt in range(n):
         bound = hi[j] if y[j] > hi[j] else lo[j]
         xa = 0.0
         fa = q[j] - bound

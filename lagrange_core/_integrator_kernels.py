@@ -46,10 +46,21 @@ import sys
 import numpy as np
 from numba import njit
 
-from ._kernel_calls import (DRIVE_RATES, ENERGY, FAST_ACCEL, MAX_DRIVE_RATES, PHI_Q, RESIDUAL,
-                            RHS, call_constraint_jacobian,
-                            call_drive_rates, call_energy, call_fast_accel, call_residual,
-                            call_rhs)
+from ._kernel_calls import (
+    DRIVE_RATES,
+    ENERGY,
+    FAST_ACCEL,
+    MAX_DRIVE_RATES,
+    PHI_Q,
+    RESIDUAL,
+    RHS,
+    call_constraint_jacobian,
+    call_drive_rates,
+    call_energy,
+    call_fast_accel,
+    call_residual,
+    call_rhs,
+)
 from ._linalg import solve_augmented
 
 # -- named constants (module globals are compile-time constants for numba) --------------
@@ -241,7 +252,7 @@ def dop853_locate(ka, kind, idx, val, t0, h, y0, Fd, ga, gb, p, W, dydt, yt):
     fb = gb
     side = 0
     tol = 4.0 * 2.220446049250313e-16 * max(abs(t0), abs(t0 + h), 1e-300) / abs(h)
-    for it in range(200):
+    for _it in range(200):
         if b - a <= tol:
             break
         x = illinois_trial(a, b, fa, fb)
@@ -690,7 +701,7 @@ def second_order_locate(ka, family, e, ev_int, ev_val, t, q, v, a0, h, ga, gb, p
     fb = gb
     side = 0
     tol = 4.0 * 2.220446049250313e-16 * max(abs(t), abs(t + h), 1e-300) / abs(h)
-    for it in range(100):
+    for _it in range(100):
         if bb - a <= tol:
             break
         x = illinois_trial(a, bb, fa, fb)
@@ -781,8 +792,8 @@ def held_step_record(tv, stats, block, err, hs, h_max):
     ``HOLD_FIRST``) the new held step is the ``HOLD_QUANTILE`` quantile of those ideal
     steps (one power per block: the (1 − q) quantile of r), at most ``HOLD_GROWTH``
     times the last one and at most ``h_max``; it replaces the last one only if they
-    differ by more than ``HOLD_CHANGE``.  Returns the new held step, or 0.0 when it is unchanged (or the
-    block not yet full).
+    differ by more than ``HOLD_CHANGE``.  Returns the new held step, or 0.0 when it is
+    unchanged (or the block not yet full).
     """
     nb = block.shape[0]
     if nb == 0 or not math.isfinite(err):

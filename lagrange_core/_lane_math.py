@@ -10,11 +10,11 @@ below instead: branch-free, inlined, and vectorised with the rest of the loop.
 :func:`lane_sin`, :func:`lane_cos`
     Cody–Waite reduction by π in three parts (π split into 32 + 32 + 53 bits, so each
     product k·P is exact for |k| < 2²⁰), x = r + kπ with |r| ≤ π/2 (cos:
-    x = r + (k + ½)π), then the Taylor polynomial of sin r to degree 21 (truncation below 1.3e-18) and the
-    sign (−1)^k: 20 floating-point operations, no branch, no table.  Within 2 ulp of
-    glibc's sin and cos (measured over |x| < 10⁶ and at multiples of π/2: at most 2
-    ulp, 0.3 on average; zeros of sin and cos keep their relative accuracy, since r is
-    accurate).  For |x| > :data:`BIG_ARGUMENT` (and NaN, ±inf) they return NaN: the
+    x = r + (k + ½)π), then the Taylor polynomial of sin r to degree 21 (truncation below
+    1.3e-18) and the sign (−1)^k: 20 floating-point operations, no branch, no table.
+    Within 2 ulp of glibc's sin and cos (measured over |x| < 10⁶ and at multiples of π/2:
+    at most 2 ulp, 0.3 on average; zeros of sin and cos keep their relative accuracy,
+    since r is accurate).  For |x| > :data:`BIG_ARGUMENT` (and NaN, ±inf) they return NaN: the
     caller computes that lane again with libm, so every argument gets a correct value
     and none pays a branch in the vector loop.
 :func:`lane_solve`

@@ -17,11 +17,12 @@ By default it is our most accurate method for the system at ``rtol = atol = 1e-1
 by a second, independent method (``"dop853"`` at the same tolerance, or, when the first is
 ``"dop853"``, the fixed-step 8th-order ``"rk8"`` at half the adaptive run's mean step).
 The difference of the two final states (at least 4 ulps of the coordinates) is
-:attr:`WorkPrecision.reference_error`, the reference's own error as far as it can be known: an error below about ten times it is not
-resolved (column ``resolved``), and :meth:`WorkPrecision.time_to_reach` refuses such levels
-(NaN).  ``reference="heyoka"`` takes heyoka's Taylor integrator in extended precision
-(``long double``, tol 1e-18) and cross-checks it against our own reference;
-an array gives the final coordinates directly (a closed form), with reference error 0.
+:attr:`WorkPrecision.reference_error`, the reference's own error as far as it can be
+known: an error below about ten times it is not resolved (column ``resolved``), and
+:meth:`WorkPrecision.time_to_reach` refuses such levels (NaN).  ``reference="heyoka"``
+takes heyoka's Taylor integrator in extended precision (``long double``, tol 1e-18) and
+cross-checks it against our own reference; an array gives the final coordinates directly
+(a closed form), with reference error 0.
 
 Peers
 -----
@@ -315,7 +316,8 @@ def _check_inputs(system, methods, peers, rtols, repeat, max_seconds, t_span):
     return rtols
 
 
-def work_precision(system, q0, qdot0, t_span, params, *, methods=("rkn12", "dop853"), rtols=DEFAULT_RTOLS, reference=None, repeat=3,
+def work_precision(system, q0, qdot0, t_span, params, *, methods=("rkn12", "dop853"),
+                   rtols=DEFAULT_RTOLS, reference=None, repeat=3,
                    peers=("scipy:DOP853",), max_seconds=2.0, rounds=1, cpu_time=False,
                    progress=None) -> WorkPrecision:
     """Error at the final time against time, for each method and tolerance.
@@ -372,7 +374,7 @@ def work_precision(system, q0, qdot0, t_span, params, *, methods=("rkn12", "dop8
     # the start and the parameters are checked here, once (the messages name the argument)
     q0 = system.coordinate_array(q0, "q0").tolist()
     qdot0 = system.coordinate_array(qdot0, "qdot0").tolist()
-    params = dict(zip(system.parameters, system.parameter_array(params).tolist()))
+    params = dict(zip(system.parameters, system.parameter_array(params).tolist(), strict=True))
     t_span = (float(t_span[0]), float(t_span[1]))
     clock = time.process_time if cpu_time else time.perf_counter
     eligible, why = rkn_eligibility(system.kernels)
@@ -454,14 +456,14 @@ def work_precision(system, q0, qdot0, t_span, params, *, methods=("rkn12", "dop8
                     done += len(rtols) - 1 - rtols.index(rtol)
                     break
         for _ in range(rounds - 1):
-            for row, run in zip(rows, runners):
+            for row, run in zip(rows, runners, strict=True):
                 row[4] = min(row[4], best_time(run, repeat, clock)[0])
     except KeyboardInterrupt:
         interrupted = True
         print(f"work_precision: interrupted; keeping the {len(rows)} finished runs",
               file=sys.stderr)
     line.close()
-    cols = list(zip(*rows)) if rows else [()] * 7
+    cols = list(zip(*rows, strict=True)) if rows else [()] * 7
     error = np.array(cols[3], dtype=float)
     return WorkPrecision(
         system=system._label(), t_span=t_span,

@@ -55,9 +55,9 @@ Chunks, progress and Ctrl-C
 ---------------------------
 The points run in chunks of about a quarter of a second
 (:func:`lagrange_core.progress.run_in_chunks`), each one parallel compiled call; a
-progress line is shown on stderr when it is a terminal (``progress``).  Ctrl-C stops at the end of the running chunk and raises
-:class:`GridInterrupted` (a KeyboardInterrupt) whose ``.result`` holds every finished
-point (the others have status "not_run").
+progress line is shown on stderr when it is a terminal (``progress``).  Ctrl-C stops at
+the end of the running chunk and raises :class:`GridInterrupted` (a KeyboardInterrupt)
+whose ``.result`` holds every finished point (the others have status "not_run").
 """
 from __future__ import annotations
 
@@ -180,7 +180,7 @@ class GridTrajectories:
     def counts(self) -> dict:
         """How many points ended with each status."""
         values, k = np.unique(self.status, return_counts=True)
-        return {STATUS_NAMES[v]: int(c) for v, c in zip(values, k)}
+        return {STATUS_NAMES[v]: int(c) for v, c in zip(values, k, strict=True)}
 
     def to_dataframe(self):
         """One row per grid point: the parameters, the final state, the observables
@@ -475,6 +475,7 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
     order = np.arange(N, dtype=np.int64)
 
     import numba
+
     from .integrate import _HOLD_BLOCK
     lane_mode = (_bk.LANES_ADAPTIVE if adaptive else _bk.LANES_PILOT if pilot
                  else _bk.LANES_FIXED)

@@ -230,10 +230,11 @@ class RigidBody:
         """
         phi = self.orientation
         if self.planar:
-            return sp.Add(*[sp.diff(phi, qj) * vj for qj, vj in zip(q, qdot)]) + sp.diff(phi, t)
+            return (sp.Add(*[sp.diff(phi, qj) * vj for qj, vj in zip(q, qdot, strict=True)])
+                    + sp.diff(phi, t))
         R = sp.Matrix(phi)
         omega = sp.zeros(3, 1)
-        for rate, s in [*zip(qdot, q), (sp.S.One, t)]:
+        for rate, s in [*zip(qdot, q, strict=True), (sp.S.One, t)]:
             dR = R.diff(s)
             if dR.is_zero_matrix:
                 continue

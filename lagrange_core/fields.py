@@ -124,7 +124,7 @@ class Field1D:
         return E.xreplace({v: d for d, v in plain.items()})
 
     # -- limits ---------------------------------------------------------------------------
-    def small_amplitude(self, order: int = 2) -> "Field1D":
+    def small_amplitude(self, order: int = 2) -> Field1D:
         """The density truncated at total degree ``order`` in (u, u_t, u_x).
 
         ``order=2`` (the default) keeps the quadratic part, whose field equation

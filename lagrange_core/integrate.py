@@ -125,9 +125,9 @@ Without ``t_eval`` every ``stride``-th accepted step is stored (default every
 step), but never more than about ``max_points`` rows (default 10⁶): when the
 store reaches it, every other stored row is dropped and the stride doubles, so
 a very long run keeps a uniformly thinned record of the whole interval (and its
-last point) in bounded memory.  With ``t_eval`` only those times are stored.  The integration runs in chunks of
-at most ``chunk_steps`` steps in compiled code; between chunks Python stores
-output and checks for Ctrl-C.  On KeyboardInterrupt :func:`simulate` raises
+last point) in bounded memory.  With ``t_eval`` only those times are stored.  The
+integration runs in chunks of at most ``chunk_steps`` steps in compiled code; between
+chunks Python stores output and checks for Ctrl-C.  On KeyboardInterrupt :func:`simulate` raises
 :class:`SimulationInterrupted` (a KeyboardInterrupt, so scripts still stop)
 whose ``trajectory`` attribute holds everything computed so far (status
 ``"interrupted"``).
@@ -201,9 +201,8 @@ class _LazyTable(dict):
 
 def _dop853_coefficients():
     from scipy.integrate._ivp import dop853_coefficients as c
-    return {"A": np.ascontiguousarray(c.A, dtype=float), "B": np.ascontiguousarray(c.B, dtype=float),
-            "C": np.ascontiguousarray(c.C, dtype=float), "E3": np.ascontiguousarray(c.E3, dtype=float),
-            "E5": np.ascontiguousarray(c.E5, dtype=float), "D": np.ascontiguousarray(c.D, dtype=float)}
+    return {name: np.ascontiguousarray(getattr(c, name), dtype=float)
+            for name in ("A", "B", "C", "E3", "E5", "D")}
 
 
 _SCIPY_METHODS = ("RK23", "RK45", "DOP853", "LSODA", "Radau", "BDF")
@@ -676,7 +675,8 @@ def simulate_checked(kernels, q0, qdot0, p, options, *, method=None, events=(),
                        rtol=max(o.rtol / 1000, 1e-15), atol=o.atol / 1000, t_eval=traj.t,
                        h=None if o.h is None else o.h / 4, max_steps=None, label=label)
         n = min(len(ref.t), len(traj.t))
-        diff = max(np.max(np.abs(ref.q[:n] - traj.q[:n])), np.max(np.abs(ref.qdot[:n] - traj.qdot[:n])))
+        diff = max(np.max(np.abs(ref.q[:n] - traj.q[:n])),
+                   np.max(np.abs(ref.qdot[:n] - traj.qdot[:n])))
         traj = replace(traj, error_estimate=float(diff),
                        error_estimate_kind="difference from a rerun at rtol/1000"
                        + (" and h/4" if o.h is not None else ""))
@@ -920,7 +920,7 @@ def _run_scipy(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, star
         T, Y = T[keep], Y[keep]
     ev_list = []
     for e in range(len(events)):
-        for te, ye in zip(sol.t_events[e], sol.y_events[e]):
+        for te, ye in zip(sol.t_events[e], sol.y_events[e], strict=True):
             if te > t0:
                 ev_list.append(EventRecord(events[e].name, float(te), ye[:n].copy(), ye[n:].copy()))
     counts = (n_steps, 0, sol.nfev)

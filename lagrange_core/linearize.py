@@ -81,7 +81,7 @@ def linearize(system, params=None, about=None, t=0.0) -> Linearization:
         not an equilibrium (|q̈| > 1e-8 relative to the stiffness scale) or the
         mass matrix is singular there.
     """
-    import scipy.linalg     # here, not at import: it costs `import lagrange_core` 0.5 s
+    import scipy.linalg  # here, not at import: it costs `import lagrange_core` 0.5 s
     n, m = system.n_dof, system.n_constraints
     q0 = np.zeros(n) if about is None else system.coordinate_array(about, "about")
     p = system.parameter_array(params)

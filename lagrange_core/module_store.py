@@ -43,7 +43,8 @@ def cache_dir() -> Path:
     """Directory of generated modules (``$LAGRANGE_CORE_CACHE`` or ``~/.cache/lagrange_core``)."""
     root = os.environ.get("LAGRANGE_CORE_CACHE") or os.path.join(
         os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "lagrange_core")
-    path = Path(root) / f"py{sys.version_info.major}{sys.version_info.minor}-numba{numba.__version__}"
+    python = f"py{sys.version_info.major}{sys.version_info.minor}"
+    path = Path(root) / f"{python}-numba{numba.__version__}"
     path.mkdir(parents=True, exist_ok=True)
     return path
 

@@ -350,7 +350,8 @@ class System:
         stated = [("the lagrangian", lagrangian), ("the potential", potential),
                   ("the dissipation function", dissipation)]
         stated += [(f"constraint {i}", c) for i, c in enumerate(constraints)]
-        stated += [(f"the force on {qj.name}", f) for qj, f in zip(self._q, generalized)]
+        stated += [(f"the force on {qj.name}", f)
+                   for qj, f in zip(self._q, generalized, strict=True)]
         stated += [(f"the force on {label}", c) for label, _, vector in point_forces
                    for c in vector]
         for p in particles:
@@ -512,7 +513,8 @@ class System:
             raise ValueError(
                 f"missing value(s) for parameter(s) {missing} of {self._label()}; pass them in "
                 f"params, e.g. params={{{', '.join(repr(n) + ': ...' for n in missing)}}}.")
-        return np.array([real_number(params[n], f"parameter {n!r}", example=f"params={{{n!r}: 1.0}}")
+        return np.array([real_number(params[n], f"parameter {n!r}",
+                                     example=f"params={{{n!r}: 1.0}}")
                          for n in names], dtype=float)
 
     def coordinate_array(self, values, what: str = "q") -> np.ndarray:
@@ -588,8 +590,9 @@ class System:
         lam = np.empty(self.n_constraints)
         status = k.accelerations(q, qd, float(t), p, qdd, lam, k.work_array())
         if status != 0:
+            augmented = " augmented by the constraint Jacobian" if self.n_constraints else ""
             raise ValueError(
-                f"the mass matrix{' augmented by the constraint Jacobian' if self.n_constraints else ''}"
+                f"the mass matrix{augmented}"
                 f" of {self._label()} is singular at q={q.tolist()}, t={t}: the coordinates are "
                 "degenerate there (e.g. a pole of spherical coordinates) or the constraints are "
                 "redundant. Choose another state or restate the system in coordinates that are "
@@ -756,8 +759,8 @@ class System:
                 subs[sp.Derivative(c, c.args[0])] = velocity_symbol(s)
                 subs[c] = s
             else:
-                raise TypeError(f"a coordinate must be a sympy Symbol (or dynamicsymbol), got {c!r}; "
-                                "make them with lagrange_core.coordinates('theta phi').")
+                raise TypeError(f"a coordinate must be a sympy Symbol (or dynamicsymbol), got "
+                                f"{c!r}; make them with lagrange_core.coordinates('theta phi').")
         names = [s.name for s in q]
         if len(set(names)) != len(names):
             raise ValueError(f"coordinate names must be distinct, got {names}.")
@@ -774,7 +777,7 @@ class System:
         """The ``forces`` argument as (Q_j per coordinate, [(label, point, F vector)])."""
         n = len(self._q)
         generalized = [sp.S.Zero] * n
-        points = []
+        points: list[tuple] = []
         if forces is None:
             return generalized, points
 
@@ -827,19 +830,21 @@ class System:
             raise ValueError(f"forces: give one generalized force per coordinate ({n}), "
                              f"got {len(forces)}; or pass a dict coordinate -> force, or "
                              "(particle, (F_x, F_y)) pairs.")
-        return [_scalar(conv(f), f"the force on {q.name}") for f, q in zip(forces, self._q)], points
+        return [_scalar(conv(f), f"the force on {q.name}")
+                for f, q in zip(forces, self._q, strict=True)], points
 
     def _project_forces(self, generalized, points):
         """Q_j plus the virtual work of the Cartesian forces, Σ F · ∂r/∂q_j."""
         Q = list(generalized)
         for _, position, vector in points:
             for j, qj in enumerate(self._q):
-                Q[j] += sp.Add(*[F * sp.diff(r, qj) for F, r in zip(vector, position)])
+                Q[j] += sp.Add(*[F * sp.diff(r, qj) for F, r in zip(vector, position, strict=True)])
         return tuple(Q)
 
     def _check_body_moves(self, body, label):
         qset = set(self._q)
-        moves = set().union(*(e.free_symbols for e in (*body.position, *_entries(body.orientation))))
+        moves = set().union(*(e.free_symbols
+                              for e in (*body.position, *_entries(body.orientation))))
         if not moves & qset:
             raise ValueError(
                 f"{label}: neither its centre of mass {body.position} nor its orientation depends "
@@ -855,8 +860,8 @@ class System:
     def _validate(self):
         qset, vset = set(self._q), set(self._qdot)
         if not self._particles and self._lagrangian == 0:
-            raise ValueError("the system has no kinetic energy: give particles=[Particle(m, r(q, t))] "
-                             "or a lagrangian=L(q, q_dot, t).")
+            raise ValueError("the system has no kinetic energy: give "
+                             "particles=[Particle(m, r(q, t))] or a lagrangian=L(q, q_dot, t).")
         for p in self._particles:
             free = set().union(*(c.free_symbols for c in p.position))
             if not free & qset:
@@ -869,11 +874,12 @@ class System:
                 raise ValueError(f"{p.name}: a position cannot depend on velocities "
                                  f"({sorted(s.name for s in free & vset)}).")
             if p.mass.free_symbols & (qset | vset):
-                raise ValueError(f"{p.name}: the mass must not depend on coordinates or velocities.")
+                raise ValueError(f"{p.name}: the mass must not depend on coordinates or "
+                                 "velocities.")
         for name, expr in (("potential", self._potential),):
             if expr.free_symbols & vset:
-                raise ValueError(f"the {name} must not depend on velocities; put velocity-dependent "
-                                 "terms in the lagrangian or the forces.")
+                raise ValueError(f"the {name} must not depend on velocities; put "
+                                 "velocity-dependent terms in the lagrangian or the forces.")
         for i, c in enumerate(self._constraints):
             if not c.free_symbols & qset:
                 raise ValueError(
@@ -888,7 +894,8 @@ class System:
                              f"{[s.name for s in self._qdot]} (e.g. D = gamma*theta_dot**2/2).")
 
     def _all_expressions(self):
-        exprs = [self._lagrangian, self._potential, self._dissipation, *self._constraints, *self._forces]
+        exprs = [self._lagrangian, self._potential, self._dissipation, *self._constraints,
+                 *self._forces]
         for p in self._particles:
             exprs.append(p.mass)
             exprs.extend(p.position)
@@ -899,12 +906,12 @@ class System:
         free = set().union(*(e.free_symbols for e in self._all_expressions())) - known
         clash = sorted(s.name for s in free if s.name in {x.name for x in known})
         if clash:
-            raise ValueError(f"symbol(s) {clash} share a name with a coordinate or velocity but are "
-                             "different symbols (different assumptions?); use the symbols returned "
-                             "by lagrange_core.coordinates().")
+            raise ValueError(f"symbol(s) {clash} share a name with a coordinate or velocity but "
+                             "are different symbols (different assumptions?); use the symbols "
+                             "returned by lagrange_core.coordinates().")
         names = [s.name for s in free]
         if len(set(names)) != len(names):
             dup = sorted({n for n in names if names.count(n) > 1})
-            raise ValueError(f"parameter symbol(s) {dup} appear with different assumptions; use one "
-                             "symbol per parameter name.")
+            raise ValueError(f"parameter symbol(s) {dup} appear with different assumptions; use "
+                             "one symbol per parameter name.")
         return tuple(sorted(free, key=lambda s: s.name))

@@ -15,12 +15,12 @@ upright (a 2N-dimensional monodromy per amplitude, certified edges).  *Acheson's
 (Proc. R. Soc. A 443, 239, 1993): the linearised upright chain decouples, exactly, into N
 Mathieu equations, one per normal mode of the *hanging* chain, mode k a single pendulum of
 length λ_k = g/ω_k² (shared/PHYSICS.md).  So the exact window is also the intersection of N
-single-pendulum windows (characteristic values, :meth:`KapitzaPendulum.stability_window`): the
+single-pendulum windows (characteristic values, :meth:`KapitzaPendulum.window`): the
 longest λ_1 sets the lower limit, the shortest λ_N the upper one.  That is our independent
 check of the Floquet windows.  *Averaging*: :func:`kapitza.multiple_pendulum_upright` —
 order 1, A ω > √2 g/ω_1 and no upper limit; order 2 per mode
-(:func:`kapitza.averaging_window` with l = λ_k), whose upper limit tends to
-A < 0.4540 g/ω_N².  Acheson states the same limits as √2 g/ω_1 < Aω and
+(:func:`kapitza.pendulum_window` with ``method="averaging"``, l = λ_k), whose upper limit
+tends to A < 0.4540 g/ω_N².  Acheson states the same limits as √2 g/ω_1 < Aω and
 A < 0.450 g/ω_N² (his rounded constant).  *Direct simulation*:
 :func:`kapitza.measure_grid` of the nonlinear chain at ω = 100 ω0, released 0.01 rad from
 upright with every mode excited, at 0.9 and 1.1 × each exact edge: it stays up (within
@@ -34,7 +34,7 @@ The Floquet windows run up to ω = 1000 ω0 at a requested accuracy of 1e-8: nea
 the monodromy's margins fix the edges only to about ε_mach (ω/ω0)², so 1e-10 is out of reach
 there (``kapitza.floquet.window`` warns when it cannot meet ``tol``).  An earlier run of this
 study found the whole-chain windows wrong for N ≥ 4 above 300 ω0 (the stability test lost the
-multipliers' small differences from +1; fixed in :mod:`kapitza.floquet_boundaries`); they now
+multipliers' small differences from +1; fixed in :mod:`kapitza.floquet`); they now
 agree with the mode windows within their certified accuracy (≤ 8e-7) at every frequency,
 which ``check`` asserts.
 """
@@ -50,6 +50,7 @@ import pandas as pd
 import scipy.optimize
 
 import kapitza
+
 from _common import main, save_figure, write_table
 
 QUESTION = ("What minimum drive and what upper limit hold a chain of N = 1 … 5 equal links "
@@ -103,14 +104,15 @@ def mode_window(lam, ratio):
     """Acheson's decomposition made exact: the intersection of the single-pendulum windows
     of the modes (lengths ``lam``) at ω/ω0 = ratio (scalar or array), as (A_min, A_max)/l
     (NaN: none)."""
-    return _intersect([kapitza.KapitzaPendulum(l=float(lk), g=G).stability_window(
+    return _intersect([kapitza.KapitzaPendulum(l=float(lk), g=G).window(
         np.asarray(ratio) * W0) for lk in lam])
 
 
 def averaged_window(lam, ratio, order):
     """The same intersection of the modes' averaging windows (order 1 or 2)."""
-    return _intersect([kapitza.averaging_window(np.asarray(ratio) * W0, l=float(lk), g=G,
-                                                order=order, warn=False) for lk in lam])
+    return _intersect([kapitza.pendulum_window(np.asarray(ratio) * W0, l=float(lk), g=G,
+                                               method="averaging", order=order, warn=False)
+                       for lk in lam])
 
 
 def lowest_frequency(window_fn, lo=1.0, hi=1e3):
@@ -138,7 +140,7 @@ def run(out: Path, quick: bool = False) -> dict:
         _log(f"N = {n}: λ_k/l = {np.round(lam / L, 4).tolist()}")
 
         # -- exact by Floquet on the whole chain, and the mode windows beside it ------------
-        w_c = lowest_frequency(lambda r: mode_window(lam, r))
+        w_c = lowest_frequency(lambda r, lam=lam: mode_window(lam, r))
         # from 1.2 ω_c: nearer, the window is narrower than the scan's spacing
         start = max(w_c * 1.2, 2.0)
         fl_ratios = np.geomspace(start, FLOQUET_MAX_RATIO, 3 if quick else 16)
@@ -146,10 +148,10 @@ def run(out: Path, quick: bool = False) -> dict:
             # above ~200 ω0 the edges are certified to 1e-8 … 8e-7, not FLOQUET_TOL (the
             # warning says so); the accuracy reached is kept per point and checked below
             warnings.filterwarnings("ignore", "window: at ω", RuntimeWarning)
-            win = kapitza.window(system, params, about, fl_ratios * W0, tol=FLOQUET_TOL,
-                                 A_limit=4 * A_INF * lam[-1])
+            win = kapitza.window(system, params, about, omega=fl_ratios * W0, tol=FLOQUET_TOL,
+                                 A_range=(0.0, 4 * A_INF * lam[-1]))
         diffs, ratios = [], []
-        for r, a, b, acc in zip(fl_ratios, win.A_min, win.A_max, win.accuracy):
+        for r, a, b, acc in zip(fl_ratios, win.A_min, win.A_max, win.accuracy, strict=True):
             ma, mb = mode_window(lam, r)
             diffs += [abs(a / L / ma - 1), abs(b / L / mb - 1)]
             ratios += [d / acc for d in diffs[-2:]]
@@ -160,7 +162,7 @@ def run(out: Path, quick: bool = False) -> dict:
                                                       np.full(curve.size, np.inf))),
                                ("averaging order 2", averaged_window(lam, curve, 2))):
             rows += [dict(N=n, omega_ratio=r, method=method, A_min_l=x, A_max_l=y,
-                          certified_accuracy=math.nan) for r, x, y in zip(curve, a, b)]
+                          certified_accuracy=math.nan) for r, x, y in zip(curve, a, b, strict=True)]
         f[f"N{n}_floquet_vs_modes_max_rel_diff"] = float(np.nanmax(diffs))
         f[f"N{n}_floquet_max_certified_accuracy"] = float(np.nanmax(win.accuracy))
         # the difference in units of the certified accuracy: ≤ 1 if the certificate is honest
@@ -183,18 +185,18 @@ def run(out: Path, quick: bool = False) -> dict:
         f[f"N{n}_lowest_omega_ratio_exact"] = w_c if n > 1 else math.nan
         if n > 1:
             f[f"N{n}_lowest_omega_ratio_averaging_order2"] = lowest_frequency(
-                lambda r: averaged_window(lam, r, 2), lo=w_c / 2, hi=w_c * 2)
+                lambda r, lam=lam: averaged_window(lam, r, 2), lo=w_c / 2, hi=w_c * 2)
             # both limits at their high-frequency forms: √2 g/(ω_1 ω) = 0.4540 g/ω_N²
             w1, wn = pred.hanging_frequencies[0], pred.hanging_frequencies[-1]
             f[f"N{n}_lowest_omega_ratio_asymptotic"] = math.sqrt(2) * wn**2 / (A_INF * w1) / W0
             # the Floquet window of the whole chain just above and below ω_c
-            near = kapitza.window(system, params, about, np.array([1.1, 0.9]) * w_c * W0,
-                                  tol=FLOQUET_TOL, A_limit=4 * A_INF * lam[-1])
+            near = kapitza.window(system, params, about, omega=np.array([1.1, 0.9]) * w_c * W0,
+                                  tol=FLOQUET_TOL, A_range=(0.0, 4 * A_INF * lam[-1]))
             f[f"N{n}_floquet_window_at_1.1_omega_c"] = bool(np.isfinite(near.A_min[0]))
             f[f"N{n}_floquet_window_at_0.9_omega_c"] = bool(np.isfinite(near.A_min[1]))
 
         # -- direct simulation just inside and outside each exact edge -----------------------
-        sw = kapitza.window(system, params, about, SIM_RATIO * W0, tol=FLOQUET_TOL)
+        sw = kapitza.window(system, params, about, omega=SIM_RATIO * W0, tol=FLOQUET_TOL)
         factors = np.array([0.9, 1.1, 0.9, 1.1])
         amps = factors * np.array([sw.A_min, sw.A_min, sw.A_max, sw.A_max])
         expect = np.array([False, True, True, False])
@@ -226,7 +228,7 @@ def figure(table, sims, f, ns):
     fig, (ax, bx, cx) = plt.subplots(1, 3, figsize=(17, 5.6),
                                      gridspec_kw=dict(width_ratios=[1.6, 1, 1]))
     colors = plt.cm.viridis(np.linspace(0, 0.85, len(ns)))
-    for n, c in zip(ns, colors):
+    for n, c in zip(ns, colors, strict=True):
         t = table[table.N == n]
         ex = t[t.method == "exact (mode windows)"]
         ax.fill_between(ex.omega_ratio, ex.A_min_l, ex.A_max_l, color=c, alpha=0.12, lw=0)

@@ -43,7 +43,8 @@ import numpy as np
 import pandas as pd
 
 import kapitza
-from kapitza.verification._verify import fit_order
+from kapitza.verification import fit_order
+
 from _common import main, save_figure, write_table
 
 QUESTION = ("How large is the relative error of the upright pendulum's slow frequency "
@@ -101,7 +102,7 @@ omega = {fmt(omega)}
 
 def relative_floor(trace, error_estimate, omega_slow, omega):
     """Floquet's own relative error bound on Ω: a trace in error by δ ≈ error·max(1, |tr M|)
-    turns Ω T by about δ / |sin Ω T| (√δ where sin Ω T → 0), as in :mod:`kapitza.verify`."""
+    turns Ω T by about δ / |sin Ω T| (√δ where sin Ω T → 0), as in :mod:`kapitza.verification`."""
     T = 2 * math.pi / omega
     delta = error_estimate * np.maximum(1.0, np.abs(trace))
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -212,9 +213,9 @@ def figure(table, sims, vfits, alines, A_l, w_ratio):
     fig, axes = plt.subplots(2, 3, figsize=(17, 10.5))
     nA, nw = len(A_l), len(w_ratio)
     wfine = np.geomspace(w_ratio[0], w_ratio[-1], 300)
-    window = PEND.stability_window(wfine * W0)
+    window = PEND.window(wfine * W0)
     norm = Normalize(-10, 0)
-    for ax, order in zip(axes[0, :2], (1, 2)):
+    for ax, order in zip(axes[0, :2], (1, 2), strict=True):
         err = table[f"rel_error_order{order}"].to_numpy()
         floor = table.floor_exact.to_numpy()
         shown = np.where(err > 10 * floor, err, np.nan).reshape(nA, nw)
@@ -258,7 +259,7 @@ def figure(table, sims, vfits, alines, A_l, w_ratio):
     ax = axes[1, 0]
     colors = plt.cm.tab10.colors
     for i, (kappa, fits) in enumerate(vfits):
-        for fit, marker in zip(fits, ("o", "s")):
+        for fit, marker in zip(fits, ("o", "s"), strict=True):
             used = np.asarray(fit.used)
             ax.loglog(fit.epsilon, fit.error, marker, mfc="none", color=colors[i], ms=4)
             ax.loglog(fit.epsilon[used], fit.prefactor * fit.epsilon[used] ** fit.exponent, "-",
@@ -312,7 +313,7 @@ def _velocity_theory(kappa):
     return abs(2 * kappa ** 2 - 25 * kappa ** 4 / 32) / (kappa ** 2 - 2)
 
 
-# -- the study ---------------------------------------------------------------------------------------
+# -- the study -----------------------------------------------------------------------------
 
 def run(out: Path, quick: bool = False) -> dict:
     out = Path(out)

@@ -23,7 +23,7 @@ excluded; every point is labelled with the exponent of its tolerance.
    y″ + (a − 2q cos 2τ) y = 0 (a = −4ω0²/ω², q = 2A/l) has a = a0(q) (tr M = +2 exactly,
    the Kapitza limit) or a = b1(q) (tr M = −2, the first parametric resonance): for each q
    the drive frequency is ω = 2ω0/√(−a_r(q)) from the characteristic value
-   (``kapitza.mathieu.characteristic_value``, accurate to ≈ 1e-15).  Error = max |tr M ∓ 2|
+   (``kapitza.closed_forms.characteristic_value``, accurate to ≈ 1e-15).  Error = max |tr M ∓ 2|
    over the boundary points; time per point of a grid call, and of a single call.
 3. *Averaging*: the upright's slow frequency Ω by first-order averaging (closed form
    ``pendulum_averaged(order=1)``, and the general ``kapitza.average(system).sweep``), by
@@ -68,9 +68,10 @@ import numpy as np
 import pandas as pd
 
 import kapitza
-from _common import main, save_figure, write_table
 from lagrange_core import problems
 from lagrange_core.accuracy_cost import best_time, work_precision
+
+from _common import main, save_figure, write_table
 
 QUESTION = ("How much wall time does each capability of the toolkit (integrators, Floquet "
             "analysis, averaging, batch simulation) spend per extra digit of accuracy, and "
@@ -110,7 +111,7 @@ def integrators(quick):
 
 def _boundary_points(kind, q):
     """(A, ω, exact tr M) on the upright's boundary a = a0(q) (kind "a") or b1(q) ("b")."""
-    from kapitza.closed_forms._mathieu import characteristic_value
+    from kapitza.closed_forms import characteristic_value
     a = characteristic_value(kind, 0 if kind == "a" else 1, q)
     return q * L / 2, 2 * W0 / np.sqrt(-a), 2.0 if kind == "a" else -2.0
 
@@ -126,7 +127,7 @@ def floquet(quick):
         A, omega, exact = _boundary_points(kind, qs)
         params = dict(pend.params(A, omega))
         for tol in tols:
-            def grid():
+            def grid(params=params, tol=tol):
                 return kapitza.floquet_grid(pend.system, params, [math.pi], tol=tol,
                                             progress=False)
             grid()
@@ -140,8 +141,8 @@ def floquet(quick):
         # one call per point: what the fixed cost of a call adds
         k = n // 2
         for tol in tols:
-            def one():
-                return pend.floquet(float(A[k]), float(omega[k]), tol=tol)
+            def one(a_k=float(A[k]), w_k=float(omega[k]), tol=tol):
+                return pend.floquet(a_k, w_k, tol=tol)
             one()
             sec, res = best_time(one, 3)
             rows.append(dict(panel="floquet", kind=kind,
@@ -230,7 +231,7 @@ def batch(quick):
     rtols = (1e-4, 1e-7, 1e-10) if quick else tuple(10.0 ** -k for k in range(3, 13))
     for rtol in rtols:
         run(rtol)
-        sec, g = best_time(lambda: run(rtol), 1 if quick else 3)
+        sec, g = best_time(lambda rtol=rtol: run(rtol), 1 if quick else 3)
         stayed = held & (g.status_name == "finished")
         err = np.abs(g.q[..., 0] - ref.q[..., 0])[stayed]
         rows.append(dict(panel="batch", method="simulate_grid (one compiled parallel call)",
@@ -341,7 +342,7 @@ def run(out, quick=False):
 def figure(wp, fq, av, bt, batch_ref_error):
     from matplotlib.figure import Figure
 
-    from kapitza.figures._plots import work_precision_figure
+    from kapitza.figures import work_precision_figure
     fig = Figure(figsize=(13.5, 10.5))
     fig.subplots_adjust(left=0.07, right=0.98, bottom=0.06, top=0.92, wspace=0.2, hspace=0.3)
     axes = fig.subplots(2, 2)
@@ -357,7 +358,7 @@ def figure(wp, fq, av, bt, batch_ref_error):
             single = d.points.iloc[0] == 1
             ax.loglog(d.seconds_per_point, d.error, "--" if single else "-", marker="o", ms=4,
                       color=f"C{k}", label=name)
-            for x, y, s in zip(d.seconds_per_point, d.error, d.setting):
+            for x, y, s in zip(d.seconds_per_point, d.error, d.setting, strict=True):
                 ax.annotate(f"{np.log10(s):.0f}", (x, y), textcoords="offset points",
                             xytext=(4, 3), fontsize=6.5, color=f"C{k}")
     ax.grid(True, lw=0.4, alpha=0.5)
@@ -376,7 +377,7 @@ def figure(wp, fq, av, bt, batch_ref_error):
         ax.errorbar(d.seconds_per_point, d.error, yerr=yerr, fmt="o-" if len(d) > 1 else "s",
                     color=c, ms=5, capsize=3, lw=1, label=name)
         if name.startswith("Floquet"):
-            for x, y, s in zip(d.seconds_per_point, d.error, d.setting):
+            for x, y, s in zip(d.seconds_per_point, d.error, d.setting, strict=True):
                 ax.annotate(f"{np.log10(s):.0f}", (x, y), textcoords="offset points",
                             xytext=(5, 3), fontsize=6.5, color=c)
     ax.set_xscale("log")
@@ -398,7 +399,7 @@ def figure(wp, fq, av, bt, batch_ref_error):
     ax.loglog(g.seconds_per_point, g.error_median, "o:", color="C0", ms=3, mfc="white",
               label="median")
     last = None
-    for x, y, s, m in zip(g.seconds_per_point, g.error, g.setting, g.misclassified):
+    for x, y, s, m in zip(g.seconds_per_point, g.error, g.setting, g.misclassified, strict=True):
         if last is not None and np.isclose(y, last[1], rtol=0.05, atol=0):
             continue                # the same error as the looser tolerance: one label
         same = g.setting[np.isclose(g.error, y, rtol=0.05, atol=0)]
@@ -409,7 +410,7 @@ def figure(wp, fq, av, bt, batch_ref_error):
     ax.axhline(10 * batch_ref_error, color="k", ls=":", lw=0.8,
                label=f"10 × the reference's own error ({batch_ref_error:.1e}; below: "
                      "not resolved)")
-    for x, s in zip(lp.seconds_per_point, lp.setting):
+    for x, s in zip(lp.seconds_per_point, lp.setting, strict=True):
         ax.axvline(x, color="C3", lw=0.8, ls="--")
         ax.annotate(f"rtol {s:.0e}", (x, 0.97), xycoords=("data", "axes fraction"),
                     textcoords="offset points", xytext=(2, 0), rotation=90, fontsize=6.5,

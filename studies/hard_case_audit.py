@@ -22,9 +22,9 @@ over a long run holds a fortiori over its start).
 import math
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import pandas as pd
@@ -124,6 +124,7 @@ def kepler(quick):
 @_shared
 def omega_ratio_1e3(quick):
     import scipy.integrate
+
     from lagrange_core import problems
     s = problems.driven_pendulum("vertical")
     g, l = G, 1.0
@@ -185,7 +186,7 @@ def inside_window(quick):
     from lagrange_core import problems
     pend = problems.driven_pendulum("vertical")
     w = 2 * math.pi * 20
-    win = KapitzaPendulum().stability_window(w)
+    win = KapitzaPendulum().window(w)
     A = np.array([1.5 * win.A_min, 0.5 * (win.A_min + win.A_max), 0.9 * win.A_max])
     g = pend.simulate_grid([math.pi - 0.02], [0.0], (0.0, 1e4 * 2 * math.pi / w),
                            dict(PEND, A=A, omega=w), band=UP_BAND, reference=[math.pi],
@@ -267,6 +268,7 @@ def symplectic_bounded(quick):
 
 def _cartesian_pendulum():
     import sympy as sp
+
     from lagrange_core import Particle, System
     x, y = sp.symbols("x y", real=True)
     m, g, l = sp.symbols("m g l", positive=True)
@@ -295,7 +297,8 @@ def cartesian(quick):
 def mathieu_large_q(quick):
     import scipy.linalg
     import scipy.special
-    from kapitza.closed_forms import _mathieu as mm
+
+    from kapitza import closed_forms as mm
     K = 80
     d = (2 * np.arange(K) + 1.0) ** 2
     d[0] += 20.9
@@ -319,7 +322,7 @@ def mathieu_large_q(quick):
 
 @_shared
 def huge_amplitude(quick):
-    from kapitza.closed_forms import _mathieu as mm
+    from kapitza import closed_forms as mm
     from kapitza.pendulum import KapitzaPendulum
     pend = KapitzaPendulum(l=1.0, g=G)
     worst = 0.0
@@ -346,6 +349,7 @@ def triple_edge(quick):
     reference, tests/helpers.py)."""
     import sympy as sp
     from scipy.integrate import solve_ivp
+
     import kapitza
     from lagrange_core import problems
     from lagrange_core import t as t_sym
@@ -394,7 +398,7 @@ def rod(quick):
     body_sys = problems.physical_pendulum(driven=True)
     A, omega = 0.04, 2 * math.pi * 50
     t_eval = np.linspace(0.0, 2.0, 41)
-    ours = KapitzaPendulum.rod(L_ROD, g=G).simulate(math.pi - 0.2, 0.0, (0.0, 2.0), A, omega,
+    ours = KapitzaPendulum.rod(L_ROD, g=G).simulate(A, omega, math.pi - 0.2, 0.0, (0.0, 2.0),
                                                     rtol=1e-11, t_eval=t_eval)
     body = body_sys.simulate([math.pi - 0.2], [0.0], (0.0, 2.0),
                              dict(m=m, I_c=m * L_ROD**2 / 12, d=L_ROD / 2, g=G, A=A,
@@ -579,7 +583,7 @@ def figure(table, quick):
     ax.set_yticks(y)
     ax.set_yticklabels(table.case, fontsize=8)
     ax.set_xlim(0.5, max(10.0, table.margin.max() * 1e3))     # room for the longest label
-    for yi, m, v in zip(y, table.margin, table.measured):
+    for yi, m, v in zip(y, table.margin, table.measured, strict=True):
         ax.text(m * 1.1, yi, f"{m:.3g}  (measured {v:.2g})", va="center", fontsize=7)
     ax.set_xlabel("margin = bound asserted by the test / value measured again  (log scale; "
                   "1 = on the bound)")

@@ -50,6 +50,7 @@ import numpy as np
 import pandas as pd
 
 import kapitza
+
 from _common import main, save_figure, write_table
 
 QUESTION = ("How far from upright can a dynamically stabilised pendulum be tilted or pushed "
@@ -84,8 +85,8 @@ def barrier(A, omega):
     avg = PEND.averaged(A, omega, warn=False)
     tilted = next(e for e in avg.equilibria if e.name == "tilted+")
     phi_s = math.pi - np.asarray(tilted.theta, dtype=float)
-    dU = (PEND.effective_potential(math.pi - phi_s, A, omega)
-          - PEND.effective_potential(math.pi, A, omega))
+    dU = (PEND.effective_potential(A, omega, theta=math.pi - phi_s)
+          - PEND.effective_potential(A, omega, theta=math.pi))
     return phi_s, dU
 
 
@@ -104,8 +105,8 @@ def averaged_stays_up(phi0, phidot0, A, omega):
     """Inside the averaged separatrix, and the slow energy over the barrier (E/ΔU; < 1 inside)."""
     phi_s, dU = barrier(A, omega)
     Phi, Phidot = slow_state(phi0, phidot0, A)
-    E = 0.5 * L ** 2 * Phidot ** 2 + (PEND.effective_potential(math.pi - Phi, A, omega)
-                                      - PEND.effective_potential(math.pi, A, omega))
+    E = 0.5 * L ** 2 * Phidot ** 2 + (PEND.effective_potential(A, omega, theta=math.pi - Phi)
+                                      - PEND.effective_potential(A, omega, theta=math.pi))
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = np.where(np.isfinite(phi_s), E / dU, np.inf)
     ratio = np.where(np.abs(Phi) < np.where(np.isfinite(phi_s), phi_s, 0.0), ratio, np.inf)
@@ -119,8 +120,8 @@ def separatrix_area(A, omega, n=20001):
         return 0.0
     s = np.linspace(-1, 1, n)
     Phi = phi_s * np.sin(s * math.pi / 2)          # dense near the turning points
-    U = PEND.effective_potential(math.pi - Phi, A, omega) - PEND.effective_potential(
-        math.pi, A, omega)
+    U = (PEND.effective_potential(A, omega, theta=math.pi - Phi)
+         - PEND.effective_potential(A, omega, theta=math.pi))
     v = np.sqrt(np.clip(2 * (dU - U), 0, None)) / L
     return float(2 * np.trapezoid(v * phi_s * math.pi / 2 * np.cos(s * math.pi / 2), s))
 
@@ -187,7 +188,7 @@ def tilt_lines(n_A, n_scan, bisections):
     rows = []
     for r in TILT_RATIOS:
         omega = r * W0
-        win = PEND.stability_window(omega)
+        win = PEND.window(omega)
         top = 0.95 * min(float(win.A_max), 0.45 * L) / float(win.A_min) - 1
         A = float(win.A_min) * (1 + np.geomspace(0.01, top, n_A))   # dense near A_min
         periods = max(300, int(10 * r))             # ≥ 10 free periods 2π/ω0
@@ -241,7 +242,7 @@ initial.theta_dot = {fmt(vel)}
                             averaged_stays_up=avg))
     frac = pts.groupby(["A_l", "omega_ratio"], as_index=False).mean()
     frac = frac.rename(columns=dict(stays_up="fraction_sim", averaged_stays_up="fraction_avg"))
-    win = PEND.stability_window(frac.omega_ratio.to_numpy() * W0)
+    win = PEND.window(frac.omega_ratio.to_numpy() * W0)
     frac["inside_exact_window"] = ((frac.A_l * L > win.A_min) & (frac.A_l * L < win.A_max))
     return frac
 
@@ -275,8 +276,8 @@ def figure(maps, tilts, frac, A_l, w_ratio):
         A, omega = float(d.A_l.iloc[0]) * L, MAP_RATIO * W0
         phi_s, dU = barrier(A, omega)
         Phi = np.linspace(-phi_s, phi_s, 801)
-        U = PEND.effective_potential(math.pi - Phi, A, omega) - PEND.effective_potential(
-            math.pi, A, omega)
+        U = (PEND.effective_potential(A, omega, theta=math.pi - Phi)
+             - PEND.effective_potential(A, omega, theta=math.pi))
         Pd = np.sqrt(np.clip(2 * (dU - U), 0, None)) / L
         for sign in (1, -1):      # the separatrix mapped to the release plane (φ0, θ̇0)
             a = A / L
@@ -314,7 +315,7 @@ def figure(maps, tilts, frac, A_l, w_ratio):
         index=A_l, columns=w_ratio).to_numpy()
     mesh = ax.pcolormesh(w_ratio, A_l, grid, cmap="viridis", vmin=0, vmax=1, shading="nearest")
     wf = np.geomspace(w_ratio[0], w_ratio[-1], 300)
-    win = PEND.stability_window(wf * W0)
+    win = PEND.window(wf * W0)
     ax.plot(wf, win.A_min / L, "r-", lw=1.5, label="exact window edges (Floquet)")
     ax.plot(wf, win.A_max / L, "r-", lw=1.5)
     ax.plot(wf, math.sqrt(2) / wf, "w:", lw=1.2, label="first-order limit Aω = √(2gl)")
@@ -428,9 +429,8 @@ def run(out: Path, quick: bool = False) -> dict:
     f["fraction_points"] = int(len(frac))
     f["fraction_max"] = float(frac.fraction_sim.max())
     f["fraction_outside_window_max"] = float(frac.fraction_sim[~inside & (
-        frac.A_l * L < PEND.stability_window(frac.omega_ratio.to_numpy() * W0).A_min)].max())
-    above = ~inside & (frac.A_l * L >= PEND.stability_window(frac.omega_ratio.to_numpy()
-                                                            * W0).A_max)
+        frac.A_l * L < PEND.window(frac.omega_ratio.to_numpy() * W0).A_min)].max())
+    above = ~inside & (frac.A_l * L >= PEND.window(frac.omega_ratio.to_numpy() * W0).A_max)
     f["fraction_above_A_max_max"] = float(frac.fraction_sim[above].max()) if above.any() \
         else math.nan
     small = inside & (frac.A_l <= 0.15)

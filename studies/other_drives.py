@@ -33,10 +33,11 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from _common import main, save_figure, write_table
 
 import kapitza
 from kapitza import KapitzaPendulum, Scene, periodic_orbit
+
+from _common import main, save_figure, write_table
 
 QUESTION = ("How well does first-order averaging describe the horizontal drive's tilted state "
             "and the elliptic pivot (circular: never upright; damped: a tilt), measured "

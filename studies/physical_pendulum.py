@@ -51,6 +51,7 @@ import sympy as sp
 
 import kapitza
 from lagrange_core import problems
+
 from _common import main, save_figure, write_table
 
 QUESTION = ("Is a shaken uniform rod exactly a point pendulum of the equivalent length "
@@ -98,15 +99,17 @@ def run(out: Path, quick: bool = False) -> dict:
     _log("windows: rod, rigid body (Floquet), point masses at L_eq and L")
     ratios = np.geomspace(2.0, 300.0, 8 if quick else 40)
     omega = ratios * W0
-    wins = {"rod (KapitzaPendulum.rod)": rod.stability_window(omega),
+    wins = {"rod (KapitzaPendulum.rod)": rod.window(omega),
             # 1e-9: at 300 ω0 float64 monodromies fix the edges no better than ~3e-10
-            "rigid body (Floquet)": kapitza.window(body, bparams, [math.pi], omega, tol=1e-9),
-            "point mass, l = L_eq": point_eq.stability_window(omega),
-            "point mass, l = L": point_l.stability_window(omega)}
+            "rigid body (Floquet)": kapitza.window(body, bparams, [math.pi], omega=omega,
+                                                   tol=1e-9),
+            "point mass, l = L_eq": point_eq.window(omega),
+            "point mass, l = L": point_l.window(omega)}
     rows = []
     for name, w in wins.items():
         rows += [dict(kind="window", pendulum=name, omega_ratio=r, A_min_over_Leq=a / L_EQ,
-                      A_max_over_Leq=b / L_EQ) for r, a, b in zip(ratios, w.A_min, w.A_max)]
+                      A_max_over_Leq=b / L_EQ)
+                 for r, a, b in zip(ratios, w.A_min, w.A_max, strict=True)]
     ref = wins["point mass, l = L_eq"]
 
     def rel(w, which):
@@ -127,8 +130,8 @@ def run(out: Path, quick: bool = False) -> dict:
     nA, nw = (14, 12) if quick else (70, 60)
     A_axis = np.linspace(0.004, 0.8, nA) * L_EQ
     w_axis = np.geomspace(2.0, 100.0, nw) * W0
-    maps = {"rigid body (Floquet)": kapitza.stability_map(body, A_axis, w_axis, bparams,
-                                                          [math.pi], progress=False),
+    maps = {"rigid body (Floquet)": kapitza.stability_map(body, bparams, [math.pi], A=A_axis,
+                                                          omega=w_axis, progress=False),
             "rod (KapitzaPendulum.rod)": rod.stability_map(A_axis, w_axis),
             "point mass, l = L_eq": point_eq.stability_map(A_axis, w_axis),
             "point mass, l = L": point_l.stability_map(A_axis, w_axis)}
@@ -172,9 +175,9 @@ def run(out: Path, quick: bool = False) -> dict:
     th0 = math.pi - 0.3
     traj = {"rigid body": body.simulate([th0], [0.0], (0.0, t_eval[-1]),
                                         dict(bparams, A=A, omega=w), rtol=1e-11, t_eval=t_eval),
-            "point, L_eq": point_eq.simulate(th0, 0.0, (0.0, t_eval[-1]), A, w, rtol=1e-11,
+            "point, L_eq": point_eq.simulate(A, w, th0, 0.0, (0.0, t_eval[-1]), rtol=1e-11,
                                              t_eval=t_eval),
-            "point, L": point_l.simulate(th0, 0.0, (0.0, t_eval[-1]), A, w, rtol=1e-11,
+            "point, L": point_l.simulate(A, w, th0, 0.0, (0.0, t_eval[-1]), rtol=1e-11,
                                          t_eval=t_eval)}
     th = {k: np.asarray(v.q)[:, 0] for k, v in traj.items()}
     f["theta_body_vs_point_Leq_max_abs_diff_rad"] = float(np.max(np.abs(th["rigid body"]
@@ -196,7 +199,7 @@ def run(out: Path, quick: bool = False) -> dict:
     stride = 20
     for k, v in th.items():
         rows += [dict(kind="theta(t)", pendulum=k, t_s=tt, theta=x)
-                 for tt, x in zip(t_eval[::stride], v[::stride])]
+                 for tt, x in zip(t_eval[::stride], v[::stride], strict=True)]
 
     table = pd.DataFrame(rows)
     write_table(table, out, "physical_pendulum")
@@ -231,7 +234,7 @@ def figure(wins, ratios, maps, A_axis, w_axis, t_eval, th, f):
                   shading="nearest")
     bx.contour(w_axis / W0, A_axis / L_EQ, eq, levels=[0.5], colors="k", linewidths=0.8)
     for c, lab in zip(cmap.colors[1:], ("stable: rod only", "stable: point at L only",
-                                        "stable: both")):
+                                        "stable: both"), strict=True):
         bx.plot([], [], "s", color=c, ms=9, label=lab)
     bx.plot([], [], "k-", lw=0.8, label="edge, point at L_eq")
     bx.set(xscale="log", xlabel="ω/ω0", ylabel="A/L_eq",

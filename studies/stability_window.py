@@ -10,9 +10,9 @@ Method
 ------
 *Exact*: the linearised upright pendulum is the Mathieu equation y″ + (a − 2q cos 2τ) y = 0
 with a = −4ω0²/ω², q = 2A/l (shared/PHYSICS.md), and the window is a0(q) < a < b1(q):
-``KapitzaPendulum.stability_window`` finds both roots of the characteristic curves and certifies
-them (relative accuracy ≤ 1e-10).  With damping γ the edges are |tr M| = 1 + e^(−γT), found
-on the integrated monodromy trace.  *Averaging*: ``stability_window(method="averaging")`` —
+``KapitzaPendulum.window`` finds both roots of the characteristic curves and certifies them
+(relative accuracy ≤ 1e-10).  With damping γ the edges are |tr M| = 1 + e^(−γT), found on
+the integrated monodromy trace.  *Averaging*: ``KapitzaPendulum.window(method="averaging")`` —
 order 1 is the Kapitza limit A_min = √(2 g l)/ω with no upper limit at all; order 2 adds the
 next term (A²ω²(1 − 7A²/16l²) ≈ 2gl) and the parametric resonance a′ = b1(q) as A_max.
 Damping rates γ/ω0 = 0, 0.1, 0.5 and 2 (underdamped to overdamped undriven pendulum).
@@ -43,6 +43,7 @@ import scipy.optimize
 import scipy.special
 
 import kapitza
+
 from _common import main, save_figure, write_table
 
 QUESTION = ("Between which drive amplitudes A_min < A < A_max is the inverted pendulum stable "
@@ -66,11 +67,11 @@ def windows(ratios, gamma_ratio):
     """Exact and averaged (order 1, 2) windows at ω/ω0 = ``ratios`` for damping γ/ω0, as rows."""
     pend = kapitza.KapitzaPendulum(l=L, g=G, damping=gamma_ratio * W0)
     omega = np.asarray(ratios) * W0
-    exact = pend.stability_window(omega)
+    exact = pend.window(omega)
     rows = [dict(method="exact", A_min=exact.A_min, A_max=exact.A_max,
                  accuracy=exact.accuracy)]
     for order in (1, 2):
-        avg = pend.stability_window(omega, method="averaging", order=order)
+        avg = pend.window(omega, method="averaging", order=order)
         rows.append(dict(method=f"averaging order {order}", A_min=avg.A_min, A_max=avg.A_max,
                          accuracy=np.full(omega.size, np.nan)))
     frames = [pd.DataFrame(dict(omega_ratio=ratios, gamma_ratio=gamma_ratio,
@@ -84,10 +85,10 @@ def _edge(ratio, which, method="exact", order=2, gamma_ratio=0.0):
     """One edge (A/l) at one ω/ω0: exact or averaged."""
     pend = kapitza.KapitzaPendulum(l=L, g=G, damping=gamma_ratio * W0)
     if method == "exact":
-        win = pend.stability_window(ratio * W0)
+        win = pend.window(ratio * W0)
     else:       # warn=False: we go outside averaging's regime on purpose, to see it fail
-        win = kapitza.averaging_window(ratio * W0, l=L, g=G, damping=pend.damping, order=order,
-                                       warn=False)
+        win = kapitza.pendulum_window(ratio * W0, l=L, g=G, damping=pend.damping,
+                                      method="averaging", order=order, warn=False)
     return getattr(win, which) / L
 
 
@@ -115,7 +116,7 @@ def floquet_sides(ratios, gamma_ratio, rel=1e-4):
     pend = kapitza.KapitzaPendulum(l=L, g=G, damping=gamma_ratio * W0)
     right = total = 0
     for r in ratios:
-        win = pend.stability_window(r * W0)
+        win = pend.window(r * W0)
         for edge, inside in ((win.A_min, 1 + rel), (win.A_max, 1 - rel)):
             for factor, expect in ((inside, True), (2 - inside, False)):
                 res = pend.floquet(A=edge * factor, omega=r * W0, about="inverted")
@@ -149,7 +150,8 @@ def run(out: Path, quick: bool = False) -> dict:
     a2 = und[und.method == "averaging order 2"].set_index("omega_ratio")
     f = {}
     f["omega_ratio_range"] = f"{ratios[0]:g} to {ratios[-1]:g} ({n} frequencies)"
-    f["exact_window_at_every_omega"] = bool(np.all(np.isfinite(ex.A_min_l) & np.isfinite(ex.A_max_l)))
+    f["exact_window_at_every_omega"] = bool(np.all(np.isfinite(ex.A_min_l)
+                                                   & np.isfinite(ex.A_max_l)))
     f["max_certified_accuracy"] = float(np.nanmax(table.certified_accuracy))
     for r in (1.0, 3.0, 10.0, 100.0, 1000.0):
         f[f"exact_A_min_l_at_{r:g}"] = _edge(r, "A_min")
@@ -160,7 +162,8 @@ def run(out: Path, quick: bool = False) -> dict:
     for order in (1, 2):
         err = lambda r, o=order: _edge(r, "A_min", "averaging", o) / _edge(r, "A_min") - 1  # noqa
         for pct in (1, 10):
-            f[f"A_min_order{order}_error_above_{pct}pct_below_omega_ratio"] = crossing(err, pct / 100)
+            f[f"A_min_order{order}_error_above_{pct}pct_below_omega_ratio"] = crossing(
+                err, pct / 100)
         f[f"A_min_order{order}_error_at_3"] = err(3.0)
         f[f"A_min_order{order}_error_at_10"] = err(10.0)
     # the exact window never closes on this range; it only narrows towards ω ≈ ω0
@@ -235,7 +238,8 @@ def figure(table, a_inf):
     ax.fill_between(r, ex.A_min_l, ex.A_max_l, color="0.85", label="exact window (γ = 0)")
     ax.plot(r, ex.A_min_l, "k-", lw=1.6, label="exact edges")
     ax.plot(r, ex.A_max_l, "k-", lw=1.6)
-    ax.plot(a1.omega_ratio, a1.A_min_l, "r--", lw=1.4, label="averaging order 1: √2 ω0/ω (no A_max)")
+    ax.plot(a1.omega_ratio, a1.A_min_l, "r--", lw=1.4,
+            label="averaging order 1: √2 ω0/ω (no A_max)")
     ax.plot(a2.omega_ratio, a2.A_min_l, "b:", lw=2, label="averaging order 2")
     ax.plot(a2.omega_ratio, a2.A_max_l, "b:", lw=2)
     ax.axhline(a_inf, color="tab:green", lw=1, ls="-.", label=f"A_max → {a_inf:.4f} l (ω → ∞)")

@@ -27,8 +27,10 @@ CLASSES = ("KapitzaPendulum", "AveragedSystem", "Scene")
 
 def _public_functions():
     for name in kapitza.__all__:
+        if name in kapitza.DEPRECATED:
+            continue
         obj = getattr(kapitza, name)
-        if inspect.isfunction(obj) and not hasattr(obj, "__deprecated__"):
+        if inspect.isfunction(obj):
             yield name, obj
 
 

@@ -12,7 +12,6 @@ import warnings
 import numpy as np
 import pytest
 import sympy as sp
-from helpers import G, L, W0, jacobian_monodromy, pendulum_monodromy
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 from scipy.special import mathieu_a, mathieu_b
@@ -24,6 +23,7 @@ from kapitza.closed_forms import pendulum_window
 from kapitza.pendulum import KapitzaPendulum
 from lagrange_core import Particle, System, coordinates, problems, t
 
+from helpers import W0, G, L, jacobian_monodromy, pendulum_monodromy
 
 # -- exact references (and tests/helpers.py) -------------------------------------------------
 
@@ -61,7 +61,8 @@ def test_pendulum_effective_potential_symbolic(vertical):
     m, l, g, A, w = (s for s in vertical.system.parameter_symbols if s.name in "mlgAomega")
     s = {x.name: x for x in vertical.system.parameter_symbols}
     th = vertical.system.q[0]
-    expected = -s["m"] * s["g"] * s["l"] * sp.cos(th) + s["m"] * s["A"]**2 * s["omega"]**2 * sp.sin(th)**2 / 4
+    expected = (-s["m"] * s["g"] * s["l"] * sp.cos(th)
+                + s["m"] * s["A"]**2 * s["omega"]**2 * sp.sin(th)**2 / 4)
     assert sp.simplify(vertical.effective_potential - expected) == 0
     hor = av.average(problems.driven_pendulum("horizontal"))
     expected_h = expected.subs(sp.sin(th), sp.cos(th))
@@ -269,8 +270,8 @@ def test_averaging_window_against_exact_boundaries():
     win1 = pendulum_window(w, method="averaging", order=1)
     for i, om in enumerate(w):
         a = -4 * W0**2 / om**2
-        q_lo = brentq(lambda q: mathieu_a(0, q) - a, 1e-6, 0.9)
-        q_hi = brentq(lambda q: mathieu_b(1, q) - a, 0.5, 2.0)
+        q_lo = brentq(lambda q, a=a: mathieu_a(0, q) - a, 1e-6, 0.9)
+        q_hi = brentq(lambda q, a=a: mathieu_b(1, q) - a, 0.5, 2.0)
         A_lo, A_hi = q_lo * L / 2, q_hi * L / 2
         assert abs(win2.A_min[i] / A_lo - 1) < abs(win1.A_min[i] / A_lo - 1) / 20
         assert win2.A_max[i] == pytest.approx(A_hi, rel=1e-5)
@@ -348,7 +349,8 @@ def test_double_pendulum_closed_form(chain2):
     mp = pcf.multiple_pendulum_upright([1.0, 1.0], [L, L], g=G)
     assert mp.minimum_drive**2 == pytest.approx((2 + math.sqrt(2)) * G * L, rel=1e-12)
     assert mp.minimum_drive / math.sqrt(G * L) == pytest.approx(1.848, abs=1e-3)
-    np.testing.assert_allclose(mp.hanging_frequencies**2, G / L * np.array([2 - 2**0.5, 2 + 2**0.5]))
+    np.testing.assert_allclose(mp.hanging_frequencies**2,
+                               G / L * np.array([2 - 2**0.5, 2 + 2**0.5]))
     # slow modes from the general U_eff Hessian: Ω² = A²ω²/(2λ²) − g/λ, λ = l/(2 ∓ √2)
     A, w = 0.04, 200.0
     modes = av.average(chain2).slow_modes(
@@ -458,7 +460,8 @@ def test_validity_flags_and_warnings():
     # where flagged valid, order 1 is within 7.5 % and order 2 within 1.6 % of exact Floquet
     rng = np.random.default_rng(11)
     checked = 0
-    for A1, w1 in zip(rng.uniform(0.01, 0.3, 40), np.exp(rng.uniform(math.log(10), math.log(300), 40))):
+    for A1, w1 in zip(rng.uniform(0.01, 0.3, 40),
+                      np.exp(rng.uniform(math.log(10), math.log(300), 40)), strict=True):
         for order, tol in ((1, 0.075), (2, 0.016)):
             r = p.averaged(A1, w1, order=order, warn=False).inverted
             if r.valid and r.stable:

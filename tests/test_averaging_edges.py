@@ -9,7 +9,6 @@ import warnings
 
 import numpy as np
 import pytest
-from helpers import G
 from scipy.optimize import brentq
 from scipy.special import mathieu_b
 
@@ -17,6 +16,7 @@ from kapitza import averaging as av
 from kapitza.closed_forms import _pendulum as pcf
 from kapitza.closed_forms import pendulum_window
 
+from helpers import G
 
 # -- item 4: the averaging window ------------------------------------------------------------
 
@@ -29,7 +29,7 @@ def test_window_upper_edge_is_the_resonance_at_any_frequency():
     win = pendulum_window(omegas, method="averaging", l=l, g=G)
     for i, om in enumerate(omegas):
         a = -4 * G / (l * om**2)
-        q_hi = brentq(lambda q: mathieu_b(1, q) - a, 0.1, 60.0, xtol=1e-14)
+        q_hi = brentq(lambda q, a=a: mathieu_b(1, q) - a, 0.1, 60.0, xtol=1e-14)
         assert win.A_max[i] == pytest.approx(q_hi * l / 2, rel=1e-6)
     assert len(set(np.round(win.A_max, 9))) == len(omegas)
     # never crossed edges without saying so: a window, or NaN edges with exists False
@@ -103,7 +103,7 @@ def test_chunked_results_equal_unchunked(monkeypatch, drive, order):
     monkeypatch.setattr(pcf, "CHUNK_POINTS", 1000)     # 37 × 101 points: 4 chunks
     chunked = pcf.pendulum_averaged(A, w, damping=0.7, drive=drive, order=order, warn=False)
     assert [e.name for e in chunked.equilibria] == [e.name for e in whole.equilibria]
-    for a, b in zip(whole.equilibria, chunked.equilibria):
+    for a, b in zip(whole.equilibria, chunked.equilibria, strict=True):
         for field, value in vars(a).items():
             assert np.shape(getattr(b, field)) == np.shape(value)
             np.testing.assert_array_equal(getattr(b, field), value, err_msg=f"{a.name}.{field}")
@@ -115,6 +115,7 @@ def _elliptic_pendulum():
     """The pendulum on a pivot moving as x = A cos ωt, y = B sin ωt (PHYSICS.md), damped by
     the dissipation function ½ m l² γ θ̇² (θ̈ = −γ θ̇ − …)."""
     import sympy as sp
+
     from lagrange_core import Particle, System, coordinates, t
     (th,), (thd,) = coordinates("theta")
     m, l, g, A, B, w, gam = sp.symbols("m l g A B omega gamma", positive=True)
@@ -176,6 +177,7 @@ def test_two_link_drag_against_direct_simulation():
     damper).  Without the drag the averaged hanging state is θ = 0; with it both links
     lean by ≈ 0.09 and 0.05 rad, matched by the simulated period mean to 0.3 %."""
     import sympy as sp
+
     from lagrange_core import Particle, System, coordinates, t
     (a, b), (ad, bd) = coordinates("a b")
     m1, m2, l1, l2, g, A, B, w, gam, c = sp.symbols("m1 m2 l1 l2 g A B omega gamma c",
@@ -211,7 +213,7 @@ def test_long_array_call_reports_progress_and_is_quiet_off_terminal(capsys):
     out = pcf.pendulum_averaged(A, 300.0, order=2, warn=False,
                                 progress=lambda done, total: seen.append((done, total)))
     assert seen[-1] == (A.size, A.size) and len(seen) >= 2
-    assert all(d1 < d2 for (d1, _), (d2, _) in zip(seen, seen[1:]))
+    assert all(d1 < d2 for (d1, _), (d2, _) in zip(seen, seen[1:], strict=False))
     whole = pcf.pendulum_averaged(A, 300.0, order=2, warn=False, progress=False)
     np.testing.assert_array_equal(out.inverted.omega_squared, whole.inverted.omega_squared)
     pcf.pendulum_averaged(A, 300.0, order=2, warn=False)      # stderr is not a terminal here
@@ -241,7 +243,7 @@ def test_ctrl_c_keeps_the_finished_points():
     np.testing.assert_array_equal(part.A, A.ravel()[:done])
     np.testing.assert_array_equal(part.omega, np.broadcast_to(w, A.shape).ravel()[:done])
     whole = pcf.pendulum_averaged(A, w, order=2, warn=False)
-    for a, b in zip(whole.equilibria, part.equilibria):
+    for a, b in zip(whole.equilibria, part.equilibria, strict=True):
         for field, value in vars(a).items():
             if field != "name":
                 np.testing.assert_array_equal(getattr(b, field), np.ravel(value)[:done])

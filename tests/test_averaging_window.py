@@ -12,7 +12,6 @@ import time
 import numpy as np
 import pytest
 import sympy as sp
-from helpers import G
 
 from kapitza.averaging import _average as av
 from kapitza.averaging._window import _amplitude_scales_fast_forces
@@ -21,6 +20,8 @@ from kapitza.figures import stability_map_figure
 from kapitza.floquet import stability_map
 from kapitza.results import StabilityWindow
 from lagrange_core import problems, t
+
+from helpers import G
 
 L = 0.7
 DP = {"g": G, "l1": 1.0, "l2": 1.0, "m1": 1.0, "m2": 1.0}

@@ -10,11 +10,12 @@ import math
 import numpy as np
 import pytest
 import sympy as sp
-from helpers import interrupt_child
 
 from lagrange_core import System, coordinates, problems
 from lagrange_core.batch import STATUS_NAMES, GridTrajectories
 from lagrange_core.integrate import crossing
+
+from helpers import interrupt_child
 
 PEND = dict(m=1.0, l=1.0, g=9.81)
 UP_BAND = ([math.pi / 2], [3 * math.pi / 2])

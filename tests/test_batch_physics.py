@@ -33,10 +33,10 @@ def test_inside_the_exact_window_stays_up_outside_falls(pend):
     0, is the extreme in θ of its invariant curve of the period map (the motion is
     time-reversible), so later maxima approach 0.02 from below (measured 2e-11 … 5e-10
     below at 64 samples per period); any growth that lifts a later maximum above the
-    start fails (the old bound, 1e-6, let a growth of 5e4 × those gaps pass).  Below A_min and inside the unstable tongue above A_max the
-    pendulum falls."""
+    start fails (the old bound, 1e-6, let a growth of 5e4 × those gaps pass).  Below A_min
+    and inside the unstable tongue above A_max the pendulum falls."""
     w = 2 * math.pi * 20
-    win = KapitzaPendulum().stability_window(w)
+    win = KapitzaPendulum().window(w)
     A = np.array([0.8 * win.A_min, 1.5 * win.A_min, 0.5 * (win.A_min + win.A_max),
                   0.9 * win.A_max, 1.1 * win.A_max])
     g = pend.simulate_grid([math.pi - 0.02], [0.0], (0.0, 1e4 * 2 * math.pi / w),

@@ -239,7 +239,8 @@ def test_verify_disagreement_exits_1(capsys):
 # -- scenes: run, sweep -------------------------------------------------------------------------
 
 _SWEPT = pendulum_scene(theta=3.0916, analyses='measure = { periods = 50, about = "inverted" }',
-                        sweep='analyses = ["measure"]', axes="A = [0.01, 0.05]\nomega = [100.0, 200.0]")
+                        sweep='analyses = ["measure"]',
+                        axes="A = [0.01, 0.05]\nomega = [100.0, 200.0]")
 
 
 def test_run_scene_json_equals_the_api(capsys):

@@ -22,7 +22,7 @@ def _reference(system, hol_coneqs=()):
     system's plain symbols.
     """
     qs = [dynamicsymbols(name) for name in system.coordinates]
-    to_dyn = {s: d for s, d in zip(system.q, qs)}
+    to_dyn = {s: d for s, d in zip(system.q, qs, strict=True)}
     to_dyn[lc.t] = _t
     L = -system.potential.xreplace(to_dyn)
     for p in system.particles:
@@ -30,8 +30,8 @@ def _reference(system, hol_coneqs=()):
         L += p.mass * sum(c.diff(_t) ** 2 for c in r) / 2
     lm = LagrangesMethod(L, qs, hol_coneqs=[c.xreplace(to_dyn) for c in hol_coneqs])
     lm.form_lagranges_equations()
-    to_plain = {d.diff(_t): v for d, v in zip(qs, system.qdot)}
-    to_plain.update({d: s for d, s in zip(qs, system.q)})
+    to_plain = {d.diff(_t): v for d, v in zip(qs, system.qdot, strict=True)}
+    to_plain.update({d: s for d, s in zip(qs, system.q, strict=True)})
     return lm, to_plain
 
 
@@ -80,8 +80,8 @@ def test_mass_matrix_and_forcing_match_lagranges_method(name, rng):
         np.testing.assert_allclose(M, M_expected, rtol=1e-12, atol=1e-12 * scale)
         np.testing.assert_allclose(F, F_expected, rtol=1e-11, atol=1e-11 * np.abs(F_expected).max())
         # the symbolic result agrees too (it is what users read)
-        sub = {**dict(zip(system.q, q)), **dict(zip(system.qdot, qd)), lc.t: t,
-               **{s: params[s.name] for s in system.parameter_symbols}}
+        sub = {**dict(zip(system.q, q, strict=True)), **dict(zip(system.qdot, qd, strict=True)),
+               lc.t: t, **{s: params[s.name] for s in system.parameter_symbols}}
         np.testing.assert_allclose(np.array(system.equations.mass_matrix.xreplace(sub), float), M,
                                    rtol=1e-12, atol=1e-12 * scale)
 

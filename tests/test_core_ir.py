@@ -60,7 +60,7 @@ def test_values_and_derivatives_against_symengine():
     n_tan = sum(len(d) for d in program[2])
     assert program[2][len(EXPRS) + 1] == ()                # the constant has no derivative
     y, p, tt = np.array([0.7, -0.4, 1.3, 0.2]), np.array([1.7]), 0.3
-    at = dict(zip(STATE, y)) | {p0: p[0], t: tt}
+    at = dict(zip(STATE, y, strict=True)) | {p0: p[0], t: tt}
     W = np.full((len(outputs), 1), np.nan)
     values_at(y, tt, p, W)
     W2, dA = np.zeros((len(outputs), 1)), np.zeros(n_tan)

@@ -27,11 +27,11 @@ m, l, g = sp.symbols("m l g", positive=True)
 def _to_dynamic(system):
     """The system's coordinates as dynamicsymbols, and the map back to its plain symbols."""
     qs = [dynamicsymbols(name) for name in system.coordinates]
-    to_dyn = {s: d for s, d in zip(system.q, qs)}
-    to_dyn.update({v: d.diff(_t) for v, d in zip(system.qdot, qs)})
+    to_dyn = {s: d for s, d in zip(system.q, qs, strict=True)}
+    to_dyn.update({v: d.diff(_t) for v, d in zip(system.qdot, qs, strict=True)})
     to_dyn[lc.t] = _t
-    to_plain = {d.diff(_t): v for d, v in zip(qs, system.qdot)}
-    to_plain.update({d: s for d, s in zip(qs, system.q)})
+    to_plain = {d.diff(_t): v for d, v in zip(qs, system.qdot, strict=True)}
+    to_plain.update({d: s for d, s in zip(qs, system.q, strict=True)})
     return qs, to_dyn, to_plain
 
 
@@ -132,7 +132,7 @@ def test_time_dependent_mass_energy_function(rng):
         eps = 1e-5
         h = []
         for s in (-eps, eps):       # h along the exact motion to second order in s
-            qdd = system.accelerations(q, qd, t, dict(zip(system.parameters, p)))
+            qdd = system.accelerations(q, qd, t, dict(zip(system.parameters, p, strict=True)))
             qs = q + s * qd + s**2 / 2 * qdd
             qds = qd + s * qdd
             h.append(k_.energy(qs, qds, t + s, p))
@@ -196,7 +196,7 @@ def test_constraint_written_as_an_equation():
     params = dict(m=1.0, l=1.1, g=9.81)
     q, qd = [1.1 * np.sin(0.3), -1.1 * np.cos(0.3)], [0.2 * np.cos(0.3), 0.2 * np.sin(0.3)]
     for a, b in zip(as_equation.accelerations(q, qd, 0.0, params),
-                    _cartesian_pendulum().accelerations(q, qd, 0.0, params)):
+                    _cartesian_pendulum().accelerations(q, qd, 0.0, params), strict=True):
         np.testing.assert_allclose(a, b, rtol=1e-14)
     with pytest.raises(ValueError, match="constraint 0 is True: sympy decided the equation"):
         lc.System([x], particles=[lc.Particle(m, (x,))], constraints=[sp.Eq(x, x)])
@@ -298,7 +298,8 @@ def test_cartesian_gravity_equals_the_potential(rng):
     assert forced.parameters == reference.parameters
     def reference_part(i):
         names = reference.parameters
-        return lambda q, qd, t, p: reference.mass_forcing(q, qd, t, dict(zip(names, p)))[i]
+        return lambda q, qd, t, p: reference.mass_forcing(q, qd, t,
+                                                          dict(zip(names, p, strict=True)))[i]
 
     _assert_same_equations(forced, reference_part(0), reference_part(1), rng)
 
@@ -315,7 +316,7 @@ def test_cartesian_drag_equals_rayleigh_dissipation(rng):
                        dissipation=c * l**2 * theta_dot**2 / 2)
     for _ in range(3):
         q, qd, t, p = _random_state(dragged, rng)
-        params = dict(zip(dragged.parameters, p))
+        params = dict(zip(dragged.parameters, p, strict=True))
         np.testing.assert_allclose(dragged.accelerations(q, qd, t, params),
                                    damped.accelerations(q, qd, t, params), rtol=1e-13)
     # and the closed form θ̈ = −(g/l) sin θ − (c/m) θ̇ (plus a horizontal push F0 l cos θ)
@@ -343,7 +344,7 @@ def test_mass_forcing_returns_numbers():
     params = dict(m1=1.0, m2=2.0, l1=0.5, l2=0.7, g=9.81)
     q, qd = np.array([0.3, -0.2]), np.array([0.1, 0.4])
     M, F = system.mass_forcing(q, qd, 0.0, params)
-    sub = {**dict(zip(system.q, q)), **dict(zip(system.qdot, qd)),
+    sub = {**dict(zip(system.q, q, strict=True)), **dict(zip(system.qdot, qd, strict=True)),
            **{s: params[s.name] for s in system.parameter_symbols}}
     np.testing.assert_allclose(M, np.array(system.equations.mass_matrix.xreplace(sub), float),
                                rtol=1e-14)
@@ -422,7 +423,7 @@ def test_rigid_body_3d_heavy_top_matches_lagranges_method(rng):
     qs = dynamicsymbols("psi theta phi")
     N = me.ReferenceFrame("N")
     B = N.orientnew("B", "Body", qs, "ZXZ")
-    to_dyn = dict(zip(system.q, qs))
+    to_dyn = dict(zip(system.q, qs, strict=True))
     assert sp.simplify(N.dcm(B) - R.xreplace(to_dyn)) == sp.zeros(3, 3)   # same convention
     O = me.Point("O")
     O.set_vel(N, 0)

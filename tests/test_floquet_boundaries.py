@@ -82,7 +82,8 @@ def test_double_pendulum_window_is_the_intersection_of_its_modes(double):
     np.testing.assert_allclose(win.A_max, hi, rtol=1e-10)
     assert np.all(win.accuracy <= 1e-10)
     df = win.to_dataframe()
-    assert df.columns.tolist() == ["omega", "A_min", "A_max", "accuracy"] and len(df) == 4
+    assert df.columns.tolist() == ["omega", "A_min", "A_max", "accuracy", "status"]
+    assert len(df) == 4 and set(df.status) == {"window"}
 
 
 def test_triple_pendulum_window_to_1e_10(triple):
@@ -213,8 +214,9 @@ def test_first_window_refuses_a_window_its_check_contradicts():
     mode 2 for 2 < A < 3, so the window is [2, 3].  A scan that lies — 'stable' for
     1.05 < A < 1.6, as the near-identity scans did — brackets mode 1's +1 crossing at
     A = 1, a true root of det(M − I); its side check finds A(1 + η) unstable, and the
-    window is NaN with a warning, not [1, 3].  A lie that leaves an edge without a root
-    is NaN with a warning too; told the truth, the same scan gives [2, 3]."""
+    window is "undecided" with a warning, not [1, 3] (A_min, A_max then only bound the
+    amplitudes in question, accuracy NaN).  A lie that leaves an edge without a root
+    is "undecided" with a warning too; told the truth, the same scan gives [2, 3]."""
     from kapitza.floquet._edges import first_window
 
     def block(x):
@@ -240,15 +242,16 @@ def test_first_window_refuses_a_window_its_check_contradicts():
     for lie in ((1.05, 1.6), (1.05, 1.2)):
         with pytest.warns(RuntimeWarning, match="failed their check"):
             out = first_window(scan(lie), np.array([1.0]), grid, 1e-10)
-        assert np.isnan(out["A_min"][0]) and np.isnan(out["A_max"][0])
+        assert out["status"][0] == "undecided" and np.isnan(out["accuracy"][0])
+        assert out["A_min"][0] <= 1.1 and out["A_max"][0] >= 1.5     # the lie's stable points
         assert not out["checked"][0]
     out = first_window(scan((0.0, 0.0)), np.array([1.0]), grid, 1e-10)
-    assert out["checked"][0] and out["accuracy"][0] <= 1e-10
+    assert out["checked"][0] and out["accuracy"][0] <= 1e-10 and out["status"][0] == "window"
     np.testing.assert_allclose([out["A_min"][0], out["A_max"][0]], [2.0, 3.0], rtol=1e-10)
 
 def test_window_without_stable_amplitudes_is_nan(double):
     win = fq.window(double, DP, [math.pi, math.pi], omega=10.0)      # too slow to hold it up
-    assert math.isnan(win.A_min) and math.isnan(win.A_max)
+    assert math.isnan(win.A_min) and math.isnan(win.A_max) and win.status == "none"
 
 
 def test_window_and_boundaries_refuse_bad_input(double):

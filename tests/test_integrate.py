@@ -17,8 +17,14 @@ from scipy.integrate import solve_ivp
 from scipy.special import ellipk
 
 from lagrange_core import Particle, System, coordinates, problems
-from lagrange_core.integrate import (METHODS, SimulationInterrupted, crossing, multiplier_zero,
-                                     rkn_eligibility, turning_point)
+from lagrange_core.integrate import (
+    METHODS,
+    SimulationInterrupted,
+    crossing,
+    multiplier_zero,
+    rkn_eligibility,
+    turning_point,
+)
 from lagrange_core.integrator_tables import rkn12_table
 
 # -- problems with exact solutions --------------------------------------------------------
@@ -101,15 +107,17 @@ def test_rkn12_table_satisfies_its_order_conditions():
         assert abs(sum(A[i]) - c[i] ** 2 / 2) < Fraction(1, 10**40), f"row {i + 1}"
     # quadrature conditions: position weights order 12 (10), velocity weights order 12 (10)
     for k in range(11):
-        assert sum(b * ci**k for b, ci in zip(tab["b"], c)) == Fraction(1, (k + 1) * (k + 2))
+        assert (sum(b * ci**k for b, ci in zip(tab["b"], c, strict=True))
+                == Fraction(1, (k + 1) * (k + 2)))
     for k in range(12):
-        assert sum(b * ci**k for b, ci in zip(tab["bp"], c)) == Fraction(1, k + 1)
+        assert sum(b * ci**k for b, ci in zip(tab["bp"], c, strict=True)) == Fraction(1, k + 1)
     for k in range(9):
-        assert sum(b * ci**k for b, ci in zip(tab["bh"], c)) == Fraction(1, (k + 1) * (k + 2))
+        assert (sum(b * ci**k for b, ci in zip(tab["bh"], c, strict=True))
+                == Fraction(1, (k + 1) * (k + 2)))
     for k in range(10):
-        assert sum(b * ci**k for b, ci in zip(tab["bph"], c)) == Fraction(1, k + 1)
+        assert sum(b * ci**k for b, ci in zip(tab["bph"], c, strict=True)) == Fraction(1, k + 1)
     # and the embedded pair really differs (an error estimate that is not identically zero)
-    assert sum(abs(b - bh) for b, bh in zip(tab["b"], tab["bh"])) > 0
+    assert sum(abs(b - bh) for b, bh in zip(tab["b"], tab["bh"], strict=True)) > 0
 
 
 # -- methods against the closed forms -------------------------------------------------------

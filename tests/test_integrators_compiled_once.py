@@ -79,7 +79,7 @@ def test_rigid_triangle_keeps_its_constraints():
     q, _ = lc.coordinates("x1 y1 z1 x2 y2 z2 x3 y3 z3")
     m, g, k, a = sp.symbols("m g k a", positive=True)
     r = [q[0:3], q[3:6], q[6:9]]
-    d2 = lambda u, v: sum((ui - vi) ** 2 for ui, vi in zip(u, v))     # noqa: E731
+    d2 = lambda u, v: sum((ui - vi) ** 2 for ui, vi in zip(u, v, strict=True))     # noqa: E731
     system = lc.System(q, particles=[lc.Particle(m, tuple(ri)) for ri in r],
                        potential=sum(m * g * ri[2] for ri in r) + k * d2(r[0], (0, 0, 0)) / 2,
                        constraints=[d2(r[0], r[1]) - a**2, d2(r[1], r[2]) - a**2,

@@ -1,4 +1,4 @@
-"""Measurements from direct simulation (issue 11, points 2, 3 and 5): kapitza.measurement.
+"""Measurements from direct simulation (issue 11, points 2, 3 and 5): kapitza.simulation.
 
 The estimator first, on strobe sequences whose slow frequencies are known exactly
 (linear maps, nonlinear invariant curves and tori with chosen rotation numbers); then
@@ -20,15 +20,16 @@ import warnings
 import numpy as np
 import pytest
 import sympy as sp
-from helpers import G, L
 from scipy.integrate import solve_ivp
 from scipy.optimize import fsolve
 
 import kapitza
-from kapitza.averaging import _average as av
-from kapitza.simulation._measurement import slow_frequencies
+from kapitza.averaging import average
+from kapitza.simulation import slow_frequencies
 from lagrange_core import Particle, System, coordinates, problems
 from lagrange_core import t as t_sym
+
+from helpers import G, L
 
 W60 = 2 * math.pi * 60
 
@@ -61,7 +62,7 @@ def linear_sequence(rng, rho, growth, K):
     growth log|λ| per period (one pair per entry), a random fixed point."""
     n = len(rho)
     blocks = np.zeros((2 * n, 2 * n))
-    for j, (r, s) in enumerate(zip(rho, growth)):
+    for j, (r, s) in enumerate(zip(rho, growth, strict=True)):
         blocks[2 * j:2 * j + 2, 2 * j:2 * j + 2] = math.exp(s) * np.array(
             [[math.cos(r), -math.sin(r)], [math.sin(r), math.cos(r)]])
     S = rng.normal(size=(2 * n, 2 * n))
@@ -223,7 +224,7 @@ def test_grid_classifies_against_the_exact_window(pendulum):
     2000 periods; every field has the grid's shape; a grid point equals the one-point
     measurement."""
     w = np.array([W60, 2 * math.pi * 100])
-    window = pendulum.stability_window(w)
+    window = pendulum.window(w)
     A = np.array([0.5, 2.0, 4.0])[:, None] * window.A_min[None, :]
     m = pendulum.measure_grid(A, w[None, :], math.pi - 0.05, periods=2000)
     assert m.shape == (3, 2) and m.omega_slow.shape == (3, 2) and m.about.shape == (3, 2)
@@ -349,7 +350,7 @@ def test_elliptic_pivot_damped_orbit():
     m = kapitza.measure(system, P, [tilt], settle.q[-1] + 0.001, settle.qdot[-1], periods=300,
                         rtol=1e-10)
     assert m.stayed_up and m.mean_angle == pytest.approx(tilt, rel=3e-3)
-    slow = av.average(system).slow_modes(P, [tilt])
+    slow = average(system).slow_modes(P, [tilt])
     assert m.omega_slow == pytest.approx(slow.damped_frequencies[0], rel=1e-2)
     assert m.growth_rate == pytest.approx(-1.0, rel=1e-2)
 

@@ -12,10 +12,10 @@ import scipy.special
 import sympy as sp
 
 from lagrange_core import problems
-from lagrange_core.fields import Field1D, field_symbols, x as x_sym
+from lagrange_core.fields import Field1D, field_symbols
+from lagrange_core.fields import x as x_sym
 from lagrange_core.integrate import crossing, turning_point
 from lagrange_core.systems import t as t_sym
-
 
 # -- systems built once per session ---------------------------------------------------------
 
@@ -124,12 +124,15 @@ def test_central_force_user_potential():
     m, kap = params["m"], params["kappa"]
     L = m * q0[0]**2 * qd0[1]
     E = 0.5 * m * (qd0[0]**2 + (q0[0] * qd0[1])**2) + kap * q0[0]**4 / 4
-    U = lambda r: L**2 / (2 * m * r**2) + kap * r**4 / 4 - E
+    def U(r):
+        return L**2 / (2 * m * r**2) + kap * r**4 / 4 - E
+
     r_min = scipy.optimize.brentq(U, 1e-3, q0[0])
     r_max = scipy.optimize.brentq(U, q0[0], 10.0)
     tr = system.simulate(q0, qd0, (0.0, 6.0), params, rtol=1e-11, events=[turning_point("r")])
     r_turn = np.array([ev.q[0] for ev in tr.events])
-    assert np.any(np.isclose(r_turn, r_min, rtol=1e-8)) and np.any(np.isclose(r_turn, r_max, rtol=1e-8))
+    assert np.any(np.isclose(r_turn, r_min, rtol=1e-8))
+    assert np.any(np.isclose(r_turn, r_max, rtol=1e-8))
     assert np.all(np.isclose(r_turn, r_min, rtol=1e-8) | np.isclose(r_turn, r_max, rtol=1e-8))
     np.testing.assert_allclose(m * tr.q[:, 0]**2 * tr.qdot[:, 1], L, rtol=1e-9)
     # the callable form states the same system
@@ -278,7 +281,8 @@ def test_guitar_string_field_equation():
     assert isinstance(string, Field1D) and string.parameters == ("F", "mu")
     y = string.function
     mu, F = pos("mu"), pos("F")
-    expect = mu * y.diff(t_sym, 2) - F * y.diff(x_sym, 2) / (1 + y.diff(x_sym)**2)**sp.Rational(3, 2)
+    expect = (mu * y.diff(t_sym, 2)
+              - F * y.diff(x_sym, 2) / (1 + y.diff(x_sym)**2)**sp.Rational(3, 2))
     assert sp.simplify(string.field_equation - expect) == 0
 
 
@@ -312,7 +316,8 @@ def test_klein_gordon_field_equation():
     c, m = pos("c"), pos("m")
     f = Field1D(u_t**2 / 2 - c**2 * u_x**2 / 2 - m**2 * u**2 / 2)
     U = f.function
-    assert sp.simplify(f.field_equation - (U.diff(t_sym, 2) - c**2 * U.diff(x_sym, 2) + m**2 * U)) == 0
+    klein_gordon = U.diff(t_sym, 2) - c**2 * U.diff(x_sym, 2) + m**2 * U
+    assert sp.simplify(f.field_equation - klein_gordon) == 0
 
 
 def bead_modes(N, F, mu, l):
@@ -338,7 +343,8 @@ def test_bead_string_energy_is_tension_times_stretch():
     ends = np.concatenate([[0.0], y, [0.0]])
     V = params["F"] * np.sum(np.hypot(h, np.diff(ends)) - h)
     E = 0.5 * params["mu"] * h * np.sum(v**2) + V
-    assert system.kernels.energy(y, v, 0.0, system.parameter_array(params)) == pytest.approx(E, rel=1e-13)
+    energy = system.kernels.energy(y, v, 0.0, system.parameter_array(params))
+    assert energy == pytest.approx(E, rel=1e-13)
 
 
 def test_bead_string_rejects_bad_n():
@@ -391,7 +397,8 @@ ATWOOD = dict(m=0.9, g=9.81)
 
 
 def test_swinging_atwood_equations(atwood, rng):
-    """2 r̈ = r θ̇² − g (1 − cos θ), r θ̈ = −2 ṙ θ̇ − g sin θ; E = m ṙ² + ½ m r² θ̇² + m g r (1 − cos θ)."""
+    """2 r̈ = r θ̇² − g (1 − cos θ), r θ̈ = −2 ṙ θ̇ − g sin θ;
+    E = m ṙ² + ½ m r² θ̇² + m g r (1 − cos θ)."""
     g, m = ATWOOD["g"], ATWOOD["m"]
     p = atwood.parameter_array(ATWOOD)
     for _ in range(5):
@@ -399,9 +406,11 @@ def test_swinging_atwood_equations(atwood, rng):
         rd, thd = rng.normal(size=2)
         a = atwood.accelerations([r, th], [rd, thd], params=ATWOOD)
         np.testing.assert_allclose(a, [(r * thd**2 - g * (1 - math.cos(th))) / 2,
-                                       (-2 * rd * thd - g * math.sin(th)) / r], rtol=1e-12, atol=1e-12)
+                                       (-2 * rd * thd - g * math.sin(th)) / r],
+                                   rtol=1e-12, atol=1e-12)
         E = m * rd**2 + 0.5 * m * r**2 * thd**2 + m * g * r * (1 - math.cos(th))
-        assert atwood.kernels.energy(np.array([r, th]), np.array([rd, thd]), 0.0, p) == pytest.approx(E, rel=1e-13)
+        energy = atwood.kernels.energy(np.array([r, th]), np.array([rd, thd]), 0.0, p)
+        assert energy == pytest.approx(E, rel=1e-13)
 
 
 @pytest.mark.parametrize("r_min", [0.01, 0.0])

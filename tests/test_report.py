@@ -15,12 +15,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from helpers import G, L, interrupt_child, pendulum_monodromy
-
 import kapitza
 from kapitza import KapitzaPendulum
 from kapitza.cli import main
 from kapitza.report import SECTIONS, build_report
+
+from helpers import G, L, interrupt_child, pendulum_monodromy
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -588,7 +588,8 @@ def test_map_and_window_of_a_system_off_the_plain_pendulum():
                                                     f"{math.pi!r}\n[analyses]")
                         .replace("floquet = true", f"stability_map = {{ A = {A}, omega = "
                                                    "[300.0], about = \"inverted\" }\nwindow = "
-                                                   "{ omega = [300.0, 600.0], about = \"inverted\" }"))
+                                                   "{ omega = [300.0, 600.0], "
+                                                   "about = \"inverted\" }"))
     assert s.pendulum is None
     res = s.run(write=False)
     g_eff = 9.81 - 2.0 / (1.0 * 1.0)

@@ -20,7 +20,8 @@ from kapitza import Scene
 from kapitza.scenes._file import Axis
 from kapitza.scenes._sweep import MANIFEST, compute_tile, run_sweep, tile_columns
 
-from helpers import pendulum_scene as pendulum, sigint_default
+from helpers import pendulum_scene as pendulum
+from helpers import sigint_default
 
 #: the Kapitza pendulum simulated over A × θ0: 12 points in tiles of 4
 SCENE = pendulum(theta=3.0, analyses="simulate = { periods = 50 }", sweep="tile_points = 4",

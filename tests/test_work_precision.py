@@ -1,6 +1,7 @@
-"""lagrange_core.work_precision (lagrange_core/accuracy_cost.py): errors measured against a closed form (the pendulum returns
-to its start after one period, T = 4 K(sin²(θ0/2)) / ω0), the reference's own accuracy, the
-trends with tolerance, peers skipped cleanly, bad input, and the figure."""
+"""lagrange_core.work_precision (lagrange_core/accuracy_cost.py): errors measured against a
+closed form (the pendulum returns to its start after one period, T = 4 K(sin²(θ0/2)) / ω0),
+the reference's own accuracy, the trends with tolerance, peers skipped cleanly, bad input,
+and the figure."""
 from __future__ import annotations
 
 import importlib
@@ -149,7 +150,7 @@ def test_bad_span_and_level(pendulum, exact):
 
 
 def test_the_figure_draws_one_line_per_method_and_marks_the_default(exact):
-    from kapitza.figures._plots import work_precision_figure
+    from kapitza.figures import work_precision_figure
     fig = work_precision_figure(exact)
     labels = [ln.get_label() for ln in fig.axes[0].lines if not ln.get_label().startswith("_")]
     assert "rkn12 (default)" in labels and "dop853" in labels and "scipy:DOP853" in labels

@@ -67,8 +67,8 @@ def fourier_split(expr, omega, time=t_symbol) -> dict[int, tuple[sp.Expr, sp.Exp
         k = sp.nsimplify(slope / sp.I)
         if slope.has(phase) or not k.is_Integer:
             raise ValueError(
-                f"the time dependence of {expr} contains the frequency {slope / sp.I}*{omega}, not a "
-                f"whole multiple of {omega}; write the drive in harmonics of the fundamental "
+                f"the time dependence of {expr} contains the frequency {slope / sp.I}*{omega}, "
+                f"not a whole multiple of {omega}; write the drive in harmonics of the fundamental "
                 "frequency and name that one as omega.")
         rest = sp.expand(exponent - slope * phase)
         coeffs[int(k)] = coeffs.get(int(k), sp.S.Zero) + coef * sp.exp(rest)

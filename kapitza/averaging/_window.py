@@ -140,7 +140,7 @@ def averaged_system_window(avg, params, about, omega, *, amplitude: str = "A",
                              "A_range=(0.0, A_high) (the amplitudes to consider, m).")
         A_lo, A_hi = np.full(k_w, np.nan), np.full(k_w, np.nan)
         for j, w in enumerate(ws):
-            def margin(a, w=w):
+            def margin(a, w=w, j=j):
                 S = Ls[j] @ stiffness(a, w) @ Ls[j].T
                 return float(np.linalg.eigvalsh(S)[0])
 

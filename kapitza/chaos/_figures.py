@@ -70,7 +70,8 @@ def lyapunov_map_figure(grid, *, ax=None, per_period=False, cmap="RdBu_r", log_x
         λ_max T (per drive period) instead of λ_max (1/s).
     cmap : str
     log_x, log_y : bool, optional
-        Logarithmic axes (default: when the values span more than a decade).
+        Logarithmic axes (default: when the values are spaced geometrically, e.g.
+        ``np.geomspace``).
     title : str, optional
     """
     from matplotlib.colors import TwoSlopeNorm
@@ -87,12 +88,16 @@ def lyapunov_map_figure(grid, *, ax=None, per_period=False, cmap="RdBu_r", log_x
                       cmap="Greys", vmin=0, vmax=2, shading="nearest", rasterized=True)
     if finite.size and lo < 0 < hi and min(z.shape) > 1:
         ax.contour(x, y, np.nan_to_num(z, nan=lo), levels=[0.0], colors="k", linewidths=0.8)
-    fig.colorbar(mesh, ax=ax, label="λ_max T (per drive period)" if per_period
-                 else "largest Lyapunov exponent λ_max (1/s)")
+    bar = fig.colorbar(mesh, ax=ax, label="λ_max T (per drive period)" if per_period
+                       else "largest Lyapunov exponent λ_max (1/s)")
+    # ticks on both sides of 0 (the two slopes of the norm differ)
+    bar.set_ticks([lo, lo / 2, 0.0, hi / 2, hi])
+    bar.ax.set_yticklabels([f"{v:.2g}" for v in (lo, lo / 2, 0.0, hi / 2, hi)])
     for axis, values, log in (("x", x, log_x), ("y", y, log_y)):
-        positive = np.all(values > 0)
         if log is None:
-            log = bool(positive and values.max() / values.min() > 10)
+            steps = np.diff(np.log(values)) if np.all(values > 0) and values.size > 2 else None
+            log = bool(steps is not None and np.allclose(steps, steps[0], rtol=1e-6)
+                       and not np.allclose(np.diff(values), values[1] - values[0], rtol=1e-6))
         if log:
             (ax.set_xscale if axis == "x" else ax.set_yscale)("log")
     ax.set_xlabel(xname)

@@ -1,17 +1,24 @@
 """The tangent flow's compiled kernels: a trajectory and k tangent vectors, re-orthonormalised.
 
 For y′ = f(t, y), y = [q, q̇] of dimension d = 2n, a tangent vector obeys the variational
-equation v′ = J(t, y(t)) v, J = ∂f/∂y the system's exact compiled Jacobian (slot
-``jacobian`` of :mod:`lagrange_core._kernel_calls`, as :mod:`lagrange_core.variational`
-uses; no finite differences).  :func:`advance` integrates y and a d × k matrix V of
-tangent vectors together with the DOP853 pair (Dormand & Prince 8(5,3), the coefficient
-table of :data:`lagrange_core.integrate.METHODS`), the Jacobian taken at every stage's own
-state, so V is the exact derivative of the discrete flow ("internal differentiation").
+equation v′ = J(t, y(t)) v, J = ∂f/∂y.  :func:`advance` integrates y and a d × k matrix V
+of tangent vectors together with the DOP853 pair (Dormand & Prince 8(5,3), the
+coefficient table of :data:`lagrange_core.integrate.METHODS`), J V taken at every stage's
+own state, either
+
+* ``exact``: with the system's exact compiled Jacobian (slot ``jacobian`` of
+  :mod:`lagrange_core._kernel_calls`, as :mod:`lagrange_core.variational` uses), so V is
+  the exact derivative of the discrete flow ("internal differentiation"); or
+* not: J v by the forward difference (f(y + ε v) − f(y))/ε, ε = √eps·max(1, ‖y‖)/‖v‖,
+  one evaluation of f per vector (relative error ~1e-8).  The Jacobian's forward-mode
+  evaluation and solve cost about ten evaluations of f for the driven pendulum, so this
+  is what a chaos map over thousands of points uses.
 
 Benettin's method
 -----------------
 After every accepted step V is re-orthonormalised by modified Gram–Schmidt, V = Q R, and
-log R_cc is added to column c's sum; V continues as Q.  The sums over an interval are
+log R_cc is added to column c's sum; V continues as Q (and the next step's first stage,
+J Q, is the last stage's J V times R⁻¹: no evaluation).  The sums over an interval are
 those of one QR of the product of the steps' tangent maps (QR of a product is the product
 of the QRs), so re-orthonormalising every step gives the numbers of the textbook's once
 per drive period in exact arithmetic, and in floating point more: the columns never get
@@ -43,32 +50,23 @@ _EPS = 2.220446049250313e-16
 
 
 @njit(cache=True, inline="always")
-def _tangent_derivative(J, V, out):
-    """out = J V (d × k)."""
-    d, k = V.shape
-    for i in range(d):
-        for c in range(k):
-            acc = 0.0
-            for j in range(d):
-                acc += J[i, j] * V[j, c]
-            out[i, c] = acc
-
-
-@njit(cache=True, inline="always")
-def _orthonormalise(V, logs):
+def _orthonormalise(V, R, logs):
     """V = Q R by modified Gram–Schmidt (two passes where a column lost most of its
-    length, the "twice is enough" rule); V becomes Q and log R_cc is added to logs[c].
-    Returns False if a column vanished (or is not finite)."""
+    length, the "twice is enough" rule); V becomes Q, R (k × k, upper) is written, and
+    log R_cc is added to logs[c].  Returns False if a column vanished (or is not finite)."""
     d, k = V.shape
     for c in range(k):
         before = 0.0
         for i in range(d):
             before += V[i, c] * V[i, c]
-        for sweep in range(2):
+        for b in range(k):
+            R[b, c] = 0.0
+        for _sweep in range(2):
             for b in range(c):
                 r = 0.0
                 for i in range(d):
                     r += V[i, b] * V[i, c]
+                R[b, c] += r
                 for i in range(d):
                     V[i, c] -= r * V[i, b]
             norm2 = 0.0
@@ -80,44 +78,47 @@ def _orthonormalise(V, logs):
         norm = math.sqrt(norm2)
         if not (norm > 0.0 and math.isfinite(norm)):
             return False
+        R[c, c] = norm
         logs[c] += math.log(norm)
         for i in range(d):
             V[i, c] /= norm
     return True
 
 
-@njit(cache=True, inline="always")
-def _tangent_stage(ka, exact, ts, ys, f, p, Vs, J, yd, fd, W, out):
-    """out = J(ts, ys) Vs: the exact Jacobian's product (``exact``), or column by column the
-    forward difference (f(ys + ε v) − f(ys))/ε with ``f`` = f(ts, ys) given and ε =
-    √eps·max(1, ‖ys‖)/‖v‖ (relative error ~1e-8: one evaluation of f per column instead
-    of the Jacobian).  Returns the kernels' status (0 ok)."""
+@njit(cache=True)
+def _tangent_product(ka, exact, ts, ys, f, Vs, p, J, yd, fd, W, out):
+    """out = J(ts, ys) Vs (d × k): the exact Jacobian's product (``exact``), or column by
+    column the forward difference (f(ys + ε v) − f(ys))/ε with f = f(ts, ys) given,
+    ε = √eps·max(1, ‖ys‖)/‖v‖ (relative error ~1e-8; one evaluation of f per column).
+    Returns the kernels' status (0: fine).  :func:`advance` writes the same lines out in
+    its stage loop: numba compiles a called helper with its arrays' bookkeeping, which
+    doubled the step's cost."""
     d, k = Vs.shape
+    st = 0
     if exact:
-        if call_jacobian(ka[JACOBIAN], ts, ys, p, J) != 0:
-            return 1
-        _tangent_derivative(J, Vs, out)
-        return 0
+        st = call_jacobian(ka[JACOBIAN], ts, ys, p, J)
+        for i in range(d):
+            for c in range(k):
+                acc = 0.0
+                for m in range(d):
+                    acc += J[i, m] * Vs[m, c]
+                out[i, c] = acc
+        return st
     ynorm = 0.0
     for i in range(d):
         ynorm += ys[i] * ys[i]
+    scale = 1.4901161193847656e-08 * max(1.0, math.sqrt(ynorm))
     for c in range(k):
         vnorm = 0.0
         for i in range(d):
             vnorm += Vs[i, c] * Vs[i, c]
-        vnorm = math.sqrt(vnorm)
-        if not vnorm > 0.0:
-            for i in range(d):
-                out[i, c] = 0.0
-            continue
-        eps = 1.4901161193847656e-08 * max(1.0, math.sqrt(ynorm)) / vnorm
+        eps = scale / math.sqrt(vnorm) if vnorm > 0.0 else 1.0
         for i in range(d):
             yd[i] = ys[i] + eps * Vs[i, c]
-        if call_rhs(ka[RHS], ts, yd, p, fd, W) != 0:
-            return 1
+        st += call_rhs(ka[RHS], ts, yd, p, fd, W)
         for i in range(d):
             out[i, c] = (fd[i] - f[i]) / eps
-    return 0
+    return st
 
 
 @njit(cache=True)
@@ -145,13 +146,14 @@ def advance(ka, exact, p, T, t_origin, stops, j0, j1, y, V, tv, rtol, atol, max_
     Vnew = np.empty((d, k))
     yd = np.empty(d)
     fd = np.empty(d)
+    R = np.zeros((k, k))
     t = tv[0]
     h = tv[1]
     if call_rhs(ka[RHS], t, y, p, Ky[0], W) != 0:
         return SINGULAR
-    if _tangent_stage(ka, exact, t, y, Ky[0], p, V, J, yd, fd, W, KV[0]) != 0:
+    if _tangent_product(ka, exact, t, y, Ky[0], V, p, J, yd, fd, W, KV[0]) != 0:
         return SINGULAR
-    counts[EVALS] += 1
+    counts[EVALS] += 1 if exact else k + 1
     if h <= 0.0:
         h = starting_step(ka, t, y, Ky[0], p, rtol, atol, W, ys, ynew, 1.0 / 8.0)
         counts[EVALS] += 2
@@ -180,6 +182,7 @@ def advance(ka, exact, p, T, t_origin, stops, j0, j1, y, V, tv, rtol, atol, max_
                             for m in range(s):
                                 acc += A[s, m] * Ky[m, i]
                             ys[i] = y[i] + hs * acc
+                        for i in range(d):
                             for c in range(k):
                                 acc = 0.0
                                 for m in range(s):
@@ -193,6 +196,7 @@ def advance(ka, exact, p, T, t_origin, stops, j0, j1, y, V, tv, rtol, atol, max_
                                 acc += B[m] * Ky[m, i]
                             ynew[i] = y[i] + hs * acc
                             ys[i] = ynew[i]
+                        for i in range(d):
                             for c in range(k):
                                 acc = 0.0
                                 for m in range(12):
@@ -204,12 +208,36 @@ def advance(ka, exact, p, T, t_origin, stops, j0, j1, y, V, tv, rtol, atol, max_
                         tv[0] = t
                         tv[1] = h
                         return SINGULAR
-                    if _tangent_stage(ka, exact, ts, ys, Ky[s], p, Vs, J, yd, fd, W,
-                                      KV[s]) != 0:
+                    # KV[s] = J(ts, ys) Vs: _tangent_product written out (see there)
+                    st = 0
+                    if exact:
+                        st = call_jacobian(ka[JACOBIAN], ts, ys, p, J)
+                        for i in range(d):
+                            for c in range(k):
+                                acc = 0.0
+                                for m in range(d):
+                                    acc += J[i, m] * Vs[m, c]
+                                KV[s, i, c] = acc
+                    else:
+                        ynorm = 0.0
+                        for i in range(d):
+                            ynorm += ys[i] * ys[i]
+                        scale = 1.4901161193847656e-08 * max(1.0, math.sqrt(ynorm))
+                        for c in range(k):
+                            vnorm = 0.0
+                            for i in range(d):
+                                vnorm += Vs[i, c] * Vs[i, c]
+                            eps = scale / math.sqrt(vnorm) if vnorm > 0.0 else 1.0
+                            for i in range(d):
+                                yd[i] = ys[i] + eps * Vs[i, c]
+                            st += call_rhs(ka[RHS], ts, yd, p, fd, W)
+                            for i in range(d):
+                                KV[s, i, c] = (fd[i] - Ky[s, i]) / eps
+                    if st != 0:
                         tv[0] = t
                         tv[1] = h
                         return SINGULAR
-                counts[EVALS] += 12
+                counts[EVALS] += 12 if exact else 12 * (k + 1)
                 # the error of the 8th-order solution: DOP853's 5th- and 3rd-order
                 # estimates over every component of y and V
                 e5n = 0.0
@@ -253,22 +281,21 @@ def advance(ka, exact, p, T, t_origin, stops, j0, j1, y, V, tv, rtol, atol, max_
                     tv[1] = h
                     return UNDERFLOW if finite else NON_FINITE
             counts[STEPS] += 1
-            if not _orthonormalise(Vnew, logs[j]):
+            if not _orthonormalise(Vnew, R, logs[j]):
                 tv[0] = t
                 tv[1] = h
                 return NON_FINITE
-            # the next step's first stage (FSAL): f at the new state, J there times Q
+            # the next step's first stage (FSAL): f at the new state, and J Q = (J Vnew) R⁻¹
+            # from the last stage's J Vnew (forward substitution over the columns)
             for i in range(d):
                 y[i] = ynew[i]
                 Ky[0, i] = Ky[12, i]
                 for c in range(k):
                     V[i, c] = Vnew[i, c]
-            if exact:
-                _tangent_derivative(J, V, KV[0])
-            elif _tangent_stage(ka, exact, t + hs, y, Ky[0], p, V, J, yd, fd, W, KV[0]) != 0:
-                tv[0] = t
-                tv[1] = h
-                return SINGULAR
+                    acc = KV[12, i, c]
+                    for b in range(c):
+                        acc -= KV[0, i, b] * R[b, c]
+                    KV[0, i, c] = acc / R[c, c]
             if clipped:
                 t = t_target
                 t_carry = 0.0

@@ -146,7 +146,7 @@ def _eigen_k(d, e2, K, k, guess):
             lo = min(lo, d[i] - r)
             hi = max(hi, d[i] + r)
         # bisection until the bracket holds the k-th eigenvalue alone
-        for it in range(200):
+        for _it in range(200):
             x = 0.5 * (lo + hi)
             c, _ = _sturm(d, e2, K, x)
             if c <= k:
@@ -161,7 +161,7 @@ def _eigen_k(d, e2, K, k, guess):
         guess = 0.5 * (lo + hi)
     x = guess
     step_prev = 0.0          # no early stop on the first Newton step
-    for it in range(200):
+    for _it in range(200):
         c, s = _sturm(d, e2, K, x)
         if c <= k:
             lo = x

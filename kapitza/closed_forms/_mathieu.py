@@ -43,9 +43,11 @@ from .. import _arguments as arguments
 from .._deprecation import deprecated_alias
 from ..results import ComputationInterrupted, StabilityMap, StabilityWindow
 from ._characteristic import _KMAX_LIMIT, _char_value, _kmax_needed, stability_counts
+
 # reached as _mathieu.<name> by tests and studies written before the split (0.2); the
 # public path is kapitza.closed_forms
-from ._characteristic import characteristic_value, ince_strutt_chart  # noqa: F401
+from ._characteristic import characteristic_value as characteristic_value
+from ._characteristic import ince_strutt_chart as ince_strutt_chart
 
 __all__ = ["mathieu_parameters", "amplitude_from_q", "mathieu_trace",
            "mathieu_monodromy_trace", "exact_window", "pendulum_stability_map",
@@ -331,8 +333,8 @@ def exact_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inverted",
         a, c = float(a), float(c)
         if damping == 0.0:
             if sign < 0:
-                f0 = lambda q: _char_value(False, 0, q, np.nan) - a      # noqa: E731
-                f1 = lambda q: _char_value(True, 1, q, np.nan) - a       # noqa: E731
+                f0 = lambda q, a=a: _char_value(False, 0, q, np.nan) - a      # noqa: E731
+                f1 = lambda q, a=a: _char_value(True, 1, q, np.nan) - a       # noqa: E731
                 # a0(q) ≤ −q²/2 + 7q⁴/128 and b1(q) ≤ 1 − q bound the brackets
                 q0, e0 = _first_root(f0, max(2.0, 4 * math.sqrt(-a) + 4), tol)
                 q1, e1 = _first_root(f1, max(4.0, 2 * (1 - a) + 4), tol)
@@ -344,17 +346,19 @@ def exact_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inverted",
                     Amin[i], Amax[i], acc[i] = 0.0, 0.0, 0.0      # on a resonance at q = 0
                     continue
                 hi = 4 * a + 20
-                roots = [_first_root(lambda q: _char_value(True, r + 1, q, np.nan) - a, hi, tol)]
+                f_b = lambda q, r=r, a=a: _char_value(True, r + 1, q, np.nan) - a  # noqa: E731
+                roots = [_first_root(f_b, hi, tol)]
                 if r >= 1:
-                    roots.append(_first_root(lambda q: _char_value(False, r, q, np.nan) - a,
-                                             hi, tol))
+                    f_a = lambda q, r=r, a=a: _char_value(False, r, q, np.nan) - a  # noqa: E731
+                    roots.append(_first_root(f_a, hi, tol))
                 q1, e1 = min(roots)
                 Amin[i], Amax[i], acc[i] = 0.0, q1, e1
         else:
             thr = 1.0 + math.exp(-2 * math.pi * damping / om)
             ap = a - c * c / 4
 
-            def margin(q):          # > 0 unstable, < 0 stable
+            # the loop's values bound as defaults (margin is called in this iteration only)
+            def margin(q, ap=ap, c=c, thr=thr):          # > 0 unstable, < 0 stable
                 tr, la, _ = mathieu_monodromy_trace(ap, q, 0.0, tol=min(1e-12, tol / 100))
                 return math.exp(min(float(la) - math.pi * c / 2, 700.0)) - thr
 

@@ -29,8 +29,13 @@ from lagrange_core.progress import run_in_chunks
 from .. import _arguments as arguments
 from .._deprecation import warn_deprecated
 from ..averaging import MAX_AMPLITUDE_RATIO, MIN_FREQUENCY_RATIO, AveragingValidityWarning
-from ..results import (ComputationInterrupted, EquilibriumPrediction, MultiplePendulumPrediction,
-                       PendulumAveraging, StabilityWindow)
+from ..results import (
+    ComputationInterrupted,
+    EquilibriumPrediction,
+    MultiplePendulumPrediction,
+    PendulumAveraging,
+    StabilityWindow,
+)
 from ..results import scalar_or_array as _s
 from ._characteristic import characteristic_value, exponent_squared, mathieu_b1, mathieu_b1_root
 from ._mathieu import amplitude_from_q, mathieu_parameters
@@ -170,7 +175,8 @@ def pendulum_averaged(A, omega, *, l=1.0, g=9.81, damping=0.0, drive="vertical",
     >>> first.inverted.stable, abs(first.inverted.omega_squared - ((0.05 * w)**2 / 2 - 9.81)) < 1e-9
     (True, True)
     >>> second = pendulum_averaged(0.05, w, order=2)
-    >>> print(f"Ω = {first.inverted.omega_slow:.3f} rad/s, next order {second.inverted.omega_slow:.3f} rad/s")
+    >>> print(f"Ω = {first.inverted.omega_slow:.3f} rad/s, "
+    ...       f"next order {second.inverted.omega_slow:.3f} rad/s")
     Ω = 12.955 rad/s, next order 12.980 rad/s
     """
     drive = arguments.drive_direction(drive)
@@ -302,7 +308,7 @@ def _in_chunks(fn, A, omega, progress=None):
         for lo in range(start, stop, CHUNK_POINTS):
             hi = min(lo + CHUNK_POINTS, stop)
             part = fn(A.flat[lo:hi], omega.flat[lo:hi])
-            for (_, into), (_, fields) in zip(out, part):
+            for (_, into), (_, fields) in zip(out, part, strict=True):
                 for k, v in fields.items():
                     into[k][lo:hi] = v
 
@@ -383,8 +389,9 @@ def averaged_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2, warn=True,
                            converged=_s(converged), valid=_s(valid))
 
 
-#: b₁'s series (:func:`~kapitza.closed_forms._characteristic.mathieu_b1`) is used for q ≤ this (absolute error
-#: 7e-7 here, 3e-5 at q = 1.5, 2e-3 at q = 2.5); beyond, the exact characteristic value.
+#: b₁'s series (:func:`~kapitza.closed_forms._characteristic.mathieu_b1`) is used for q ≤
+#: this (absolute error 7e-7 here, 3e-5 at q = 1.5, 2e-3 at q = 2.5); beyond, the exact
+#: characteristic value.
 _B1_SERIES_LIMIT = 1.0
 
 
@@ -455,8 +462,10 @@ def multiple_pendulum_upright(masses, lengths, *, g=9.81, A=None, omega=None, or
     m = np.asarray(masses, float).ravel()
     ls = np.asarray(lengths, float).ravel()
     if m.shape != ls.shape or m.size == 0:
-        raise ValueError(f"masses and lengths need the same length N ≥ 1, got {m.size} and {ls.size}.")
-    if not (np.all(m > 0) and np.all(ls > 0) and np.all(np.isfinite(m)) and np.all(np.isfinite(ls))):
+        raise ValueError(f"masses and lengths need the same length N ≥ 1, got {m.size} and "
+                         f"{ls.size}.")
+    if not (np.all(m > 0) and np.all(ls > 0) and np.all(np.isfinite(m))
+            and np.all(np.isfinite(ls))):
         raise ValueError("masses and lengths must be finite and > 0.")
     if not g > 0:
         raise ValueError(f"g must be > 0 (m/s²), got {g}.")

@@ -40,13 +40,15 @@ import math
 import numpy as np
 
 from ._points import make_point
-from ._shooting import CorrectorFailed, correct, null_directions
+from ._shooting import CorrectorFailed, correct, null_directions, test_functions
 
 __all__ = ["detect", "detect_half_period", "TEST_FUNCTIONS"]
 
 TEST_FUNCTIONS = ("det(M − I)", "det(M + I)", "det(M ⊙ M − I)")
-#: Distance (scaled units, ~rad) of the probes that classify branch points.
-PROBE = 1e-3
+#: Distance (scaled units, ~rad) of the probes that classify branch points: the born
+#: branch's parameter moves by ~ PROBE² there (a pitchfork), resolved far above the
+#: location's accuracy, while the probe stays in the bifurcation's neighbourhood.
+PROBE = 1e-2
 #: Most evaluations of one location.
 MAX_EVALUATIONS = 60
 
@@ -164,7 +166,7 @@ def _direction(pm, ev, Gs, t):
 def _probe(pm, v, d, h):
     """The parameter of the point of the emanating branch at distance h along d."""
     v_pred = v + h * d
-    ev, _ = correct(pm, v_pred, d, None)
+    ev, _ = correct(pm, v_pred, d, None, min_iterations=2)
     return ev.p
 
 
@@ -195,8 +197,9 @@ def _classify_branch_point(engine, pm, cur, new, pt, acc):
     d = _direction(pm, pt.ev, Gs, cur.t)
     out = dict(direction=_unscaled(pm, d), test_function=TEST_FUNCTIONS[0])
     if _half_periodic(pm, pt.ev):
-        out.update(kind="period_doubling", note=f"the {pm.periods}T branch meets the "
-                   f"orbits of period {pm.periods // 2}T, which period-double here")
+        out.update(kind="period_doubling", note=f"the {period_name(pm.periods)} branch meets "
+                   f"the orbits of period {period_name(pm.periods // 2)}, which period-double "
+                   "here")
         return out
     try:
         dp = [_probe(pm, pt.v, d, s * PROBE) - pt.p for s in (1.0, -1.0)]
@@ -239,7 +242,7 @@ def _classify_period_doubling(engine, pm, cur, new, pt, acc):
     if abs(dp) > 10 * acc:
         side = int(np.sign(dp))
         out.update(side=side, criticality=_criticality(cur, new, pt.p, side),
-                   note=f"probe at {PROBE:g} on the {2 * pm.periods}T map: parameter "
+                   note=f"probe at {PROBE:g} on the {period_name(2 * pm.periods)} map: parameter "
                         f"{dp:+.3g}")
     else:
         out["note"] = (f"the born branch's side is not resolved (parameter moved by "
@@ -253,15 +256,22 @@ def _neimark_sacker(pt):
     return bool(np.any(pair))
 
 
+def period_name(n) -> str:
+    """"T", "2T", …: n drive periods."""
+    return "T" if n == 1 else f"{n}T"
+
+
 def _test(i):
     return lambda q: (q.psi[i], q.psi_error[i])
 
 
-def detect(engine, pm, cur, new):
+def detect(engine, pm, cur, new, *, skip=()):
     """The bifurcations between ``cur`` and ``new`` as (Point, dict of Bifurcation
-    fields), in arclength order."""
+    fields), in arclength order; ``skip``: test functions (indices) not to use."""
     found = []
     for i in range(3):
+        if i in skip:
+            continue
         fa, fb = cur.psi[i], new.psi[i]
         if not (math.isfinite(fa) and math.isfinite(fb)) or fa * fb >= 0:
             continue
@@ -311,11 +321,64 @@ def detect_half_period(engine, pm, cur, new):
     scale = max(1.0, float(np.max(np.abs(pt.v[:-1]))))
     if pt.half is None or float(np.max(np.abs(pt.half))) > 1e-6 * scale:
         return None                       # it only turned: no orbit of half the period
+    # Near the meeting point the hyperplane of the step cuts both branches, and the root
+    # found may lie on the half-period one a little off the crossing: the crossing is that
+    # branch's period doubling, solved for on it directly (a secant on det(M + I) in p).
+    try:
+        ev, acc = _period_doubling_of(engine, pm.half, pt.ev.x, pt.p)
+        ev = pm.evaluate(pm.scaled(ev.x, ev.p))
+        if ev is None:
+            raise CorrectorFailed("the flow at the meeting point failed")
+        Gs = pm.derivative_s(ev)
+        pt = make_point(pm, ev, Gs, cur.t, cur.t @ (ev.v - cur.v),
+                        conservative=engine.conservative)
+    except CorrectorFailed:
+        pass                              # keep the located point and its accuracy
     pt.label = "period_doubling"
     pt.sigma += cur.sigma
-    n = pm.periods
+    whole, half = period_name(pm.periods), period_name(pm.periods // 2)
     return pt, dict(kind="period_doubling", parameter=pt.p, accuracy=acc,
-                    test_function=f"φ_{n // 2}T(x) − x",
-                    note=f"the {n}T branch meets the orbits of period {n // 2}T, which "
+                    test_function=f"φ_{half}(x) − x",
+                    note=f"the {whole} branch meets the orbits of period {half}, which "
                          "period-double here; beyond, it retraces its own orbits shifted "
-                         f"by {n // 2}T")
+                         f"by {half}")
+
+
+def _period_doubling_of(engine, pm, x, p):
+    """The period doubling of the branch of ``pm``'s orbits near (x, p): secant steps in
+    p on det(M + I), each orbit corrected at fixed p.  Returns (Evaluation, accuracy)."""
+    row = np.zeros(pm.d + 1)
+    row[-1] = 1.0
+    zero = np.zeros(pm.d)              # p is fixed: the ∂G/∂s column is not used
+
+    def g(p, x):
+        ev, _ = correct(pm, pm.scaled(x, p), row, zero)
+        psi, err = test_functions(ev.M, ev.error, conservative=engine.conservative)
+        return psi[1], err[1], ev
+
+    ptol = max(1e-3 * pm.tol * pm.p_scale, 4 * np.finfo(float).eps * abs(p))
+    f0, _, ev0 = g(p, x)
+    p1 = p + 1e-6 * pm.p_scale
+    f1, e1, ev1 = g(p1, ev0.x)
+    for _ in range(30):
+        if f1 == f0:
+            break
+        p2 = p1 - f1 * (p1 - p) / (f1 - f0)
+        p, f0, ev0 = p1, f1, ev1
+        p1 = p2
+        f1, e1, ev1 = g(p1, ev0.x)
+        if abs(p1 - p) <= ptol or abs(f1) <= e1:
+            break
+    else:
+        raise CorrectorFailed("the secant on det(M + I) did not converge")
+    # certify: the sign changes across p1 ± w, w from the error and the secant slope
+    slope = abs((f1 - f0) / (p1 - p)) if p1 != p else 0.0
+    w = 2 * (abs(f1) + e1) / slope if slope > 0 else math.inf
+    w = max(w, ptol)
+    try:
+        (fa, ea, _), (fb, eb, _) = g(p1 - w, ev1.x), g(p1 + w, ev1.x)
+    except CorrectorFailed:
+        return ev1, abs(p1 - p) + w
+    if fa * fb < 0 and abs(fa) > ea and abs(fb) > eb:
+        return ev1, w
+    return ev1, abs(p1 - p) + w

@@ -10,7 +10,7 @@ import numpy as np
 from lagrange_core.progress import ProgressLine
 
 from ..results import ComputationInterrupted
-from ..results._branches import Bifurcation, Branch, BranchPoints
+from ..results import Bifurcation, Branch, BranchPoints
 from ._bifurcations import detect, detect_half_period
 from ._points import make_point, orbit_statistics
 from ._shooting import CorrectorFailed, PeriodMap, correct, tangent
@@ -39,9 +39,12 @@ class Engine:
         self.conservative = None
 
     # -- tracing ---------------------------------------------------------------------
-    def trace(self, pm, start, *, domain, step, max_step, max_points):
+    def trace(self, pm, start, *, domain, step, max_step, max_points, stacklevel=4,
+              origin=""):
         """Follow the branch from ``start`` (a list of Points, the last with its
-        tangent) through ``domain`` = (lo, hi) of the parameter; returns a Branch."""
+        tangent) through ``domain`` = (lo, hi) of the parameter; returns a Branch.
+        ``stacklevel`` points a warning at the user's call; ``origin`` says where a
+        switched branch starts."""
         h = step / pm.p_scale
         h_max, h_min = max_step / pm.p_scale, MIN_STEP * step / pm.p_scale
         lo, hi = ((d - pm.p0) / pm.p_scale for d in domain)
@@ -77,7 +80,7 @@ class Engine:
                 if ended:
                     try:
                         new = self._boundary(pm, cur, new, lo if new.v[-1] < lo else hi)
-                    except CorrectorFailed as e:
+                    except CorrectorFailed as e:    # retried shorter
                         if h / 2 >= h_min:
                             h /= 2
                             continue
@@ -86,7 +89,8 @@ class Engine:
                 half = detect_half_period(self, pm, cur, new)
                 if half is not None:
                     new, ended = half[0], True     # the branch ends at the meeting point
-                for pt, info in detect(self, pm, cur, new):
+                # det(M − I) vanishes where the branch ends on orbits of half the period
+                for pt, info in detect(self, pm, cur, new, skip=(0,) if half else ()):
                     bifurcations.append((pt, info))
                     points.append(pt)
                 if half is not None:
@@ -95,8 +99,8 @@ class Engine:
                 previous = cur
                 bar.update(min(len(points), max_points))
                 if half is not None:
-                    status, message = "completed", half[1]["note"].replace(
-                        "the ", f"at {self.parameter} = {new.p:.10g} the ", 1)
+                    status = "completed"
+                    message = f"at {self.parameter} = {new.p:.10g}, {half[1]['note']}"
                     break
                 if ended:
                     new.label = "end"
@@ -117,14 +121,14 @@ class Engine:
             bar.close()
             result = self._result(pm, points, bifurcations, domain, "interrupted",
                                   "interrupted (Ctrl-C): the points computed so far",
-                                  pm.flows - flows0)
+                                  pm.flows - flows0, origin)
             raise ComputationInterrupted(result, np.ones(len(result.points), bool)) from None
         bar.close()
         if status not in ("completed", "closed"):
             warnings.warn(f"continuation: {message} (status {status!r}; the branch so far is "
-                          "returned).", RuntimeWarning, stacklevel=3)
+                          "returned).", RuntimeWarning, stacklevel=stacklevel)
         return self._result(pm, points, bifurcations, domain, status, message,
-                            pm.flows - flows0)
+                            pm.flows - flows0, origin)
 
     def _step(self, pm, cur, h, previous):
         """One pseudo-arclength step of length h from ``cur``; raises CorrectorFailed
@@ -148,7 +152,12 @@ class Engine:
         if float(np.linalg.norm(ev.v - v_pred)) > MAX_CORRECTION * h:
             raise CorrectorFailed("the corrector moved the point farther than half a step "
                                   "from the predictor", retry=True)
-        Gs = pm.derivative_s(ev)
+        if its == 0 and Gs is not None:
+            # the predictor was on the branch to the tolerance (a straight branch, e.g.
+            # an equilibrium that persists): the extrapolated column is exact to O(h²)
+            Gs = Gs
+        else:
+            Gs = pm.derivative_s(ev)
         t = tangent(pm, ev, Gs, cur.t)
         if float(t @ cur.t) < MIN_COSINE:
             raise CorrectorFailed("the branch's tangent turned by more than 25° in one step",
@@ -164,14 +173,17 @@ class Engine:
         v_pred[-1] = s_end
         row = np.zeros(pm.d + 1)
         row[-1] = 1.0
-        ev, _ = correct(pm, v_pred, row, cur.Gs)
+        try:
+            ev, _ = correct(pm, v_pred, row, cur.Gs)
+        except CorrectorFailed:
+            ev, _ = correct(pm, v_pred, row, None)
         Gs = pm.derivative_s(ev)
         t = tangent(pm, ev, Gs, cur.t)
         return make_point(pm, ev, Gs, t, cur.sigma + float(cur.t @ (ev.v - cur.v)),
                           conservative=self.conservative)
 
     # -- results ---------------------------------------------------------------------
-    def _result(self, pm, points, bifurcations, domain, status, message, flows):
+    def _result(self, pm, points, bifurcations, domain, status, message, flows, origin):
         n = pm.n
         k = len(points)
         stats = [orbit_statistics(pm, pt.ev.x, pt.p) for pt in points]
@@ -189,7 +201,9 @@ class Engine:
             label=np.array([pt.label for pt in points], dtype=object))
         index = {id(pt): i for i, pt in enumerate(points)}
         bifs = tuple(Bifurcation(state=pt.ev.x.copy(), multipliers=pt.multipliers.copy(),
-                                 index=index[id(pt)], periods=pm.periods, **info)
+                                 index=index[id(pt)], periods=pm.periods,
+                                 **dict(info, parameter=float(info["parameter"]),
+                                        accuracy=float(info["accuracy"])))
                      for pt, info in bifurcations)
         params = dict(self.params)
         params[self.parameter] = float(points[0].p) if points else params.get(self.parameter)
@@ -197,7 +211,7 @@ class Engine:
                         params=params, frequency=self.frequency, periods=pm.periods,
                         points=table, bifurcations=bifs, domain=tuple(float(d) for d in domain),
                         status=status, message=message, tol=self.tol, flows=int(flows),
-                        _engine=_Handle(self, pm))
+                        origin=origin, _engine=_Handle(self, pm))
         return branch
 
     # -- starting ----------------------------------------------------------------------
@@ -243,31 +257,39 @@ class Engine:
         max_points = opts["max_points"] if max_points is None else int(max_points)
         domain = branch.domain if stop is None else (min(b.parameter, stop),
                                                      max(b.parameter, stop))
-        if b.kind == "period_doubling" and b.test_function.startswith("det(M + I)"):
+        origin = (f"the {b.kind.replace('_', ' ')} at {self.parameter} = {b.parameter:.10g}"
+                  f" (direction {direction:+d})")
+        trace = dict(domain=domain, step=step, max_step=opts["max_step"],
+                     max_points=max_points, stacklevel=5, origin=origin)
+        halving = b.kind == "period_doubling" and b.test_function != "det(M + I)"
+        if halving:
+            # met from a branch of twice the period: the orbits of half the period through
+            # the point, a regular branch there (their multiplier is −1, not +1)
+            new_pm = pm.with_periods(pm.periods // 2)
+        elif b.kind == "period_doubling":
             new_pm = pm.with_periods(2 * pm.periods)
         else:
             new_pm = pm
-        if b.kind == "period_doubling" and not b.test_function.startswith("det(M + I)"):
-            # the orbits of half the period, through the point where they period-double
-            new_pm = pm.with_periods(pm.periods // 2)
         v_star = new_pm.scaled(b.state, b.parameter)
-        d = np.r_[new_pm.D * b.direction[:-1], b.direction[-1] / new_pm.p_scale]
-        d = direction * d / np.linalg.norm(d)
         ev0 = new_pm.evaluate(v_star)
         if ev0 is None:
-            raise ValueError("the flow at the bifurcation point failed.")
+            raise ValueError(f"the flow at the {b.kind} point failed.")
         Gs0 = new_pm.derivative_s(ev0)
-        h = step / new_pm.p_scale
-        if new_pm.periods < pm.periods:
-            # a regular branch: its own tangent, the sign of its parameter component
+        if halving:
             row = np.zeros(new_pm.d + 1)
             row[-1] = float(direction)
             t0 = tangent(new_pm, ev0, Gs0, row)
             first = make_point(new_pm, ev0, Gs0, t0, 0.0, conservative=self.conservative,
                                label=b.kind)
-            return self.trace(new_pm, [first], domain=domain, step=step,
-                              max_step=opts["max_step"], max_points=max_points)
-        first = make_point(new_pm, ev0, Gs0, d, 0.0, conservative=self.conservative, label=b.kind)
+            return self.trace(new_pm, [first], **trace)
+        d = np.r_[new_pm.D * b.direction[:-1], b.direction[-1] / new_pm.p_scale]
+        d = direction * d / np.linalg.norm(d)
+        first = make_point(new_pm, ev0, Gs0, d, 0.0, conservative=self.conservative,
+                           label=b.kind)
+        # the first point off the bifurcation: at distance h along d (the corrector keeps
+        # that component), ∂G/∂s exact at every iterate (it vanishes on a branch of
+        # equilibria that persist, and changes fast near any branch point)
+        h = step / new_pm.p_scale
         for _ in range(12):
             try:
                 ev1, _ = correct(new_pm, v_star + h * d, d, None)
@@ -281,8 +303,7 @@ class Engine:
                              f"{self.parameter} = {b.parameter:.10g}: the corrector failed "
                              "even at small distances.")
         second = make_point(new_pm, ev1, Gs1, t1, h, conservative=self.conservative)
-        return self.trace(new_pm, [first, second], domain=domain, step=step,
-                          max_step=opts["max_step"], max_points=max_points)
+        return self.trace(new_pm, [first, second], **trace)
 
 
 class _Handle:

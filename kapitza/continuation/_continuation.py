@@ -48,7 +48,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..results._branches import Branch
+from ..results import Branch
 from ._branch import Engine
 
 __all__ = ["continuation"]
@@ -154,7 +154,7 @@ def continuation(system, params, about, *, parameter="A", stop, periods=1,
     ...                       dict(m=1.0, l=1.0, g=9.81, A=0.02, omega=w), [math.pi],
     ...                       parameter="A", stop=0.6, progress=False)
     >>> [(b.kind, round(b.parameter, 6)) for b in branch.bifurcations]
-    [('pitchfork', 0.070594), ('period_doubling', 0.455003)]
+    [('pitchfork', 0.070788), ('period_doubling', 0.458219)]
     """
     from lagrange_core import System
     if not isinstance(system, System):

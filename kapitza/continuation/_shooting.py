@@ -16,10 +16,11 @@ G(v) = D (φ_T(x; p) − x), with φ_T the flow over ``periods`` drive periods T
 (ω the frequency parameter, which may itself be the continued one).  The flow and its
 Jacobian M = ∂φ_T/∂x (the monodromy at a periodic orbit) come from the variational
 equations (:func:`lagrange_core.variational.flow`: 8th-order steps on the exact compiled
-Jacobian, step count doubled until two counts agree to ``tol``/100).  ∂G/∂p is a forward
-difference of the flow at the same fixed step count (the discrete flow is then smooth in
-p: the difference is accurate to ~1e-8 relative, and only the corrector's speed and the
-tangent's direction depend on it, not where the corrector converges).
+Jacobian, step count doubled until two counts agree to ``tol``/100, at least 1e-13).
+∂G/∂p is a forward difference of the flow at the same fixed step count (the discrete
+flow is then smooth in p: the difference is accurate to ~1e-8 relative, and only the
+corrector's speed and the tangent's direction depend on it, not where the corrector
+converges).
 """
 from __future__ import annotations
 
@@ -38,6 +39,11 @@ __all__ = ["PeriodMap", "Evaluation", "correct", "tangent", "test_functions",
 MAX_ITERATIONS = 8
 #: Halvings of a Newton step whose residual did not decrease.
 MAX_HALVINGS = 8
+#: The finest tolerance asked of a flow.
+FLOW_TOL_FLOOR = 1e-13
+#: A flow that needs this many times the steps of the last one fails (fast): the orbit
+#: has become too fast or the trial state is far off.
+MAX_STEP_GROWTH = 16
 #: A bordered system with a larger condition number is treated as singular.
 SINGULAR_CONDITION = 1e14
 
@@ -88,7 +94,9 @@ class PeriodMap:
         self.parameter, self.frequency = parameter, frequency
         self.periods = int(periods)
         self.tol = float(tol)
-        self.flow_tol = self.tol / 100
+        # the flow to tol/100 (as periodic_orbit), but not below what float64 reaches over
+        # a few hundred 8th-order steps (~1e-13 relative): the doublings never agree there
+        self.flow_tol = max(self.tol / 100, FLOW_TOL_FLOOR)
         self.p0, self.p_scale = float(p0), float(p_scale)
         self.omega_ref = float(self.row[self.frequency_column] if omega_ref is None
                                else omega_ref)
@@ -150,7 +158,8 @@ class PeriodMap:
                     return flow(self.system, x, (0.0, T), P, tol=np.inf, steps=fixed // 2,
                                 max_steps=fixed // 2)
                 return flow(self.system, x, (0.0, T), P, tol=self.flow_tol,
-                            steps=max(16, self.steps // 2), max_steps=1 << 16)
+                            steps=max(16, self.steps // 2),
+                            max_steps=min(1 << 16, max(1 << 10, MAX_STEP_GROWTH * self.steps)))
         except (FloatingPointError, ValueError, OverflowError):
             return None
 
@@ -189,13 +198,17 @@ def _bordered(pm, ev, Gs, row):
     return np.block([[pm.jacobian_z(ev), Gs[:, None]], [row[None, :]]])
 
 
-def correct(pm, v_pred, row, Gs, *, ev=None, max_iterations=MAX_ITERATIONS):
+def correct(pm, v_pred, row, Gs, *, ev=None, max_iterations=MAX_ITERATIONS,
+            min_iterations=0):
     """Newton's method on [G(v); row · (v − v_pred)] = 0 from v_pred.
 
     ``Gs`` is ∂G/∂s from a nearby point (a chord in that one column; the state columns
     are exact at every iterate), or None: computed at every iterate (for steps off a
-    branch on which ∂G/∂s vanishes, e.g. from an equilibrium that persists).  A step that does not reduce the residual, or whose flow
-    fails, is halved.  Returns (Evaluation, iterations); raises :class:`CorrectorFailed`.
+    branch on which ∂G/∂s vanishes, e.g. from an equilibrium that persists).  A step that
+    does not reduce the residual, or whose flow fails, is halved.  Returns (Evaluation,
+    iterations); raises :class:`CorrectorFailed`.  ``min_iterations``: take at least
+    that many Newton steps even from a point that meets the tolerance (a probe whose
+    predictor is already within it still moves its parameter to the branch).
     """
     v_pred = np.asarray(v_pred, float)
     exact = Gs is None
@@ -203,7 +216,7 @@ def correct(pm, v_pred, row, Gs, *, ev=None, max_iterations=MAX_ITERATIONS):
     if ev is None:
         raise CorrectorFailed(f"the flow failed at {pm.parameter} = {pm.value(v_pred):.10g}")
     for it in range(max_iterations + 1):
-        if pm.converged(ev):
+        if it >= min_iterations and pm.converged(ev):
             return ev, it
         if it == max_iterations:
             break
@@ -217,7 +230,8 @@ def correct(pm, v_pred, row, Gs, *, ev=None, max_iterations=MAX_ITERATIONS):
         lam = 1.0
         for _ in range(MAX_HALVINGS + 1):
             trial = pm.evaluate(ev.v + lam * dv)
-            if trial is not None and float(np.max(np.abs(trial.G))) < res:
+            if trial is not None and (float(np.max(np.abs(trial.G))) < res
+                                      or (it < min_iterations and pm.converged(trial))):
                 break
             lam *= 0.5
         else:

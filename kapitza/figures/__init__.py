@@ -8,9 +8,11 @@ it with ``fig.savefig(path)``.
 Modules: ``_maps`` (parameter planes: stability maps with windows and boundary curves,
 spot checks, the Ince–Strutt chart), ``_lines`` (curves against one variable: the
 effective potential, the window's error, slow frequencies and the tilt against A,
-work against precision), ``_verification`` (a verification's map and its slow
+work against precision), ``_branches`` (a continued branch and its bifurcations),
+``_verification`` (a verification's map and its slow
 frequencies), ``_common`` (the canvas, the check of what a figure is given, labels).
 """
+from ._branches import branch_figure
 from ._common import legend_below
 from ._lines import (
     effective_potential_figure,
@@ -25,4 +27,4 @@ from ._verification import slow_frequency_figure, verification_figure
 __all__ = ["stability_map_figure", "effective_potential_figure", "ince_strutt_figure",
            "verification_figure", "work_precision_figure", "spot_check_figure",
            "slow_frequency_figure", "slow_frequency_line_figure", "tilt_figure",
-           "window_error_figure", "legend_below"]
+           "window_error_figure", "legend_below", "branch_figure"]

@@ -13,19 +13,23 @@ import warnings
 
 import numpy as np
 
-from ._edges import _bracket_changes, _solve_scanned, solve_edges
+from ._edges import MIN_WIDTH, _bracket_changes, _solve_scanned, _spans, solve_edges
+from ._frontier import refine_scan, scan_points
 from ._margins import margin
 
 __all__ = ["trace_curves"]
 
 # -- boundary curves over (A, ω) by continuation ----------------------------------------
 
-def trace_curves(evaluate, omega, grid, rtol, *, seed_every=10, side=1e-6):
+def trace_curves(evaluate, omega, grid, rtol, *, seed_every=10, side=1e-6, min_width=None):
     """Every stability boundary A_k(ω) over the frequency grid ``omega`` (ascending).
 
     1. Seeds: at every ``seed_every``-th frequency (and the last) the amplitudes
-       ``grid`` are classified; each change between stable and unstable is solved
-       (:func:`solve_edges`) on the margin of the unstable side's kind.
+       ``grid`` are classified, stable slivers and unstable gaps between them searched
+       for down to ``min_width`` (m; default ``MIN_WIDTH`` × the grid's top;
+       :func:`kapitza.floquet._frontier.refine_scan`), and each change between stable
+       and unstable is solved (:func:`solve_edges`) on the margin of the unstable
+       side's kind.
     2. Continuation: from each seed a front steps to the next seed frequency, one
        frequency at a time — predictor: extrapolation of its last points; corrector: a
        bracket around the prediction (widened ×4 until the margin changes sign) solved
@@ -37,9 +41,10 @@ def trace_curves(evaluate, omega, grid, rtol, *, seed_every=10, side=1e-6):
     3. Every point found is classified at A(1 ∓ ``side``): it is kept (else NaN) where
        exactly the side the seed said is stable.
 
-    Returns dict(A (k, m), accuracy (k, m), kind (k,), stable_below (k,), evaluations);
-    a RuntimeWarning names the frequencies where a point's accuracy is coarser than
-    ``rtol``.
+    Returns dict(A (k, m), accuracy (k, m), kind (k,), stable_below (k,), evaluations,
+    undecided: per seed frequency (ω, [(a, b), ...]) where a sliver narrower than
+    ``min_width`` could not be ruled out); RuntimeWarnings name the frequencies where a
+    point's accuracy is coarser than ``rtol``, and the undecided seed intervals.
     """
     w = np.asarray(omega, float)
     grid = np.asarray(grid, float)
@@ -48,19 +53,27 @@ def trace_curves(evaluate, omega, grid, rtol, *, seed_every=10, side=1e-6):
     cols = np.unique(np.r_[np.arange(0, m, max(1, seed_every)), m - 1])
     data = evaluate(np.tile(grid, cols.size), np.repeat(w[cols], ns), True)
     evals = cols.size * ns
-    stable = data["stable"].reshape(cols.size, ns)
-    label = data["label"].reshape(cols.size, ns)
-    change, kind = _bracket_changes(stable, label)
-    rr, ii = np.nonzero(change)
+    # slivers (and gaps) between the scan points, searched down to min_width
+    width = MIN_WIDTH * max(abs(hi_A), abs(lo_A)) if min_width is None else min_width
+    rows, undecided, ev = refine_scan(evaluate, w[cols], np.broadcast_to(grid, (cols.size, ns)),
+                                      scan_points(data, (cols.size, ns)), width, lowest=False)
+    evals += ev
+    brackets = []                         # (row, lower, upper, kind, stable below)
+    for r, row in enumerate(rows):
+        change, kind = _bracket_changes(row["stable"], row["label"])
+        for i in np.nonzero(change)[0]:
+            brackets.append((r, row["A"][i], row["A"][i + 1], kind[i], row["stable"][i]))
     seeds = []                            # dicts: col, A, acc, kind, below
-    if rr.size:
-        kinds = kind[rr, ii].copy()
-        root, acc, ok, ev = _solve_scanned(evaluate, w[cols[rr]], grid[ii], grid[ii + 1],
-                                           kinds, rtol)
+    if brackets:
+        rr = np.array([b[0] for b in brackets])
+        kinds = np.array([b[3] for b in brackets])
+        root, acc, ok, ev = _solve_scanned(evaluate, w[cols[rr]],
+                                           np.array([b[1] for b in brackets]),
+                                           np.array([b[2] for b in brackets]), kinds, rtol)
         evals += ev
         for k in np.nonzero(ok)[0]:
             seeds.append(dict(col=int(cols[rr[k]]), A=root[k], acc=acc[k], kind=int(kinds[k]),
-                              below=bool(stable[rr[k], ii[k]])))
+                              below=bool(brackets[k][4])))
     parent = list(range(len(seeds)))
 
     def find(u):
@@ -117,6 +130,17 @@ def trace_curves(evaluate, omega, grid, rtol, *, seed_every=10, side=1e-6):
                 new.append((t, -1))
         fronts = new
     found = _assemble(evaluate, w, seeds, find, points, side, evals)
+    found["undecided"] = [(float(w[cols[r]]), spans) for r, spans in enumerate(undecided)
+                          if spans]
+    if found["undecided"]:
+        warnings.warn(
+            "boundaries: could not decide whether a stable sliver (or an unstable gap) "
+            f"narrower than min_width = {width:.2g} m lies between the scan points at seed "
+            + "; ".join(f"ω = {om:.6g} rad/s: {_spans(sp)} m" for om, sp in found["undecided"][:3])
+            + (f" and {len(found['undecided']) - 3} more seed frequencies"
+               if len(found["undecided"]) > 3 else "")
+            + ": boundaries there may be missing (a window being born or closing); pass a "
+            "smaller min_width, or more scan points.", RuntimeWarning, stacklevel=3)
     with np.errstate(invalid="ignore"):
         coarse = np.any(found["accuracy"] > rtol, axis=0)
     if coarse.any():

@@ -24,6 +24,7 @@ import warnings
 
 import numpy as np
 
+from ._frontier import refine_scan, scan_points
 from ._margins import margin, signed_margin
 
 __all__ = ["solve_edges", "first_window"]
@@ -173,20 +174,32 @@ def _solve_scanned(evaluate, w, lo, hi, kinds, rtol, sub=16):
 
 # -- the first window of stabilising amplitudes -----------------------------------------
 
-def first_window(evaluate, omega, grid, rtol, *, side=1e-5):
+#: the default resolution of :func:`first_window`: min_width = MIN_WIDTH × the scan's top
+MIN_WIDTH = 1e-8
+
+
+def first_window(evaluate, omega, grid, rtol, *, side=1e-5, min_width=None):
     """The lowest interval of stabilising amplitudes at each frequency.
 
     ``grid`` (ns,) or (len(omega), ns): ascending amplitudes of the classification scan
-    per ω.  Returns dict(A_min, A_max, accuracy, kind_min, kind_max, evaluations,
-    checked): A_min = grid[0] (accuracy 0) where the first scan point is stable;
-    A_max = +inf where the scan ends stable; both NaN where no scan point is stable.
+    per ω.  Between scan points of equal classification — below the first stable one,
+    and inside the first stable run — stable slivers (and unstable gaps) are searched
+    down to ``min_width`` (m, per ω or one for all; default ``MIN_WIDTH`` × the scan's
+    top) by :func:`kapitza.floquet._frontier.refine_scan`.
+
+    Returns dict(A_min, A_max, accuracy, status, kind_min, kind_max, evaluations,
+    checked).  ``status`` per ω: "window" (A_min = grid[0], accuracy 0, where the first
+    scan point is stable; A_max = +inf where the scan ends stable), "none" (no stable
+    interval at least min_width wide: A_min, A_max NaN) or "undecided" (A_min, A_max an
+    envelope of the amplitudes within which the lowest window lies, if there is one;
+    accuracy NaN; a RuntimeWarning names the frequencies).
 
     Each solved edge is checked on both sides, at A(1 ∓ η), η = max(``side``,
     4 accuracy), by the sign of :func:`signed_margin` on the margins' (finer)
     monodromies: the window's side must be stable, the other unstable.  Where a check
     fails (the scan mislabelled a point, or an edge's margin did not change sign) or
-    an edge was not found although a scan point is stable, both edges are NaN and
-    ``checked`` is False, with a RuntimeWarning naming the frequencies — never a wrong
+    an edge was not found although a point is stable, the status is "undecided" and
+    ``checked`` False, with a RuntimeWarning naming the frequencies — never a wrong
     window.  A RuntimeWarning also names the frequencies whose certified accuracy is
     worse than ``rtol`` (float64 monodromies near the identity: fast drives).
     """
@@ -195,49 +208,69 @@ def first_window(evaluate, omega, grid, rtol, *, side=1e-5):
     ns = grid.shape[1]
     data = evaluate(grid.ravel(), np.repeat(w, ns), True)
     evals = grid.size
-    stable = data["stable"].reshape(grid.shape)
-    label = data["label"].reshape(grid.shape)
+    width = MIN_WIDTH * grid[:, -1] if min_width is None else \
+        np.broadcast_to(np.asarray(min_width, float), w.size)
+    rows, undecided, ev = refine_scan(evaluate, w, grid, scan_points(data, grid.shape),
+                                      width, lowest=True)
+    evals += ev
     out = {k: np.full(w.size, np.nan) for k in ("A_min", "A_max", "acc_min", "acc_max")}
     kmin = np.zeros(w.size, dtype=np.int8)
     kmax = np.zeros(w.size, dtype=np.int8)
-    lo_br, hi_br = [], []                # (ω index, i): brackets grid[i], grid[i + 1]
-    for r in range(w.size):
-        s = np.nonzero(stable[r])[0]
+    lo_br, hi_br = [], []                # (ω index, lower, upper end): an edge's bracket
+    outer = np.full((w.size, 2), np.nan)  # the brackets' outer ends (envelopes)
+    for r, row in enumerate(rows):
+        A, st, lab = row["A"], row["stable"], row["label"]
+        s = np.nonzero(st)[0]
         if s.size == 0:
             continue
         i = s[0]
         if i == 0:
-            out["A_min"][r], out["acc_min"][r] = grid[r, 0], 0.0
+            out["A_min"][r], out["acc_min"][r] = A[0], 0.0
+            outer[r, 0] = A[0]
         else:
-            lo_br.append((r, i - 1))
-            kmin[r] = label[r, i - 1]
-        after = np.nonzero(~stable[r, i:])[0]
+            lo_br.append((r, A[i - 1], A[i]))
+            kmin[r] = lab[i - 1]
+            outer[r, 0] = A[i - 1]
+        after = np.nonzero(~st[i:])[0]
         if after.size == 0:
             out["A_max"][r], out["acc_max"][r] = np.inf, 0.0
+            outer[r, 1] = np.inf
         else:
             j = i + after[0]
-            hi_br.append((r, j - 1))
-            kmax[r] = label[r, j]
+            hi_br.append((r, A[j - 1], A[j]))
+            kmax[r] = lab[j]
+            outer[r, 1] = A[j]
     br = lo_br + hi_br
     if br:
-        rows = np.array([r for r, _ in br])
-        cols = np.array([i for _, i in br])
-        kinds = np.concatenate([kmin[[r for r, _ in lo_br]], kmax[[r for r, _ in hi_br]]])
-        root, acc, ok, ev = _solve_scanned(evaluate, w[rows], grid[rows, cols],
-                                           grid[rows, cols + 1], kinds, rtol)
+        rr = np.array([b[0] for b in br])
+        kinds = np.concatenate([kmin[[b[0] for b in lo_br]], kmax[[b[0] for b in hi_br]]])
+        root, acc, ok, ev = _solve_scanned(evaluate, w[rr], np.array([b[1] for b in br]),
+                                           np.array([b[2] for b in br]), kinds, rtol)
         evals += ev
         nlo = len(lo_br)
-        out["A_min"][rows[:nlo]], out["acc_min"][rows[:nlo]] = root[:nlo], acc[:nlo]
-        out["A_max"][rows[nlo:]], out["acc_max"][rows[nlo:]] = root[nlo:], acc[nlo:]
-        kmin[rows[:nlo]], kmax[rows[nlo:]] = kinds[:nlo], kinds[nlo:]
-    found = np.any(stable, axis=1)
+        out["A_min"][rr[:nlo]], out["acc_min"][rr[:nlo]] = root[:nlo], acc[:nlo]
+        out["A_max"][rr[nlo:]], out["acc_max"][rr[nlo:]] = root[nlo:], acc[nlo:]
+        kmin[rr[:nlo]], kmax[rr[nlo:]] = kinds[:nlo], kinds[nlo:]
+    found = np.array([bool(np.any(row["stable"])) for row in rows])
     checked, ev = _check_edges(evaluate, w, out, side)
     evals += ev
     checked &= ~(np.isnan(out["A_min"]) | np.isnan(out["A_max"]))   # an edge not found
     bad = found & ~checked
-    for k in ("A_min", "A_max", "acc_min", "acc_max"):
-        out[k][bad] = np.nan
+    open_ = np.array([bool(u_) for u_ in undecided])
+    status = np.where(found, "window", "none").astype(object)
+    status[bad | open_] = "undecided"
     accuracy = np.fmax(out["acc_min"], out["acc_max"])
+    A_min, A_max = out["A_min"].copy(), out["A_max"].copy()
+    for r in np.nonzero(status == "undecided")[0]:
+        # the envelope: the lowest window, if any, lies in it (the undecided intervals,
+        # and the window found: its edges if checked, its brackets' outer ends if not)
+        lo = [a for a, _ in undecided[r]]
+        hi = [b for _, b in undecided[r]]
+        if found[r]:
+            lo.append(A_min[r] if checked[r] else outer[r, 0])
+            hi.append(A_max[r] if checked[r] else outer[r, 1])
+        A_min[r], A_max[r], accuracy[r] = min(lo), max(hi), np.nan
+    status = status.astype(str)
 
     def freq(which):
         return ", ".join(f"{x:.6g}" for x in w[which])
@@ -246,10 +279,21 @@ def first_window(evaluate, omega, grid, rtol, *, side=1e-5):
         warnings.warn(
             f"window: the edges at ω = {freq(bad)} rad/s failed their check (the side "
             "that should be stable is not, or an edge's margin has no root in the scan's "
-            "bracket); they are NaN, not a wrong window.  A finer scan (more scan points, "
-            "a smaller A_range) may resolve them.",
-            RuntimeWarning, stacklevel=3)
-    coarse = accuracy > rtol
+            "bracket): status 'undecided', A_min and A_max only bound where the window "
+            "lies, not a wrong window.  A finer scan (more scan points, a smaller A_range) "
+            "may resolve them.", RuntimeWarning, stacklevel=3)
+    sliver = open_ & ~bad
+    if sliver.any():
+        spans = "; ".join(f"ω = {w[r]:.6g}: {_spans(undecided[r])}"
+                          for r in np.nonzero(sliver)[0])
+        warnings.warn(
+            f"window: could not decide whether a stable interval (or, inside the window, an "
+            f"unstable gap) narrower than min_width lies between the scan points at {spans} "
+            f"rad/s, m (status 'undecided'; A_min, A_max give the envelope within which the "
+            "lowest window lies, if any).  The margin there comes within its curvature of "
+            "zero: a window is being born or closing; pass a smaller min_width, or look "
+            "with kapitza.floquet_point at those amplitudes.", RuntimeWarning, stacklevel=3)
+    coarse = (status == "window") & (accuracy > rtol)
     if coarse.any():
         warnings.warn(
             f"window: at ω = {freq(coarse)} rad/s the edges are certified only to "
@@ -257,8 +301,15 @@ def first_window(evaluate, omega, grid, rtol, *, side=1e-5):
             f"tol = {rtol:.2g}: the margins' sign is fixed no better in float64 (monodromies "
             "near the identity at fast drives: the achievable accuracy grows about as ω²).",
             RuntimeWarning, stacklevel=3)
-    return dict(A_min=out["A_min"], A_max=out["A_max"], accuracy=accuracy,
-                kind_min=kmin, kind_max=kmax, evaluations=evals, checked=checked | ~found)
+    return dict(A_min=A_min, A_max=A_max, accuracy=accuracy, status=status,
+                kind_min=kmin, kind_max=kmax, evaluations=evals, checked=checked | ~found,
+                undecided=undecided)
+
+
+def _spans(intervals, most=3):
+    """Intervals as text: '[a, b]' each, the first ``most``."""
+    text = ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in intervals[:most])
+    return text + (f" and {len(intervals) - most} more" if len(intervals) > most else "")
 
 
 def _check_edges(evaluate, w, out, side):

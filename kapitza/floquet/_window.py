@@ -22,7 +22,7 @@ from lagrange_core.checks import real_number
 from .. import _arguments as arguments
 from ..results import BoundaryCurves, StabilityWindow
 from ._curves import trace_curves
-from ._edges import first_window
+from ._edges import MIN_WIDTH, first_window
 from ._margins import KINDS
 from ._old_spellings import frequency_as_keyword
 from ._probe import _Probe
@@ -50,7 +50,7 @@ def _scan_grid(lo, hi, points):
 
 @frequency_as_keyword
 def window(system, params, about, *, omega, A_range=None, amplitude="A", frequency="omega",
-           tol=1e-10, scan=96, order=16, guard_tol=1e-8) -> StabilityWindow:
+           tol=1e-10, scan=96, min_width=None, order=16, guard_tol=1e-8) -> StabilityWindow:
     """The exact window of drive amplitudes A_min < A < A_max that stabilises ``about``,
     per ω, with certified edges.
 
@@ -64,6 +64,26 @@ def window(system, params, about, *, omega, A_range=None, amplitude="A", frequen
     tolerance (:mod:`kapitza.floquet._margins`, :mod:`kapitza.floquet._edges`).  Not
     bisection on the flag "stable": after the scan, each edge takes six or seven margin
     evaluations.
+
+    Never silent at the frontier: a window narrower than the scan's spacing (a chain
+    near the lowest frequency that holds it up, the window born with zero width) is
+    searched for between the scan points, down to ``min_width``
+    (:mod:`kapitza.floquet._frontier`).  Every interval between neighbouring scan
+    points of equal classification below the first stable one (and inside the first
+    stable run, for an unstable gap) is examined on the monodromies' signed margin u
+    (> 0 stable) and on det(M ∓ I): it is ruled out where u's chord, widened by the
+    change of slope that its neighbours' secants show (× 2) and by u's rounding error,
+    stays below zero and no multiplier sweeps across the whole band [−1, 1] inside it;
+    otherwise it is split (where the neighbours' secants predict the margin's peak)
+    and examined again.  **Guarantee**: every stable interval at least ``min_width``
+    wide in ``A_range`` is found (``status`` "window", the lowest one reported), or
+    there is none (``status`` "none": A_min, A_max NaN), as long as the margin's
+    curvature on each interval is within twice what its neighbours' secants show and
+    no two multipliers cross the same threshold ±1 between two neighbouring points;
+    where an interval narrower than ``min_width`` still cannot be ruled out,
+    ``status`` is "undecided" and a RuntimeWarning names the frequencies and
+    amplitudes.  On the common case this costs a handful of monodromies per ω (the scan
+    takes ~130); at a window's birth a few dozen.
 
     kapitza 0.1's ``window(system, params, about, omega)`` and ``A_limit=x`` still work in
     0.2, with a DeprecationWarning (now ``omega=omega`` and ``A_range=(0, x)``).
@@ -91,15 +111,26 @@ def window(system, params, about, *, omega, A_range=None, amplitude="A", frequen
     tol : float
         Requested relative accuracy of the edges.
     scan : int
-        Evenly spaced scan points; a window narrower than A_range[1]/scan can be missed.
+        Evenly spaced scan points (plus a third as many spaced geometrically towards
+        A = 0); windows narrower than their spacing are searched for between them down
+        to ``min_width``.
+    min_width : float, optional
+        The resolution (m): every stable interval at least this wide is found (see the
+        guarantee above).  Default 1e-8 × the scan's upper limit per ω (1e-8 m for a
+        1 m range); larger is no faster on the common case, and only where a window is
+        being born does a smaller one cost a few more monodromies.
 
     Returns
     -------
     kapitza.results.StabilityWindow
-        ``method="floquet"``: A_min, A_max per ω; NaN where no scanned amplitude is
-        stable; A_min = 0 where the undriven state is already stable (the hanging
-        chain); A_max = inf where the scan ends stable.  ``accuracy``: the larger
-        certified relative accuracy of the two edges.  ``l``, ``g`` are None.
+        ``method="floquet"``: A_min, A_max per ω; ``status`` per ω "window", "none" or
+        "undecided" and ``min_width`` (m).  "window": A_min = 0 where the undriven
+        state is already stable (the hanging chain), A_max = inf where the scan ends
+        stable; ``accuracy``: the larger certified relative accuracy of the two edges.
+        "none": A_min, A_max NaN — proved, at ``min_width``, for the amplitudes scanned
+        (a window above ``A_range`` is not looked for).  "undecided": A_min, A_max an
+        envelope within which the lowest window lies, if there is one; accuracy NaN.
+        ``l``, ``g`` are None.
 
     Warns
     -----
@@ -108,8 +139,10 @@ def window(system, params, about, *, omega, A_range=None, amplitude="A", frequen
         monodromy is near the identity and float64 fixes the margins' sign only to about
         ε_mach (ω/ω0)² (so 1e-10 is out of reach from ~100–300 ω0 on; ask for 1e-8 there).
         Where a solved edge fails its check on both sides (A(1 ∓ η) classified on the fine
-        monodromies), or a stable amplitude was scanned but an edge not found, both edges
-        of that ω are NaN and the warning names the frequencies: never a wrong window.
+        monodromies), or a stable amplitude was scanned but an edge not found, that ω is
+        "undecided" and the warning names the frequencies: never a wrong window.  Where
+        a sliver narrower than ``min_width`` could not be ruled out: "undecided", and the
+        warning names the frequencies and amplitudes (pass a smaller ``min_width``).
 
     Examples
     --------
@@ -126,10 +159,21 @@ def window(system, params, about, *, omega, A_range=None, amplitude="A", frequen
     0.0739120532 0.4585959178
     >>> bool(abs(win.A_min / ref.A_min - 1) < 1e-10 and win.accuracy <= 1e-10)
     True
+    >>> print(win.status)
+    window
+
+    At ω = ω0 the window is 8 mm wide at A ≈ 1.9 m, narrower than the scan's spacing
+    (2 cm), and found between the scan points:
+
+    >>> near = window(problems.driven_pendulum("vertical"), dict(m=1.0, l=1.0, g=9.81),
+    ...               [math.pi], omega=math.sqrt(9.81))
+    >>> print(near.status, f"{near.A_min:.4f} {near.A_max:.4f}")
+    window 1.9053 1.9136
     """
     scalar = np.ndim(omega) == 0
     w = arguments.grid_axis(frequency, omega, "rad/s", positive=True)
     _check_tol(tol)
+    _check_min_width(min_width)
     if A_range is not None:
         lo, hi = _amplitude_range(A_range)
         if lo != 0.0:
@@ -142,20 +186,32 @@ def window(system, params, about, *, omega, A_range=None, amplitude="A", frequen
     probe = _Probe(system, params, about, amplitude, frequency, _margin_tol(tol), order,
                    guard_tol, paired=True, classify_tol=CLASSIFY_TOL)
     if w.size == 0:
-        edges = dict(A_min=np.zeros(0), A_max=np.zeros(0), accuracy=np.zeros(0))
+        edges = dict(A_min=np.zeros(0), A_max=np.zeros(0), accuracy=np.zeros(0),
+                     status=np.zeros(0, dtype=str))
+        width = np.zeros(0)
     else:
         limit = probe.amplitude_scale(w) if A_range is None else np.full(w.size, hi)
         grid = np.stack([_scan_grid(0.0, top, scan) for top in limit])
-        edges = first_window(probe, w, grid, tol)
-    pick = (lambda x: float(x[0])) if scalar else (lambda x: x)
+        width = MIN_WIDTH * limit if min_width is None else np.full(w.size, float(min_width))
+        edges = first_window(probe, w, grid, tol, min_width=width)
+    pick = (lambda x: x[0].item()) if scalar else (lambda x: x)
     return StabilityWindow(omega=pick(w), A_min=pick(edges["A_min"]),
                            A_max=pick(edges["A_max"]), method="floquet", about=str(about),
-                           accuracy=pick(edges["accuracy"]), tol=tol)
+                           accuracy=pick(edges["accuracy"]), tol=tol,
+                           status=pick(edges["status"]), min_width=pick(width))
 
 
 def _check_tol(tol):
     if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (1e-13 <= tol < 1e-2):
         raise ValueError(f"tol must be a number in [1e-13, 1e-2) (relative, in A), got {tol!r}.")
+
+
+def _check_min_width(min_width):
+    if min_width is not None and (isinstance(min_width, bool) or not isinstance(
+            min_width, (int, float)) or not (0.0 < min_width < math.inf)):
+        raise ValueError(f"min_width must be a positive number of metres (the narrowest "
+                         f"window certainly found), or None for 1e-8 × the scan's top; "
+                         f"got {min_width!r}.")
 
 
 def _amplitude_range(A_range):
@@ -172,13 +228,15 @@ def _amplitude_range(A_range):
 
 @frequency_as_keyword
 def boundaries(system, params, about, *, omega, A_range=None, amplitude="A",
-               frequency="omega", tol=1e-10, seed_every=10, scan=64, side=1e-6, order=16,
-               guard_tol=1e-8) -> BoundaryCurves:
+               frequency="omega", tol=1e-10, seed_every=10, scan=64, side=1e-6,
+               min_width=None, order=16, guard_tol=1e-8) -> BoundaryCurves:
     """The stability boundaries A_k(ω) of ``about`` over a frequency grid, by continuation.
 
     Every ``seed_every``-th frequency (and the last) is scanned over ``A_range`` for
-    changes between stable and unstable; each is solved to ``tol`` on the smooth margin
-    of its kind ("T", "2T", "complex"; see :func:`window`), and followed through the
+    changes between stable and unstable — between the scan points too, down to
+    ``min_width``, as :func:`window` does; each change is solved to ``tol`` on the
+    smooth margin of its kind ("T", "2T", "complex"; see :func:`window`), and followed
+    through the
     frequencies in between by predictor–corrector continuation (a few monodromies per
     point), all curves together; finally every point is classified at A(1 ∓ ``side``)
     and kept only where exactly its stable side is stable
@@ -197,8 +255,14 @@ def boundaries(system, params, about, *, omega, A_range=None, amplitude="A",
         the largest scan limit of :func:`window`.
     seed_every, scan : int
         Seed frequencies' spacing (in grid points) and their scans' evenly spaced
-        points (a boundary inside a stable or unstable sliver thinner than the scan's
-        spacing at every seed frequency is not found).
+        points.  Slivers thinner than the scan's spacing are searched for at the seed
+        frequencies as :func:`window` does (guarantee there, ``min_width``); a curve
+        that bounds only a sliver between two seed frequencies and none at a seed is
+        found only if continuation reaches it.
+    min_width : float, optional
+        The resolution (m) of the seed scans; default 1e-8 × the largest amplitude of
+        ``A_range``.  Where a sliver narrower than it cannot be ruled out at a seed
+        frequency, a RuntimeWarning names the frequency and amplitudes.
     side : float
         Relative offset of the side checks.
 
@@ -238,8 +302,9 @@ def boundaries(system, params, about, *, omega, A_range=None, amplitude="A",
         lo, hi = 0.0, float(np.max(probe.amplitude_scale(w[[0, -1]])))
     else:
         lo, hi = _amplitude_range(A_range)
+    _check_min_width(min_width)
     found = trace_curves(probe, w, _scan_grid(lo, hi, scan), tol, seed_every=seed_every,
-                         side=side)
+                         side=side, min_width=min_width)
     return BoundaryCurves(omega=w, A=found["A"], accuracy=found["accuracy"],
                           kind=tuple(KINDS[int(k)] for k in found["kind"]),
                           stable_below=found["stable_below"], about=str(about),

@@ -9,11 +9,13 @@ stability over the drive's plane (``StabilityMap``, ``AdaptiveMap``, ``Stability
 ``BoundaryCurves``, ``InceStruttChart``); averaging (``SlowModes``,
 ``AveragingPrediction``, ``SlowModeSweep``, and in closed form ``EquilibriumPrediction``,
 ``PendulumAveraging``, ``MultiplePendulumPrediction``); direct simulation
-(``Measurement``, ``PeriodicOrbit``); verification (``Verification``, ``OrderFit``); and
+(``Measurement``, ``PeriodicOrbit``); verification (``Verification``, ``OrderFit``);
+continuation (``Branch``, ``BranchPoints``, ``Bifurcation``); and
 ``ComputationInterrupted``, Ctrl-C during a long grid with the finished part.
 
 For sibling rooms (not in ``__all__``): ``BOUNDARIES`` (the names of the stability
-labels), ``VERIFICATION_METHODS`` and ``scalar_or_array``.
+labels), ``VERIFICATION_METHODS``, ``BIFURCATION_KINDS``, ``BRANCH_STATUSES`` and
+``scalar_or_array``.
 """
 from ._averaging import (
     AveragingPrediction,
@@ -26,6 +28,9 @@ from ._averaging import (
 from ._base import BOUNDARIES as BOUNDARIES
 from ._base import ComputationInterrupted
 from ._base import scalar_or_array as scalar_or_array
+from ._branches import BIFURCATION_KINDS as BIFURCATION_KINDS
+from ._branches import BRANCH_STATUSES as BRANCH_STATUSES
+from ._branches import Bifurcation, Branch, BranchPoints
 from ._floquet import FloquetGrid, FloquetResult, MonodromyData
 from ._maps import (
     AdaptiveMap,
@@ -43,6 +48,7 @@ __all__ = [
     "StabilityWindow", "InceStruttChart", "SlowModes", "AveragingPrediction",
     "SlowModeSweep", "EquilibriumPrediction", "PendulumAveraging", "MultiplePendulumPrediction",
     "Measurement", "PeriodicOrbit", "OrderFit", "Verification", "BoundaryCurves", "AdaptiveMap",
+    "Branch", "BranchPoints", "Bifurcation",
 ]
 
 

@@ -10,7 +10,6 @@ eigenvalues of the monodromy over the orbit's own period (``periods`` drive peri
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -167,6 +166,9 @@ class Branch:
         The corrector's tolerance: |φ(x) − x|∞ ≤ tol · max(1, |x|∞).
     flows : int
         Flows of the period map computed (the cost).
+    origin : str
+        "" for a branch started by :func:`kapitza.continuation`; for one started by
+        :meth:`switch`, the bifurcation it emanates from.
     """
 
     coordinates: tuple
@@ -181,14 +183,26 @@ class Branch:
     message: str
     tol: float
     flows: int
+    origin: str = ""
     _engine: Any = field(default=None, repr=False, compare=False)
 
     def __repr__(self) -> str:
         p = self.points.parameter
         bif = "; ".join(str(b) for b in self.bifurcations) or "none"
         span = f"{p[0]:.6g} → {p[-1]:.6g}" if p.size else "empty"
+        origin = f", from {self.origin}" if self.origin else ""
         return (f"Branch({self.parameter}: {span}, {len(self.points)} points, "
-                f"periods={self.periods}, status={self.status!r}; bifurcations: {bif})")
+                f"periods={self.periods}{origin}, status={self.status!r}; bifurcations: {bif})")
+
+    def _label(self) -> str:
+        """The legend's name: "T orbits", "2T orbits from the period doubling",
+        "T orbits from the pitchfork (−)" (the other half)."""
+        name = f"{self.periods}T orbits" if self.periods > 1 else "T orbits"
+        if self.origin:
+            name += f" from {self.origin.split(' at ')[0]}"
+            if "direction -1" in self.origin:
+                name += " (−)"
+        return name
 
     def switch(self, bifurcation, *, direction=1, step=None, stop=None, max_points=None):
         """The branch that emanates from ``bifurcation`` (one of :attr:`bifurcations`).
@@ -246,81 +260,18 @@ class Branch:
         cols["residual"] = pts.residual
         return pd.DataFrame(cols)
 
-    def figure(self, *, ax=None, y="amplitude", coordinate=0, color=None, label=None):
-        """The branch against its parameter: solid where stable, dashed where unstable,
-        each bifurcation marked and named.
+    def figure(self, **options):
+        """The branch against its parameter, stable solid and unstable dashed, each
+        bifurcation marked: :func:`kapitza.figures.branch_figure` (``options`` go to it:
+        ``ax=`` to draw over a parent branch, ``y=``, ``coordinate=``, ``color=``,
+        ``label=``). Returns a :class:`matplotlib.figure.Figure`."""
+        from ..figures import branch_figure
+        return branch_figure(self, **options)
 
-        Parameters
-        ----------
-        ax : matplotlib Axes, optional
-            Draw into it (e.g. a switched branch over its parent); else a new figure.
-        y : {"amplitude", "mean", "state"}
-            Half the peak-to-peak range of q, its period mean, or q at t = 0.
-        coordinate : int or str
-            Which coordinate.
-        color, label : optional
-            The line's colour and legend label.
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-        """
-        choices = {"amplitude": "amplitude", "mean": "q_mean", "state": "state"}
-        if y not in choices:
-            raise ValueError(f"y must be one of {list(choices)}, got {y!r}.")
-        if isinstance(coordinate, str):
-            if coordinate not in self.coordinates:
-                raise ValueError(f"coordinate {coordinate!r} is not one of "
-                                 f"{list(self.coordinates)}.")
-            coordinate = self.coordinates.index(coordinate)
-        name = self.coordinates[coordinate]
-        if ax is None:
-            from matplotlib.backends.backend_agg import FigureCanvasAgg
-            from matplotlib.figure import Figure
-            fig = Figure(figsize=(6.4, 4.2), layout="constrained")
-            FigureCanvasAgg(fig)
-            ax = fig.add_subplot()
-        else:
-            fig = ax.figure
-        pts = self.points
-        values = getattr(pts, choices[y])[:, coordinate]
-        color = color or f"C{len(ax.get_legend_handles_labels()[0]) % 10}"
-        label = label or (f"{self.periods}T orbits" if self.periods > 1 else "T orbits")
-        _draw_runs(ax, pts.parameter, values, pts.stable, color, label)
-        for b in self.bifurcations:
-            ax.plot(pts.parameter[b.index], values[b.index], _MARKERS.get(b.kind, "o"),
-                    ms=8, mfc="white", mec="k", mew=1.4, zorder=5)
-            ax.annotate(b.kind.replace("_", " "), (pts.parameter[b.index], values[b.index]),
-                        textcoords="offset points", xytext=(6, 6), fontsize=8)
-        ax.set_xlabel(f"{self.parameter}")
-        ax.set_ylabel({"amplitude": f"amplitude of {name} (half peak-to-peak)",
-                       "mean": f"period mean of {name}", "state": f"{name} at t = 0"}[y])
-        from matplotlib.lines import Line2D
-        handles = list(ax.get_legend_handles_labels()[0])
-        own = {h.get_label() for h in handles}
-        extra = [Line2D([], [], color="0.3", ls="-", label="stable"),
-                 Line2D([], [], color="0.3", ls="--", label="unstable")]
-        ax.legend(handles=handles + [h for h in extra if h.get_label() not in own],
-                  fontsize=8, frameon=False)
-        return fig
+    @property
+    def label(self) -> str:
+        """The legend's name: "T orbits", "2T orbits from the period doubling",
+        "T orbits from the pitchfork (−)" (the other half)."""
+        return self._label()
 
 
-_MARKERS = {"fold": "s", "pitchfork": "D", "transcritical": "X", "period_doubling": "o",
-            "neimark_sacker": "^"}
-
-
-def _draw_runs(ax, x, y, stable, color, label):
-    """Consecutive points of equal stability as one line (solid/dashed), joined where
-    the stability changes so the curve is unbroken."""
-    ax.plot([], [], color=color, ls="-", lw=1.8, label=label)   # the legend's entry
-    if x.size == 0:
-        return
-    start = 0
-    for k in range(1, x.size + 1):
-        if k == x.size or stable[k] != stable[start]:
-            stop = min(k + 1, x.size)
-            ax.plot(x[start:stop], y[start:stop], color=color,
-                    ls="-" if stable[start] else "--", lw=1.8)
-            start = k
-    if math.isfinite(float(np.max(np.abs(y)))) and np.ptp(y) == 0:
-        ax.margins(y=0.2)

@@ -126,9 +126,11 @@ class StabilityWindow:
         Drive angular frequencies (rad/s).
     A_min, A_max : float or ndarray
         Window edges (m).  Exact: NaN where there is no window (e.g. ω too low to
-        hold the pendulum upright).  Averaging, order 1: A_min = √(2 g l)/ω and
-        A_max = +inf (first order cannot see the upper limit); order 2: the next
-        order, relative error O(ε⁴), with A_max from the parametric resonance
+        hold the pendulum upright); with ``status`` (:func:`kapitza.window`), NaN
+        only where it is "none", and where it is "undecided" an envelope: the lowest
+        window, if any, lies within [A_min, A_max] (accuracy NaN).  Averaging, order 1:
+        A_min = √(2 g l)/ω and A_max = +inf (first order cannot see the upper limit);
+        order 2: the next order, relative error O(ε⁴), with A_max from the parametric resonance
         a′ = b₁(2A/l) (→ 0.4540 l as ω → ∞); NaN where the edges cross (see
         ``exists``), and see ``valid`` before trusting an edge.
     method : {"floquet", "averaging"}
@@ -157,6 +159,13 @@ class StabilityWindow:
         Averaging, as for :class:`EquilibriumPrediction`: ``frequency_ratio ≥
         MIN_FREQUENCY_RATIO``, ``A_min/l ≤ MAX_AMPLITUDE_RATIO``, ``error_estimate ≤
         MAX_CORRECTION``, and all three with ``exists``.  None for exact windows.
+    status : str or ndarray of str or None
+        :func:`kapitza.window` (any system): per ω "window" (found, edges certified),
+        "none" (proved: no stable interval at least ``min_width`` wide in the amplitudes
+        scanned) or "undecided" (a stable sliver narrower than ``min_width`` could not be
+        ruled out, or an edge failed its check; warned).  None elsewhere.
+    min_width : float or ndarray or None
+        :func:`kapitza.window`: the resolution (m) to which ``status`` holds, per ω.
     """
 
     omega: ArrayLike
@@ -177,6 +186,8 @@ class StabilityWindow:
     small_amplitude: ArrayLike | None = None
     converged: ArrayLike | None = None
     valid: ArrayLike | None = None
+    status: str | np.ndarray | None = None
+    min_width: ArrayLike | None = None
 
     def __post_init__(self):
         if self.method not in _WINDOW_METHODS:
@@ -190,6 +201,8 @@ class StabilityWindow:
         data: dict[str, object] = {"omega": w, "A_min": lo, "A_max": hi}
         if self.accuracy is not None:
             data["accuracy"] = np.ravel(self.accuracy)
+        if self.status is not None:
+            data["status"] = np.ravel(self.status)
         if self.order is not None:
             data["order"] = self.order
         return pd.DataFrame(data)

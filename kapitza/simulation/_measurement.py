@@ -542,7 +542,8 @@ def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIOD
         if outside.any():
             raise ValueError(
                 f"q0 = {np.broadcast_to(start, outside.shape)[outside][:3].tolist()} ... lies "
-                f"outside the band |q − about| < band about {np.broadcast_to(ref, outside.shape)[outside][:3].tolist()}: "
+                f"outside the band |q − about| < band about "
+                f"{np.broadcast_to(ref, outside.shape)[outside][:3].tolist()}: "
                 "a run must start inside it. Pass the state it starts near as `about`, a wider "
                 "band, or band=None.")
     try:
