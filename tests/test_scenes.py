@@ -368,6 +368,59 @@ BAD = {
                                     [("sweep.axes.frequency_hz[0]", 14, "must be > 0 (Hz)")]),
     "a window at 0 Hz": (("floquet = true", "window = { frequency_hz = [0.0] }"),
                          [("analyses.window.frequency_hz[0]", 12, "must be > 0 (Hz)")]),
+    # issue 21: the window names its method; the frontier's analyses
+    "window order without averaging": (("floquet = true", "window = { omega = [300.0], "
+                                                          "order = 2 }"),
+                                       [("analyses.window.order", 12, 'only with method = '
+                                                                      '"averaging"')]),
+    "window method misspelt": (("floquet = true", 'window = { omega = [300.0], method = '
+                                                  '"mathieu" }'),
+                               [("analyses.window.method", 12, "unknown value 'mathieu'; "
+                                                               "allowed: floquet, averaging")]),
+    "continuation without stop": (("floquet = true", 'continuation = { parameter = "A" }'),
+                                  [("analyses.continuation.stop", 12, "missing; where the "
+                                                                      "branch ends")]),
+    "continuation = true": (("floquet = true", "continuation = true"),
+                            [("analyses.continuation.stop", 12, "missing")]),
+    "continuation of no parameter": (("floquet = true", 'continuation = { parameter = "amp", '
+                                                        'stop = 0.3 }'),
+                                     [("analyses.continuation.parameter", 12,
+                                       "unknown parameter 'amp'; allowed: A, g, l, m, omega, "
+                                       "frequency_hz")]),
+    "continuation stops where it starts": (("floquet = true", "continuation = { stop = 0.05 }"),
+                                           [("analyses.continuation.stop", 12, "equals the "
+                                                                               "start value")]),
+    "continuation to ω < 0": (("floquet = true", 'continuation = { parameter = "omega", stop = '
+                                                 '-5.0 }'),
+                              [("analyses.continuation.stop", 12, "must be > 0 (rad/s)")]),
+    "continuation switch as text": (("floquet = true", 'continuation = { stop = 0.3, switch = '
+                                                       '"yes" }'),
+                                    [("analyses.continuation.switch", 12, "must be true or "
+                                                                          "false")]),
+    "diagram without values": (("floquet = true", 'bifurcation_diagram = { parameter = "A" }'),
+                               [("analyses.bifurcation_diagram.values", 12, "missing; the values "
+                                                                            "of A")]),
+    "diagram start of two angles": (("floquet = true", "bifurcation_diagram = { values = [0.1], "
+                                                       "starts = [[0.1, 0.2]] }"),
+                                    [("analyses.bifurcation_diagram.starts[0]", 12,
+                                      "a start needs 1 coordinate values (theta), got 2")]),
+    "diagram at a frequency ≤ 0 Hz": (("floquet = true", 'bifurcation_diagram = { parameter = '
+                                                         '"frequency_hz", values = [-1.0] }'),
+                                      [("analyses.bifurcation_diagram.values[0]", 12,
+                                        "must be > 0 (Hz)")]),
+    "lyapunov record too short": (("floquet = true", "lyapunov = { periods = 4 }"),
+                                  [("analyses.lyapunov.periods", 12, "must be ≥ 8, got 4")]),
+    "lyapunov too many exponents": (("floquet = true", "lyapunov = { exponents = 3 }"),
+                                    [("analyses.lyapunov.exponents", 12, "must be at most 2")]),
+    "lyapunov exponents misspelt": (("floquet = true", 'lyapunov = { exponents = "al" }'),
+                                    [("analyses.lyapunov.exponents", 12, "unknown value 'al'; "
+                                                                         "allowed: all, "
+                                                                         "largest")]),
+    "lyapunov transient < 0": (("floquet = true", "lyapunov = { transient = -1 }"),
+                               [("analyses.lyapunov.transient", 12, "must be ≥ 0")]),
+    "lyapunov without a drive": ([("[effects.drive]\namplitude = 0.05\nomega = 300.0\n", ""),
+                                  ("floquet = true", "lyapunov = true")],
+                                 [("analyses.lyapunov", 9, "lyapunov needs a drive")]),
     "output formats": ("[output]\nformats = [\"hdf5\"]\n",
                        [("output.formats[0]", 14, "unknown value 'hdf5'; allowed: parquet, "
                                                   "csv")]),
@@ -580,16 +633,17 @@ def test_floquet_follows_the_effects():
 
 def test_map_and_window_of_a_system_off_the_plain_pendulum():
     """A spring at the upright (rest = π) makes the scene a general system: the map by
-    monodromy (kapitza.stability_map) and the window by averaging (AveragedSystem.window).
+    monodromy (kapitza.stability_map) and the exact window by kapitza.window (issue 21.1:
+    never averaging in its place); the averaging window only when asked for by name.
     Its linearisation is the pendulum's with g' = g − k/(m l): the exact Mathieu map and
-    averaging's A_min ω = √(2 g' l) are independent references."""
+    window, and averaging's A_min ω = √(2 g' l), are independent references."""
     A = [0.01, 0.02, 0.4, 0.5]
-    s = Scene.from_text(_GOOD.replace("[analyses]", f"[effects.spring.theta]\nk = 2.0\nrest = "
-                                                    f"{math.pi!r}\n[analyses]")
-                        .replace("floquet = true", f"stability_map = {{ A = {A}, omega = "
-                                                   "[300.0], about = \"inverted\" }\nwindow = "
-                                                   "{ omega = [300.0, 600.0], "
-                                                   "about = \"inverted\" }"))
+    text = (_GOOD.replace("[analyses]", f"[effects.spring.theta]\nk = 2.0\nrest = "
+                                        f"{math.pi!r}\n[analyses]")
+            .replace("floquet = true", f"stability_map = {{ A = {A}, omega = [300.0], about = "
+                                       "\"inverted\" }\nwindow = { omega = [300.0, 600.0], "
+                                       "about = \"inverted\" }"))
+    s = Scene.from_text(text)
     assert s.pendulum is None
     res = s.run(write=False)
     g_eff = 9.81 - 2.0 / (1.0 * 1.0)
@@ -597,8 +651,20 @@ def test_map_and_window_of_a_system_off_the_plain_pendulum():
     np.testing.assert_array_equal(res["stability_map"].stable, exact.stable)
     assert exact.stable[:, 0].tolist() == [False, True, True, False]
     window = res["window"]
-    assert window.method == "averaging"
-    np.testing.assert_allclose(window.A_min, np.sqrt(2 * g_eff) / np.array([300.0, 600.0]),
+    assert window.method == "floquet" and list(window.status) == ["window", "window"]
+    mathieu = kapitza.pendulum_window(np.array([300.0, 600.0]), l=1.0, g=g_eff)
+    np.testing.assert_allclose(window.A_min, mathieu.A_min, rtol=1e-8)
+    np.testing.assert_allclose(window.A_max, mathieu.A_max, rtol=1e-8)
+    tables = res.tables()
+    assert set(tables["window"]["method"]) == {"floquet: certified monodromy edges "
+                                               "(kapitza.window)"}
+    assert set(tables["stability_map"]["method"]) == {"floquet: monodromy"}
+    averaged = Scene.from_text(text.replace('600.0], about = "inverted" }',
+                                            '600.0], about = "inverted", method = "averaging" }'))
+    res = averaged.run(write=False)
+    assert res["window"].method == "averaging"
+    assert res.methods["window"] == "averaging: order 1"
+    np.testing.assert_allclose(res["window"].A_min, np.sqrt(2 * g_eff) / np.array([300.0, 600.0]),
                                rtol=1e-12)
 
 

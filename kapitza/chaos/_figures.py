@@ -175,16 +175,21 @@ def basin_figure(basin, *, ax=None, title=None):
     x = np.concatenate([basin.q0, basin.qdot0], axis=-1)
     label = [*basin.coordinates, *(f"d{c}/dt" for c in basin.coordinates)]
     fig, ax = _axes(ax, (6.0, 5.0))
-    a, b = x[:, 0, ij[0]], x[0, :, ij[1]]
-    ax.pcolormesh(b, a, basin.stays.astype(float), cmap=ListedColormap(["#f3d9c9", "#5b8fc9"]),
+    along0, along1 = x[:, 0, ij[0]], x[0, :, ij[1]]
+    # the lower component of [q, q̇] across (a coordinate before its rate)
+    if ij[0] < ij[1]:
+        (xs, ys, z), (cx, cy) = (along0, along1, basin.stays.T), ij
+    else:
+        (xs, ys, z), (cx, cy) = (along1, along0, basin.stays), ij[::-1]
+    ax.pcolormesh(xs, ys, z.astype(float), cmap=ListedColormap(["#f3d9c9", "#5b8fc9"]),
                   vmin=0, vmax=1, shading="nearest", rasterized=True)
     centre = np.concatenate([basin.about, np.zeros(n)])
-    ax.plot(centre[ij[1]], centre[ij[0]], "k+", ms=10)
+    ax.plot(centre[cx], centre[cy], "k+", ms=10)
     ax.plot([], [], "s", color="#5b8fc9", label="stays")
     ax.plot([], [], "s", color="#f3d9c9", label="leaves")
     ax.legend(fontsize=8, loc="upper right")
-    ax.set_xlabel(label[ij[1]])
-    ax.set_ylabel(label[ij[0]])
+    ax.set_xlabel(label[cx])
+    ax.set_ylabel(label[cy])
     ax.set_title(title or f"basin: {basin.fraction:.1%} of the cells stay for {basin.periods} "
                           "drive periods", fontsize=10)
     return fig

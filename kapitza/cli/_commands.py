@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ._catalogue import catalogue_summary
+from ._frontier_commands import FRONTIER_COMMANDS
 from ._output import (
     EXIT_DISAGREEMENT,
     EXIT_INTERRUPTED,
@@ -363,5 +364,5 @@ def _summary(args) -> int:
 
 #: Each command's function, by its name on the command line.
 COMMANDS = {"predict": _predict, "window": _window, "map": _map, "measure": _measure,
-            "verify": _verify, "animate": _animate, "report": _report, "run": _run,
-            "sweep": _sweep, "warmup": _warmup, "summary": _summary}
+            "verify": _verify, "animate": _animate, **FRONTIER_COMMANDS, "report": _report,
+            "run": _run, "sweep": _sweep, "warmup": _warmup, "summary": _summary}

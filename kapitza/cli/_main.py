@@ -24,7 +24,7 @@ def main(argv=None) -> int:
         return int(stop.code or 0)
     name = f"kapitza {args.command}"
     try:
-        if getattr(args, "periods", 1) is None:
+        if args.command in ("measure", "verify") and args.periods is None:
             from ..simulation import DEFAULT_PERIODS
             args.periods = DEFAULT_PERIODS
         return COMMANDS[args.command](args)

@@ -8,6 +8,9 @@ Commands (``kapitza COMMAND --help`` shows each one's options and an example):
   measure   simulate the full nonlinear motion at one drive and measure it
   verify    averaging, Floquet and simulation compared over a grid (exit 1: disagreement)
   animate   a GIF of the stabilised inverted pendulum beside one that falls
+  continue  follow a branch of periodic orbits in A or ω: its bifurcations, a PNG
+  bifurcation  the stroboscopic bifurcation diagram over A or ω: a PNG and the dots
+  lyapunov  Lyapunov exponents at one drive, or the largest one over an A × ω grid
   report    the whole story in one folder: an HTML page, figures, a GIF and the data
   run       run the analyses a scene file asks for
   sweep     run a scene's [sweep] over its grid, in resumable tiles
@@ -151,6 +154,19 @@ _EXAMPLES = {
                 "kapitza animate --A 0.2 --omega 40 --A-fall 0.05 --duration 3 --json",
                 "kapitza animate kapitza/scenes/report.toml --out report.gif",
                 "kapitza animate up.toml undriven.toml --out chains.gif"],
+    "continue": ["kapitza continue --A 0.02 --omega 6.2642 --damping 0.47 --about hanging "
+                 "--stop 0.7 --switch --out branches.png",
+                 "kapitza continue --A 0.02 --omega-over-omega0 20 --about inverted --stop 0.6 "
+                 "--json",
+                 "kapitza continue kapitza/scenes/period_doubling.toml --json"],
+    "bifurcation": ["kapitza bifurcation --omega 6.2642 --damping 0.47 --values 0:0.7:141 "
+                    "--starts 0.1,2.0 --out diagram.png",
+                    "kapitza bifurcation kapitza/scenes/period_doubling.toml --transient 500 "
+                    "--json"],
+    "lyapunov": ["kapitza lyapunov --A 0.55 --omega 6.2642 --damping 0.47 --theta0 0.1",
+                 "kapitza lyapunov --A 0:0.7:36 --omega 5:8:16 --damping 0.47 --periods 300 "
+                 "--out chaos-map.png --data chaos-map.csv",
+                 "kapitza lyapunov kapitza/scenes/period_doubling.toml --json"],
     "report": ["kapitza report                      # the default scene, into ./kapitza-report",
                "kapitza report kapitza/scenes/double_pendulum.toml --out dp-report",
                "kapitza report --quick --out /tmp/r --json"],
@@ -283,6 +299,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "it fits --max-frames and is at most 10× slower than real; default)")
     p.add_argument("--out", default="pendulum.gif", help="the GIF (default pendulum.gif)")
 
+    _frontier_parsers(add)
+
     p = add("report", "the main job: run a scene (default: a 1 m pendulum shaken "
             "vertically) through every analysis and write a self-contained folder: "
             "index.html, PNG figures, a GIF and the data (Parquet and CSV); progress on "
@@ -311,3 +329,76 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rtol", type=float, default=1e-10,
                    help="integration tolerance (default 1e-10)")
     return parser
+
+
+def _frontier_parsers(add):
+    """``continue``, ``bifurcation`` and ``lyapunov``: a scene file, or the pendulum and its
+    drive from the options (the scene's ``[analyses]`` table of the same name gives the
+    settings; the options override them)."""
+    pend = False
+
+    def scene_and_state(p, what):
+        p.add_argument("scene", metavar="SCENE.toml", nargs="?", default=None,
+                       help=f"a scene file: its system, parameters, initial state and "
+                       f"[analyses.{what}] (the options below override its settings); "
+                       "without it, the pendulum and the drive of the options")
+        p.add_argument("--theta0", type=float, default=None,
+                       help="initial angle from the downward vertical (rad; default 0.1, "
+                       "or the scene's)")
+        p.add_argument("--theta-dot0", dest="theta_dot0", type=float, default=None,
+                       help="initial angular velocity (rad/s; default 0, or the scene's)")
+
+    def parameter(p):
+        p.add_argument("--parameter", help="the parameter varied: A (default), omega, "
+                       "frequency_hz, gamma, l, ... (values in its SI unit; Hz for "
+                       "frequency_hz)")
+
+    def outputs(p, figure, note=""):
+        p.add_argument("--out", default=figure, help=f"figure (default {figure}){note}")
+        p.add_argument("--data", help="data file, .csv or .parquet (default: the figure's "
+                       "name with .csv)")
+
+    p = add("continue", "follow a branch of periodic orbits (an equilibrium that persists "
+            "under the drive, or the periodic orbit of a drive that leaves none) in one "
+            "parameter through folds, its bifurcations located and classified; --switch "
+            "follows the branches born at them", pend)
+    scene_and_state(p, "continuation")
+    parameter(p)
+    p.add_argument("--start", type=float, help="where the branch starts (default: the "
+                   "parameter's value, e.g. --A)")
+    p.add_argument("--stop", type=float, help="where it ends (required without a scene's "
+                   "[analyses.continuation])")
+    p.add_argument("--periods", type=int, help="orbits of this many drive periods (default 1)")
+    p.add_argument("--about", help="the starting state: inverted, hanging, auto (the "
+                   "persisting state nearest --theta0; default) or an angle (rad)")
+    p.add_argument("--switch", action=argparse.BooleanOptionalAction, default=None,
+                   help="also follow the branches born at period doublings, pitchforks and "
+                   "transcritical points")
+    p.add_argument("--max-points", dest="max_points", type=int,
+                   help="stop a branch after this many points (default 500)")
+    outputs(p, "kapitza-branches.png")
+
+    p = add("bifurcation", "the stroboscopic bifurcation diagram: after a transient, one "
+            "sample per drive period over the values of a parameter × starting angles", pend)
+    scene_and_state(p, "bifurcation_diagram")
+    parameter(p)
+    p.add_argument("--values", help="the parameter's values: START:STOP:NUM or a,b,c "
+                   "(required without a scene's [analyses.bifurcation_diagram])")
+    p.add_argument("--starts", help="starting angles at rest, a,b,c (rad; several "
+                   "coordinates: a1 a2,b1 b2; default --theta0)")
+    p.add_argument("--periods", type=int, help="strobe samples kept per run (default 200)")
+    p.add_argument("--transient", type=int, help="drive periods run first (default 500)")
+    outputs(p, "kapitza-bifurcation.png")
+
+    p = add("lyapunov", "the Lyapunov exponents of the motion from one initial state, with "
+            "their error; with several --A or ω values, the largest one over the grid (a "
+            "chaos map)", pend)
+    scene_and_state(p, "lyapunov")
+    p.add_argument("--periods", type=int, help="drive periods of the record (default 1000; "
+                   "≥ 8)")
+    p.add_argument("--transient", type=int, help="drive periods run first (default 100)")
+    p.add_argument("--exponents", help="all (default), largest, or how many")
+    p.add_argument("--log-omega", action="store_true", help="START:STOP:NUM of ω geometric")
+    p.add_argument("--out", help="a grid's figure (.png: the map over two varying "
+                   "parameters, or λ1 along one)")
+    p.add_argument("--data", help="a grid's table, .csv or .parquet")

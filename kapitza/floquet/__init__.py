@@ -35,14 +35,17 @@ keywords named by the parameter they vary:
     The same map, refined only where the classification changes →
     :class:`~kapitza.results.AdaptiveMap`.
 :func:`window`
-    The stabilising amplitudes per ω, ``omega=``, certified edges →
-    :class:`~kapitza.results.StabilityWindow`.
+    The stabilising amplitudes per ω, ``omega=``, certified edges, every window at
+    least ``min_width`` wide found (``status`` "window", "none" or "undecided", never a
+    silent miss) → :class:`~kapitza.results.StabilityWindow`.
 :func:`boundaries`
     The curves A_k(ω) by continuation, ``omega=``, ``A_range=`` →
     :class:`~kapitza.results.BoundaryCurves`.
 
 Windows, boundaries and adaptive maps find where stability changes as roots of smooth
-margins such as det(M ∓ I) (:mod:`kapitza.floquet._margins`), not by bisection on the flag.
+margins such as det(M ∓ I) (:mod:`kapitza.floquet._margins`), not by bisection on the flag;
+windows and boundaries look between their scan points too
+(:mod:`kapitza.floquet._frontier`).
 The single pendulum's maps and windows go through the Mathieu equation instead
 (:mod:`kapitza.closed_forms`), which is faster and exact to rounding.
 

@@ -136,7 +136,8 @@ def trace_curves(evaluate, omega, grid, rtol, *, seed_every=10, side=1e-6, min_w
         warnings.warn(
             "boundaries: could not decide whether a stable sliver (or an unstable gap) "
             f"narrower than min_width = {width:.2g} m lies between the scan points at seed "
-            + "; ".join(f"ω = {om:.6g} rad/s: {_spans(sp)} m" for om, sp in found["undecided"][:3])
+            + "; ".join(f"ω = {om:.6g} rad/s: A in {_spans(sp)} m"
+                        for om, sp in found["undecided"][:3])
             + (f" and {len(found['undecided']) - 3} more seed frequencies"
                if len(found["undecided"]) > 3 else "")
             + ": boundaries there may be missing (a window being born or closing); pass a "
@@ -226,7 +227,7 @@ def _bracket(evaluate, w, pred, delta, kinds, lo_A, hi_A, widen=4.0, tries=8):
     pred ± δ, δ widened ×``widen`` until two neighbouring points differ in sign (the
     change nearest the prediction).  Returns (a, b, (g_a, e_a, g_b, e_b), found, evals)."""
     n = pred.size
-    xs = [[] for _ in range(n)]
+    xs: list[list[tuple[float, float, float]]] = [[] for _ in range(n)]
     a = np.full(n, np.nan)
     b = np.full(n, np.nan)
     ends = tuple(np.full(n, np.nan) for _ in range(4))

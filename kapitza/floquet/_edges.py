@@ -9,8 +9,9 @@ and ``accuracy`` = max(A − lo, hi − A)/A (widened by bound/slope where an en
 within the margin's error bound); a RuntimeWarning says where it is coarser than the
 tolerance asked (near the identity, at fast drives, float64 monodromies fix a margin's
 sign only to ≈ ε (ω/ω0)² relative).  :func:`first_window` brackets the lowest stable
-interval of amplitudes by a classification scan, solves its two edges and checks each on
-both sides (NaN and a warning where a check fails: never a wrong window).
+interval of amplitudes by a classification scan, searched between its points down to a
+stated width (:mod:`kapitza.floquet._frontier`), solves its two edges and checks each on
+both sides (status "undecided" and a warning where a check fails: never a wrong window).
 
 These functions know nothing of how a monodromy is computed: they call
 ``evaluate(A, omega, analyse)``, which returns a dict with the balanced monodromies
@@ -261,15 +262,15 @@ def first_window(evaluate, omega, grid, rtol, *, side=1e-5, min_width=None):
     status[bad | open_] = "undecided"
     accuracy = np.fmax(out["acc_min"], out["acc_max"])
     A_min, A_max = out["A_min"].copy(), out["A_max"].copy()
-    for r in np.nonzero(status == "undecided")[0]:
+    for k in np.nonzero(status == "undecided")[0]:
         # the envelope: the lowest window, if any, lies in it (the undecided intervals,
         # and the window found: its edges if checked, its brackets' outer ends if not)
-        lo = [a for a, _ in undecided[r]]
-        hi = [b for _, b in undecided[r]]
-        if found[r]:
-            lo.append(A_min[r] if checked[r] else outer[r, 0])
-            hi.append(A_max[r] if checked[r] else outer[r, 1])
-        A_min[r], A_max[r], accuracy[r] = min(lo), max(hi), np.nan
+        lo = [a for a, _ in undecided[k]]
+        hi = [b for _, b in undecided[k]]
+        if found[k]:
+            lo.append(A_min[k] if checked[k] else outer[k, 0])
+            hi.append(A_max[k] if checked[k] else outer[k, 1])
+        A_min[k], A_max[k], accuracy[k] = min(lo), max(hi), np.nan
     status = status.astype(str)
 
     def freq(which):
@@ -284,15 +285,15 @@ def first_window(evaluate, omega, grid, rtol, *, side=1e-5, min_width=None):
             "may resolve them.", RuntimeWarning, stacklevel=3)
     sliver = open_ & ~bad
     if sliver.any():
-        spans = "; ".join(f"ω = {w[r]:.6g}: {_spans(undecided[r])}"
+        spans = "; ".join(f"ω = {w[r]:.6g} rad/s: A in {_spans(undecided[r])} m"
                           for r in np.nonzero(sliver)[0])
         warnings.warn(
             f"window: could not decide whether a stable interval (or, inside the window, an "
             f"unstable gap) narrower than min_width lies between the scan points at {spans} "
-            f"rad/s, m (status 'undecided'; A_min, A_max give the envelope within which the "
-            "lowest window lies, if any).  The margin there comes within its curvature of "
-            "zero: a window is being born or closing; pass a smaller min_width, or look "
-            "with kapitza.floquet_point at those amplitudes.", RuntimeWarning, stacklevel=3)
+            "(status 'undecided'; A_min, A_max give the envelope within which the lowest "
+            "window lies, if any).  The margin there comes within its curvature of zero: a "
+            "window is being born or closing.  Pass a smaller min_width (m), or look with "
+            "kapitza.floquet_point at those amplitudes.", RuntimeWarning, stacklevel=3)
     coarse = (status == "window") & (accuracy > rtol)
     if coarse.any():
         warnings.warn(
@@ -308,8 +309,9 @@ def first_window(evaluate, omega, grid, rtol, *, side=1e-5, min_width=None):
 
 def _spans(intervals, most=3):
     """Intervals as text: '[a, b]' each, the first ``most``."""
-    text = ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in intervals[:most])
-    return text + (f" and {len(intervals) - most} more" if len(intervals) > most else "")
+    text = ", ".join(f"[{a:.9g}, {b:.9g}]" for a, b in intervals[:most])
+    return text + (f" (and {len(intervals) - most} more intervals)"
+                   if len(intervals) > most else "")
 
 
 def _check_edges(evaluate, w, out, side):
@@ -318,16 +320,16 @@ def _check_edges(evaluate, w, out, side):
     4 accuracy), by :func:`signed_margin` (> 0 stable); edges at the scan's ends (accuracy
     0: A_min = grid[0], A_max = inf) are not checked.  Returns (ok (m,), evaluations)."""
     ok = np.ones(w.size, dtype=bool)
-    x, at, want = [], [], []
+    xs, ats, wants = [], [], []
     for edge, acc, below_stable in (("A_min", "acc_min", False), ("A_max", "acc_max", True)):
         A, a = out[edge], out[acc]
         solved = np.isfinite(A) & (a > 0)
         r = np.nonzero(solved)[0]
         eta = np.maximum(side, 4.0 * a[r])
-        x += [A[r] * (1 - eta), A[r] * (1 + eta)]
-        at += [r, r]
-        want += [np.full(r.size, below_stable), np.full(r.size, not below_stable)]
-    x, at, want = np.concatenate(x), np.concatenate(at), np.concatenate(want)
+        xs += [A[r] * (1 - eta), A[r] * (1 + eta)]
+        ats += [r, r]
+        wants += [np.full(r.size, below_stable), np.full(r.size, not below_stable)]
+    x, at, want = np.concatenate(xs), np.concatenate(ats), np.concatenate(wants)
     if x.size == 0:
         return ok, 0
     with np.errstate(invalid="ignore"):

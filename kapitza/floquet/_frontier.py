@@ -25,22 +25,28 @@ pieces of evidence from the scan's own monodromies:
   then det(M − I) and det(M + I) both change sign across it, and the interval is never
   cleared on u alone.
 
-An interval not cleared is split — at the peak its neighbours' secants predict (where
-two linear margins cross: a window's birth between two modes' edges), or, for a
-crossing multiplier, halfway between the secant roots of det(M − I) and det(M + I)
-(where x = 0 for a linear x), else at its middle — and both halves are examined again,
-until a point of the other class is found, every interval is cleared, or the intervals
-left are narrower than ``min_width``: those are *undecided*, and the caller says so.
-An interval that kept more than half of the one it came from is bisected next, so every
-interval at least halves every two rounds.
+u's error bound is first the Taylor method's estimate, which runs far above the actual
+error (near a window's edge at fast drives by 1e5 and more); where only it keeps an
+interval open, the interval's ends are evaluated again on the margins' finer, paired
+monodromies, ``evaluate(A, omega, False)``, and u's error is measured there
+(:func:`_measured`).
+
+An interval not cleared is split by three points — the peak its neighbours' secants
+predict (where two linear margins cross: a window's birth between two modes' edges;
+for a crossing multiplier, halfway between the secant roots of det(M − I) and
+det(M + I), where x = 0 for a linear x; else the middle) and the middles on either side
+of it, so that every piece is at most half the interval — and the pieces are examined
+again, until a point of the other class is found, every interval is cleared, or the
+intervals left are narrower than ``min_width``: those are *undecided*, and the caller
+says so.
 
 Guarantee: every stable interval at least ``min_width`` wide between unstable scan
 points (and every unstable gap as wide between stable ones) is found, as long as u's
 curvature on each interval is within ``SAFETY`` times what the neighbouring secants show
-and no two multipliers cross the same threshold ±1 inside one interval.  The search
-calls ``evaluate(A, omega, True)`` (classification monodromies: stability, label, and
-the margins from the same matrices), a few points per frequency a round, all frequencies
-together.
+and no two multipliers cross the same threshold ±1 inside one interval; an interval it
+cannot clear down to ``min_width`` is reported.  The search calls ``evaluate(A, omega,
+True)`` (classification monodromies: stability, label, and u from the same roots that
+decided the stability), a few points per frequency a round, all frequencies together.
 """
 from __future__ import annotations
 
@@ -52,7 +58,7 @@ __all__ = ["refine_scan", "scan_points", "SAFETY"]
 
 #: how far u's curvature on an interval may exceed what its neighbours' secants show
 SAFETY = 2.0
-#: intervals split per frequency and round (the most promising first)
+#: intervals split per frequency and round (the lowest, or the most promising, first)
 PER_ROUND = 4
 #: the Taylor method's error estimate over its actual error, at least (measured 100–1000)
 ERR_OVERESTIMATE = 100.0
@@ -79,7 +85,9 @@ def _evidence(data):
     above the actual error, :mod:`kapitza.floquet._probe`)."""
     Mb, ls = data["Mb"], np.asarray(data["ls"], float)
     d = Mb.shape[1]
-    u = signed_margin(data)
+    # the classification's own signed margin where it gives one (the same roots that
+    # decided "stable"), else from the matrices
+    u = np.asarray(data["signed"], float) if "signed" in data else signed_margin(data)
     with np.errstate(over="ignore", invalid="ignore"):
         size = np.maximum(1.0, np.max(np.abs(Mb), axis=(1, 2)))
         e = d * np.asarray(data["err"], float) * size * np.exp(-np.abs(u)) / ERR_OVERESTIMATE
@@ -128,30 +136,38 @@ def _bounds(row, want):
     towards = np.maximum(want * u[:-1], want * u[1:]) + reach
     towards = np.where(np.isfinite(u[:-1]) & np.isfinite(u[1:]), towards, np.inf)
     flips = [np.sign(g[:-1]) * np.sign(g[1:]) < 0 for g in (row["gT"], row["g2T"])]
-    return towards, flips[0] & flips[1], left, right, w
+    return towards, flips[0] & flips[1], left, right, w, np.maximum(e[:-1], e[1:])
 
 
-def _proposal(row, left, right, want, crossing, i):
-    """Where to split interval i (see the module docstring)."""
-    A, u = row["A"], row["u"]
+def _state(row, lowest):
+    """One row's intervals: examined and not cleared (``open``), those kept open only by
+    u's estimated error (``limited``), and what :func:`_peak` needs."""
+    same, want = _examined(row["stable"], lowest)
+    towards, crossing, left, right, w, floor = _bounds(row, want)
+    open_ = same & (~(towards < 0.0) | crossing)
+    limited = open_ & ~crossing & (towards - floor < 0.0)
+    return dict(want=want, towards=towards, crossing=crossing & ~(towards >= 0.0),
+                left=left, right=right, w=w, open=open_, limited=limited)
+
+
+def _peak(row, st, i):
+    """Where interval i may hide the other class (see the module docstring): the crossing
+    of its neighbours' secants of want · u (the peak between two linear margins), or for
+    a multiplier sweeping the band halfway between the secant roots of det(M − I) and
+    det(M + I) (x = 0 for a linear x), else the middle; kept w/16 inside."""
+    A, u, want = row["A"], row["u"], st["want"][i]
     a, b = A[i], A[i + 1]
     w = b - a
-    mid = 0.5 * (a + b)
-    if w > 0.5 * row["born"][i]:
-        return mid
-    if crossing:
-        # halfway between where det(M − I) and det(M + I) vanish by linear
-        # interpolation: x = 0 for a root x that sweeps the band linearly
+    x = 0.5 * (a + b)
+    if st["crossing"][i]:
         r = [a + w * g[i] / (g[i] - g[i + 1]) for g in (row["gT"], row["g2T"])]
         x = 0.5 * (r[0] + r[1])
     else:
-        sl, sr = want * left[i], want * right[i]
-        if not (np.isfinite(sl) and np.isfinite(sr) and sl > sr):
-            return mid
-        # the two secant lines' crossing: the peak of want · u between two linear margins
-        x = (want * u[i + 1] - want * u[i] + sl * a - sr * b) / (sl - sr)
+        sl, sr = want * st["left"][i], want * st["right"][i]
+        if np.isfinite(sl) and np.isfinite(sr) and sl > sr:
+            x = (want * u[i + 1] - want * u[i] + sl * a - sr * b) / (sl - sr)
     if not np.isfinite(x):
-        return mid
+        x = 0.5 * (a + b)
     return float(np.clip(x, a + w / 16, b - w / 16))
 
 
@@ -161,6 +177,11 @@ def refine_scan(evaluate, omega, A, points, min_width, *, lowest=True):
     each is found, cleared, or narrower than ``min_width[r]`` (m; see the module
     docstring).
 
+    Each round, per row, at most ``PER_ROUND`` open intervals (the lowest first for the
+    window, else the most promising) get three points: the predicted peak x and the
+    middles of [a, x] and [x, b] — every piece at most half the interval.  All rows'
+    points go in one ``evaluate`` call; a row that did not change is settled.
+
     Returns (rows, undecided, evaluations): ``rows`` a list of dicts (A and the keys of
     :func:`scan_points`) per row, the scan's points and the new ones, ascending;
     ``undecided`` per row a list of (a, b): intervals left that may still hide a point
@@ -169,72 +190,91 @@ def refine_scan(evaluate, omega, A, points, min_width, *, lowest=True):
     w = np.atleast_1d(np.asarray(omega, float))
     rows = []
     for r in range(w.size):
-        row = {k: np.asarray(points[k][r]) for k in _KEYS}
+        row = {k: np.array(points[k][r]) for k in _KEYS}
         row["A"] = np.asarray(A[r], float)
-        row["born"] = np.full(row["A"].size - 1, np.inf)
+        row["measured"] = np.zeros(row["A"].size, dtype=bool)
         rows.append(row)
     width = np.broadcast_to(np.asarray(min_width, float), w.size)
     evals = 0
+    active = [r for r in range(w.size) if rows[r]["A"].size > 1]
     for _ in range(MAX_ROUNDS):
-        xs, at = [], []
-        for r, row in enumerate(rows):
-            for x in _split_points(row, width[r], lowest):
-                xs.append(x)
-                at.append(r)
-        if not xs:
+        measure, split = [], []                  # (row, point index), (row, A)
+        for r in active:
+            row = rows[r]
+            st = _state(row, lowest)
+            lim = np.nonzero(st["limited"])[0]
+            ends = np.unique(np.r_[lim, lim + 1])
+            ends = ends[~row["measured"][ends]]
+            measure += [(r, int(j)) for j in ends]
+            # an interval whose ends are being measured waits for them
+            waiting = np.zeros(st["w"].size, dtype=bool)
+            waiting[lim] = ~(row["measured"][lim] & row["measured"][lim + 1])
+            idx = np.nonzero(st["open"] & ~waiting & (st["w"] >= width[r]))[0]
+            if idx.size == 0:
+                continue
+            if lowest and np.any(row["stable"]):
+                idx = np.sort(idx)          # the window is the lowest stable interval
+            else:
+                key = np.where(st["crossing"][idx], np.inf, np.nan_to_num(st["towards"][idx],
+                                                                          nan=np.inf))
+                idx = idx[np.argsort(-key, kind="stable")]
+            for i in idx[:PER_ROUND]:
+                x = _peak(row, st, i)
+                split += [(r, 0.5 * (row["A"][i] + x)), (r, x), (r, 0.5 * (x + row["A"][i + 1]))]
+        if not measure and not split:
             break
-        xs, at = np.array(xs), np.array(at)
-        new = _evidence(evaluate(xs, w[at], True))
-        evals += xs.size
-        for r in np.unique(at):
-            k = np.nonzero(at == r)[0]
-            _insert(rows[r], xs[k], {key: v[k] for key, v in new.items()})
-    undecided = []
+        changed = set()
+        if measure:
+            at = np.array([r for r, _ in measure])
+            x = np.array([rows[r]["A"][j] for r, j in measure])
+            fine = signed_margin(evaluate(x, w[at], False))
+            evals += x.size
+            for k, (r, j) in enumerate(measure):
+                _measured(rows[r], j, fine[k])
+                changed.add(r)
+        if split:
+            at = np.array([r for r, _ in split])
+            x = np.array([a for _, a in split])
+            new = _evidence(evaluate(x, w[at], True))
+            evals += x.size
+            for rr in np.unique(at):
+                mine = np.nonzero(at == rr)[0]
+                _insert(rows[rr], x[mine], {key: v[mine] for key, v in new.items()})
+                changed.add(int(rr))
+        active = sorted(changed)
+    undecided: list[list[tuple[float, float]]] = []
     for row in rows:
-        idx, _, _, _, _ = _suspects(row, 0.0, lowest)
-        undecided.append([(float(row["A"][i]), float(row["A"][i + 1])) for i in np.sort(idx)])
-        del row["born"]
+        if row["A"].size < 2:
+            undecided.append([])
+            continue
+        st = _state(row, lowest)
+        undecided.append([(float(row["A"][i]), float(row["A"][i + 1]))
+                          for i in np.nonzero(st["open"])[0]])
+        del row["measured"]
     return rows, undecided, evals
 
 
-def _suspects(row, min_width, lowest):
-    """The intervals of ``row`` not cleared and at least ``min_width`` wide, the most
-    promising first (largest bound; crossings first), with what :func:`_proposal`
-    needs."""
-    empty = np.zeros(0, dtype=int)
-    if row["A"].size < 2:
-        return empty, None, None, None, None
-    same, want = _examined(row["stable"], lowest)
-    towards, crossing, left, right, w = _bounds(row, want)
-    open_ = same & (~(towards < 0.0) | crossing) & (w >= min_width)
-    idx = np.nonzero(open_)[0]
-    key = np.where(crossing[idx], np.inf, np.where(np.isnan(towards[idx]), np.inf, towards[idx]))
-    idx = idx[np.argsort(-key, kind="stable")]
-    return idx, want, left, right, crossing & ~(towards >= 0.0)
-
-
-def _split_points(row, min_width, lowest):
-    """The points to evaluate next in ``row``: at most ``PER_ROUND`` intervals."""
-    idx, want, left, right, crossing = _suspects(row, min_width, lowest)
-    if idx.size == 0:
-        return []
-    if lowest and np.any(row["stable"]):
-        # the window is the lowest stable interval: the lowest suspects first
-        idx = np.sort(idx)
-    return [_proposal(row, left, right, want[i], crossing[i], i) for i in idx[:PER_ROUND]]
+def _measured(row, j, fine):
+    """Point j of ``row`` measured: u from the margins' finer monodromy, its error the
+    difference from the classification's (what the coarser monodromy gets wrong bounds
+    the finer one's error; the Taylor method's estimate runs far above the actual error —
+    near a window's edge at fast drives by 1e5 and more)."""
+    err = abs(fine - row["u"][j]) + 16 * np.finfo(float).eps * max(1.0, abs(fine))
+    row["u"][j], row["e"][j] = fine, err if np.isfinite(err) else np.inf
+    row["measured"][j] = True
 
 
 def _insert(row, x, new):
-    """Insert evaluated points into a row, keeping it ascending; the two halves of a
-    split interval remember the width they came from."""
-    for k in np.argsort(x):
-        A = row["A"]
-        j = int(np.searchsorted(A, x[k]))
-        if j == 0 or j == A.size or A[j] == x[k]:
-            continue                    # outside, or already there: nothing to split
-        parent = A[j] - A[j - 1]
-        row["A"] = np.insert(A, j, x[k])
-        for key in _KEYS:
-            row[key] = np.insert(row[key], j, new[key][k])
-        born = row["born"]
-        row["born"] = np.r_[born[:j - 1], parent, parent, born[j:]]
+    """Insert evaluated points into a row, keeping it ascending (points outside it or
+    already in it are dropped)."""
+    A = row["A"]
+    keep = np.nonzero((x > A[0]) & (x < A[-1]) & ~np.isin(x, A))[0]
+    x, first = np.unique(x[keep], return_index=True)
+    if x.size == 0:
+        return
+    src = keep[first]
+    order = np.argsort(np.concatenate([A, x]), kind="stable")
+    row["A"] = np.concatenate([A, x])[order]
+    for key in _KEYS:
+        row[key] = np.concatenate([row[key], new[key][src]])[order]
+    row["measured"] = np.concatenate([row["measured"], np.zeros(x.size, dtype=bool)])[order]

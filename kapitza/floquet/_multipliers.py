@@ -58,12 +58,14 @@ def _reduced_decision(qc, x, rel_err, norm):
     return stable, np.where(np.isnan(margin), 0.0, margin)
 
 
-def _analyse(Ms, ls, T, liou, err, guard_tol):
+def _analyse(Ms, ls, T, liou, err, guard_tol, signed=False):
     """Multipliers, stability, labels, margins and guards for a stack of scaled monodromies.
 
     ``margin`` is the distance of the stability test from its threshold in the
     units of the error estimate's quantity; ``margin > 10 · err`` certifies the
-    classification.
+    classification.  With ``signed``, also ``signed``: the continuous signed margin of
+    :func:`kapitza.floquet._margins.signed_margin` (> 0 stable) from the same roots x
+    that decided ``stable`` (:mod:`kapitza.floquet._frontier` searches on it).
     """
     npts, d, _ = Ms.shape
     n = d // 2
@@ -219,19 +221,54 @@ def _analyse(Ms, ls, T, liou, err, guard_tol):
     with np.errstate(over="ignore", invalid="ignore"):
         mult = lam * np.where(ls > 700, np.inf, np.exp(np.minimum(ls, 700)))[:, None]
         expo = (logabs + 1j * np.angle(lam)) / T[:, None]
-    return dict(multipliers=mult, logabs=logabs, trace=trace, stable=stable, label=label,
-                slow=slow, exponents=expo, liouville=liou_res, pairing=pair, margin=margin,
-                flags=flags)
+    out = dict(multipliers=mult, logabs=logabs, trace=trace, stable=stable, label=label,
+               slow=slow, exponents=expo, liouville=liou_res, pairing=pair, margin=margin,
+               flags=flags)
+    if signed:
+        out["signed"] = _signed(d, undamped, ls, logabs, trace,
+                                (s1, disc) if symplectic4 else None,
+                                (reduce, xr) if reduce is not None and reduce.size else None)
+    return out
 
 
-def _analyse_points(prep, idx, Ms, ls, err, skip, finished, guard_tol):
+def _signed(d, undamped, ls, logabs, trace, quadratic, reduced):
+    """The signed margin of :func:`kapitza.floquet._margins.signed_margin` from the roots
+    the classification used: undamped and unscaled (ls = 0), u = the smallest of
+    2 − |Re x_k| and of ¼ (x_i − x_j)² over the reduced roots x = λ + 1/λ; else
+    −max log|λ|; compressed as sign(u) log(1 + |u|)."""
+    u = np.full(ls.size, np.nan)
+    calm = undamped & (ls == 0.0)
+    with np.errstate(invalid="ignore", over="ignore"):
+        if d == 2:
+            u = np.where(calm, 2.0 - np.abs(trace), u)
+        elif quadratic is not None:
+            s1, disc = quadratic
+            # x = (s1 ± √disc)/2: the smaller 2 − |x| is 2 − (|s1| + √disc)/2 (real
+            # roots) or 2 − |s1|/2 (a complex pair); ¼ (x1 − x2)² = disc/4 either way
+            v = np.minimum(2.0 - 0.5 * (np.abs(s1) + np.sqrt(np.maximum(disc, 0.0))),
+                           0.25 * disc)
+            u = np.where(calm, v, u)
+        if reduced is not None:
+            at, x = reduced
+            v = np.min(2.0 - np.abs(x.real), axis=1)
+            n = x.shape[1]
+            for i in range(n):
+                for j in range(i + 1, n):
+                    v = np.minimum(v, (0.25 * (x[:, i] - x[:, j]) ** 2).real)
+            u[at] = v
+        done = np.isfinite(u)
+        u = np.where(done, np.sign(u) * np.log1p(np.abs(u)), -logabs[:, 0])
+    return u
+
+
+def _analyse_points(prep, idx, Ms, ls, err, skip, finished, guard_tol, signed=False):
     """:func:`_analyse` for the grid points ``idx``; the points that were not integrated
     (``skip``, see :func:`_integrate`) get the frozen-time growth estimate and a flag,
     those not reached before Ctrl-C (``~finished``) NaN and a flag."""
     T, liou = prep["T"][idx], prep["liouville"][idx]
     d = Ms.shape[1]
     res = _analyse(np.where(skip[:, None, None], np.eye(d), Ms), np.where(skip, 0.0, ls), T,
-                   liou, np.where(skip, 0.0, err), guard_tol)
+                   liou, np.where(skip, 0.0, err), guard_tol, signed)
     where = np.nonzero(skip & finished)[0]
     _not_computed(res, np.nonzero(~finished)[0])
     if where.size == 0:
@@ -245,6 +282,8 @@ def _analyse_points(prep, idx, Ms, ls, err, skip, finished, guard_tol):
     for k in ("logabs", "slow"):
         res[k][where] = np.nan
     res["logabs"][where, 0] = growth
+    if signed:
+        res["signed"][where] = -growth
     with np.errstate(over="ignore", invalid="ignore"):
         res["exponents"][where, 0] = growth / T[where]
     res["trace"][where] = np.nan
@@ -276,8 +315,10 @@ def _blank(m, n):
 
 def _not_computed(res, where):
     """Mark the points ``where`` of an :func:`_analyse` result as not computed (Ctrl-C)."""
-    for k in ("multipliers", "exponents", "logabs", "slow", "trace", "liouville", "pairing"):
-        res[k][where] = np.nan
+    for k in ("multipliers", "exponents", "logabs", "slow", "trace", "liouville", "pairing",
+              "signed"):
+        if k in res:
+            res[k][where] = np.nan
     res["stable"][where] = False
     res["label"][where] = 3
     res["margin"][where] = 0.0

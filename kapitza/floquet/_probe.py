@@ -93,8 +93,9 @@ class _Probe:
                                         np.maximum(gap, 16 * np.finfo(float).eps * size),
                                         err * size)
         if analyse:
-            res = _analyse_points(prep, idx, Ms, ls, err, skip, fin, self.guard_tol)
-            out.update(stable=res["stable"], label=res["label"])
+            res = _analyse_points(prep, idx, Ms, ls, err, skip, fin, self.guard_tol,
+                                  signed=True)
+            out.update(stable=res["stable"], label=res["label"], signed=res["signed"])
         return out
 
     @staticmethod

@@ -35,6 +35,13 @@ The sections, in order (each says on the page why it is skipped where it does no
     :meth:`KapitzaPendulum.verify` / :func:`kapitza.verify` over a small (A, ω) grid:
     agreement counts, every disagreement with its distance to the nearest boundary, the
     measured order of averaging.
+``bifurcations``
+    Only when the scene asks for ``continuation``, ``bifurcation_diagram`` or ``lyapunov``
+    (skipped, saying so, otherwise): the branches of periodic orbits with their
+    bifurcations located (:func:`kapitza.continuation`), the stroboscopic bifurcation
+    diagram with those bifurcations marked (:func:`kapitza.chaos.bifurcation_diagram`),
+    the Lyapunov exponents at the scene's drive (:func:`kapitza.chaos.lyapunov`) and, with
+    a diagram, the largest one along its parameter (:func:`kapitza.chaos.lyapunov_grid`).
 ``work_precision``
     What accuracy costs in time (:func:`lagrange_core.accuracy_cost.work_precision`).
 ``animation``

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from ._animation_section import animation_section
 from ._checks import slow_section, verification_section, work_precision_section
+from ._frontier_section import bifurcations_section
 from ._stability import map_section, potential_section, spots_section
 
 #: The report's sections, in order: name → heading.
@@ -14,6 +15,7 @@ SECTIONS = {
     "spots": "Direct-simulation spot checks on the map",
     "slow": "Slow frequency: predicted against measured",
     "verification": "Verification summary",
+    "bifurcations": "Bifurcations and chaos: branches, bifurcation diagram, Lyapunov exponents",
     "work_precision": "What accuracy costs in time",
     "animation": "Animation: stabilised and falling",
 }
@@ -21,4 +23,5 @@ SECTIONS = {
 #: Section name → the function that computes it.
 BUILDERS = {"potential": potential_section, "map": map_section, "spots": spots_section,
             "slow": slow_section, "verification": verification_section,
-            "work_precision": work_precision_section, "animation": animation_section}
+            "bifurcations": bifurcations_section, "work_precision": work_precision_section,
+            "animation": animation_section}

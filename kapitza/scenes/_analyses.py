@@ -17,49 +17,15 @@ import numpy as np
 from lagrange_core.progress import interrupt_requested
 
 from ..averaging import average
-from ..floquet import floquet_grid, floquet_point, stability_map
+from ..floquet import floquet_grid, floquet_point, stability_map, window
 from ..simulation import measure, measure_grid, periodic_orbit
 from ..verification import verify
+from ._frontier import FRONTIER_POINT, frontier_method
+from ._states import about_state as _about
+from ._states import averaged_state as _averaged_state
+from ._states import pendulum_state as _pendulum_state
 
-__all__ = ["POINT", "GRID", "tile_inputs"]
-
-
-def _about(scene, setting, q0=None):
-    """The state an analysis is about, (n,) or (points, n) coordinates."""
-    n = scene.system.n_dof
-    q0 = scene.q0 if q0 is None else np.asarray(q0, dtype=float)
-    if setting == "inverted":
-        return np.full(n, math.pi)
-    if setting == "hanging":
-        return np.zeros(n)
-    if setting not in (None, "auto"):
-        about = np.asarray(setting, dtype=float)
-        if about.shape != (n,):
-            raise ValueError(f"about needs {n} coordinate values "
-                             f"({list(scene.system.coordinates)}), got {list(setting)}.")
-        return about
-    if scene.capabilities["floquet"] == "equilibrium":
-        return math.pi * np.round(q0 / math.pi)
-    return _averaged_state(scene, scene.spec.params, q0)
-
-
-def _averaged_state(scene, params, q0):
-    """The stable state of averaging nearest ``q0`` (mod 2π) at scalar ``params``; the
-    nearest multiple of π where averaging finds none."""
-    stable = [e.about for e in average(scene.system).predict(params, warn=False).equilibria
-              if e.stable]
-    if not stable:
-        return math.pi * np.round(q0 / math.pi)
-    turns = [s + 2 * math.pi * np.round((q0 - s) / (2 * math.pi)) for s in stable]
-    return min(turns, key=lambda s: float(np.max(np.abs(s - q0))))
-
-
-def _pendulum_state(scene, about):
-    """"inverted" or "hanging": the pendulum's persisting state ``about`` names or is nearest."""
-    if about in ("inverted", "hanging"):
-        return about
-    theta = float(_about(scene, about)[0])
-    return "inverted" if abs(math.cos(theta) + 1) < 1e-9 else "hanging"
+__all__ = ["POINT", "GRID", "tile_inputs", "method_of", "run_analysis"]
 
 
 # -- the analyses at the scene's point ---------------------------------------------------------
@@ -96,12 +62,30 @@ def _stability_map(scene, s, progress):
 
 
 def _window(scene, s, progress):
+    """Exact unless the file asks for ``method = "averaging"``: the Mathieu window of the
+    plain pendulum, :func:`kapitza.window` (certified monodromy edges) of any other
+    system; never averaging in place of the exact window."""
     omega = np.asarray(s["omega"].values)
     about = s.get("about", "auto")
+    averaging = s.get("method", "floquet") == "averaging"
+    order = s.get("order", 1)
     pend = scene.pendulum
     if pend is not None and about in ("inverted", "hanging", "auto"):
-        return pend.window(omega, about=_pendulum_state(scene, about))
-    return average(scene.system).window(scene.spec.params, _about(scene, about), omega=omega)
+        state = _pendulum_state(scene, about)
+        if not averaging:
+            return pend.window(omega, about=state, tol=s.get("tol", 1e-10))
+        if state != "inverted":
+            raise ValueError("the averaging window is the upright state's (about = "
+                             '"inverted"); the hanging state\'s window is exact only: drop '
+                             'method = "averaging".')
+        return pend.window(omega, method="averaging", order=order)
+    q = _about(scene, about)
+    if averaging:
+        if order != 1:
+            raise ValueError("order 2 is the plain pendulum's closed form; the averaging "
+                             "window of any other system is first order.")
+        return average(scene.system).window(scene.spec.params, q, omega=omega)
+    return window(scene.system, scene.spec.params, q, omega=omega, tol=s.get("tol", 1e-10))
 
 
 def _measure(scene, s, progress):
@@ -143,7 +127,54 @@ def _verify(scene, s, progress):
 
 
 POINT = {"averaging": _averaging, "floquet": _floquet, "stability_map": _stability_map,
-         "window": _window, "measure": _measure, "simulate": _simulate, "verify": _verify}
+         "window": _window, "measure": _measure, "simulate": _simulate, "verify": _verify,
+         **FRONTIER_POINT}
+
+
+def run_analysis(scene, name, settings=None, *, progress=None):
+    """Analysis ``name`` at the scene's point with ``settings`` (default: the scene's own;
+    checked as a scene file's are), and how it was computed: (result, method).  For the
+    report, which runs a scene's analyses with smaller settings in its quick mode."""
+    if name not in POINT:
+        raise ValueError(f"no analysis {name!r}; the analyses are {sorted(POINT)}.")
+    if settings is None:
+        settings = scene.spec.analyses.get(name, {})
+    result = POINT[name](scene, settings, progress)
+    return result, method_of(name, scene, settings, result)
+
+
+# -- the method each analysis used, as its tables say ------------------------------------------
+
+def method_of(name, scene, settings, result=None) -> str:
+    """How analysis ``name`` was computed, "<family>: <detail>" (the ``method`` column of
+    its tables): the family is "averaging", "floquet", "simulation", "comparison",
+    "continuation" or "lyapunov".  ``result`` is the point result (None for a sweep's
+    tile: the method is then the sweep's, decided by the scene alone)."""
+    pend = scene.pendulum
+    equilibrium = scene.capabilities["floquet"] == "equilibrium"
+    if name == "averaging":
+        if pend is not None:
+            return f"averaging: order {settings.get('order', 1)}, closed form"
+        return "averaging: order 1 (kapitza.average)"
+    if name == "floquet":
+        return ("floquet: monodromy about the equilibrium" if equilibrium else
+                "floquet: periodic orbit by Newton shooting")
+    if name == "stability_map":
+        return f"floquet: {getattr(result, 'method', 'monodromy')}"
+    if name == "window":
+        if getattr(result, "method", settings.get("method", "floquet")) == "averaging":
+            closed = ", closed form" if getattr(result, "l", None) is not None else ""
+            return f"averaging: order {getattr(result, 'order', 1)}{closed}"
+        if getattr(result, "status", None) is None:
+            return "floquet: Mathieu characteristic values"
+        return "floquet: certified monodromy edges (kapitza.window)"
+    if name == "measure":
+        return "simulation: strobe samples of the full equations measured"
+    if name == "simulate":
+        return f"simulation: {getattr(result, 'method', 'one trajectory')}"
+    if name == "verify":
+        return "comparison: averaging, floquet and simulation"
+    return frontier_method(name, result)
 
 
 # -- the analyses over a sweep's tile -----------------------------------------------------------

@@ -45,22 +45,15 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import sympy as sp
-
 from lagrange_core import effects as fx
-from lagrange_core.symbols import t as t_symbol
 
 from ._checker import Checker, SceneError, SceneProblem, kind_of
 from ._schema import (
-    ABOUT,
-    ABOUT_EQUILIBRIUM,
-    ANALYSES,
     AXIS,
     CATALOGUE,
     DRIVE,
     EFFECTS,
     KEY_TARGETS,
-    NEED_DRIVE,
     ONE_NUMBER_EFFECTS,
     OWNERS,
     SCHEMA,
@@ -69,24 +62,9 @@ from ._schema import (
     UNITS,
     hz_to_rad_s,
 )
+from ._settings import Axis, axis_range, check_analyses, check_axis, in_rad_s, rig_symbols
 
-__all__ = ["SceneSpec", "Axis", "read_scene", "read_scene_text"]
-
-
-@dataclass(frozen=True)
-class Axis:
-    """One swept (or mapped) quantity: its name and its values (a tuple, SI units).
-
-    The name is as written in the file, except a frequency given in Hz
-    (``frequency_hz``), which is read as the axis ``omega`` with values in rad/s.
-    """
-
-    name: str
-    values: tuple
-    kind: str = "list"          # "linear", "log" or "list"
-
-    def __len__(self):
-        return len(self.values)
+__all__ = ["SceneSpec", "Axis", "read_scene", "read_scene_text", "read_scene_data"]
 
 
 @dataclass(frozen=True)
@@ -161,6 +139,14 @@ def read_scene_text(text: str, source: str = "<text>") -> SceneSpec:
         m = re.search(r"line (\d+)", str(e))
         raise SceneError(source, [SceneProblem("(syntax)", int(m.group(1)) if m else None,
                                                f"not valid TOML: {e}")]) from None
+    return read_scene_data(data, text=text, source=source)
+
+
+def read_scene_data(data: dict, *, text: str = "", source: str = "<data>") -> SceneSpec:
+    """Check a scene given as the parsed TOML (a dict of tables, as :mod:`tomllib` reads
+    a file): what :func:`read_scene_text` does after parsing.  ``text``, when given, is
+    the file the data came from (its lines are named in messages); the command line
+    builds scenes this way, from its options."""
     c = Checker(source, text)
     c.table(data, "", TOP, what="table")
     _check_schema(c, data)
@@ -172,7 +158,7 @@ def read_scene_text(text: str, source: str = "<text>") -> SceneSpec:
     effects, effect_params = _check_effects(c, data.get("effects", {}), rig)
     params = _check_parameters(c, data.get("parameters"), rig, effects, effect_params)
     initial = _check_initial(c, data.get("initial", {}), rig)
-    analyses = _check_analyses(c, data.get("analyses", {}), effects)
+    analyses = check_analyses(c, data.get("analyses", {}), effects, rig, params)
     sweep = _check_sweep(c, data.get("sweep"), rig, params, effects, analyses)
     output = _check_output(c, data.get("output", {}), source)
     c.done()
@@ -258,18 +244,6 @@ def _user_rig(c, name, options):
                                f"{type(rig).__name__}")
         return None
     return rig
-
-
-def _rig_symbols(rig):
-    """(parameters of the rig by name → Symbol, names of its mass parameters)."""
-    coords = set(rig.coordinates)
-    syms, masses = {}, set()
-    for _, m, pos in rig.masses:
-        for expr in (m, *pos(sp.Integer(0), sp.Integer(0))):
-            for s in sp.sympify(expr).free_symbols - coords - {t_symbol}:
-                syms[s.name] = s
-        masses |= {s.name for s in sp.sympify(m).free_symbols}
-    return syms, masses
 
 
 # -- effects ------------------------------------------------------------------------------
@@ -407,7 +381,7 @@ def _check_parameters(c, given, rig, effects, effect_params):
         for k, v in given.items():
             c.number(v, f"parameters.{k}")
         return params
-    syms, masses = _rig_symbols(rig)
+    syms, masses = rig_symbols(rig)
     gravity = any(isinstance(e, fx.Gravity) for e in effects)
     allowed = sorted(syms) + (["g"] if gravity else [])
     for k, v in given.items():
@@ -459,128 +433,6 @@ def _state_names(rig):
     return names + [f"{q}_dot" for q in names]
 
 
-# -- analyses -----------------------------------------------------------------------------------
-
-def _check_analyses(c, analyses, effects):
-    out = {}
-    if c.table(analyses, "analyses", ANALYSES, what="analysis") is None:
-        return out
-    drive = next((e for e in effects if isinstance(e, fx.PivotDrive)), None)
-    for name, value in analyses.items():
-        if name not in ANALYSES:
-            continue
-        key = f"analyses.{name}"
-        if isinstance(value, bool):
-            if value:
-                out[name] = {}
-            continue
-        s = c.table(value, key, ANALYSES[name], what="setting")
-        if s is None:
-            continue
-        out[name] = _check_settings(c, name, s, key)
-    for name in out:
-        if name in NEED_DRIVE and drive is None:
-            c.error(f"analyses.{name}", f"{name} needs a drive: add [effects.drive]")
-        if name in ABOUT_EQUILIBRIUM and drive is not None \
-                and not drive.keeps_vertical_equilibria:
-            path = drive.path if isinstance(drive.path, str) else "oblique"
-            c.error(f"analyses.{name}", f"{name} is about an equilibrium, and a {path} drive "
-                                        "leaves none; sweep floquet over A and omega instead "
-                                        "([sweep])")
-    return out
-
-
-def _check_settings(c, name, s, key):
-    out = {}
-    for k, v in s.items():
-        if k not in ANALYSES[name]:
-            continue
-        kk = f"{key}.{k}"
-        if k == "about":
-            out[k] = _check_about(c, v, kk)
-        elif k == "order":
-            if v not in (1, 2) or isinstance(v, bool):
-                c.error(kk, f"must be 1 or 2, got {v!r}")
-            else:
-                out[k] = v
-        elif k == "fit_order":
-            out[k] = c.boolean(v, kk)
-        elif k in ("tol", "rtol", "band", "duration", "offset"):
-            out[k] = c.number(v, kk, minimum=0.0, strict=True,
-                              unit={"band": "rad", "duration": "s", "offset": "rad"}.get(k, ""))
-        elif k in ("periods", "samples"):
-            out[k] = c.number(v, kk, integer=True, minimum=2 if k == "samples" else 1)
-        elif k == "method":
-            from lagrange_core.integrate import METHODS
-            out[k] = c.choice(v, kk, tuple(METHODS))
-        elif k in ("A", "omega"):
-            out[k] = _check_axis(c, v, kk, k, minimum=0.0, strict=k != "A", unit=UNITS[k])
-        elif k == "frequency_hz":           # read in Hz, kept as omega (rad/s)
-            out["omega"] = _in_rad_s(_check_axis(c, v, kk, k, minimum=0.0, strict=True,
-                                                 unit=UNITS[k]))
-    if name in ABOUT_EQUILIBRIUM:
-        c.one_of(s, key, ("omega", "frequency_hz"), "the drive frequencies, omega (rad/s) or "
-                                                    "frequency_hz (Hz): a range {start, stop, "
-                                                    "num} or a list")
-    if name in ("stability_map", "verify") and "A" not in s:
-        c.error(f"{key}.A", "missing; the amplitudes (m): a range {start, stop, num} or a list")
-    if name == "simulate":
-        c.one_of(s, key, ("periods", "duration"), "", required=False)
-    return out
-
-
-def _check_about(c, v, key):
-    if isinstance(v, str):
-        return c.choice(v, key, ABOUT)
-    if isinstance(v, list) and v:
-        vals = [c.number(x, f"{key}[{i}]", unit="rad") for i, x in enumerate(v)]
-        return tuple(vals) if None not in vals else None
-    c.error(key, f'must be "inverted", "hanging", "auto" or a list of coordinate values, got '
-                 f"{kind_of(v)} {v!r}")
-    return None
-
-
-def _check_axis(c, v, key, name, *, minimum=None, strict=False, unit=""):
-    """An axis: a list of numbers, or a range {start, stop, num, scale}."""
-    if isinstance(v, list):
-        if not v:
-            c.error(key, "an empty list; give at least one value")
-            return None
-        vals = [c.number(x, f"{key}[{i}]", unit=unit, minimum=minimum, strict=strict)
-                for i, x in enumerate(v)]
-        return Axis(name, tuple(vals), "list") if None not in vals else None
-    if not isinstance(v, dict):
-        c.error(key, f"must be a list of values or a range {{start, stop, num, scale}}, got "
-                     f"{kind_of(v)} {v!r}")
-        return None
-    c.table(v, key, AXIS)
-    missing = [k for k in ("start", "stop", "num") if k not in v]
-    for k in missing:
-        c.error(f"{key}.{k}", "missing; a range is {start, stop, num} (scale = \"linear\" "
-                              "or \"log\", default linear)")
-    scale = c.choice(v.get("scale", "linear"), f"{key}.scale", ("linear", "log"))
-    if missing or scale is None:
-        return None
-    log = scale == "log"
-    lo = c.number(v["start"], f"{key}.start", unit=unit, minimum=0.0 if log else minimum,
-                  strict=strict or log)
-    hi = c.number(v["stop"], f"{key}.stop", unit=unit, minimum=0.0 if log else minimum,
-                  strict=strict or log)
-    num = c.number(v["num"], f"{key}.num", integer=True, minimum=1)
-    if None in (lo, hi, num):
-        return None
-    import numpy as np
-    vals = np.geomspace(lo, hi, num) if log else np.linspace(lo, hi, num)
-    return Axis(name, tuple(float(x) for x in vals), scale)
-
-
-def _in_rad_s(axis):
-    """A frequency axis read in Hz as the ``omega`` axis in rad/s (None stays None)."""
-    if axis is None:
-        return None
-    return Axis("omega", tuple(hz_to_rad_s(f) for f in axis.values), axis.kind)
-
-
 # -- sweep, output -------------------------------------------------------------------------------
 
 def _flatten_axes(c, axes, key, prefix=()):
@@ -618,10 +470,10 @@ def _check_sweep(c, sweep, rig, params, effects, analyses):
         if swept in where.values():
             c.error(key, f"sweeps {swept}, which another axis sweeps already")
             continue
-        kind, minimum, strict, unit = _axis_range(target, rig)
-        ax = _check_axis(c, v, key, name, minimum=minimum, strict=strict, unit=unit)
+        kind, minimum, strict, unit = axis_range(target, rig)
+        ax = check_axis(c, v, key, name, minimum=minimum, strict=strict, unit=unit)
         if ax is not None and target == "frequency_hz":    # read in Hz, swept as omega (rad/s)
-            ax = _in_rad_s(ax)
+            ax = in_rad_s(ax)
         if ax is not None:
             axes.append(ax)
             where[ax.name] = swept
@@ -665,23 +517,6 @@ def _sweep_targets(rig, params):
     if rig is not None:
         targets.update({f"initial.{s}": f"initial.{s}" for s in _state_names(rig)})
     return targets
-
-
-def _axis_range(target, rig):
-    """(kind, minimum, strict, unit) of a swept quantity's physical range."""
-    if target.startswith("initial."):
-        return "state", None, False, "rad/s" if target.endswith("_dot") else "rad"
-    if target in ("omega", "frequency_hz"):
-        return "param", 0.0, True, UNITS[target]
-    if target in ("A", "gamma", "c_drag", "g"):
-        return "param", 0.0, False, UNITS[target]
-    if target.startswith("k_"):
-        return "param", 0.0, True, ""
-    if rig is not None:
-        syms, masses = _rig_symbols(rig)
-        if target in syms and syms[target].is_positive:
-            return "param", 0.0, True, "kg" if target in masses else "m"
-    return "param", None, False, UNITS.get(target, "")
 
 
 def _check_output(c, output, source):

@@ -38,9 +38,10 @@ from lagrange_core.module_store import content_key, source_fingerprint
 
 from ..pendulum import KapitzaPendulum
 from . import _sweep as sweeps
-from ._analyses import GRID, POINT, tile_inputs
-from ._file import Axis, SceneSpec, read_scene, read_scene_text
+from ._analyses import GRID, POINT, method_of, tile_inputs
+from ._file import SceneSpec, read_scene, read_scene_text
 from ._schema import SWEEPABLE
+from ._settings import Axis
 
 __all__ = ["Scene", "SceneResults", "code_fingerprint", "example_scenes",
            "fingerprinted_modules"]
@@ -283,11 +284,16 @@ class Scene:
             ``about`` (:class:`~kapitza.FloquetResult`).  A drive off the vertical leaves
             no equilibrium: the periodic orbit by Newton shooting
             (:func:`kapitza.periodic_orbit`, :class:`~kapitza.PeriodicOrbit`).
-        ``stability_map``, ``window``
-            Plain pendulum: the exact Mathieu map and window
-            (:meth:`KapitzaPendulum.stability_map`, :meth:`KapitzaPendulum.window`).
-            Otherwise the monodromy map (:func:`kapitza.stability_map`) and the averaging
-            window (:meth:`kapitza.AveragedSystem.window`).
+        ``stability_map``
+            Plain pendulum: the exact Mathieu map (:meth:`KapitzaPendulum.stability_map`).
+            Otherwise the monodromy map (:func:`kapitza.stability_map`).
+        ``window``
+            Exact for every system where Floquet applies: the plain pendulum's Mathieu
+            window (:meth:`KapitzaPendulum.window`), any other system's certified
+            monodromy window (:func:`kapitza.window`).  The averaging window only when
+            asked for by name, ``method = "averaging"`` (the closed form of order 1 or 2
+            for the plain pendulum, :meth:`kapitza.AveragedSystem.window` otherwise);
+            either way a :class:`~kapitza.StabilityWindow` whose ``method`` says which.
         ``measure``
             Direct simulation measured from strobe samples (:func:`kapitza.measure`,
             :class:`~kapitza.Measurement`), integrated by the method the effects allow
@@ -301,6 +307,24 @@ class Scene:
             :meth:`KapitzaPendulum.verify`, which adds the next order),
             :class:`~kapitza.Verification`.  ``fit_order = true`` also fits the order of
             averaging along its default line.
+        ``continuation``
+            The branch of periodic orbits through ``about`` followed in ``parameter``
+            (:func:`kapitza.continuation`; a drive that leaves no equilibrium starts on
+            the periodic orbit found by :func:`kapitza.periodic_orbit`), with
+            ``switch = true`` the branches born at its period doublings, pitchforks and
+            transcritical points (:meth:`kapitza.results.Branch.switch`):
+            :class:`~kapitza.scenes.Branches`; tables ``continuation`` and
+            ``continuation_bifurcations``.
+        ``bifurcation_diagram``
+            Strobe samples after a transient over the parameter's values × the starts
+            (:func:`kapitza.chaos.bifurcation_diagram`, ``BifurcationDiagram``).
+        ``lyapunov``
+            The Lyapunov exponents of the trajectory from the initial state, with their
+            error (:func:`kapitza.chaos.lyapunov`, ``LyapunovSpectrum``).
+
+        Every table carries a ``method`` column naming how it was computed
+        (:attr:`SceneResults.methods`; exact and averaging never stand in for each
+        other).
 
         ``about`` (Floquet, maps, windows, measurements): "inverted" (every coordinate π),
         "hanging" (0), a list of coordinate values, or "auto" (the default): the
@@ -310,9 +334,10 @@ class Scene:
         """
         t0 = time.perf_counter()
         swept = self.spec.sweep["analyses"] if self.spec.sweep else ()
-        results, sweep_results = {}, {}
+        results, sweep_results, methods = {}, {}, {}
         for name, settings in self.spec.analyses.items():
             if name in swept:
+                methods[name] = method_of(name, self, settings)
                 continue
             try:
                 results[name] = POINT[name](self, settings, progress)
@@ -320,16 +345,18 @@ class Scene:
                 if type(e) is not ValueError:
                     raise
                 raise ValueError(f"{self.spec.source}: analysis {name!r}: {e}") from e
+            methods[name] = method_of(name, self, settings, results[name])
         written = []
         out = self.spec.output
         if write and out["directory"] is not None and results:
-            written = _write_tables(self, results, out["directory"], out["formats"])
+            written = _write_tables(self, results, methods, out["directory"], out["formats"])
         for name in swept:
             sweep_results[name] = self.sweep(name, executor=executor,
                                              worker_threads=worker_threads, progress=progress)
             written.append(sweep_results[name].path)
         return SceneResults(scene=self, results=results, sweeps=sweep_results,
-                            written=tuple(written), seconds=time.perf_counter() - t0)
+                            written=tuple(written), seconds=time.perf_counter() - t0,
+                            methods=methods)
 
     def sweep(self, analysis: str | None = None, *, directory=None, executor=None,
               worker_threads: int = 1, tile_points: int | None = None,
@@ -407,6 +434,10 @@ class SceneResults:
     written : tuple of Path
         Files and datasets written.
     seconds : float
+    methods : dict
+        Analysis name → how it was computed, "<family>: <detail>" (e.g. "floquet:
+        Mathieu characteristic values", "averaging: order 1, closed form"); every table
+        carries it as its ``method`` column.
     """
 
     scene: Scene
@@ -414,6 +445,7 @@ class SceneResults:
     sweeps: dict
     written: tuple = ()
     seconds: float = field(default=0.0)
+    methods: dict = field(default_factory=dict)
 
     def __getitem__(self, name):
         if name in self.results:
@@ -424,8 +456,11 @@ class SceneResults:
 
     def tables(self) -> dict:
         """Every result as a DataFrame: analysis name → table (a sweep's is tidy, one or
-        more rows per point)."""
-        out = {name: _table(r) for name, r in self.results.items()}
+        more rows per point), each with its ``method`` column; a continuation adds
+        ``continuation_bifurcations``."""
+        out = {}
+        for name, r in self.results.items():
+            out.update(_result_tables(name, r, self.methods.get(name)))
         out.update({name: r.to_dataframe() for name, r in self.sweeps.items()})
         return out
 
@@ -439,15 +474,29 @@ class SceneResults:
         return tables[name]
 
 
-def _table(result):
+def _table(result, method=None):
     import pandas as pd
     frame = result.to_dataframe()
     if not isinstance(frame.index, pd.RangeIndex) or frame.index.name is not None:
         frame = frame.reset_index()        # e.g. a trajectory's t, a periodic orbit's coordinate
+    if method is not None:
+        frame["method"] = method
     return frame
 
 
-def _write_tables(scene, results, directory, formats):
+def _result_tables(name, result, method=None) -> dict:
+    """The tables of one analysis's result: ``name`` → its table, and for a continuation
+    ``<name>_bifurcations`` too; each with the ``method`` column."""
+    out = {name: _table(result, method)}
+    if hasattr(result, "bifurcation_table"):
+        extra = result.bifurcation_table()
+        if method is not None:
+            extra["method"] = method
+        out[f"{name}_bifurcations"] = extra
+    return out
+
+
+def _write_tables(scene, results, methods, directory, formats):
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     meta = {"scene": scene.spec.text, "source": scene.spec.source,
@@ -457,15 +506,17 @@ def _write_tables(scene, results, directory, formats):
             "fingerprint": code_fingerprint(scene._user_module),
             "versions": sweeps.package_versions()}
     written = []
-    for name, r in results.items():
-        frame = _table(r)
-        if "parquet" in formats:
-            written.append(sweeps.write_table(frame, directory / f"{name}.parquet",
-                                              dict(meta, analysis=name)))
-        if "csv" in formats:
-            path = directory / f"{name}.csv"
-            sweeps.write_text(path, frame.to_csv(index=False))
-            written.append(path)
+    for analysis, r in results.items():
+        method = methods.get(analysis)
+        for name, frame in _result_tables(analysis, r, method).items():
+            if "parquet" in formats:
+                written.append(sweeps.write_table(frame, directory / f"{name}.parquet",
+                                                  dict(meta, analysis=analysis,
+                                                       method=method)))
+            if "csv" in formats:
+                path = directory / f"{name}.csv"
+                sweeps.write_text(path, frame.to_csv(index=False))
+                written.append(path)
     return written
 
 
@@ -517,5 +568,6 @@ class _SweepWork:
             raise RuntimeError(f"{self.analysis}: {len(frame)} rows for {len(points)} points "
                                "and no 'point' column")
         frame.insert(0, "point", points[local])
+        frame["method"] = method_of(self.analysis, scene, settings)
         return frame
 

@@ -4,7 +4,8 @@ A scene file says what a lecture's figure says — what hangs from the pivot, th
 parameter values, the physics switched on, where the motion starts — and which
 analyses to run.  This module holds the tables of allowed keys that
 :func:`~kapitza.scenes._file.read_scene` checks a file against; the checks themselves
-are in :mod:`._file`, the analyses in :mod:`._scene`.
+are in :mod:`._file` (the analyses' settings in :mod:`._settings`), the analyses in
+:mod:`._analyses` and :mod:`._frontier`.
 
 Schema 1
 --------
@@ -41,19 +42,58 @@ Top level: ``schema = 1`` (required), ``title`` (text, optional) and the tables
     ``{start, stop, num, scale = "linear" | "log"}``; ``about`` is "inverted",
     "hanging", "auto" (default) or a list of coordinate values.
 
-    ================  ===============================================================
-    ``averaging``     ``order`` (1, or 2 for the plain pendulum)
-    ``floquet``       ``about``, ``tol``
-    ``stability_map`` ``A`` (axis, m), ``omega`` (axis, rad/s) or ``frequency_hz``,
-                      ``about``, ``tol``
-    ``window``        ``omega`` or ``frequency_hz`` (axis), ``about``
-    ``measure``       ``about``, ``periods`` (1000), ``band`` (π/2 rad), ``rtol``
-    ``simulate``      ``periods`` (100) or ``duration`` (s), ``samples`` (1001),
-                      ``method``, ``rtol``
-    ``verify``        ``A``, ``omega`` or ``frequency_hz`` (axes), ``about``,
-                      ``periods``, ``offset``, ``band``, ``tol``, ``rtol``,
-                      ``fit_order`` (false)
-    ================  ===============================================================
+    ======================  =========================================================
+    ``averaging``           ``order`` (1, or 2 for the plain pendulum)
+    ``floquet``             ``about``, ``tol``
+    ``stability_map``       ``A`` (axis, m), ``omega`` (axis, rad/s) or ``frequency_hz``,
+                            ``about``, ``tol``
+    ``window``              ``omega`` or ``frequency_hz`` (axis), ``about``, ``method``
+                            ("floquet", the default, or "averaging"), ``order`` (averaging
+                            only: 1 (default), or 2 for the plain pendulum), ``tol``
+    ``measure``             ``about``, ``periods`` (1000), ``band`` (π/2 rad), ``rtol``
+    ``simulate``            ``periods`` (100) or ``duration`` (s), ``samples`` (1001),
+                            ``method``, ``rtol``
+    ``verify``              ``A``, ``omega`` or ``frequency_hz`` (axes), ``about``,
+                            ``periods``, ``offset``, ``band``, ``tol``, ``rtol``,
+                            ``fit_order`` (false)
+    ``continuation``        ``parameter`` ("A" (default), "omega", "frequency_hz" or any
+                            parameter), ``stop`` (required), ``start`` (default: the
+                            scene's value), ``periods`` (1), ``about``, ``switch``
+                            (false), ``max_points`` (500)
+    ``bifurcation_diagram`` ``parameter`` (as for continuation), ``values`` (axis,
+                            required), ``starts`` (list of starting coordinates, at rest;
+                            default the scene's initial state), ``periods`` (200 strobe
+                            samples kept), ``transient`` (500 periods)
+    ``lyapunov``            ``periods`` (1000, ≥ 8), ``transient`` (100), ``exponents``
+                            ("all" (default), "largest" or how many)
+    ======================  =========================================================
+
+    **Each analysis names its method, and exact and averaging never stand in for each
+    other silently.**  ``window`` is the exact window (Floquet: the Mathieu
+    characteristic values for the plain pendulum, :func:`kapitza.window`'s certified
+    monodromy edges for any other system) for every system where Floquet applies; the
+    averaging window is asked for by name, ``window = { method = "averaging" }``.  Every
+    table a scene writes carries a ``method`` column, "<family>: <detail>", the family
+    one of "averaging", "floquet", "simulation", "comparison" (``verify``),
+    "continuation" or "lyapunov" (e.g. "floquet: Mathieu characteristic values",
+    "averaging: order 1, closed form").
+
+    The frontier (:mod:`kapitza.continuation`, :mod:`kapitza.chaos`):
+
+    * ``continuation`` follows the branch of (``periods`` T-)periodic orbits through
+      ``about`` (an equilibrium that persists under the drive, or for a drive that leaves
+      none the periodic orbit found from it) in ``parameter`` from ``start`` to ``stop``
+      (:func:`kapitza.continuation`), its bifurcations located and classified; with
+      ``switch = true`` also the branches born at them (period doublings, pitchforks,
+      transcritical points).  Tables: ``continuation`` (one row per point, column
+      ``branch``) and ``continuation_bifurcations``.
+    * ``bifurcation_diagram``: strobe samples after ``transient`` drive periods over the
+      parameter's ``values`` × the ``starts`` (:func:`kapitza.chaos.bifurcation_diagram`).
+    * ``lyapunov``: the Lyapunov exponents of the trajectory from ``[initial]`` at the
+      scene's parameters, with their error (:func:`kapitza.chaos.lyapunov`).
+
+    A ``parameter`` given as "frequency_hz" is read as "omega", its values in rad/s.
+
 ``[sweep]``
     ``[sweep.axes]``: parameters to sweep, each a range ``{start, stop, num, scale =
     "linear" | "log"}`` or a list of values; several axes form their Cartesian product
@@ -80,9 +120,9 @@ import math
 
 from lagrange_core import effects as fx
 
-__all__ = ["SCHEMA", "ANALYSES", "SWEEPABLE", "NEED_DRIVE", "ABOUT_EQUILIBRIUM", "TOP",
-           "EFFECTS", "DRIVE", "AXIS", "ABOUT", "UNITS", "KEY_TARGETS", "OWNERS", "CATALOGUE",
-           "ONE_NUMBER_EFFECTS", "hz_to_rad_s"]
+__all__ = ["SCHEMA", "ANALYSES", "WINDOW_METHODS", "FRONTIER", "SWEEPABLE", "NEED_DRIVE",
+           "ABOUT_EQUILIBRIUM", "TOP", "EFFECTS", "DRIVE", "AXIS", "ABOUT", "UNITS", "KEY_TARGETS",
+           "OWNERS", "CATALOGUE", "ONE_NUMBER_EFFECTS", "hz_to_rad_s"]
 
 #: The schema version this module describes.
 SCHEMA = 1
@@ -92,17 +132,26 @@ ANALYSES = {
     "averaging": ("order",),
     "floquet": ("about", "tol"),
     "stability_map": ("A", "omega", "frequency_hz", "about", "tol"),
-    "window": ("omega", "frequency_hz", "about"),
+    "window": ("omega", "frequency_hz", "about", "method", "order", "tol"),
     "measure": ("about", "periods", "band", "rtol"),
     "simulate": ("periods", "duration", "samples", "method", "rtol"),
     "verify": ("A", "omega", "frequency_hz", "about", "periods", "offset", "band", "tol",
                "rtol", "fit_order"),
+    "continuation": ("parameter", "start", "stop", "periods", "about", "switch",
+                     "max_points"),
+    "bifurcation_diagram": ("parameter", "values", "starts", "periods", "transient"),
+    "lyapunov": ("periods", "transient", "exponents"),
 }
+#: The ways a window is computed (``window = { method = ... }``): exact first.
+WINDOW_METHODS = ("floquet", "averaging")
+#: Analyses of the frontier: branches, the route to chaos (each needs a drive).
+FRONTIER = ("continuation", "bifurcation_diagram", "lyapunov")
 #: Analyses that run at every point of a sweep (the others are grids of their own).
 SWEEPABLE = ("averaging", "floquet", "measure", "simulate")
 #: Analyses about an equilibrium or its drive: they need [effects.drive]; those of
 #: ``ABOUT_EQUILIBRIUM`` also need a drive that keeps θ = 0, π.
-NEED_DRIVE = ("averaging", "floquet", "stability_map", "window", "verify")
+NEED_DRIVE = ("averaging", "floquet", "stability_map", "window", "verify", "continuation",
+              "bifurcation_diagram", "lyapunov")
 ABOUT_EQUILIBRIUM = ("stability_map", "window", "verify")
 
 #: The top-level keys and tables.

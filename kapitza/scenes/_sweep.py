@@ -71,7 +71,7 @@ from lagrange_core.progress import defer_ctrl_c, interrupt_requested
 from ..results import ComputationInterrupted
 
 __all__ = ["SweepResult", "run_sweep", "grid_size", "tile_columns", "numba_threads",
-           "package_versions", "write_table", "write_text", "MANIFEST"]
+           "package_versions", "write_table", "write_text", "storable", "MANIFEST"]
 
 #: The plan of a dataset directory (tile size, points, keys), written before the first tile.
 MANIFEST = "_sweep.json"
@@ -224,7 +224,7 @@ def write_table(frame, path, metadata: dict | None = None) -> Path:
     import pyarrow as pa
     import pyarrow.parquet as pq
     path = Path(path)
-    table = pa.Table.from_pandas(_storable(frame), preserve_index=False)
+    table = pa.Table.from_pandas(storable(frame), preserve_index=False)
     if metadata is not None:
         meta = dict(table.schema.metadata or {})
         meta[b"kapitza"] = json.dumps(metadata, sort_keys=True, default=str).encode()
@@ -239,7 +239,7 @@ def write_table(frame, path, metadata: dict | None = None) -> Path:
     return path
 
 
-def _storable(frame):
+def storable(frame):
     """``frame`` with what Parquet cannot hold spelled out: a complex column as
     ``<name>_real`` and ``<name>_imag``, a column of tuples or arrays as text."""
     out = {}

@@ -1,0 +1,310 @@
+"""Checking a scene's ``[analyses]``: each analysis's settings, its axes and the parameters
+it names, against the schema (:mod:`._schema`, which states every key).
+
+Like the rest of the reading (:mod:`._file`), nothing here raises: every problem is
+recorded on the :class:`~kapitza.scenes._checker.Checker` with its dotted key, and the
+checked settings come back in SI units — a frequency axis given in Hz (``frequency_hz``)
+is the axis ``omega`` in rad/s, a parameter "frequency_hz" of ``continuation`` or
+``bifurcation_diagram`` is "omega" with its values in rad/s.  Also here: :class:`Axis`,
+and the physical range of a parameter (:func:`axis_range`), which the sweep's axes share.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from lagrange_core import effects as fx
+from lagrange_core.symbols import t as t_symbol
+
+from ._checker import kind_of
+from ._schema import (
+    ABOUT,
+    ABOUT_EQUILIBRIUM,
+    ANALYSES,
+    AXIS,
+    NEED_DRIVE,
+    UNITS,
+    WINDOW_METHODS,
+    hz_to_rad_s,
+)
+
+__all__ = ["Axis", "check_analyses", "check_axis", "in_rad_s", "axis_range", "rig_symbols"]
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One swept (or mapped) quantity: its name and its values (a tuple, SI units).
+
+    The name is as written in the file, except a frequency given in Hz
+    (``frequency_hz``), which is read as the axis ``omega`` with values in rad/s.
+    """
+
+    name: str
+    values: tuple
+    kind: str = "list"          # "linear", "log" or "list"
+
+    def __len__(self):
+        return len(self.values)
+
+
+def rig_symbols(rig):
+    """(parameters of the rig by name → Symbol, names of its mass parameters)."""
+    coords = set(rig.coordinates)
+    syms, masses = {}, set()
+    for _, m, pos in rig.masses:
+        for expr in (m, *pos(sp.Integer(0), sp.Integer(0))):
+            for s in sp.sympify(expr).free_symbols - coords - {t_symbol}:
+                syms[s.name] = s
+        masses |= {s.name for s in sp.sympify(m).free_symbols}
+    return syms, masses
+
+
+def axis_range(target, rig):
+    """(kind, minimum, strict, unit) of a quantity's physical range: a parameter's, or an
+    initial value's (``initial.<state>``)."""
+    if target.startswith("initial."):
+        return "state", None, False, "rad/s" if target.endswith("_dot") else "rad"
+    if target in ("omega", "frequency_hz"):
+        return "param", 0.0, True, UNITS[target]
+    if target in ("A", "gamma", "c_drag", "g"):
+        return "param", 0.0, False, UNITS[target]
+    if target.startswith("k_"):
+        return "param", 0.0, True, ""
+    if rig is not None:
+        syms, masses = rig_symbols(rig)
+        if target in syms and syms[target].is_positive:
+            return "param", 0.0, True, "kg" if target in masses else "m"
+    return "param", None, False, UNITS.get(target, "")
+
+
+# -- [analyses] -------------------------------------------------------------------------------
+
+def check_analyses(c, analyses, effects, rig, params):
+    """The analyses asked for, name → checked settings (in the file's order)."""
+    out = {}
+    if c.table(analyses, "analyses", ANALYSES, what="analysis") is None:
+        return out
+    drive = next((e for e in effects if isinstance(e, fx.PivotDrive)), None)
+    for name, value in analyses.items():
+        if name not in ANALYSES:
+            continue
+        key = f"analyses.{name}"
+        if isinstance(value, bool):
+            if value:
+                out[name] = _check_settings(c, name, {}, key, rig, params)
+            continue
+        s = c.table(value, key, ANALYSES[name], what="setting")
+        if s is None:
+            continue
+        out[name] = _check_settings(c, name, s, key, rig, params)
+    for name in out:
+        if name in NEED_DRIVE and drive is None:
+            c.error(f"analyses.{name}", f"{name} needs a drive: add [effects.drive]")
+        if name in ABOUT_EQUILIBRIUM and drive is not None \
+                and not drive.keeps_vertical_equilibria:
+            path = drive.path if isinstance(drive.path, str) else "oblique"
+            c.error(f"analyses.{name}", f"{name} is about an equilibrium, and a {path} drive "
+                                        "leaves none; sweep floquet over A and omega instead "
+                                        "([sweep])")
+    return out
+
+
+#: Keys checked once the varied parameter is known (their unit and range are its).
+_PARAMETER_VALUES = ("start", "stop", "values")
+
+
+def _check_settings(c, name, s, key, rig, params):
+    out = {}
+    for k, v in s.items():
+        if k not in ANALYSES[name] or k in _PARAMETER_VALUES:
+            continue
+        kk = f"{key}.{k}"
+        if k == "about":
+            out[k] = _check_about(c, v, kk)
+        elif k == "order":
+            if v not in (1, 2) or isinstance(v, bool):
+                c.error(kk, f"must be 1 or 2, got {v!r}")
+            else:
+                out[k] = v
+        elif k in ("fit_order", "switch"):
+            out[k] = c.boolean(v, kk)
+        elif k in ("tol", "rtol", "band", "duration", "offset"):
+            out[k] = c.number(v, kk, minimum=0.0, strict=True,
+                              unit={"band": "rad", "duration": "s", "offset": "rad"}.get(k, ""))
+        elif k == "periods" and name == "lyapunov":
+            out[k] = c.number(v, kk, integer=True, minimum=1)
+            if out[k] is not None and out[k] < 8:
+                c.error(kk, f"must be ≥ 8, got {v!r}: the error estimate splits the record "
+                            "into 8 blocks of at least one drive period")
+                out[k] = None
+        elif k in ("periods", "samples", "transient", "max_points"):
+            out[k] = c.number(v, kk, integer=True,
+                              minimum={"samples": 2, "transient": 0, "max_points": 2}.get(k, 1))
+        elif k == "method" and name == "window":
+            out[k] = c.choice(v, kk, WINDOW_METHODS)
+        elif k == "method":
+            from lagrange_core.integrate import METHODS
+            out[k] = c.choice(v, kk, tuple(METHODS))
+        elif k in ("A", "omega"):
+            out[k] = check_axis(c, v, kk, k, minimum=0.0, strict=k != "A", unit=UNITS[k])
+        elif k == "frequency_hz":           # read in Hz, kept as omega (rad/s)
+            out["omega"] = in_rad_s(check_axis(c, v, kk, k, minimum=0.0, strict=True,
+                                               unit=UNITS[k]))
+        elif k == "parameter":
+            out[k] = _check_parameter(c, v, kk, rig, params)
+        elif k == "starts":
+            out[k] = _check_starts(c, v, kk, rig)
+        elif k == "exponents":
+            out[k] = _check_exponents(c, v, kk, rig)
+    if name in ABOUT_EQUILIBRIUM:
+        c.one_of(s, key, ("omega", "frequency_hz"), "the drive frequencies, omega (rad/s) or "
+                                                    "frequency_hz (Hz): a range {start, stop, "
+                                                    "num} or a list")
+    if name in ("stability_map", "verify") and "A" not in s:
+        c.error(f"{key}.A", "missing; the amplitudes (m): a range {start, stop, num} or a list")
+    if name == "simulate":
+        c.one_of(s, key, ("periods", "duration"), "", required=False)
+    if name == "window" and "order" in s and s.get("method", "floquet") != "averaging":
+        c.error(f"{key}.order", 'only with method = "averaging": the exact window (method '
+                                '"floquet", the default) has no order')
+    if name in ("continuation", "bifurcation_diagram"):
+        _check_parameter_values(c, name, s, key, rig, params, out)
+    return out
+
+
+def _check_about(c, v, key):
+    if isinstance(v, str):
+        return c.choice(v, key, ABOUT)
+    if isinstance(v, list) and v:
+        vals = [c.number(x, f"{key}[{i}]", unit="rad") for i, x in enumerate(v)]
+        return tuple(vals) if None not in vals else None
+    c.error(key, f'must be "inverted", "hanging", "auto" or a list of coordinate values, got '
+                 f"{kind_of(v)} {v!r}")
+    return None
+
+
+def check_axis(c, v, key, name, *, minimum=None, strict=False, unit=""):
+    """An axis: a list of numbers, or a range {start, stop, num, scale}."""
+    if isinstance(v, list):
+        if not v:
+            c.error(key, "an empty list; give at least one value")
+            return None
+        vals = [c.number(x, f"{key}[{i}]", unit=unit, minimum=minimum, strict=strict)
+                for i, x in enumerate(v)]
+        return Axis(name, tuple(vals), "list") if None not in vals else None
+    if not isinstance(v, dict):
+        c.error(key, f"must be a list of values or a range {{start, stop, num, scale}}, got "
+                     f"{kind_of(v)} {v!r}")
+        return None
+    c.table(v, key, AXIS)
+    missing = [k for k in ("start", "stop", "num") if k not in v]
+    for k in missing:
+        c.error(f"{key}.{k}", "missing; a range is {start, stop, num} (scale = \"linear\" "
+                              "or \"log\", default linear)")
+    scale = c.choice(v.get("scale", "linear"), f"{key}.scale", ("linear", "log"))
+    if missing or scale is None:
+        return None
+    log = scale == "log"
+    lo = c.number(v["start"], f"{key}.start", unit=unit, minimum=0.0 if log else minimum,
+                  strict=strict or log)
+    hi = c.number(v["stop"], f"{key}.stop", unit=unit, minimum=0.0 if log else minimum,
+                  strict=strict or log)
+    num = c.number(v["num"], f"{key}.num", integer=True, minimum=1)
+    if None in (lo, hi, num):
+        return None
+    import numpy as np
+    vals = np.geomspace(lo, hi, num) if log else np.linspace(lo, hi, num)
+    return Axis(name, tuple(float(x) for x in vals), scale)
+
+
+def in_rad_s(axis):
+    """A frequency axis read in Hz as the ``omega`` axis in rad/s (None stays None)."""
+    if axis is None:
+        return None
+    return Axis("omega", tuple(hz_to_rad_s(f) for f in axis.values), axis.kind)
+
+
+# -- the frontier's settings ----------------------------------------------------------------
+
+def _check_parameter(c, v, key, rig, params):
+    """The name of the parameter a continuation or a diagram varies: one of the system's
+    (as the scene sets them), or "frequency_hz" for omega in Hz."""
+    allowed = sorted(params) + (["frequency_hz"] if "omega" in params else [])
+    if not isinstance(v, str):
+        c.error(key, f"must be the name of a parameter ({', '.join(allowed)}), got "
+                     f"{kind_of(v)} {v!r}")
+        return None
+    if rig is not None and v not in allowed:
+        c.unknown(key, v, allowed, what="parameter",
+                  extra=" (a parameter the scene sets; the drive's are A and omega)")
+        return None
+    return v
+
+
+def _check_parameter_values(c, name, s, key, rig, params, out):
+    """start, stop (continuation) or values (bifurcation_diagram), in the varied parameter's
+    unit and range; a parameter given as frequency_hz becomes omega (rad/s) here."""
+    if "parameter" in s and out.get("parameter") is None:
+        return                                       # reported; its range is unknown
+    parameter = out.get("parameter", "A")
+    kind, minimum, strict, unit = axis_range(parameter, rig)
+    hz = parameter == "frequency_hz"
+    if hz:
+        out["parameter"] = "omega"
+    if name == "bifurcation_diagram":
+        if "values" not in s:
+            c.error(f"{key}.values", f"missing; the values of {parameter} ({unit or 'SI'}): a "
+                                     "range {start, stop, num} or a list")
+            return
+        axis = check_axis(c, s["values"], f"{key}.values", parameter, minimum=minimum,
+                          strict=strict, unit=unit)
+        out["values"] = in_rad_s(axis) if hz else axis
+        return
+    ends = {}
+    for k in ("start", "stop"):
+        if k in s:
+            v = c.number(s[k], f"{key}.{k}", unit=unit, minimum=minimum, strict=strict)
+            ends[k] = hz_to_rad_s(v) if hz and v is not None else v
+    if "stop" not in s:
+        c.error(f"{key}.stop", f"missing; where the branch ends: the other end of the interval "
+                               f"of {parameter} ({unit or 'SI'}) from its start")
+        return
+    out.update({k: v for k, v in ends.items() if v is not None})
+    start = ends.get("start", params.get(out.get("parameter", parameter)))
+    if start is not None and ends.get("stop") is not None and start == ends["stop"]:
+        c.error(f"{key}.stop", f"equals the start value of {parameter} ({start!r}"
+                               + ("" if "start" in s else ", the scene's") + "); give the "
+                               "other end of the interval")
+
+
+def _check_starts(c, v, key, rig):
+    """A list of starting coordinates: numbers (one coordinate each) or lists of n."""
+    n = len(rig.coordinates) if rig is not None else None
+    names = [q.name for q in rig.coordinates] if rig is not None else []
+    if not isinstance(v, list) or not v:
+        c.error(key, "must be a non-empty list of starting coordinates (rad), e.g. [0.1, 2.0] "
+                     "for one coordinate or [[0.1, 0.0], [2.0, 1.0]] for two, got "
+                     f"{kind_of(v)} {v!r}")
+        return None
+    out = []
+    for i, x in enumerate(v):
+        row = x if isinstance(x, list) else [x]
+        vals = [c.number(y, f"{key}[{i}]", unit="rad") for y in row]
+        if n is not None and len(vals) != n:
+            c.error(f"{key}[{i}]", f"a start needs {n} coordinate values ({', '.join(names)}), "
+                                   f"got {len(vals)}")
+            return None
+        out.append(tuple(vals))
+    return tuple(out) if all(None not in r for r in out) else None
+
+
+def _check_exponents(c, v, key, rig):
+    if isinstance(v, str):
+        return c.choice(v, key, ("all", "largest"))
+    k = c.number(v, key, integer=True, minimum=1)
+    d = 2 * len(rig.coordinates) if rig is not None else None
+    if k is not None and d is not None and k > d:
+        c.error(key, f"must be at most {d} (the phase space's dimension), got {k}; or \"all\"")
+        return None
+    return k
