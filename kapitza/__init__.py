@@ -62,6 +62,16 @@ Continuation and bifurcations (:mod:`kapitza.continuation`)
         ``Branch`` (``Branch.switch(bifurcation)`` starts the emanating branch).
     Branch, Bifurcation
 
+The route to chaos (:mod:`kapitza.chaos`)
+    lyapunov, lyapunov_grid
+        Lyapunov exponents by the variational equations (Benettin), with their error: the
+        spectrum of one trajectory; the largest over a broadcast grid (a chaos map).
+    bifurcation_diagram
+        Strobe samples after a transient over a parameter's values × starts (brute force).
+    poincare_section, basin
+        The stroboscopic section of a trajectory; the starts that stay near a state.
+    LyapunovSpectrum, LyapunovGrid, BifurcationDiagram, PoincareSection, Basin
+
 Verification (:mod:`kapitza.verification`)
     verify
         Averaging, Floquet analysis and direct simulation over an (A, ω) grid, compared
@@ -121,6 +131,11 @@ from .animation import system_animation as system_animation
 from .averaging import AveragedSystem as AveragedSystem
 from .averaging import AveragingValidityWarning as AveragingValidityWarning
 from .averaging import average as average
+from .chaos import basin as basin
+from .chaos import bifurcation_diagram as bifurcation_diagram
+from .chaos import lyapunov as lyapunov
+from .chaos import lyapunov_grid as lyapunov_grid
+from .chaos import poincare_section as poincare_section
 from .closed_forms import averaging_window as averaging_window  # deprecated
 from .closed_forms import characteristic_value as characteristic_value
 from .closed_forms import ince_strutt_chart as ince_strutt_chart
@@ -149,6 +164,8 @@ from .report import Report as Report
 from .report import build_report as build_report
 from .results import AdaptiveMap as AdaptiveMap
 from .results import AveragingPrediction as AveragingPrediction
+from .results import Basin as Basin
+from .results import BifurcationDiagram as BifurcationDiagram
 from .results import Bifurcation as Bifurcation
 from .results import BoundaryCurves as BoundaryCurves
 from .results import Branch as Branch
@@ -157,12 +174,15 @@ from .results import EquilibriumPrediction as EquilibriumPrediction
 from .results import FloquetGrid as FloquetGrid
 from .results import FloquetResult as FloquetResult
 from .results import InceStruttChart as InceStruttChart
+from .results import LyapunovGrid as LyapunovGrid
+from .results import LyapunovSpectrum as LyapunovSpectrum
 from .results import Measurement as Measurement
 from .results import MonodromyData as MonodromyData
 from .results import MultiplePendulumPrediction as MultiplePendulumPrediction
 from .results import OrderFit as OrderFit
 from .results import PendulumAveraging as PendulumAveraging
 from .results import PeriodicOrbit as PeriodicOrbit
+from .results import PoincareSection as PoincareSection
 from .results import SlowModes as SlowModes
 from .results import SlowModeSweep as SlowModeSweep
 from .results import StabilityMap as StabilityMap
@@ -196,6 +216,8 @@ __all__ = [
     "pendulum_effective_potential", "pendulum_averaged", "multiple_pendulum_upright",
     "measure", "measure_grid", "periodic_orbit",
     "continuation", "Branch", "Bifurcation",
+    "lyapunov", "lyapunov_grid", "bifurcation_diagram", "poincare_section", "basin",
+    "LyapunovSpectrum", "LyapunovGrid", "BifurcationDiagram", "PoincareSection", "Basin",
     "verify",
     "ComputationInterrupted", "FloquetResult", "FloquetGrid", "MonodromyData",
     "StabilityMap", "StabilityWindow", "BoundaryCurves", "AdaptiveMap", "InceStruttChart",

@@ -116,7 +116,7 @@ def test_frequency_as_the_parameter(ddp):
 
 def test_poincare_section(ddp, cascade, tmp_path):
     s = poincare_section(ddp, dict(FIXED, F=1.45), 0.5, periods=64, transient=300,
-                         angles="theta", progress=False)
+                         angles="theta", rtol=cascade.rtol, progress=False)
     assert isinstance(s, PoincareSection) and s.q.shape == (64, 1)
     np.testing.assert_array_equal(s.q[:, 0], cascade.q[1, 2, :, 0])
     np.testing.assert_allclose(s.times[:2], np.array([300, 301]) * 3 * math.pi)

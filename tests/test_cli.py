@@ -20,8 +20,8 @@ from kapitza.results import ComputationInterrupted
 from helpers import pendulum_scene
 
 W60 = 2 * math.pi * 60
-COMMANDS = ["predict", "window", "map", "measure", "verify", "animate", "report", "run", "sweep",
-            "warmup", "summary"]
+COMMANDS = ["predict", "window", "map", "measure", "verify", "animate", "continue", "bifurcation",
+            "lyapunov", "report", "run", "sweep", "warmup", "summary"]
 
 
 def run_json(capsys, *argv):

@@ -37,11 +37,18 @@ def _links(page: str):
     return re.findall(r"""(?:src|href)=['"]([^'"]+)['"]""", page)
 
 
+#: Sections shown only when the scene asks for them (the default scene does not).
+ASKED_FOR = {"bifurcations"}
+
+
 def test_every_section_written_with_its_files(quick):
     report, lines = quick
     assert [s.name for s in report.sections] == list(SECTIONS)
-    assert {s.name: s.status for s in report.sections} == {n: "done" for n in SECTIONS}
+    assert {s.name: s.status for s in report.sections} == {
+        n: "skipped" if n in ASKED_FOR else "done" for n in SECTIONS}
     for s in report.sections:
+        if s.name in ASKED_FOR:
+            continue
         assert (report.out / s.figure).stat().st_size > 10_000, s.name
         assert s.caption and np.isfinite(s.seconds)
         for t in s.tables:
@@ -50,10 +57,50 @@ def test_every_section_written_with_its_files(quick):
             assert len(pd.read_csv(csv)) == len(pd.read_parquet(parquet)) > 0
     assert report.section("animation").figure.suffix == ".gif"
     # progress: one line when each section starts and one when it ends, with times
-    ends = [x for x in lines if re.search(r"\[\d/7\] .*: (done|skipped).* s \(elapsed", x)]
+    ends = [x for x in lines if re.search(r"\[\d/8\] .*: (done|skipped).* s \(elapsed", x)]
     assert len(ends) == len(SECTIONS)
     frame = report.to_dataframe()
     assert list(frame.section) == list(SECTIONS) and frame.seconds.gt(0).all()
+
+
+def test_frontier_section_skipped_unless_the_scene_asks(quick):
+    """The default scene asks for no continuation, diagram or Lyapunov exponents: the
+    section says so on the page, and costs nothing."""
+    report, _ = quick
+    s = report.section("bifurcations")
+    assert s.status == "skipped" and s.seconds < 0.5
+    assert "continuation, bifurcation_diagram or lyapunov" in s.reason
+    assert html.escape(s.reason) in report.index.read_text(encoding="utf-8")
+
+
+def test_frontier_section_of_the_period_doubling_scene(tmp_path):
+    """The section for kapitza/scenes/period_doubling.toml (quick): the branches, the
+    diagram and the exponents drawn; its numbers against independent references (the
+    damped Mathieu window of the hanging state; the phase-space contraction −γ)."""
+    from kapitza.report._frontier_section import bifurcations_section
+    from kapitza.report._job import Job
+    (tmp_path / "figures").mkdir()
+    (tmp_path / "data").mkdir()
+    scene = kapitza.Scene.example("period_doubling")
+    job = Job(scene=scene, out=tmp_path, quick=True, grid_progress=False)
+    result = bifurcations_section(job)
+    assert (tmp_path / result.figure).stat().st_size > 50_000
+    assert result.tables == ["continuation", "continuation_bifurcations", "bifurcation_diagram",
+                             "lyapunov", "lyapunov_along_A"]
+    for name in result.tables:
+        parquet, csv = job.tables[name]
+        frame = pd.read_parquet(parquet)
+        assert len(frame) == len(pd.read_csv(csv)) > 0 and "method" in frame
+    bifs = pd.read_parquet(job.tables["continuation_bifurcations"][0])
+    assert bifs.kind.tolist() == ["period_doubling", "pitchfork"]
+    win = kapitza.pendulum_window(scene.params["omega"], l=1.0, g=9.81,
+                                  damping=scene.params["gamma"], about="hanging")
+    assert bifs.A[0] == pytest.approx(float(win.A_max), rel=1e-9)
+    lam = pd.read_parquet(job.tables["lyapunov"][0])
+    assert lam.exponent.sum() == pytest.approx(-scene.params["gamma"], abs=1e-8)
+    assert "chaotic: λ1 > 0" in result.caption and "agrees at" in result.caption
+    along = pd.read_parquet(job.tables["lyapunov_along_A"][0])
+    assert along.chaotic.any() and not along.chaotic[along.A < 0.4].any()
 
 
 def test_page_is_self_contained_and_links_only_written_files(quick):
@@ -149,8 +196,8 @@ def test_double_pendulum_scene_says_why_sections_are_skipped(tmp_path):
     report = build_report(scene, tmp_path, quick=True, progress=False)
     status = {s.name: s.status for s in report.sections}
     assert status == {"potential": "skipped", "map": "done", "spots": "done", "slow": "done",
-                      "verification": "done", "work_precision": "done",
-                      "animation": "done"}
+                      "verification": "done", "bifurcations": "skipped",
+                      "work_precision": "done", "animation": "done"}
     # the chain's own animation: held up at the scene's drive, as Floquet says (independently)
     sc = kapitza.Scene.from_toml(scene)
     assert kapitza.floquet_point(sc.system, sc.params, [np.pi, np.pi]).stable
@@ -212,7 +259,7 @@ from kapitza.report import ReportInterrupted, build_report
 
 
 def progress(message):        # "ready" once the first section is written
-    if message.startswith("[1/7]") and ": done" in message:
+    if message.startswith("[1/8]") and ": done" in message:
         print("ready", flush=True)
 
 

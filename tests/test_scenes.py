@@ -642,7 +642,7 @@ def test_map_and_window_of_a_system_off_the_plain_pendulum():
                                         f"{math.pi!r}\n[analyses]")
             .replace("floquet = true", f"stability_map = {{ A = {A}, omega = [300.0], about = "
                                        "\"inverted\" }\nwindow = { omega = [300.0, 600.0], "
-                                       "about = \"inverted\" }"))
+                                       "about = \"inverted\", tol = 1e-9 }"))
     s = Scene.from_text(text)
     assert s.pendulum is None
     res = s.run(write=False)
@@ -659,8 +659,8 @@ def test_map_and_window_of_a_system_off_the_plain_pendulum():
     assert set(tables["window"]["method"]) == {"floquet: certified monodromy edges "
                                                "(kapitza.window)"}
     assert set(tables["stability_map"]["method"]) == {"floquet: monodromy"}
-    averaged = Scene.from_text(text.replace('600.0], about = "inverted" }',
-                                            '600.0], about = "inverted", method = "averaging" }'))
+    averaged = Scene.from_text(text.replace('about = "inverted", tol = 1e-9 }',
+                                            'about = "inverted", method = "averaging" }'))
     res = averaged.run(write=False)
     assert res["window"].method == "averaging"
     assert res.methods["window"] == "averaging: order 1"

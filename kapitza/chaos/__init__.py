@@ -18,10 +18,13 @@ the parameter named by ``frequency``, T = 2π/ω):
 
 Results (:mod:`kapitza.results`): ``LyapunovSpectrum``, ``LyapunovGrid``,
 ``BifurcationDiagram``, ``PoincareSection``, ``Basin``; their ``figure()`` draws with the
-functions of :mod:`kapitza.chaos._figures` (``lyapunov_map_figure``,
+functions of :mod:`kapitza.figures` (``lyapunov_map_figure``,
 ``bifurcation_figure``, ``section_figure``, ``basin_figure``, exported here too).
 """
-from ._figures import basin_figure, bifurcation_figure, lyapunov_map_figure, section_figure
+from ..figures import basin_figure as basin_figure
+from ..figures import bifurcation_figure as bifurcation_figure
+from ..figures import lyapunov_map_figure as lyapunov_map_figure
+from ..figures import section_figure as section_figure
 from ._lyapunov import lyapunov, lyapunov_grid
 from ._sections import basin, bifurcation_diagram, poincare_section
 

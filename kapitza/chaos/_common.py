@@ -57,11 +57,13 @@ def drive_frequency(system, params, frequency, where):
     return omega
 
 
-def state(system, values, what, *, single=False):
-    """A per-coordinate input as a float array (..., n): an array whose last axis has n
-    entries, a scalar (every coordinate), a dict coordinate -> value(s) (a coordinate left
-    out is 0), or — for a system of one coordinate — any array (one value per start).
-    ``single``: exactly one state, shape (n,)."""
+def state(system, values, what, *, single=False, starts=False):
+    """A per-coordinate input as a float array (..., n): a scalar (every coordinate), a
+    dict coordinate -> value(s) (a coordinate left out is 0), an array whose last axis
+    has n entries — or, for a system of one coordinate, any array: the coordinate's value
+    at each point of a grid (``theta[:, None]`` and ``rate[None, :]`` make one).
+    ``single``: exactly one state, shape (n,).  ``starts``: a list of states, (S, n), or
+    for one coordinate also (S,)."""
     n, names = system.n_dof, list(system.coordinates)
     if isinstance(values, Mapping):
         unknown = sorted(set(map(str, values)) - set(names))
@@ -74,7 +76,7 @@ def state(system, values, what, *, single=False):
         arr = real_array(values, what)
         if arr.ndim == 0:
             arr = np.full(n, float(arr))
-        elif n == 1 and arr.shape[-1] != 1:
+        elif n == 1 and not single and not (starts and arr.ndim == 2 and arr.shape[1] == 1):
             arr = arr[..., None]
         elif arr.shape[-1] != n:
             raise ValueError(f"{what} must have a last axis of {n} entries (one per coordinate "

@@ -63,8 +63,7 @@ from lagrange_core.batch import STATUS_NAMES
 from lagrange_core.checks import real_number
 from lagrange_core.progress import defer_ctrl_c, run_in_chunks
 
-from ..results import ComputationInterrupted
-from ..results._chaos import LyapunovGrid, LyapunovSpectrum
+from ..results import ComputationInterrupted, LyapunovGrid, LyapunovSpectrum
 from . import _kernels as _k
 from ._common import (
     block_error,
@@ -77,7 +76,6 @@ from ._common import (
     unconstrained,
     whole,
 )
-from ._figures import lyapunov_map_figure
 
 __all__ = ["lyapunov", "lyapunov_grid"]
 
@@ -401,7 +399,7 @@ def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200,
         qdot=YF[:, n:].reshape(S + (n,)),
         status=np.asarray(STATUS_NAMES, dtype=object)[STATUS].reshape(S),
         steps=COUNTS[:, _k.STEPS].reshape(S), tangent=tangent, rtol=rtol, atol=atol,
-        wall_time=time.perf_counter() - start_clock, figure_function=lyapunov_map_figure)
+        wall_time=time.perf_counter() - start_clock)
     if interrupted:
         raise ComputationInterrupted(result, (STATUS != _k.NOT_RUN).reshape(S))
     failed = ~ok & (STATUS != _k.NOT_RUN)

@@ -27,10 +27,8 @@ import numpy as np
 from lagrange_core.batch import GridInterrupted
 from lagrange_core.checks import real_number
 
-from ..results import ComputationInterrupted
-from ..results._chaos import Basin, BifurcationDiagram, PoincareSection
+from ..results import Basin, BifurcationDiagram, ComputationInterrupted, PoincareSection
 from ._common import angle_names, drive_frequency, parameters, state, tolerances, whole
-from ._figures import basin_figure, bifurcation_figure, section_figure
 
 __all__ = ["bifurcation_diagram", "poincare_section", "basin"]
 
@@ -110,7 +108,7 @@ def bifurcation_diagram(system, params, about=None, *, parameter, values, q0=Non
     values : array_like (V,)
         Its values.
     q0, qdot0 : array_like (S, n), (n,), float or dict coordinate -> values (S,)
-        The starts at t0 (for a system of one coordinate, any 1-D array: one per start).
+        The starts at t0 (for a system of one coordinate also (S,): one value per start).
         Default: ``about`` (zeros without it), at rest.
     periods : int
         Strobe samples kept per run (K).
@@ -155,8 +153,8 @@ def bifurcation_diagram(system, params, about=None, *, parameter, values, q0=Non
     ref = None if about is None else state(system, about, "about", single=True)
     if q0 is None:
         q0 = ref if ref is not None else 0.0
-    Q0 = state(system, q0, "q0")
-    V0 = state(system, qdot0, "qdot0")
+    Q0 = state(system, q0, "q0", starts=True)
+    V0 = state(system, qdot0, "qdot0", starts=True)
     try:
         starts = np.broadcast_shapes(Q0.shape[:-1], V0.shape[:-1])
     except ValueError:
@@ -186,8 +184,7 @@ def bifurcation_diagram(system, params, about=None, *, parameter, values, q0=Non
         q=np.array(q), qdot=np.array(qdot), q0=np.array(Q0), qdot0=np.array(V0), about=ref,
         period=np.array(T[:, 0]), periods=periods, transient=transient, angles=names,
         params={k: float(v) for k, v in pv.items() if k != parameter},
-        status=np.array(status), method=used, rtol=rtol, wall_time=time.perf_counter() - clock,
-        figure_function=bifurcation_figure)
+        status=np.array(status), method=used, rtol=rtol, wall_time=time.perf_counter() - clock)
     if interrupted:
         raise ComputationInterrupted(result, result.status != "not_run")
     _warn_failed(result.status, where)
@@ -247,8 +244,7 @@ def poincare_section(system, params, q0, qdot0=0.0, *, periods=1000, transient=0
         coordinates=tuple(system.coordinates), q=np.array(q), qdot=np.array(qdot),
         q0=np.array(Q0), qdot0=np.array(V0), period=T, t0=t0, periods=periods,
         transient=transient, angles=names, params={k: float(v) for k, v in pv.items()},
-        status=np.array(status), method=used, rtol=rtol, wall_time=time.perf_counter() - clock,
-        figure_function=section_figure)
+        status=np.array(status), method=used, rtol=rtol, wall_time=time.perf_counter() - clock)
     if interrupted:
         raise ComputationInterrupted(result, result.status != "not_run")
     _warn_failed(result.status, where)
@@ -347,7 +343,7 @@ def basin(system, params, about, *, q0, qdot0=0.0, periods=500, band=math.pi / 2
         coordinates=tuple(system.coordinates), params={k: float(v) for k, v in pv.items()},
         about=ref, q0=np.array(Q0), qdot0=np.array(V0), band=half, stays=status == "finished",
         exit_time=exit_time, status=status, period=T, periods=periods, method=run.method,
-        rtol=rtol, wall_time=time.perf_counter() - clock, figure_function=basin_figure)
+        rtol=rtol, wall_time=time.perf_counter() - clock)
     if interrupted:
         raise ComputationInterrupted(result, status != "not_run")
     failed = ~np.isin(status, ("finished", "left_band"))

@@ -107,8 +107,8 @@ def _explain(err, analysis, settings, from_options):
         key = p.key
         option = None
         prefix = f"analyses.{analysis}."
-        if key.startswith(prefix) and key[len(prefix):].split("[")[0].split(".")[0] in settings:
-            name = key[len(prefix):].split("[")[0].split(".")[0]
+        name = key[len(prefix):].split("[")[0].split(".")[0] if key.startswith(prefix) else ""
+        if name and (name in settings or from_options):
             option = "--" + name.replace("_", "-")
         elif from_options:
             option = _OPTION_KEYS.get(key)
@@ -217,6 +217,9 @@ def _bifurcation(args) -> int:
     settings = _given(parameter=args.parameter, values=values,
                       starts=_states(args.starts, "--starts"), periods=args.periods,
                       transient=args.transient)
+    if values is None and args.scene is None:
+        raise UsageError("--values: missing; the values of the parameter (--parameter, "
+                         "default A), START:STOP:NUM or a,b,c.")
     parameter = settings.get("parameter", "A")
     first = None
     if values is not None:
@@ -308,7 +311,10 @@ def _lyapunov_grid(args, settings, A, omega) -> int:
     scene = _scene(args, "lyapunov", settings, A=float(A[0]), omega=float(omega[0]))
     s = scene.analyses["lyapunov"]
     params = {**scene.params, "A": A[:, None], "omega": omega[None, :]}
-    grid = lyapunov_grid(scene.system, params, scene.q0, scene.qdot0,
+    q0, qdot0 = scene.q0, scene.qdot0
+    if q0.size == 1:                    # one coordinate: its value, the same at every point
+        q0, qdot0 = float(q0[0]), float(qdot0[0])
+    grid = lyapunov_grid(scene.system, params, q0, qdot0,
                          periods=s.get("periods", 1000), transient=s.get("transient", 100))
     frame = grid.to_dataframe()
     frame["method"] = "lyapunov: Benettin's method, largest exponent (directional difference)"

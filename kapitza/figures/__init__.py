@@ -8,11 +8,13 @@ it with ``fig.savefig(path)``.
 Modules: ``_maps`` (parameter planes: stability maps with windows and boundary curves,
 spot checks, the Ince–Strutt chart), ``_lines`` (curves against one variable: the
 effective potential, the window's error, slow frequencies and the tilt against A,
-work against precision), ``_branches`` (a continued branch and its bifurcations),
+work against precision), ``_branches`` (a continued branch and its bifurcations), ``_chaos`` (the
+Lyapunov map, the bifurcation diagram's dots, a Poincaré section, a basin),
 ``_verification`` (a verification's map and its slow
 frequencies), ``_common`` (the canvas, the check of what a figure is given, labels).
 """
 from ._branches import branch_figure
+from ._chaos import basin_figure, bifurcation_figure, lyapunov_map_figure, section_figure
 from ._common import legend_below
 from ._lines import (
     effective_potential_figure,
@@ -27,4 +29,5 @@ from ._verification import slow_frequency_figure, verification_figure
 __all__ = ["stability_map_figure", "effective_potential_figure", "ince_strutt_figure",
            "verification_figure", "work_precision_figure", "spot_check_figure",
            "slow_frequency_figure", "slow_frequency_line_figure", "tilt_figure",
-           "window_error_figure", "legend_below", "branch_figure"]
+           "window_error_figure", "legend_below", "branch_figure", "lyapunov_map_figure",
+           "bifurcation_figure", "section_figure", "basin_figure"]

@@ -49,26 +49,40 @@ def _equilibrium_state(system, about):
     return np.concatenate([q, np.zeros(system.n_dof)])
 
 
-def _check_persists(system, kernels, P, ystar, T, idx):
-    """Raise unless q̈ = 0 at y* through the period (checked at a few grid points)."""
+def _persistence_defect(system, p, ystar, T):
+    """None where the rest state y* = [q*, 0] persists under the drive (q̈ = 0 at eight
+    phases of the period, to 1e-9 of the Jacobian's size), else (t, q̈) where it does not.
+    ``p``: one parameter row."""
     n = system.n_dof
+    kernels = system.kernels
     dydt = np.empty(2 * n)
     W = kernels.work_array()
     J = np.empty((2 * n, 2 * n))
+    for k in range(8):
+        t = k * T / 8
+        kernels.rhs(t, ystar, p, dydt, W)
+        kernels.jacobian(t, ystar, p, J)
+        scale = max(1.0, float(np.max(np.abs(J))))
+        if not np.all(np.abs(dydt) <= 1e-9 * scale):
+            return t, dydt[n:].tolist()
+    return None
+
+
+def _check_persists(system, kernels, P, ystar, T, idx):
+    """Raise unless q̈ = 0 at y* through the period (checked at a few grid points)."""
+    n = system.n_dof
     for i in idx:
-        for k in range(8):
-            t = k * T[i] / 8
-            kernels.rhs(t, ystar, P[i], dydt, W)
-            kernels.jacobian(t, ystar, P[i], J)
-            scale = max(1.0, float(np.max(np.abs(J))))
-            if not np.all(np.abs(dydt) <= 1e-9 * scale):
-                raise ValueError(
-                    f"the state q = {ystar[:n].tolist()} does not persist under the drive: q̈ = "
-                    f"{dydt[n:].tolist()} at t = {t:.4g} s. Floquet analysis here needs an "
-                    "equilibrium of the driven system (e.g. the inverted pendulum θ = π for a "
-                    "vertical drive); for a state that moves with the drive (a horizontal or "
-                    "elliptic pivot) use kapitza.periodic_orbit(system, params, guess), which "
-                    "finds the periodic orbit and its multipliers.")
+        bad = _persistence_defect(system, P[i], ystar, T[i])
+        if bad is not None:
+            t, qdd = bad
+            raise ValueError(
+                f"the state q = {ystar[:n].tolist()} does not persist under the drive: q̈ = "
+                f"{qdd} at t = {t:.4g} s. Floquet analysis here needs an "
+                "equilibrium of the driven system (e.g. the inverted pendulum θ = π for a "
+                "vertical drive); for a state that moves with the drive (a horizontal or "
+                "elliptic pivot) use kapitza.periodic_orbit(system, params, guess), which "
+                "finds the periodic orbit and its multipliers, or kapitza.stability_map, "
+                "window and boundaries, which follow that orbit over their grids.")
 
 
 class _Stopped(Exception):

@@ -83,7 +83,10 @@ def _lyapunov_line(job, diagram, spectrum):
     from ..chaos import lyapunov_grid
     params = dict(job.params)
     params[diagram.parameter] = np.asarray(diagram.values, dtype=float)
-    return lyapunov_grid(job.scene.system, params, job.scene.q0, job.scene.qdot0,
+    q0, qdot0 = job.scene.q0, job.scene.qdot0
+    if q0.size == 1:                    # one coordinate: its value, the same at every point
+        q0, qdot0 = float(q0[0]), float(qdot0[0])
+    return lyapunov_grid(job.scene.system, params, q0, qdot0,
                          periods=spectrum.periods, transient=spectrum.transient,
                          progress=job.grid_progress)
 

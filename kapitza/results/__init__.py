@@ -10,7 +10,9 @@ stability over the drive's plane (``StabilityMap``, ``AdaptiveMap``, ``Stability
 ``AveragingPrediction``, ``SlowModeSweep``, and in closed form ``EquilibriumPrediction``,
 ``PendulumAveraging``, ``MultiplePendulumPrediction``); direct simulation
 (``Measurement``, ``PeriodicOrbit``); verification (``Verification``, ``OrderFit``);
-continuation (``Branch``, ``BranchPoints``, ``Bifurcation``); and
+continuation (``Branch``, ``BranchPoints``, ``Bifurcation``); the route to chaos
+(``LyapunovSpectrum``, ``LyapunovGrid``, ``BifurcationDiagram``, ``PoincareSection``,
+``Basin``); and
 ``ComputationInterrupted``, Ctrl-C during a long grid with the finished part.
 
 For sibling rooms (not in ``__all__``): ``BOUNDARIES`` (the names of the stability
@@ -31,6 +33,7 @@ from ._base import scalar_or_array as scalar_or_array
 from ._branches import BIFURCATION_KINDS as BIFURCATION_KINDS
 from ._branches import BRANCH_STATUSES as BRANCH_STATUSES
 from ._branches import Bifurcation, Branch, BranchPoints
+from ._chaos import Basin, BifurcationDiagram, LyapunovGrid, LyapunovSpectrum, PoincareSection
 from ._floquet import FloquetGrid, FloquetResult, MonodromyData
 from ._maps import (
     AdaptiveMap,
@@ -48,7 +51,8 @@ __all__ = [
     "StabilityWindow", "InceStruttChart", "SlowModes", "AveragingPrediction",
     "SlowModeSweep", "EquilibriumPrediction", "PendulumAveraging", "MultiplePendulumPrediction",
     "Measurement", "PeriodicOrbit", "OrderFit", "Verification", "BoundaryCurves", "AdaptiveMap",
-    "Branch", "BranchPoints", "Bifurcation",
+    "Branch", "BranchPoints", "Bifurcation", "LyapunovSpectrum", "LyapunovGrid",
+    "BifurcationDiagram", "PoincareSection", "Basin",
 ]
 
 

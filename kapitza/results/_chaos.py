@@ -8,8 +8,8 @@ values × starts: :func:`kapitza.chaos.bifurcation_diagram`), :class:`PoincareSe
 (the stroboscopic section of trajectories: :func:`kapitza.chaos.poincare_section`) and
 :class:`Basin` (which starts stay near a state: :func:`kapitza.chaos.basin`).
 
-They hold numbers; ``figure()`` draws through ``figure_function``, set by the builder
-(this room imports no figure code and nothing above it).
+They hold numbers; ``figure()`` draws through :mod:`kapitza.figures` (imported inside
+the method; the figures read results by their fields and never import them).
 
 Conventions (shared/PHYSICS.md): SI units; θ from the downward vertical; T = 2π/ω the
 drive period; exponents in 1/s (× T: per drive period, the log of a Floquet multiplier's
@@ -19,7 +19,7 @@ and drawn wrapped into [−π, π).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -36,11 +36,14 @@ def wrap_angles(q, coordinates, angles):
     return q
 
 
+_FIGURES = {"LyapunovGrid": "lyapunov_map_figure", "BifurcationDiagram": "bifurcation_figure",
+            "PoincareSection": "section_figure", "Basin": "basin_figure"}
+
+
 def _draw(result, options):
-    if result.figure_function is None:
-        raise TypeError(f"this {type(result).__name__} carries no figure function; draw it "
-                        "with the figures of kapitza.chaos.")
-    return result.figure_function(result, **options)
+    """``result`` drawn by its figure function in :mod:`kapitza.figures`."""
+    from .. import figures
+    return getattr(figures, _FIGURES[type(result).__name__])(result, **options)
 
 
 @dataclass(frozen=True, eq=False)
@@ -173,8 +176,6 @@ class LyapunovGrid:
     tangent : str
     rtol, atol : float
     wall_time : float
-    figure_function : callable or None
-        What :meth:`figure` draws with (set by the builder).
     """
 
     shape: tuple
@@ -197,7 +198,6 @@ class LyapunovGrid:
     rtol: float
     atol: float
     wall_time: float
-    figure_function: object = field(default=None, repr=False, compare=False)
 
     @property
     def chaotic(self) -> np.ndarray:
@@ -252,7 +252,6 @@ class BifurcationDiagram:
     method : str
     rtol : float
     wall_time : float
-    figure_function : callable or None
     """
 
     parameter: str
@@ -272,7 +271,6 @@ class BifurcationDiagram:
     method: str
     rtol: float
     wall_time: float
-    figure_function: object = field(default=None, repr=False, compare=False)
 
     @property
     def q_wrapped(self) -> np.ndarray:
@@ -348,7 +346,6 @@ class PoincareSection:
     method : str
     rtol : float
     wall_time : float
-    figure_function : callable or None
     """
 
     coordinates: tuple
@@ -366,7 +363,6 @@ class PoincareSection:
     method: str
     rtol: float
     wall_time: float
-    figure_function: object = field(default=None, repr=False, compare=False)
 
     @property
     def q_wrapped(self) -> np.ndarray:
@@ -423,7 +419,6 @@ class Basin:
     method : str
     rtol : float
     wall_time : float
-    figure_function : callable or None
     """
 
     coordinates: tuple
@@ -440,7 +435,6 @@ class Basin:
     method: str
     rtol: float
     wall_time: float
-    figure_function: object = field(default=None, repr=False, compare=False)
 
     @property
     def shape(self) -> tuple:

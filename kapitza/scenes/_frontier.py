@@ -154,7 +154,9 @@ def _bifurcation_diagram(scene, s, progress):
     if starts is None:
         q0, qdot0 = scene.q0[None, :], scene.qdot0[None, :]
     else:
-        q0, qdot0 = np.array(starts, dtype=float), 0.0
+        q0, qdot0 = np.array(starts, dtype=float), np.zeros((len(starts), scene.system.n_dof))
+    if scene.system.n_dof == 1:         # one coordinate: its value per start, shape (S,)
+        q0, qdot0 = q0[:, 0], qdot0[:, 0]
     angles = True if scene.spec.rig_name in CATALOGUE else ()
     return bifurcation_diagram(scene.system, scene.spec.params, parameter=s.get("parameter", "A"),
                                values=np.asarray(s["values"].values), q0=q0, qdot0=qdot0,
