@@ -165,8 +165,8 @@ from .report import build_report as build_report
 from .results import AdaptiveMap as AdaptiveMap
 from .results import AveragingPrediction as AveragingPrediction
 from .results import Basin as Basin
-from .results import BifurcationDiagram as BifurcationDiagram
 from .results import Bifurcation as Bifurcation
+from .results import BifurcationDiagram as BifurcationDiagram
 from .results import BoundaryCurves as BoundaryCurves
 from .results import Branch as Branch
 from .results import ComputationInterrupted as ComputationInterrupted

@@ -14,6 +14,7 @@ them, so a user meets one object.  Its methods take the drive first, then the st
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from collections.abc import Callable
@@ -26,6 +27,7 @@ from lagrange_core.checks import real_array
 
 from . import _arguments as arguments
 from . import closed_forms
+from . import floquet as _floquet
 from ._deprecation import keyword_options, warn_deprecated
 from .floquet import floquet_point
 from .results import (
@@ -243,19 +245,38 @@ class KapitzaPendulum:
 
     def window(self, omega, about: str = "inverted", *, tol: float = 1e-10,
                method: str = "floquet", order: int = 2) -> StabilityWindow:
-        """Amplitudes A_min < A < A_max that stabilise the pendulum at each ω (vertical drive).
+        """Amplitudes A_min < A < A_max that stabilise the pendulum at each ω.
 
-        method="floquet" (default): exact, by root-finding on the Floquet condition
-        (characteristic curves a0, b1 of the Mathieu equation; with damping
+        Vertical drive: method="floquet" (default): exact, by root-finding on the Floquet
+        condition (characteristic curves a0, b1 of the Mathieu equation; with damping
         |tr M| = 1 + e^(−γT)) to relative accuracy ``tol``, with the certified
         accuracy.  method="averaging": the averaging prediction of order ``order``
         (inverted only).  See :func:`kapitza.closed_forms.pendulum_window`.
+
+        Horizontal drive: ``about="hanging"`` only (exact): the hanging orbit is stable
+        from A = 0 up to the symmetry-breaking pitchfork A_max, where the tilted orbits
+        branch off (averaging: A ω = √(2 g l)); :func:`kapitza.window` about the symmetric
+        orbit, which is followed in A by shooting on the half-period map (scan up to
+        A = 2 l).  The tilted orbits have no window from A = 0 (they are born at A_max):
+        map them with :meth:`stability_map`.
 
         Returns
         -------
         kapitza.results.StabilityWindow
             Its ``method`` field says which.
         """
+        if self.drive == "horizontal":
+            if about != "hanging" or method != "floquet":
+                raise ValueError(
+                    f"window(about={about!r}, method={method!r}): with the horizontal drive "
+                    "only the hanging orbit has a window of amplitudes from A = 0 (exact, "
+                    "method='floquet'): it gives way at the pitchfork where the tilted orbits "
+                    "are born, and no angle persists under the drive.  Use about='hanging', "
+                    "or stability_map for the tilted and inverted orbits.")
+            win = _floquet.window(self.system, self.params(0.0, 1.0), [0.0], omega=omega,
+                                  tol=tol)
+            return dataclasses.replace(win, about="hanging", l=self.l, g=self.g,
+                                       damping=self.damping)
         self._vertical("window")
         return closed_forms.pendulum_window(omega, l=self.l, g=self.g, damping=self.damping,
                                             about=about, tol=tol, method=method, order=order)
@@ -342,14 +363,26 @@ class KapitzaPendulum:
 
     def stability_map(self, A, omega, about: str = "inverted", *, trace: bool = False,
                       tol: float = 1e-10, progress=None) -> StabilityMap:
-        """Stability of θ = π (or θ = 0) over the grid A × ω (vertical drive).
+        """Stability of θ = π (or θ = 0) over the grid A × ω; with the horizontal drive, of
+        its periodic orbits.
 
-        Undamped: characteristic values of the Mathieu equation once per A and a
-        comparison for every ω (the whole grid in milliseconds; boundaries exact
+        Vertical drive, undamped: characteristic values of the Mathieu equation once per
+        A and a comparison for every ω (the whole grid in milliseconds; boundaries exact
         to ≈ 1e-15 relative); damped or ``trace=True``: the monodromy trace at
         every point to ``tol``, in chunks with a progress line on stderr (``progress``)
         and Ctrl-C keeping the finished rows (:class:`kapitza.results.ComputationInterrupted`).
         See :func:`kapitza.closed_forms.pendulum_stability_map`.
+
+        Horizontal drive: no angle persists under the drive; the map is that of the
+        periodic orbit ``about`` (:func:`kapitza.stability_map` about an orbit), followed
+        over the grid by Newton shooting from point to point (``trace`` is always
+        computed; ``tol`` is the shooting's residual, at least 1e-10).  "hanging",
+        "inverted": the orbits symmetric about θ = 0, π, shot on the half-period map (regular
+        at the pitchfork where the hanging orbit hands over to the tilted ones), each ω
+        followed from the smallest A.  "tilted" (θ* > 0), "tilted-": the tilted orbit found
+        at the grid's largest A and ω from averaging's cos θ* = 2gl/(Aω)²
+        (:meth:`floquet`), then followed over the grid; where it does not exist (below the
+        pitchfork) a point has no orbit: unstable, NaN trace, flagged.
 
         Returns
         -------
@@ -358,11 +391,46 @@ class KapitzaPendulum:
             T or 2T bounds each unstable region), ``trace``, ``log_growth``;
             ``to_dataframe()``.  Draw it with :func:`kapitza.figures.stability_map_figure`
             (overlay e.g. ``window(omega, method="averaging", order=1)``).
+
+        Examples
+        --------
+        The horizontal drive at ω = 60 rad/s: the hanging orbit holds up to the pitchfork
+        at A = 7.38 cm (averaging: √(2gl)/ω = 7.38 cm), where the tilted orbit takes over.
+
+        >>> import numpy as np
+        >>> pend = KapitzaPendulum(drive="horizontal")
+        >>> A = np.array([0.05, 0.07, 0.08, 0.1])
+        >>> pend.stability_map(A, [60.0], about="hanging").stable[:, 0].tolist()
+        [True, True, False, False]
+        >>> pend.stability_map(A, [60.0], about="tilted").stable[:, 0].tolist()
+        [False, False, True, True]
         """
-        self._vertical("stability_map")
+        if self.drive == "horizontal":
+            return self._orbit_map(A, omega, about, tol, progress)
         return closed_forms.pendulum_stability_map(A, omega, l=self.l, g=self.g,
                                                    damping=self.damping, about=about,
                                                    trace=trace, tol=tol, progress=progress)
+
+    def _orbit_map(self, A, omega, about, tol, progress) -> StabilityMap:
+        """The horizontal drive's map of the periodic orbit ``about`` (see stability_map)."""
+        A = arguments.grid_axis("A", A, "m", positive=False)
+        omega = arguments.grid_axis("omega", omega, "rad/s", positive=True)
+        fixed = {k: v for k, v in self.params(0.0, 1.0).items() if k not in ("A", "omega")}
+        if about in ("hanging", "inverted"):
+            state = [arguments.about_angle(about)]
+        elif about not in ("tilted", "tilted+", "tilted-"):
+            raise ValueError(f"about must be 'tilted', 'tilted-', 'hanging' or 'inverted' for "
+                             f"the horizontal drive, got {about!r}.")
+        elif A.size and omega.size:
+            # the tilted orbit where it surely exists: the grid's strongest, fastest drive
+            state = self.floquet(float(np.max(A)), float(np.max(omega)), about=about,
+                                 tol=min(tol, 1e-10))
+        else:
+            state = [0.0]
+        result = _floquet.stability_map(self.system, fixed, state, A=A, omega=omega,
+                                        tol=max(tol, 1e-10), progress=progress)
+        return dataclasses.replace(result, about=about, l=self.l, g=self.g,
+                                   damping=self.damping, params={})
 
     # -- direct integration (lagrange_core) --------------------------------------------
     @_drive_was_last

@@ -9,8 +9,7 @@ import numpy as np
 
 from lagrange_core.progress import ProgressLine
 
-from ..results import ComputationInterrupted
-from ..results import Bifurcation, Branch, BranchPoints
+from ..results import Bifurcation, Branch, BranchPoints, ComputationInterrupted
 from ._bifurcations import detect, detect_half_period
 from ._points import make_point, orbit_statistics
 from ._shooting import CorrectorFailed, PeriodMap, correct, tangent

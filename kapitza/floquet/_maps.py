@@ -23,8 +23,10 @@ from .. import _arguments as arguments
 from ..results import AdaptiveMap, ComputationInterrupted, StabilityMap
 from ._margins import signed_margin
 from ._old_spellings import axes_as_keywords
+from ._orbit_probe import OrbitProbe, orbit_map
+from ._orbits import orbit_request
 from ._point import floquet_grid
-from ._probe import _Probe
+from ._probe import fixed_parameters, probe_for
 
 __all__ = ["stability_map", "adaptive_map"]
 
@@ -91,6 +93,12 @@ def stability_map(system, params, about, *, A, omega, amplitude="A", frequency="
     A = arguments.grid_axis(amplitude, A, None, positive=None)
     omega = arguments.grid_axis(frequency, omega, "rad/s", positive=True)
     fixed = {k: v for k, v in params.items() if k not in (amplitude, frequency)}
+    if A.size and omega.size:
+        request = orbit_request(system, fixed_parameters(system, params, amplitude, frequency),
+                                about, amplitude, frequency, _probes(A, omega))
+        if request is not None:
+            return orbit_map(system, params, request, A, omega, amplitude, frequency,
+                             _orbit_tol(tol), guard_tol, progress)
     p = dict(fixed)
     p[amplitude] = A[:, None]
     p[frequency] = omega[None, :]
@@ -108,6 +116,19 @@ def stability_map(system, params, about, *, A, omega, amplitude="A", frequency="
         if _SIGINT["hit"]:             # Ctrl-C after the last chunk: everything is computed
             raise ComputationInterrupted(result, np.ones(result.stable.shape, dtype=bool))
         return result
+
+
+def _probes(A, omega):
+    """Where ``about``'s persistence under the drive is tested: the largest amplitude at
+    the lowest and the highest frequency."""
+    a = float(np.max(np.abs(A)))
+    return [(a, float(np.min(omega))), (a, float(np.max(omega)))]
+
+
+def _orbit_tol(tol):
+    """The shooting's residual tolerance for a map's ``tol``, within 1e-10 … 1e-6 (the flow
+    is integrated to 1/100 of it; float64 flows meet no less than ~1e-12)."""
+    return float(min(1e-6, max(1e-10, tol)))
 
 
 def _map_from_grid(g, A, omega, about, fixed, t0) -> StabilityMap:
@@ -186,11 +207,15 @@ def adaptive_map(system, params, about, *, A, omega, amplitude="A", frequency="o
     w = arguments.grid_axis(frequency, omega, "rad/s", positive=True)
     if isinstance(coarse_step, bool) or not isinstance(coarse_step, int) or coarse_step < 1:
         raise ValueError(f"coarse_step must be an integer ≥ 1, got {coarse_step!r}.")
-    probe = _Probe(system, params, about, amplitude, frequency, tol, order, guard_tol)
+    probe = probe_for(system, params, about, amplitude, frequency, tol, order, guard_tol,
+                      probes=_probes(A, w) if A.size and w.size else [],
+                      start=float(np.min(A)) if A.size else 0.0, orbit_tol=_orbit_tol(tol))
     out = refine_map(probe, A, w, coarse_step, guard=guard)
+    orbit = isinstance(probe, OrbitProbe)
     return AdaptiveMap(A=A, omega=w, stable=out["stable"], label=out["label"], trace=None,
-                       log_growth=None, error_estimate=tol, about=str(about),
-                       method="adaptive monodromy", params=dict(probe.fixed),
+                       log_growth=None, error_estimate=tol, about=probe.label,
+                       method="adaptive, periodic orbit" if orbit else "adaptive monodromy",
+                       params=dict(probe.fixed),
                        seconds=time.perf_counter() - t0, samples=int(probe.samples or 0),
                        margin=out["margin"], computed=out["computed"],
                        monodromies=probe.count, levels=out["levels"], coarse_step=coarse_step)

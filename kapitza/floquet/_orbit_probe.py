@@ -6,10 +6,12 @@ equilibrium; so :func:`kapitza.floquet.window`, :func:`kapitza.floquet.boundarie
 :func:`stability_map`.
 
 The monodromy of a shot orbit (:class:`kapitza.floquet._shooting.Shot`) is given in the
-balanced variables (q, dq/d(ωt)) as the Taylor monodromies are, with its entries' error
-(``delta``): the shot's monodromy error (the flow's step-doubling difference, which runs
+balanced variables (q, dq/d(ωt)) as the Taylor monodromies are.  Its error estimate
+``err`` is the shot's monodromy error (the flow's step-doubling difference, which runs
 ~2⁸ above the finer flow's actual error as the Taylor estimate runs 100–1000× above its
-own, plus the state's error carried through M), × max(1, ω, 1/ω) for the balancing.
+own, plus the state's error carried through M), × max(1, ω, 1/ω) for the balancing; the
+margins' entries' error ``delta`` is measured as :class:`kapitza.floquet._probe._Probe`
+measures it, against a second shooting from the orbit at 100× the tolerance.
 Liouville: ∮ tr J dt = 0 exactly for a closed orbit of a system without dissipation or
 generalised forces (det M = 1 is then a check of the integration); otherwise it is taken
 as log |det M| (the guard is then no check) and the orbit counts as damped unless that
@@ -64,6 +66,7 @@ class OrbitProbe:
         self.follower = Follower(system, self.fixed, request, amplitude, frequency, tol, start)
         self.undamped_system = conservative(system, self.fixed)
         self.samples = 0
+        self.label = request.label
 
     @property
     def count(self) -> int:
@@ -99,8 +102,9 @@ class OrbitProbe:
             if s is None:
                 line = self.follower.lines.get(float(w[i]))
                 why = self.follower.why.get(float(w[i])) if line is None else (
-                    "the orbit's branch, followed in the amplitude, ends before it (a fold "
-                    "or a branch point)")
+                    "the orbit, followed in the amplitude, could not be continued to it: "
+                    "its branch ends before (a fold or a branch point), or Newton's "
+                    "shooting stopped converging")
                 flags[i] = (f"no periodic orbit: {why}",)
                 continue
             M = s.monodromy
@@ -123,8 +127,8 @@ class OrbitProbe:
         undamped = np.full(m, True) if self.undamped_system else \
             np.abs(liou) <= 1e-12 * np.maximum(1.0, T)
         out = dict(Mb=Mb, ls=np.zeros(m), err=err, undamped=undamped, flags=flags)
-        if self.paired:
-            out["delta"] = np.where(have, delta, np.inf)
+        if self.paired and not analyse:
+            out["delta"] = self._measured_delta(shots, w, Mb, delta)
         if analyse:
             res = _analyse(np.where(have[:, None, None], Mb, np.eye(d)), np.zeros(m), T,
                            np.where(have, liou, 0.0), np.where(have, err, 0.0),
@@ -137,6 +141,27 @@ class OrbitProbe:
             for i in np.nonzero(have)[0]:
                 flags[i] = tuple(flags[i]) + tuple(res["flags"][i])
             out.update(stable=stable, label=label, signed=signed, analysis=res)
+        return out
+
+    def _measured_delta(self, shots, w, Mb, bound):
+        """The entries' error of the balanced monodromies, measured: the gap to a second
+        shooting from the same state at 100× the tolerance (what the coarser one gets
+        wrong bounds the finer one's error, as :class:`~kapitza.floquet._probe._Probe`
+        measures it); the shot's own bound where the second fails."""
+        n = self.system.n_dof
+        out = np.full(len(shots), np.inf)
+        for i, s in enumerate(shots):
+            if s is None:
+                continue
+            coarse = self.follower.shoot_once(s, w[i], 100.0 * self.tol)
+            size = max(1.0, float(np.max(np.abs(Mb[i]))))
+            if coarse is None:
+                out[i] = bound[i]
+                continue
+            M2 = coarse.monodromy.copy()
+            M2[n:, :] /= w[i]
+            M2[:, n:] *= w[i]
+            out[i] = max(float(np.max(np.abs(M2 - Mb[i]))), 16 * np.finfo(float).eps * size)
         return out
 
     def amplitude_scale(self, omega):
@@ -188,7 +213,7 @@ def orbit_map(system, params, request, A, omega, amplitude, frequency, tol, guar
                   trace=np.full((nA, nw), np.nan), log_growth=np.full((nA, nw), np.nan),
                   margin=np.zeros((nA, nw)), err=np.full((nA, nw), np.nan))
     flags = np.empty((nA, nw), dtype=object)
-    flags[:] = [()]
+    flags.fill(())
     columns = np.argsort(np.abs(omega - request.seed[1]) if request.seed else np.arange(nw),
                          kind="stable")
 

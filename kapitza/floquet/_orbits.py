@@ -24,19 +24,20 @@ What ``about`` names
 How an orbit is followed (:class:`Line`)
 ----------------------------------------
 Along one parameter x (the amplitude at a fixed ω; or ω at the seed's amplitude), each
-new point's Newton shooting (:func:`kapitza.floquet._shooting.shoot`) starts from a
-predictor: the linear interpolation between the two solved points around it, or the
-secant through the two nearest on one side, or — from a single point — the tangent
-dy/dx = −(∂G/∂y)⁻¹ ∂G/∂x (∂G/∂x by a difference of the flow).  A step is accepted only
-where Newton converges and the corrector moves the state by at most half of what the
-predictor moved it (in the balanced variables q, q̇/ω), plus the shooting's own accuracy:
-on a smooth branch the predictor's error is O(h²) against O(h), so fine steps always
-pass, while a jump to another branch (the tilted orbit past the pitchfork, the far side
-of a fold) moves by more than the predictor did whatever the step.  A rejected step is
-halved; below 1e-6 of x the branch has ended (a fold, or the branch point where a tilted
-orbit is born) and every point beyond it is reported without an orbit, never with the
-orbit of another branch.  Accepted intermediate points are kept, so later requests at
-the same ω interpolate.
+new point's Newton shooting (:func:`kapitza.floquet._shooting.shoot`) starts from the
+tangent predictor y0 + y0′ h, with y′ = −(∂G/∂y)⁻¹ ∂G/∂x (∂G/∂x a difference of the flow
+in x).  A step is accepted only where Newton converges and both tangents agree with it:
+forwards |y1 − y0 − y0′ h| and backwards |y0 − y1 + y1′ h| within half of the predicted
+move (in the balanced variables q, q̇/ω), plus the shooting's own accuracy.  On a smooth
+branch both misses are O(h²) against O(h), so fine steps always pass; where the branch
+turns — a fold, or the square-root end of a branch born at a pitchfork (the tilted orbit
+at the hanging one's pitchfork) — y′ grows without bound, the two tangents disagree
+unless h is small against the distance to the turn, and a step landing on another branch
+or beyond the end fails one of the two checks whatever its length.  A rejected step is
+halved; below 1e-6 of x the branch has ended, and every point beyond is reported without
+an orbit, never with the orbit of another branch.  Accepted points are kept, so later
+requests at the same ω interpolate between them (the linear interpolation as the guess,
+accepted where the corrector stays within half the two points' difference).
 
 Accuracy: each orbit to the shooting's residual ``tol`` · max(1, |y|) (flow to tol/100);
 its state's error ‖J⁻¹‖ (residual + flow error) and the monodromy's error (integration
@@ -59,13 +60,16 @@ __all__ = ["OrbitRequest", "orbit_request", "Line", "Follower"]
 
 #: Newton iterations of one continuation step before it is rejected (the predictor is
 #: good: a converging step takes 2–4)
-MAX_NEWTON = 10
+MAX_NEWTON = 6
 #: the corrector may move the state by this fraction of the predictor's move
 JUMP = 0.5
 #: a step shorter than this × |x| ends the branch
 MIN_STEP = 1e-6
-#: the longest flow of a step (fixed steps per interval shot)
+#: the longest flow of a seed (fixed steps per interval shot)
 MAX_STEPS = 1 << 16
+#: a continuation step's flows may take this many times the steps of its neighbour's:
+#: a trial state far off (or a flow that cannot meet its tolerance) fails fast
+MAX_STEP_GROWTH = 16
 
 
 @dataclass(frozen=True)
@@ -171,15 +175,15 @@ class Line:
     """Orbits of one branch along one parameter x (see the module docstring).
 
     ``solve(x, y, steps)`` shoots from the guess y at x (a :class:`Shot` or None);
-    ``residual(x, y, steps)`` gives (G, ∂G/∂y) of the equations shot, for the tangent;
+    ``residual(x, y, steps)`` gives G(y) of the equations shot at x, for the tangents;
     ``scale(x)`` the weights of the balanced variables (1 for q, 1/ω for q̇)."""
 
     def __init__(self, x0, shot0, solve, residual, scale, tol):
         self.x = [float(x0)]
         self.shots = [shot0]
+        self.slopes: list[np.ndarray | None] = [None]
         self.solve, self.residual, self.scale, self.tol = solve, residual, scale, tol
         self.dead = [-math.inf, math.inf]      # beyond these the branch has ended
-        self.tangent = {}
         self.solves = 0
 
     def at(self, x) -> Shot | None:
@@ -191,52 +195,48 @@ class Line:
         if not (self.dead[0] < x < self.dead[1]):
             return None
         if 0 < i < len(self.x):
-            # between two solved points of the branch: interpolate
+            # between two solved points of one branch (joined by accepted steps): the
+            # linear interpolation, accepted where the corrector stays within JUMP × the
+            # two points' difference
             (xa, sa), (xb, sb) = (self.x[i - 1], self.shots[i - 1]), (self.x[i], self.shots[i])
             u = (x - xa) / (xb - xa)
             pred = (1 - u) * sa.state + u * sb.state
-            shot = self._try(x, pred, sa.state if u < 0.5 else sb.state,
-                             max(sa.steps, sb.steps))
-            if shot is not None:
+            self.solves += 1
+            shot = self.solve(x, pred, max(sa.steps, sb.steps))
+            if shot is not None and self._small(x, shot.state - pred, sb.state - sa.state,
+                                                shot):
+                self._insert(x, shot, None)
                 return shot
             return self._march(x, i - 1 if u < 0.5 else i)
         return self._march(x, 0 if i == 0 else len(self.x) - 1)
 
-    def _insert(self, x, shot):
+    def _insert(self, x, shot, slope):
         i = bisect.bisect_left(self.x, x)
         self.x.insert(i, x)
         self.shots.insert(i, shot)
-        self.tangent = {}
+        self.slopes.insert(i, slope)
 
-    def _accept(self, x, shot, pred, base):
-        """Whether the corrector's move |y − pred| is within JUMP × the predictor's move
-        |pred − base| plus the shooting's accuracy (balanced variables)."""
+    def _small(self, x, error, step, shot):
+        """|error| ≤ JUMP |step| + the shooting's accuracy (balanced variables)."""
         d = self.scale(x)
-        move = float(np.max(np.abs(d * (shot.state - pred))))
-        step = float(np.max(np.abs(d * (pred - base))))
         size = max(1.0, float(np.max(np.abs(d * shot.state))))
         floor = max(100.0 * self.tol, 10.0 * shot.state_error) * size
-        return move <= JUMP * step + floor
+        return float(np.max(np.abs(d * error))) <= JUMP * float(np.max(np.abs(d * step))) \
+            + floor
 
-    def _try(self, x, pred, base, steps):
-        self.solves += 1
-        shot = self.solve(x, pred, steps)
-        if shot is None or not self._accept(x, shot, pred, base):
-            return None
-        self._insert(x, shot)
-        return shot
-
-    def _slope(self, k):
-        """dy/dx at the solved point k: the tangent −(∂G/∂y)⁻¹ ∂G/∂x (a forward
-        difference in x at the same state), None where it cannot be had."""
-        x0, s0 = self.x[k], self.shots[k]
-        h = 1e-6 * max(abs(x0), 1e-3)
-        a = self.residual(x0, s0.state, s0.steps)
-        b = self.residual(x0 + h, s0.state, s0.steps)
-        if a is None or b is None:
+    def _slope(self, x, shot):
+        """dy/dx at a solved point: the tangent −(∂G/∂y)⁻¹ ∂G/∂x, with ∂G/∂y the shot's
+        (X − I, or R X_h − I on the half period) and ∂G/∂x ≈ G(x + h, y)/h (G(x, y) is the
+        converged residual, ≤ tol: the slope's relative error is ~ tol/(h |∂G/∂x|) ≈ 1e-3,
+        ample for a predictor and its check); None where it cannot be had."""
+        h = 1e-5 * max(abs(x), 1e-2)
+        g = self.residual(x + h, shot.state, shot.steps)
+        J = (shot.reduced if shot.reduced is not None else shot.monodromy) \
+            - np.eye(shot.state.size)
+        if g is None:
             return None
         try:
-            v = -np.linalg.solve(a[1], (b[0] - a[0]) / h)
+            v = -np.linalg.solve(J, g / h)
         except np.linalg.LinAlgError:
             return None
         return v if np.all(np.isfinite(v)) else None
@@ -244,30 +244,47 @@ class Line:
     def _march(self, x, k):
         """Continue from the solved point k to x in accepted steps (halved where
         rejected); None (and the branch marked ended) where the step falls below
-        MIN_STEP."""
+        MIN_STEP.
+
+        A step h from (x0, y0) to x1 predicts y0 + y0′ h (Euler, on the tangent) and is
+        accepted where Newton converges to y1 with |y1 − y0 − y0′ h| and, backwards,
+        |y0 − y1 + y1′ h| both within JUMP × the predicted move (plus the shooting's
+        accuracy): on a smooth branch the misses are O(h²) against O(h), and where the
+        branch turns (a fold, the square-root end of a branch born at a pitchfork) the
+        tangents at the two ends disagree unless h is small against the distance to the
+        turn — a step that lands on another branch, or beyond the end, fails one of the
+        two, whatever its length."""
         direction = 1 if x > self.x[k] else -1
         h = x - self.x[k]
+        failed = x               # the nearest point a step failed to reach: not overshot
         while True:
             x0, s0 = self.x[k], self.shots[k]
-            j = k - direction          # the next solved point behind, for the secant
-            behind = 0 <= j < len(self.x) and (self.x[j] - x0) * direction < 0
-            if not behind and k not in self.tangent:
-                self.tangent[k] = self._slope(k)
-            h = direction * min(abs(h), abs(x - x0))
+            if self.slopes[k] is None:
+                self.slopes[k] = self._slope(x0, s0)
+            v0 = self.slopes[k]
+            if v0 is None:                      # singular at x0: the branch turns here
+                self.dead[1 if direction > 0 else 0] = x0
+                return None
+            h = direction * min(abs(h), abs(failed - x0))
             while True:
-                x1 = x0 + h if abs(x - x0 - h) > 1e-12 * max(abs(x), 1.0) else x
-                if behind:
-                    slope = (s0.state - self.shots[j].state) / (x0 - self.x[j])
-                else:
-                    slope = self.tangent[k] if self.tangent[k] is not None else 0.0 * s0.state
-                pred = s0.state + slope * (x1 - x0)
-                shot = self._try(x1, pred, s0.state, s0.steps)
-                if shot is not None:
-                    break
+                x1 = x0 + h if abs(failed - x0 - h) > 1e-12 * max(abs(x), 1.0) else failed
+                pred = s0.state + v0 * (x1 - x0)
+                self.solves += 1
+                shot = self.solve(x1, pred, s0.steps)
+                v1 = None
+                if shot is not None and self._small(x1, shot.state - pred, pred - s0.state,
+                                                    shot):
+                    v1 = self._slope(x1, shot)
+                    back = shot.state - v1 * (x1 - x0) if v1 is not None else None
+                    if back is not None and self._small(x0, s0.state - back,
+                                                        shot.state - back, s0):
+                        break
+                failed = x1
                 h /= 2
                 if abs(h) < MIN_STEP * max(abs(x0), abs(x), 1e-300):
                     self.dead[1 if direction > 0 else 0] = x0 + 2 * h
                     return None
+            self._insert(x1, shot, v1)
             if x1 == x:
                 return shot
             k = bisect.bisect_left(self.x, x1)
@@ -297,18 +314,35 @@ class Follower:
         try:
             shot = shoot(self.system, self._p(A, w), np.asarray(y, float), 2 * math.pi / w,
                          center=self.request.center, tol=self.tol, max_iterations=MAX_NEWTON,
-                         max_steps=MAX_STEPS, steps=steps if steps else None)
+                         max_steps=min(MAX_STEPS, MAX_STEP_GROWTH * steps) if steps
+                         else MAX_STEPS, steps=steps if steps else None)
         except (ValueError, np.linalg.LinAlgError, FloatingPointError):
             return None
         if not (np.all(np.isfinite(shot.state)) and np.all(np.isfinite(shot.monodromy))):
             return None
         return shot
 
+    def shoot_once(self, shot, w, tol) -> Shot | None:
+        """The orbit of ``shot`` (at ω = ``w``, its amplitude) shot again from its state to
+        the residual ``tol`` (a second monodromy, for its error)."""
+        A = self._amplitude_of(shot, w)
+        try:
+            return shoot(self.system, self._p(A, w), shot.state, 2 * math.pi / w,
+                         center=self.request.center, tol=tol, max_iterations=MAX_NEWTON,
+                         max_steps=min(MAX_STEPS, MAX_STEP_GROWTH * max(shot.steps, 8)),
+                         steps=shot.steps)
+        except (ValueError, np.linalg.LinAlgError, FloatingPointError):
+            return None
+
+    def _amplitude_of(self, shot, w):
+        line = self.lines[float(w)]
+        return line.x[next(i for i, s in enumerate(line.shots) if s is shot)]
+
     def _residual(self, A, w, y, steps):
         m = _Map(self.system, self._p(A, w), 2 * math.pi / w, self.request.center,
                  self.tol / 100, MAX_STEPS)
         fl = m.flow(y, max(8, steps // 2))
-        return None if fl is None else (m.residual(y, fl), m.jacobian(fl))
+        return None if fl is None else m.residual(y, fl)
 
     def _scale(self, w):
         return np.r_[np.ones(self.n), np.full(self.n, 1.0 / w)]

@@ -1,6 +1,8 @@
 """The monodromy of one system about one equilibrium at any (amplitude, ω) points: the
 ``evaluate(A, omega, analyse)`` on which :func:`kapitza.floquet.window`,
-:func:`kapitza.floquet.boundaries` and :func:`kapitza.floquet.adaptive_map` run.
+:func:`kapitza.floquet.boundaries` and :func:`kapitza.floquet.adaptive_map` run
+(:func:`probe_for` chooses it, or the same about a periodic orbit,
+:class:`kapitza.floquet._orbit_probe.OrbitProbe`, where ``about`` does not persist).
 
 It returns the balanced monodromies and, for margins, their entries' error measured
 against a second monodromy at 100× the tolerance; for classifications, the stability
@@ -12,6 +14,42 @@ import numpy as np
 
 from ._monodromy import _balanced, _check_system, _equilibrium_state, _integrate, _prepare, _series
 from ._multipliers import _analyse_points
+from ._orbit_probe import OrbitProbe
+from ._orbits import orbit_request
+
+
+def fixed_parameters(system, params, amplitude, frequency):
+    """The parameters other than the drive's amplitude and frequency, checked: the system
+    unconstrained, both names its parameters and different, the others scalars."""
+    _check_system(system)
+    for name in (amplitude, frequency):
+        if name not in system.parameters:
+            raise ValueError(f"{name!r} is not a parameter of {system!r}; its parameters "
+                             f"are {list(system.parameters)} (pass amplitude=<name>, "
+                             "frequency=<name>).")
+    if amplitude == frequency:
+        raise ValueError("the amplitude and the frequency must be different parameters.")
+    fixed = {k: v for k, v in params.items() if k not in (amplitude, frequency)}
+    for k, v in fixed.items():
+        if np.ndim(v) != 0:
+            raise ValueError(f"the fixed parameters must be scalars; {k!r} is an array.")
+    return fixed
+
+
+def probe_for(system, params, about, amplitude, frequency, tol, order, guard_tol, *,
+              probes, start, orbit_tol, paired=False, classify_tol=None):
+    """The ``evaluate(A, omega, analyse)`` about ``about``: :class:`_Probe` (Taylor
+    monodromies) about an equilibrium that persists under the drive at the ``probes``
+    [(A, ω), ...], else :class:`kapitza.floquet._orbit_probe.OrbitProbe` about the
+    periodic orbit it names (:func:`kapitza.floquet._orbits.orbit_request`), shot to the
+    residual ``orbit_tol`` and followed from the amplitude ``start``."""
+    probe = _Probe(system, params, about, amplitude, frequency, tol, order, guard_tol,
+                   paired=paired, classify_tol=classify_tol)
+    request = orbit_request(system, probe.fixed, about, amplitude, frequency, probes)
+    if request is None:
+        return probe
+    return OrbitProbe(system, params, request, amplitude, frequency, orbit_tol, guard_tol,
+                      start, paired=paired)
 
 
 class _Probe:
@@ -27,18 +65,7 @@ class _Probe:
 
     def __init__(self, system, params, about, amplitude, frequency, tol, order, guard_tol,
                  paired=False, classify_tol=None):
-        _check_system(system)
-        for name in (amplitude, frequency):
-            if name not in system.parameters:
-                raise ValueError(f"{name!r} is not a parameter of {system!r}; its parameters "
-                                 f"are {list(system.parameters)} (pass amplitude=<name>, "
-                                 "frequency=<name>).")
-        if amplitude == frequency:
-            raise ValueError("the amplitude and the frequency must be different parameters.")
-        self.fixed = {k: v for k, v in params.items() if k not in (amplitude, frequency)}
-        for k, v in self.fixed.items():
-            if np.ndim(v) != 0:
-                raise ValueError(f"the fixed parameters must be scalars; {k!r} is an array.")
+        self.fixed = fixed_parameters(system, params, amplitude, frequency)
         self.system, self.about = system, about
         self.amplitude, self.frequency = amplitude, frequency
         self.tol, self.order, self.guard_tol = tol, order, guard_tol
@@ -46,6 +73,7 @@ class _Probe:
         self.classify_tol = tol if classify_tol is None else classify_tol
         self.samples = None
         self.count = 0
+        self.label = str(about)
 
     def prepare(self, A, omega, tol=None):
         A = np.asarray(A, float).ravel()

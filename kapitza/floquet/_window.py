@@ -25,7 +25,7 @@ from ._curves import trace_curves
 from ._edges import MIN_WIDTH, first_window
 from ._margins import KINDS
 from ._old_spellings import frequency_as_keyword
-from ._probe import _Probe
+from ._probe import probe_for
 
 __all__ = ["window", "boundaries"]
 
@@ -38,6 +38,22 @@ def _margin_tol(tol):
     """The monodromies' tolerance for edges wanted to ``tol`` (relative, in A): 1e-5 tol,
     at least 1e-15 (each factor 100 costs about 30 % more Taylor steps)."""
     return float(min(1e-8, max(1e-15, 1e-5 * tol)))
+
+
+def _orbit_tol(tol):
+    """The shooting's residual tolerance about a periodic orbit for edges wanted to ``tol``
+    (relative, in A): tol/100, within 1e-10 … 1e-8.  The flow is integrated to 1/100 of
+    it, and float64 flows of a few hundred steps meet no less than ~1e-12 (their rounding
+    error: the step doublings stop agreeing); the edges' accuracy is then about 1e-12
+    over the margin's slope."""
+    return float(min(1e-8, max(1e-10, 1e-2 * tol)))
+
+
+def _probes(omega, A):
+    """Where ``about``'s persistence under the drive is tested: amplitude A at the lowest
+    and the highest frequency."""
+    return [(float(A), float(x)) for x in (np.min(omega), np.max(omega))] if np.size(omega) \
+        else []
 
 
 def _scan_grid(lo, hi, points):
@@ -183,8 +199,10 @@ def window(system, params, about, *, omega, A_range=None, amplitude="A", frequen
                 f"where the undriven state is stable); pass A_range=(0, {hi!r}).  For the "
                 "stability boundaries within a band of amplitudes use "
                 "kapitza.boundaries(..., A_range=(low, high)).")
-    probe = _Probe(system, params, about, amplitude, frequency, _margin_tol(tol), order,
-                   guard_tol, paired=True, classify_tol=CLASSIFY_TOL)
+    probe = probe_for(system, params, about, amplitude, frequency, _margin_tol(tol), order,
+                      guard_tol, paired=True, classify_tol=CLASSIFY_TOL,
+                      probes=_probes(w, 1.0 if A_range is None else hi), start=0.0,
+                      orbit_tol=_orbit_tol(tol))
     if w.size == 0:
         edges = dict(A_min=np.zeros(0), A_max=np.zeros(0), accuracy=np.zeros(0),
                      status=np.zeros(0, dtype=str))
@@ -196,7 +214,7 @@ def window(system, params, about, *, omega, A_range=None, amplitude="A", frequen
         edges = first_window(probe, w, grid, tol, min_width=width)
     pick = (lambda x: x[0].item()) if scalar else (lambda x: x)
     return StabilityWindow(omega=pick(w), A_min=pick(edges["A_min"]),
-                           A_max=pick(edges["A_max"]), method="floquet", about=str(about),
+                           A_max=pick(edges["A_max"]), method="floquet", about=probe.label,
                            accuracy=pick(edges["accuracy"]), tol=tol,
                            status=pick(edges["status"]), min_width=pick(width))
 
@@ -296,17 +314,19 @@ def boundaries(system, params, about, *, omega, A_range=None, amplitude="A",
     if w.size < 2 or not np.all(np.diff(w) > 0):
         raise ValueError(f"{frequency} must be an ascending grid of at least 2 frequencies.")
     _check_tol(tol)
-    probe = _Probe(system, params, about, amplitude, frequency, _margin_tol(tol), order,
-                   guard_tol, paired=True, classify_tol=CLASSIFY_TOL)
+    if A_range is not None:
+        lo, hi = _amplitude_range(A_range)
+    probe = probe_for(system, params, about, amplitude, frequency, _margin_tol(tol), order,
+                      guard_tol, paired=True, classify_tol=CLASSIFY_TOL,
+                      probes=_probes(w, 1.0 if A_range is None else hi),
+                      start=0.0 if A_range is None else lo, orbit_tol=_orbit_tol(tol))
     if A_range is None:
         lo, hi = 0.0, float(np.max(probe.amplitude_scale(w[[0, -1]])))
-    else:
-        lo, hi = _amplitude_range(A_range)
     _check_min_width(min_width)
     found = trace_curves(probe, w, _scan_grid(lo, hi, scan), tol, seed_every=seed_every,
                          side=side, min_width=min_width)
     return BoundaryCurves(omega=w, A=found["A"], accuracy=found["accuracy"],
                           kind=tuple(KINDS[int(k)] for k in found["kind"]),
-                          stable_below=found["stable_below"], about=str(about),
+                          stable_below=found["stable_below"], about=probe.label,
                           params=dict(probe.fixed), A_range=(lo, hi), tol=tol,
                           seconds=time.perf_counter() - t0, monodromies=probe.count)
