@@ -21,7 +21,10 @@
    diagram by hand — a loop of ``System.simulate`` per (value, start) with ``t_eval`` at
    the strobe times — on a random subset, extrapolated.
 
-Absolute times move with the machine's load (printed); the ratios are what to read.
+Absolute times move with the machine's load: every timing is printed with the 1-minute
+load average at its end and the process's CPU time (all threads; CPU ÷ wall near the
+thread count means the threads ran in parallel, near 1 that they waited on a loaded
+machine).  The ratios are what to read.
 
 Usage::
 
@@ -51,6 +54,14 @@ G, L = 9.81, 1.0
 W0 = math.sqrt(G / L)
 
 
+def _timed(run, *args, **kwargs):
+    """run(*args, **kwargs): (result, wall s, CPU s of the process's threads, 1-minute
+    load at the end)."""
+    w0, c0 = time.perf_counter(), time.process_time()
+    out = run(*args, **kwargs)
+    return out, time.perf_counter() - w0, time.process_time() - c0, os.getloadavg()[0]
+
+
 def _params(A, omega, gamma):
     p = dict(A=A, omega=omega, g=G, l=L, m=1.0)
     if gamma is not None:
@@ -72,15 +83,14 @@ def lyapunov_map(n, periods, transient, sub, rounds, full):
                  exponents="largest", tangent=tangent, progress=False)
     chaos_map = None
     if full:
-        t0 = time.perf_counter()
-        chaos_map = lyapunov_grid(s, P, 0.3, periods=periods, transient=transient,
-                                  progress=False)
-        dt = time.perf_counter() - t0
+        chaos_map, dt, cpu, load = _timed(lambda: lyapunov_grid(
+            s, P, 0.3, periods=periods, transient=transient, progress=False))
         total = n * n * per_point
         print(f"\n1a. Lyapunov map, lyapunov_grid as called by default: {n} × {n} points × "
               f"{per_point} periods ({transient} transient) = {total:.3g} point-periods: "
-              f"{dt:.1f} s ({dt / total * 1e6:.2f} µs per point-period, "
-              f"{chaos_map.steps.mean() / per_point:.2f} steps per period), "
+              f"{dt:.1f} s wall, {cpu:.1f} s CPU, load {load:.1f} "
+              f"({dt / total * 1e6:.2f} µs wall and {cpu / total * 1e6:.2f} µs CPU per "
+              f"point-period, {chaos_map.steps.mean() / per_point:.2f} steps per period), "
               f"{int(chaos_map.chaotic.sum())} points chaotic")
     # the peers on the same regular sub-grid (every `every`-th value of each axis), in
     # interleaved rounds (the machine is shared): each peer's best round
@@ -104,20 +114,22 @@ def lyapunov_map(n, periods, transient, sub, rounds, full):
              ("loop of lyapunov, the grid's settings (difference, rtol 1e-6)",
               lambda: loop(tangent="difference", rtol=1e-6)),
              ("loop of lyapunov, its defaults (exact Jacobian, rtol 1e-9)", lambda: loop())]
-    best = {label: math.inf for label, _ in peers}
+    best = {label: (math.inf, math.nan, math.nan) for label, _ in peers}
     for _ in range(rounds):
         for label, run in peers:
-            t0 = time.perf_counter()
-            run()
-            best[label] = min(best[label], time.perf_counter() - t0)
+            _, dt, cpu, load = _timed(run)
+            if dt < best[label][0]:
+                best[label] = (dt, cpu, load)
     m = len(points)
-    base = best[peers[0][0]]
+    base = best[peers[0][0]][0]
     print(f"\n1b. The peers on a {idx.size} × {idx.size} sub-grid of it ({m} points × "
           f"{per_point} periods), best of {rounds} interleaved rounds:")
-    print(f"   {'peer':<66} {'seconds':>8} {'µs/pt-period':>13} {'÷ default':>10}")
+    print(f"   {'peer':<66} {'seconds':>8} {'CPU s':>7} {'load':>5} {'µs/pt-period':>13} "
+          f"{'÷ default':>10}")
     for label, _ in peers:
-        print(f"   {label:<66} {best[label]:8.2f} {best[label] / (m * per_point) * 1e6:13.2f} "
-              f"{best[label] / base:10.2f}")
+        dt, cpu, load = best[label]
+        print(f"   {label:<66} {dt:8.2f} {cpu:7.2f} {load:5.1f} "
+              f"{dt / (m * per_point) * 1e6:13.2f} {dt / base:10.2f}")
     return chaos_map
 
 
@@ -132,9 +144,7 @@ def bifurcation(values, starts, periods, transient, subset):
         kw = dict(parameter="A", q0=q0, periods=periods, transient=transient, angles="theta",
                   progress=False)
         bifurcation_diagram(s, P, values=A[:2], **dict(kw, periods=4, transient=4))
-        t0 = time.perf_counter()
-        d = bifurcation_diagram(s, P, values=A, **kw)
-        dt = time.perf_counter() - t0
+        d, dt, cpu, load = _timed(bifurcation_diagram, s, P, values=A, **kw)
         # by hand: one System.simulate per (value, start), sampled at the strobe times
         T = 2 * math.pi / (2 * W0)
         times = (transient + np.arange(periods)) * T
@@ -146,15 +156,15 @@ def bifurcation(values, starts, periods, transient, subset):
             s.simulate([start], [0.0], (0.0, times[-1]), dict(P, A=a), rtol=d.rtol,
                        t_eval=times)
         loop = (time.perf_counter() - t1) * values * starts / subset
-        rows.append((name, dt, loop, d.method))
+        rows.append((name, dt, cpu, load, loop, d.method))
     total = values * starts * (periods + transient)
     print(f"\n2. Bifurcation diagram: {values} values × {starts} starts × "
           f"{periods + transient} periods ({transient} transient) = {total:.3g} point-periods")
-    print(f"   {'system':<28} {'method':>7} {'seconds':>8} {'µs/pt-period':>13} "
-          f"{'loop of simulate (extrapolated)':>32} {'ratio':>6}")
-    for name, dt, loop, method in rows:
-        print(f"   {name:<28} {method:>7} {dt:8.1f} {dt / total * 1e6:13.2f} {loop:32.1f} "
-              f"{loop / dt:6.1f}")
+    print(f"   {'system':<28} {'method':>7} {'seconds':>8} {'CPU s':>7} {'load':>5} "
+          f"{'µs/pt-period':>13} {'loop of simulate (extrapolated)':>32} {'ratio':>6}")
+    for name, dt, cpu, load, loop, method in rows:
+        print(f"   {name:<28} {method:>7} {dt:8.1f} {cpu:7.1f} {load:5.1f} "
+              f"{dt / total * 1e6:13.2f} {loop:32.1f} {loop / dt:6.1f}")
 
 
 def main():

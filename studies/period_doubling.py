@@ -102,7 +102,7 @@ QUESTION = ("Does the damped pendulum on a vertically shaken pivot reach chaos t
             "measure δ?")
 
 #: Doublings located: full size and the tests' reduced size.
-LEVELS_FULL, LEVELS_QUICK = 7, 3
+LEVELS_FULL, LEVELS_QUICK = 8, 3
 
 #: Feigenbaum's δ for maps with a quadratic maximum (Feigenbaum, J. Stat. Phys. 19, 25
 #: (1978); digits from K. Briggs, Math. Comp. 57, 435 (1991)).
@@ -122,6 +122,10 @@ START_STATE = (0.36, 4.5)
 TOL_PER_PERIOD = 2e-9
 #: The polish's one-period flows converge to this (step doublings; rounding is ~1e-14).
 FLOW_TOL = 1e-13
+#: Fixed steps per period of the other discretizations that measure p_k's error.
+DISCRETIZATIONS = (100, 192, 256)
+#: A strobe sequence repeats after q samples when every sample does to this (rad).
+SIM_REPEAT = 1e-5
 
 
 def _log(msg):
@@ -140,12 +144,12 @@ def params(A):
 
 # -- the periodic orbits --------------------------------------------------------------------
 
-def shoot(system, A, guess, periods, tol_scale=1.0):
+def shoot(system, A, guess, periods):
     """:func:`kapitza.periodic_orbit` for the orbit of ``periods`` drive periods near
     ``guess`` at amplitude A, at the tolerance its single flow over P periods can meet
     (TOL_PER_PERIOD · P^1.5), loosened ×4 (up to 3 times) where the flow's step doublings
     still do not converge.  Returns (orbit, tol used)."""
-    tol = TOL_PER_PERIOD * tol_scale * periods**1.5
+    tol = TOL_PER_PERIOD * periods**1.5
     err = None
     for _ in range(4):
         try:
@@ -160,9 +164,10 @@ def shoot(system, A, guess, periods, tol_scale=1.0):
     raise err
 
 
-def compose(system, A, y0, periods, flow_tol, steps=64):
+def compose(system, A, y0, periods, flow_tol, steps=64, fixed=None):
     """The map over ``periods`` drive periods as the composition of one-period flows
-    (:func:`lagrange_core.variational.flow`, each converged to ``flow_tol``).
+    (:func:`lagrange_core.variational.flow`, each converged to ``flow_tol``; or, with
+    ``fixed``, each at that fixed number of 8th-order steps, for a second discretization).
 
     Returns (y_end, M, e_y, e_M, steps): the end state, the product M of the one-period
     Jacobians, and the flows' errors carried to the end: e_y = Σ_j ‖X_(P−1)⋯X_(j+1)‖ e_j for
@@ -174,7 +179,10 @@ def compose(system, A, y0, periods, flow_tol, steps=64):
     Xs, errs, pre_norms = [], [], []
     M = np.eye(d)
     for _ in range(periods):
-        fl = flow(system, y, (0.0, T), p, tol=flow_tol, steps=steps)
+        if fixed is None:
+            fl = flow(system, y, (0.0, T), p, tol=flow_tol, steps=steps)
+        else:                                # tol = 1: the first doubling is accepted
+            fl = flow(system, y, (0.0, T), p, tol=1.0, steps=fixed // 2)
         steps = max(8, fl.steps // 2)        # the next flow starts one doubling below
         pre_norms.append(float(np.linalg.norm(M, np.inf)))
         Xs.append(fl.jacobian)
@@ -221,18 +229,19 @@ class Orbit:
         return float(np.linalg.det(self.monodromy + np.eye(self.monodromy.shape[0])))
 
 
-def polish(system, A, y0, periods, flow_tol=FLOW_TOL, shooting_tol=math.nan):
+def polish(system, A, y0, periods, flow_tol=FLOW_TOL, shooting_tol=math.nan, fixed=None):
     """Newton's method on the composed one-period maps from ``y0`` (an orbit from
     :func:`kapitza.periodic_orbit`), a step halved (up to 6 times) where it does not lower
     the residual, until the residual is below the flows' own error or stops falling: the
     orbit to the rounding floor of its flows, which one flow over P periods cannot reach
-    (its Jacobian must converge to tol/100 too).  Returns an :class:`Orbit`; ValueError
-    where the residual stays above 1e-8 (no orbit near y0)."""
+    (its Jacobian must converge to tol/100 too).  ``fixed``: that many steps per period
+    instead (:func:`compose`).  Returns an :class:`Orbit`; ValueError where the residual
+    stays above 1e-8 (no orbit near y0)."""
     state = {"steps": 64}
 
     def evaluate(y):
         y1, M, e_y, e_M, state["steps"] = compose(system, A, y, periods, flow_tol,
-                                                  state["steps"])
+                                                  state["steps"], fixed)
         return (Orbit(float(A), int(periods), y.copy(), M, float(np.max(np.abs(y1 - y))), e_y,
                       e_M, shooting_tol), y1 - y)
 
@@ -292,9 +301,8 @@ class Branch:
     """The 2^k T swing followed in A: every solved amplitude's polished orbit is kept, and
     the next guess is extrapolated from the two nearest."""
 
-    def __init__(self, system, periods, orbit, tol_scale=1.0, flow_tol=FLOW_TOL):
-        self.system, self.periods = system, int(periods)
-        self.tol_scale, self.flow_tol = tol_scale, flow_tol
+    def __init__(self, system, periods, orbit, flow_tol=FLOW_TOL):
+        self.system, self.periods, self.flow_tol = system, int(periods), flow_tol
         self.points = {orbit.A: orbit}
 
     def _guess(self, A):
@@ -306,21 +314,30 @@ class Branch:
         return y0 + (y1 - y0) * (A - a0) / (a1 - a0)
 
     def solve(self, A, guess):
-        """periodic_orbit from ``guess``, then the polish."""
-        po, tol = shoot(self.system, A, guess, self.periods, self.tol_scale)
-        return polish(self.system, A, po.state, self.periods, self.flow_tol, tol)
+        """periodic_orbit from ``guess``, then the polish; where periodic_orbit fails (its
+        single flow over a long orbit), the polish alone from the guess."""
+        try:
+            po, tol = shoot(self.system, A, guess, self.periods)
+            guess = po.state
+        except ValueError:
+            tol = math.nan
+        return polish(self.system, A, guess, self.periods, self.flow_tol, tol)
 
     def orbit(self, A, depth=0):
         A = float(A)
         if A in self.points:
             return self.points[A]
-        orbit = self.solve(A, self._guess(A))
-        if _real_multiplier_above_one(orbit.multipliers):
-            # landed on the half-period orbit: come closer from the nearest solved point
+        try:
+            orbit = self.solve(A, self._guess(A))
+            jumped = _real_multiplier_above_one(orbit.multipliers)
+        except ValueError:
+            orbit, jumped = None, True
+        if jumped:
+            # no orbit from this guess, or the half-period orbit (a fixed point of the
+            # longer map too): come closer from the nearest solved amplitude
             if depth >= 8:
                 raise RuntimeError(f"period_doubling: the {self.periods}T orbit could not be "
-                                   f"followed to A = {A!r} (Newton falls onto the "
-                                   f"{self.periods // 2}T orbit).")
+                                   f"followed to A = {A!r}.")
             nearest = min(self.points, key=lambda a: abs(a - A))
             self.orbit(0.5 * (nearest + A), depth + 1)
             return self.orbit(A, depth + 1)
@@ -369,87 +386,98 @@ def locate_doubling(branch, A_from, step, xtol):
     state_error, monodromy_error = orbit_errors(branch.system, orbit, branch.flow_tol)
     noise = _margin_noise(orbit, monodromy_error)
     error = xtol + 4 * np.finfo(float).eps * p + noise / abs(slope)
-    return dict(p=p, error=error, orbit=orbit, below=branch.orbit(a), bracket=(a, b),
+    return dict(p=p, error=error, xtol=xtol + 4 * np.finfo(float).eps * p, orbit=orbit, below=branch.orbit(a), bracket=(a, b),
                 slope=slope, noise=noise, state_error=state_error,
                 monodromy_error=monodromy_error, iterations=res.iterations, marched=marched)
 
 
-def loose_shift(system, d):
-    """How far p moves when its orbit is recomputed 10× looser in periodic_orbit and 100×
-    in the polish's flows: one Newton step on det(M + I) at p with the bracket's slope (the
-    function is linear at this scale)."""
+def discretization_shifts(system, d):
+    """How far p moves when its orbit is computed with other discretizations: the polish
+    with a fixed DISCRETIZATIONS steps per period (the root's computation uses the adaptive
+    count, 128 here), then one Newton step on det(M + I) with the bracket's slope (linear at
+    this scale).  Every number changes: the steps, the rounding, the orbit's Newton path.
+    Returns the shifts (one per discretization)."""
     orbit = d["orbit"]
-    po, _ = shoot(system, d["p"], orbit.state, orbit.periods, 10.0)
-    loose = polish(system, d["p"], po.state, orbit.periods, 100 * FLOW_TOL)
-    return -loose.margin() / d["slope"]
+    shifts = []
+    for steps in DISCRETIZATIONS:
+        other = polish(system, d["p"], orbit.state, orbit.periods, fixed=steps)
+        shifts.append(-other.margin() / d["slope"])
+    return np.array(shifts)
 
 
 def switch(branch, p, orbit_at_p, A_new):
-    """The orbit of twice the branch's period born at p, solved at A_new (just past p) from
-    the old orbit ± ε v, v the eigenvector of M for −1; the first ε whose answer is stable
-    and not the old orbit.  Returns (new Branch, split = max |y_new − y_old|, ε)."""
+    """The orbit of twice the branch's period born at p, at A_new just past p, where it is
+    the attractor: a direct simulation from the old orbit nudged by 1e-6 v (v the
+    eigenvector of M for −1) leaves the old orbit, now unstable, and settles on the new
+    one (150 of its periods); shooting and the polish make it exact.  Returns (new Branch,
+    split = max |y_new − y_old|)."""
     system = branch.system
     old = branch.orbit(A_new)
     lam, V = np.linalg.eig(orbit_at_p.monodromy)
     v = np.real(V[:, int(np.argmin(np.abs(lam + 1.0)))])
     v = v / np.max(np.abs(v))
+    periods = 2 * branch.periods
+    t_end = 150 * periods * T
+    y = old.state + 1e-6 * v
+    tr = system.simulate([y[0]], [y[1]], (0.0, t_end), params(A_new), t_eval=[t_end],
+                         rtol=1e-12, method="dop853")
+    settled = np.array([tr.q[-1, 0], tr.qdot[-1, 0]])
+    doubled = Branch(system, periods, old, branch.flow_tol)
+    new = doubled.solve(A_new, settled)
+    split = float(np.max(np.abs(new.state - old.state)))
     scale = max(1.0, float(np.max(np.abs(old.state))))
-    doubled = Branch(system, 2 * branch.periods, old, branch.tol_scale, branch.flow_tol)
-    for eps in np.geomspace(1e-4, 0.3, 15):
-        for sign in (1.0, -1.0):
-            try:
-                new = doubled.solve(A_new, old.state + sign * eps * v)
-            except ValueError:
-                continue
-            split = float(np.max(np.abs(new.state - old.state)))
-            if (split > 1e-6 * scale and new.stable
-                    and not _real_multiplier_above_one(new.multipliers)):
-                return Branch(system, 2 * branch.periods, new, branch.tol_scale,
-                              branch.flow_tol), split, eps
-    raise RuntimeError(f"period_doubling: no {2 * branch.periods}T orbit found next to the "
-                       f"{branch.periods}T orbit at A = {A_new}.")
+    if not (split > 1e-6 * scale and new.stable
+            and not _real_multiplier_above_one(new.multipliers)):
+        raise RuntimeError(f"period_doubling: the simulation from the {branch.periods}T orbit "
+                           f"at A = {A_new} did not settle on a stable {periods}T orbit "
+                           f"(split {split:.3g}, multipliers {new.multipliers}).")
+    return Branch(system, periods, new, branch.flow_tol), split
 
 
-def first_orbit(system, tol_scale=1.0, flow_tol=FLOW_TOL):
+def first_orbit(system, flow_tol=FLOW_TOL):
     """The asymmetric 2T swing at A_START: a direct simulation from START_STATE settles on
     it (800 periods), periodic_orbit and the polish make it exact."""
     tr = system.simulate([START_STATE[0]], [START_STATE[1]], (0.0, 800 * T), params(A_START),
                          t_eval=[800 * T], rtol=1e-11, method="dop853")
     y = np.array([tr.q[-1, 0], tr.qdot[-1, 0]])
-    po, tol = shoot(system, A_START, y, 2, tol_scale)
+    po, tol = shoot(system, A_START, y, 2)
     return polish(system, A_START, po.state, 2, flow_tol, tol)
 
 
-def cascade(system, levels, tol_scale=1.0, flow_tol=FLOW_TOL, log=True):
+def cascade(system, levels, flow_tol=FLOW_TOL, log=True):
     """p_1 … p_levels: p_k is where the 2^k T swing doubles to 2^(k+1) T.  Returns one dict
     per doubling (see :func:`locate_doubling`, plus periods, tolerances, the new orbit's
-    split, the loose-tolerance shift and times)."""
-    branch = Branch(system, 2, first_orbit(system, tol_scale, flow_tol), tol_scale, flow_tol)
+    split, the shifts under other discretizations and times)."""
+    branch = Branch(system, 2, first_orbit(system, flow_tol), flow_tol)
     found = []
     A_from = A_START
     gap = (0.3541 - A_START) / FEIGENBAUM_DELTA     # a first scale (the march adapts)
     step = 0.4 * (0.3541 - A_START)
     for k in range(1, levels + 1):
         clock = time.perf_counter()
-        xtol = max(1e-15, 1e-10 * gap)
+        xtol = max(1e-16, 1e-12 * gap)
         d = locate_doubling(branch, A_from, step, xtol)
-        d.update(k=k, periods=branch.periods, tol_min=min(branch.tols),
-                 tol_max=max(branch.tols), evaluations=len(branch.points))
-        d["loose_shift"] = loose_shift(system, d)
+        tols = branch.tols          # periodic_orbit's, where it converged (not on 256T)
+        d.update(k=k, periods=branch.periods, tol_min=min(tols, default=math.nan),
+                 tol_max=max(tols, default=math.nan), evaluations=len(branch.points),
+                 shot=len(tols))
+        d["shifts"] = discretization_shifts(system, d)
+        d["error_bound"] = d["error"]
+        d["error"] = d["xtol"] + float(np.max(np.abs(d["shifts"])))
         if found:
             gap = (d["p"] - found[-1]["p"]) / FEIGENBAUM_DELTA
         found.append(d)
         if k < levels:
             A_from = d["p"] + 0.3 * gap
-            branch, split, eps = switch(branch, d["p"], d["orbit"], A_from)
-            d.update(next_start=A_from, next_split=split, next_eps=eps)
+            branch, split = switch(branch, d["p"], d["orbit"], A_from)
+            d.update(next_start=A_from, next_split=split)
             step = 0.2 * gap
         d["seconds"] = time.perf_counter() - clock
         if log:
             lam = d["orbit"].multipliers
             _log(f"p_{k} = {d['p']:.15f} ± {d['error']:.1e} ({d['periods']}T orbit, "
                  f"residual {d['orbit'].residual:.0e}, λ = {lam[0].real:+.12f}, "
-                 f"{lam[1].real:+.3e}; loose shift {d['loose_shift']:+.1e}; "
+                 f"{lam[1].real:+.3e}; bound {d['error_bound']:.0e}; "
                  f"{d['evaluations']} orbits, {d['seconds']:.1f} s)")
     return found
 
@@ -479,9 +507,14 @@ def aitken(x):
 
 def strobe_period(system, A, y0, transient, samples, max_period):
     """Simulate from states y0 (V, 2) at amplitudes A (V,) (adaptive DOP853 on the original
-    equation, rtol 1e-11), discard ``transient`` drive periods, and return per point the
-    least period p ∈ {1, 2, 4, …, max_period} of the strobe sequence (0 if none), the
-    sequence's spread at that period and at half of it (rad; θ̇ scaled by T/2π)."""
+    equation, rtol 1e-11; no shooting), discard ``transient`` drive periods, and return per
+    point the least period q ∈ {1, 2, 4, …, max_period} with every strobe sample repeating
+    after q samples to SIM_REPEAT (0 if none), and the spreads max |x_(j+q) − x_j| at q and
+    at q/2 (x = (θ, θ̇ T/2π), rad).
+
+    The repeat is not to rounding: the adaptive steps differ from period to period, and
+    the error of each is carried along the long orbit (measured floor ~1e-7 rad for the
+    256T orbit, against a half-period spread ≥ 1e-4)."""
     A = np.asarray(A, dtype=float)
     y0 = np.asarray(y0, dtype=float)
     pv = {k: v for k, v in params(0.0).items() if k != "A"}
@@ -492,13 +525,12 @@ def strobe_period(system, A, y0, transient, samples, max_period):
                                pv, strobe=T, **kw)
     x = np.concatenate([run.strobe_q, run.strobe_qdot * T / (2 * math.pi)], axis=-1)
     periods, spread, spread_half = [], [], []
-    for i in range(A.size):
-        xi = x[i]
+    for xi in x:
         found, s, s_half = 0, math.nan, math.nan
         q = 1
-        while q <= max_period:
+        while q <= max_period and 2 * q < len(xi):
             dq = float(np.max(np.abs(xi[q:] - xi[:-q])))
-            if dq < 1e-7:
+            if dq < SIM_REPEAT:
                 found, s = q, dq
                 s_half = (float(np.max(np.abs(xi[q // 2:] - xi[:-(q // 2)])))
                           if q > 1 else math.nan)
@@ -521,67 +553,58 @@ def run(out: Path, quick: bool = False) -> dict:
     t0 = time.perf_counter()
     found = cascade(system, levels)
     f["cascade_seconds"] = round(time.perf_counter() - t0, 1)
+    n = len(found)
     p = np.array([d["p"] for d in found])
     p_err = np.array([d["error"] for d in found])
+    p_bound = np.array([d["error_bound"] for d in found])
     g, g_err, delta, delta_err = ratios(p, p_err)
-    # the measured size of p_k's error: its shift under 10×/100× looser tolerances
-    shifts = np.array([d["loose_shift"] for d in found])
-    f["loose_tolerance_max_shift_of_p"] = float(np.max(np.abs(shifts)))
-    f["loose_tolerance_max_shift_over_error"] = float(np.max(np.abs(shifts) / p_err))
+    _, g_bound, _, delta_bound = ratios(p, p_bound)
 
     # direct simulation halfway below and above every p_k
-    n = len(found)
-    below = np.empty(n)
-    above = np.empty(n)
-    y_below, y_above = [], []
+    below, above = np.empty(n), np.empty(n)
+    starts = []
     for i, d in enumerate(found):
-        lower_gap = g[i - 1] if i > 0 else (p[0] - A_START)
-        upper_gap = g[i] if i < n - 1 else g[-1] / FEIGENBAUM_DELTA
-        below[i] = p[i] - 0.5 * lower_gap
-        above[i] = p[i] + 0.5 * upper_gap
-        # the 2^k T orbit at both amplitudes (the one below is stable, the one above
-        # not), nudged off it along θ
-        ob, _ = shoot(system, below[i], d["below"].state, d["periods"])
-        oa, _ = shoot(system, above[i], d["orbit"].state, d["periods"])
-        y_below.append(ob.state + np.array([1e-3, 0.0]))
-        y_above.append(oa.state + np.array([1e-3, 0.0]))
+        below[i] = p[i] - 0.5 * (g[i - 1] if i > 0 else p[0] - A_START)
+        above[i] = p[i] + 0.5 * (g[i] if i < n - 1 else g[-1] / FEIGENBAUM_DELTA)
+    for which in ("below", "orbit"):
+        # the 2^k T orbit near there (at the bracket's lower end, at p_k), nudged along θ
+        starts += [d[which].state + np.array([1e-5, 0.0]) for d in found]
     top = 2 * int(found[-1]["periods"])
-    transient = 60 * top if quick else 100 * top
-    samples = 4 * top + 1
     t0 = time.perf_counter()
     per, spread, spread_half = strobe_period(
-        system, np.concatenate([below, above]), np.array(y_below + y_above), transient,
-        samples, 2 * top)
+        system, np.concatenate([below, above]), np.array(starts),
+        60 * top, 4 * top + 1, 2 * top)
     f["simulation_seconds"] = round(time.perf_counter() - t0, 1)
-    per_below, per_above = per[:n], per[n:]
 
     rows = []
     for i, d in enumerate(found):
-        lam = d["orbit"].multipliers
-        lam_below = d["below"].multipliers
+        lam, lam_below = d["orbit"].multipliers, d["below"].multipliers
         rows.append(dict(
             k=d["k"], orbit_periods=d["periods"], p=d["p"], p_error=d["error"],
+            p_error_bound=d["error_bound"],
             gap_to_next=g[i] if i < n - 1 else math.nan,
             gap_error=g_err[i] if i < n - 1 else math.nan,
             delta=delta[i] if i < n - 2 else math.nan,
             delta_error=delta_err[i] if i < n - 2 else math.nan,
+            delta_error_bound=delta_bound[i] if i < n - 2 else math.nan,
             multiplier_at_p=float(lam[np.argmin(np.abs(lam + 1))].real),
             other_multiplier=float(lam[np.argmax(np.abs(lam + 1))].real),
-            other_multiplier_abs=float(np.min(np.abs(lam))),
             liouville_other_multiplier=-math.exp(-GAMMA * d["periods"] * T),
             max_abs_multiplier_below=float(np.max(np.abs(lam_below))),
-            A_below_bracket=d["bracket"][0], slope_det_M_plus_I=d["slope"],
-            det_noise=d["noise"], state_error=d["state_error"],
-            monodromy_error=d["monodromy_error"], residual=d["orbit"].residual,
-            loose_shift=d["loose_shift"],
+            A_below_bracket=d["bracket"][0], A_above_bracket=d["bracket"][1],
+            slope_det_M_plus_I=d["slope"], residual=d["orbit"].residual,
+            state_error_bound=d["state_error"], monodromy_error_bound=d["monodromy_error"],
+            det_noise_bound=d["noise"],
+            **{f"shift_{s}_steps": float(v) for s, v in zip(DISCRETIZATIONS, d["shifts"])},
             shooting_tol_min=d["tol_min"], shooting_tol_max=d["tol_max"],
-            orbits_solved=d["evaluations"], brentq_iterations=d["iterations"],
+            orbits_solved=d["evaluations"], orbits_from_periodic_orbit=d["shot"],
+            brentq_iterations=d["iterations"],
             seconds=d["seconds"],
             state_theta=float(d["orbit"].state[0]), state_theta_dot=float(d["orbit"].state[1]),
             next_orbit_split=d.get("next_split", math.nan),
-            A_sim_below=below[i], sim_period_below=int(per_below[i]),
-            sim_spread_below=spread[i],
-            A_sim_above=above[i], sim_period_above=int(per_above[i]),
+            A_sim_below=below[i], sim_period_below=int(per[i]), sim_spread_below=spread[i],
+            sim_half_spread_below=spread_half[i],
+            A_sim_above=above[i], sim_period_above=int(per[n + i]),
             sim_spread_above=spread[n + i], sim_half_spread_above=spread_half[n + i]))
     table = pd.DataFrame(rows)
     write_table(table, out, "period_doubling")
@@ -589,120 +612,164 @@ def run(out: Path, quick: bool = False) -> dict:
     f["omega0_over_omega"] = W0 / OMEGA
     f["gamma_over_omega"] = GAMMA / OMEGA
     f["doublings"] = n
-    for i, d in enumerate(found):
-        k = d["k"]
-        f[f"p{k}"] = float(d["p"])
-        f[f"p{k}_error"] = float(d["error"])
-        f[f"p{k}_orbit_periods"] = int(d["periods"])
-        f[f"p{k}_other_multiplier_abs"] = rows[i]["other_multiplier_abs"]
-        f[f"p{k}_other_multiplier_minus_liouville"] = (rows[i]["other_multiplier"]
-                                                       - rows[i]["liouville_other_multiplier"])
-        f[f"p{k}_max_abs_multiplier_below"] = rows[i]["max_abs_multiplier_below"]
-        f[f"p{k}_sim_period_below"] = int(per_below[i])
-        f[f"p{k}_sim_period_above"] = int(per_above[i])
+    for i, r in enumerate(rows):
+        k = r["k"]
+        f[f"p{k}"] = r["p"]
+        f[f"p{k}_error"] = r["p_error"]
+        f[f"p{k}_error_bound"] = r["p_error_bound"]
+        f[f"p{k}_orbit_periods"] = r["orbit_periods"]
+        f[f"p{k}_multiplier_plus_one"] = r["multiplier_at_p"] + 1.0
+        f[f"p{k}_other_multiplier"] = r["other_multiplier"]
+        f[f"p{k}_other_multiplier_minus_liouville"] = (r["other_multiplier"]
+                                                       - r["liouville_other_multiplier"])
+        f[f"p{k}_max_abs_multiplier_below"] = r["max_abs_multiplier_below"]
+        f[f"p{k}_sim_period_below"] = r["sim_period_below"]
+        f[f"p{k}_sim_period_above"] = r["sim_period_above"]
+    f["sim_worst_repeat"] = float(np.nanmax(spread))
+    f["sim_smallest_half_period_spread"] = float(np.nanmin(spread_half))
     for i in range(len(delta)):
         f[f"delta{i + 1}"] = float(delta[i])
         f[f"delta{i + 1}_error"] = float(delta_err[i])
+        f[f"delta{i + 1}_error_bound"] = float(delta_bound[i])
+        f[f"delta{i + 1}_minus_feigenbaum"] = float(delta[i] - FEIGENBAUM_DELTA)
     f["last_delta"] = float(delta[-1])
     f["last_delta_error"] = float(delta_err[-1])
+    f["last_delta_error_bound"] = float(delta_bound[-1])
     f["last_delta_minus_feigenbaum"] = float(delta[-1] - FEIGENBAUM_DELTA)
     f["feigenbaum_delta"] = FEIGENBAUM_DELTA
-    if len(delta) >= 3:
-        f["delta_aitken"] = aitken(delta)
-        f["delta_aitken_minus_feigenbaum"] = f["delta_aitken"] - FEIGENBAUM_DELTA
     if len(delta) >= 2:
         dev = np.abs(delta - FEIGENBAUM_DELTA)
         f["delta_deviation_ratios"] = ", ".join(f"{r:.2f}" for r in dev[:-1] / dev[1:])
-    # the accumulation point: p_∞ = p_n + g_(n−1) / (δ − 1) with the last ratio
+    if len(delta) >= 3:
+        f["delta_aitken"] = aitken(delta)
+        f["delta_aitken_minus_feigenbaum"] = f["delta_aitken"] - FEIGENBAUM_DELTA
+    # the accumulation point if the gaps go on shrinking by the last ratio
     f["p_infinity_estimate"] = float(p[-1] + g[-1] / (delta[-1] - 1.0))
     f["slope_log_gap"] = float(np.polyfit(np.arange(1, len(g) + 1), np.log(g), 1)[0])
+    f["slope_log_gap_last_three"] = float(np.polyfit(np.arange(1, len(g) + 1)[-3:],
+                                                     np.log(g[-3:]), 1)[0])
     f["minus_ln_feigenbaum"] = -math.log(FEIGENBAUM_DELTA)
     f["max_p_error"] = float(np.max(p_err))
+    f["max_p_error_bound"] = float(np.max(p_bound))
 
     t0 = time.perf_counter()
-    diagram = brute_force_diagram(system, p, quick)
+    diagrams = brute_force_diagrams(system, p, found[min(2, n - 1)]["orbit"].state, quick)
     f["diagram_seconds"] = round(time.perf_counter() - t0, 1)
-    save_figure(figure(diagram, table, p, p_err, g, g_err, delta, delta_err, f), out,
-                "period_doubling")
-    f["wall_seconds"] = round(time.perf_counter() - t_start, 1)
+    save_figure(figure(diagrams, p, g, g_err, delta, delta_err, f), out, "period_doubling")
+    f["study_seconds"] = round(time.perf_counter() - t_start, 1)
     return f
 
 
-def brute_force_diagram(system, p, quick):
-    """The strobe diagram by brute force over the cascade (kapitza.chaos): starts on the
-    asymmetric swing and its mirror image, transient discarded."""
-    from kapitza.chaos import bifurcation_diagram as diagram
-    hi = p[-1] + 2.0 * (p[-1] - p[-2]) if len(p) > 1 else p[-1] + 0.001
-    values = np.linspace(0.3505, max(hi, 0.3580), 80 if quick else 700)
+def brute_force_diagrams(system, p, start, quick):
+    """The strobe diagrams by brute force (:func:`kapitza.chaos.bifurcation_diagram`,
+    transient discarded): over the whole cascade from START_STATE (the asymmetric swing)
+    and its mirror image (the other swing), and a zoom on the last doublings from
+    ``start`` (a state on the 8T orbit)."""
+    from kapitza.chaos import bifurcation_diagram
+    fixed = {k: v for k, v in params(0.0).items() if k != "A"}
     y = np.array(START_STATE)
-    q0 = np.array([[y[0]], [-y[0]], [y[0] + 0.1]])
-    v0 = np.array([[y[1]], [-y[1]], [y[1]]])
-    _log(f"bifurcation diagram: {values.size} amplitudes × {len(q0)} starts")
-    return diagram(system, {k: v for k, v in params(0.0).items() if k != "A"},
-                   parameter="A", values=values, q0=q0, qdot0=v0,
-                   periods=32 if quick else 128, transient=300 if quick else 1500,
-                   angles=True, rtol=1e-9)
+    p_inf = p[-1] + (p[-1] - p[-2]) / (FEIGENBAUM_DELTA - 1)
+    whole = np.linspace(0.3505, max(p_inf + 0.25 * (p_inf - p[1]), 0.3579),
+                        80 if quick else 500)
+    lo = p[1] + 0.5 * (p[2] - p[1])
+    zoom = np.linspace(lo, p_inf + 0.6 * (p_inf - lo), 60 if quick else 400)
+    _log(f"bifurcation diagrams: {whole.size} amplitudes × 2 starts, {zoom.size} × 1")
+    kw = dict(parameter="A", angles=True, rtol=1e-9)
+    overview = bifurcation_diagram(system, fixed, values=whole, q0=np.array([[y[0]], [-y[0]]]),
+                                   qdot0=np.array([[y[1]], [-y[1]]]),
+                                   periods=32 if quick else 128,
+                                   transient=300 if quick else 1500, **kw)
+    detail = bifurcation_diagram(system, fixed, values=zoom, q0=[start[0]], qdot0=[start[1]],
+                                 periods=64 if quick else 256,
+                                 transient=300 if quick else 2000, **kw)
+    return overview, detail
 
 
-def figure(diagram, table, p, p_err, g, g_err, delta, delta_err, f):
+def _mark(ax, p, lo, hi):
+    """The located p_k as vertical lines, labelled where they are far enough apart."""
+    last = -math.inf
+    for k, pk in enumerate(p, start=1):
+        if not lo <= pk <= hi:
+            continue
+        ax.axvline(pk, color="C3", lw=0.7, alpha=0.8)
+        if pk - last > 0.04 * (hi - lo):
+            ax.text(pk, 1.0, f"p{k}", transform=ax.get_xaxis_transform(), color="C3",
+                    fontsize=8, va="bottom", ha="center")
+            last = pk
+
+
+def figure(diagrams, p, g, g_err, delta, delta_err, f):
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(2, 2, figsize=(13, 9))
+    overview, detail = diagrams
+    fig, ax = plt.subplots(2, 2, figsize=(13, 9.5))
     fig.suptitle("Period doubling of the damped, vertically shaken pendulum "
-                 "(ω0/ω = 0.5, γ/ω = 0.1): the swing's cascade to chaos")
-    A = diagram.values
-    q = diagram.q_wrapped[..., 0]                      # (V, S, K)
-    # keep swings only (a run that goes over the top winds; draw it faintly)
-    wind = np.abs(diagram.q[..., -1, 0] - diagram.q[..., 0, 0]) > math.pi
-    for zoom, a in ((False, ax[0, 0]), (True, ax[0, 1])):
-        for s in range(q.shape[1]):
-            swing = ~wind[:, s]
-            AA = np.repeat(A[:, None], q.shape[2], axis=1)
-            a.plot(AA[swing].ravel(), q[swing, s].ravel(), ",", color="k", alpha=0.5)
-        for k, pk in enumerate(p, start=1):
-            a.axvline(pk, color="C3", lw=0.7, alpha=0.8)
-            if not zoom or k >= 3:
-                a.text(pk, 1.0, f" p{k}", transform=a.get_xaxis_transform(), color="C3",
-                       fontsize=8, va="bottom", ha="center")
-        a.set_xlabel("A / l")
-        a.set_ylabel("θ at t = nT (rad)")
-    ax[0, 0].set_title("strobe samples after the transient (3 starts); red: located p_k",
-                       fontsize=10)
-    lo = p[1] - 0.3 * (p[1] - p[0]) if len(p) > 1 else p[0] - 1e-3
-    hi = p[-1] + 2.5 * (p[-1] - p[-2]) if len(p) > 1 else p[0] + 1e-3
-    ax[0, 1].set_xlim(lo, hi)
-    sel = (A >= lo) & (A <= hi)
-    qs = q[sel][~wind[sel]]
-    if qs.size:
-        ax[0, 1].set_ylim(np.nanmin(qs) - 0.02, np.nanmax(qs) + 0.02)
-    ax[0, 1].set_title("zoom on the last doublings", fontsize=10)
-    ax[0, 0].set_xlim(A[0], A[-1])
+                 "(ω0/ω = 0.5, γ/ω = 0.1): the asymmetric swing's cascade to chaos", y=0.995)
+
+    a = ax[0, 0]
+    q = overview.q_wrapped[..., 0]
+    swing = np.abs(overview.q[..., -1, 0] - overview.q[..., 0, 0]) < math.pi
+    for s_, color in ((0, "k"), (1, "0.6")):
+        A = np.repeat(overview.values[swing[:, s_], None], q.shape[2], axis=1)
+        a.plot(A.ravel(), q[swing[:, s_], s_].ravel(), ",", color=color)
+    _mark(a, p, overview.values[0], overview.values[-1])
+    a.set_xlim(overview.values[0], overview.values[-1])
+    a.set_xlabel("A / l")
+    a.set_ylabel("θ at t = nT (rad)")
+    a.set_title(f"strobe samples after {overview.transient} periods: the swing (black) and its "
+                "mirror (grey);\nred lines: the located p_k; blank: rotating runs", fontsize=9,
+                pad=14)
+
+    a = ax[0, 1]
+    q = detail.q_wrapped[:, 0, :, 0]
+    swing = np.abs(detail.q[:, 0, -1, 0] - detail.q[:, 0, 0, 0]) < math.pi
+    A = np.repeat(detail.values[swing, None], q.shape[1], axis=1)
+    qs = q[swing]
+    # the band of the largest swing angle, where the splitting is widest
+    sign = 1.0 if np.nanmax(qs) > -np.nanmin(qs) else -1.0
+    band = sign * qs > 0.3
+    a.plot(A[band], qs[band], ",", color="k")
+    _mark(a, p, detail.values[0], detail.values[-1])
+    a.set_xlim(detail.values[0], detail.values[-1])
+    if band.any():
+        span = np.nanmax(qs[band]) - np.nanmin(qs[band])
+        a.set_ylim(np.nanmin(qs[band]) - 0.05 * span, np.nanmax(qs[band]) + 0.05 * span)
+    a.set_xlabel("A / l")
+    a.set_ylabel("θ at t = nT (rad)")
+    a.set_title(f"zoom on the band of the largest angle, started on the 8T orbit\n"
+                f"({detail.transient}-period transient)", fontsize=9, pad=14)
 
     k = np.arange(1, len(g) + 1)
     a = ax[1, 0]
     a.errorbar(k, g, yerr=g_err, fmt="o", color="C0", label="p_(k+1) − p_k (exact orbits)")
     a.set_yscale("log")
-    line = g[0] * FEIGENBAUM_DELTA ** -(k - 1.0)
-    a.plot(k, line, "--", color="C3", lw=1, label="slope −ln δ (Feigenbaum)")
+    a.plot(k, g[-1] * FEIGENBAUM_DELTA ** (len(g) - k), "--", color="C3", lw=1,
+           label="∝ δ^(−k), δ = 4.6692 (Feigenbaum)")
     a.set_xlabel("k")
     a.set_ylabel("p_(k+1) − p_k (A / l)")
     a.set_xticks(k)
     a.legend(fontsize=9)
-    a.set_title(f"gaps shrink by δ: fitted slope {f['slope_log_gap']:.4f}, "
-                f"−ln δ = {-math.log(FEIGENBAUM_DELTA):.4f}", fontsize=10)
+    a.set_title(f"the gaps shrink by δ: slope of the last three {f['slope_log_gap_last_three']:.4f}"
+                f", −ln δ = {-math.log(FEIGENBAUM_DELTA):.4f}", fontsize=9)
 
     a = ax[1, 1]
     kd = np.arange(1, len(delta) + 1)
-    a.errorbar(kd, delta, yerr=delta_err, fmt="o", color="C0", capsize=3,
-               label="δ_k = (p_(k+1) − p_k)/(p_(k+2) − p_(k+1))")
-    a.axhline(FEIGENBAUM_DELTA, color="C3", lw=1, label=f"δ = {FEIGENBAUM_DELTA:.6f}")
+    dev = delta - FEIGENBAUM_DELTA
+    a.errorbar(kd[dev > 0], dev[dev > 0], yerr=delta_err[dev > 0], fmt="o", color="C0",
+               label="δ_k − δ > 0")
+    a.errorbar(kd[dev < 0], -dev[dev < 0], yerr=delta_err[dev < 0], fmt="o", mfc="none",
+               color="C0", label="δ − δ_k > 0")
+    a.plot(kd, abs(dev[-1]) * FEIGENBAUM_DELTA ** (len(delta) - kd), "--", color="C3", lw=1,
+           label="∝ δ^(−k)")
     if "delta_aitken" in f:
-        a.plot([kd[-1] + 0.5], [f["delta_aitken"]], "s", color="C2",
-               label=f"Aitken Δ² of the last three: {f['delta_aitken']:.5f}")
+        a.plot([kd[-1] + 0.5], [abs(f["delta_aitken_minus_feigenbaum"])], "s", color="C2",
+               label=f"Aitken Δ² of the last three: {f['delta_aitken']:.6f}")
+    a.set_yscale("log")
     a.set_xlabel("k")
-    a.set_ylabel("δ_k")
+    a.set_ylabel("|δ_k − δ|")
     a.set_xticks(kd)
-    a.legend(fontsize=9)
-    a.set_title(f"last ratio {delta[-1]:.5f} ± {delta_err[-1]:.1e}", fontsize=10)
+    a.legend(fontsize=8)
+    a.set_title(f"δ_k = (p_(k+1) − p_k)/(p_(k+2) − p_(k+1)) → δ = {FEIGENBAUM_DELTA:.6f};\n"
+                f"last δ_{len(delta)} = {delta[-1]:.6f} ± {delta_err[-1]:.1e}", fontsize=9)
     fig.tight_layout()
     return fig
 
@@ -712,35 +779,38 @@ def check(findings: dict, quick: bool) -> None:
     n = f["doublings"]
     assert n == (LEVELS_QUICK if quick else LEVELS_FULL)
     for k in range(1, n + 1):
-        # (3) a supercritical doubling of a stable orbit: stable just below p_k, and at p_k
-        # the other multiplier well inside, equal to Liouville's −e^(−γ P T) (det M over P
-        # periods; λ1 = −1) to the monodromy's accuracy
+        P = f[f"p{k}_orbit_periods"]
+        assert P == 2**k, k
+        # (3) a supercritical doubling of a stable orbit: stable just below p_k; at p_k one
+        # multiplier is −1 and the other is Liouville's −e^(−γ P T) (det M over P periods),
+        # inside the unit circle, to the monodromy's accuracy (~1e-13 absolute)
         assert f[f"p{k}_max_abs_multiplier_below"] < 1.0, k
-        assert f[f"p{k}_other_multiplier_abs"] < 0.5, k
-        assert abs(f[f"p{k}_other_multiplier_minus_liouville"]) < 1e-6, k
-        # (1) direct simulation, no shooting: period 2^(k−1) below p_k, 2^k above
-        assert f[f"p{k}_sim_period_below"] == 2 ** k, k
-        assert f[f"p{k}_sim_period_above"] == 2 ** (k + 1), k
-        # the p_k are known far better than the gaps between them
-        assert f[f"p{k}_error"] < 1e-6, k
-    # the doublings come in order, closing in
+        assert abs(f[f"p{k}_multiplier_plus_one"]) < 1e-6, k
+        assert abs(f[f"p{k}_other_multiplier"]) < 0.5, k
+        assert abs(f[f"p{k}_other_multiplier_minus_liouville"]) < 1e-11, k
+        # (1) direct simulation of the original equation, no shooting: halfway below p_k
+        # the strobe sequence has period 2^k, halfway above 2^(k+1)
+        assert f[f"p{k}_sim_period_below"] == P, k
+        assert f[f"p{k}_sim_period_above"] == 2 * P, k
+        # p_k is reproduced by three other discretizations to ~1e-14 (measured), inside
+        # the propagated bound
+        assert f[f"p{k}_error"] < 1e-12, k
+        assert f[f"p{k}_error"] <= f[f"p{k}_error_bound"], k
+    # the simulated periods are clear: repeats to ≤ 1e-6, half periods ≥ 1e-5
+    assert f["sim_worst_repeat"] < 1e-6 and f["sim_smallest_half_period_spread"] > 1e-5
     ps = [f[f"p{k}"] for k in range(1, n + 1)]
     assert all(b > a for a, b in zip(ps, ps[1:]))
     # (2) the ratios approach Feigenbaum's δ.  The first ratio of a cascade is not yet
-    # universal (logistic map: 4.23, 4.55, 4.65, 4.664, 4.668 …, errors falling ~δ×
-    # per level); the bounds are the measured distance with a margin, and each ratio's
-    # own error is far smaller than its distance from δ.
-    d1 = f["delta1"]
-    assert abs(d1 - FEIGENBAUM_DELTA) < 0.6, d1
+    # universal (the logistic map's are 4.23, 4.55, 4.65, 4.664, 4.668, …); this one's
+    # is 5.29 (+13 %) and the next 4.69 (+0.5 %).  Each ratio's numerical error is far
+    # below its distance from δ, so the bounds are on that distance.
+    assert abs(f["delta1"] / FEIGENBAUM_DELTA - 1) < 0.15, f["delta1"]
     if not quick:
-        ds = [f[f"delta{i}"] for i in range(1, n - 1)]
-        dev = [abs(d - FEIGENBAUM_DELTA) for d in ds]
-        assert dev[-1] < dev[0] / 10, dev
-        assert abs(f["last_delta"] - FEIGENBAUM_DELTA) < 0.02, f["last_delta"]
-        assert f["last_delta_error"] < 1e-3, f["last_delta_error"]
-        assert abs(f["slope_log_gap"] + math.log(FEIGENBAUM_DELTA)) < 0.1
-    # the error bound of p_k holds against 10×/100× looser tolerances
-    assert f["loose_tolerance_max_shift_over_error"] < 1.0
+        dev = [abs(f[f"delta{i}_minus_feigenbaum"]) for i in range(1, n - 1)]
+        assert dev[-1] < dev[0] / 300 and dev[-1] < dev[1] / 10, dev
+        assert abs(f["last_delta_minus_feigenbaum"]) < 2e-3, f["last_delta"]
+        assert f["last_delta_error"] < 1e-5, f["last_delta_error"]
+        assert abs(f["slope_log_gap_last_three"] + math.log(FEIGENBAUM_DELTA)) < 2e-3
 
 
 if __name__ == "__main__":

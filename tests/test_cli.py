@@ -171,6 +171,25 @@ def test_map_writes_the_figure_and_the_data(tmp_path, suffix, capsys):
     assert data["stable_points"] == int(ref.stable.sum()) and data["shape"] == [11, 8]
 
 
+def test_map_about_the_horizontal_drives_orbits(tmp_path, capsys):
+    """Issue 21.5: ``kapitza map --drive horizontal`` maps the hanging periodic orbit (it
+    was refused); every point equals the orbit's own Floquet verdict, and a tilted state
+    of the vertical drive is refused by name."""
+    png = tmp_path / "h.png"
+    code, data, _ = run_json(capsys, "map", "--drive", "horizontal", "--A", "0.01:0.09:5",
+                             "--omega", "60:120:3", "--out", str(png))
+    assert code == 0 and data["about"] == "hanging" and data["shape"] == [5, 3]
+    pend = KapitzaPendulum(drive="horizontal")
+    for i, A in enumerate(np.linspace(0.01, 0.09, 5)):
+        for j, w in enumerate(np.linspace(60, 120, 3)):
+            verdict = pend.floquet(A, w, about="hanging").stable
+            assert pd.read_csv(png.with_suffix(".csv"))["stable"].to_numpy().reshape(5, 3)[
+                i, j] == verdict
+    code = cli.main(["map", "--about", "tilted", "--A", "0:0.1:3", "--omega", "50:60:2",
+                     "--out", str(tmp_path / "v.png")])
+    assert code == 2 and "--about tilted" in capsys.readouterr().err
+
+
 def test_map_interrupted_saves_what_finished(tmp_path, monkeypatch, capsys):
     ref = KapitzaPendulum().stability_map(np.array([0.01, 0.05]), np.array([100.0, 200.0]))
 

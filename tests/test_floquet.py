@@ -12,7 +12,6 @@ import pytest
 import scipy.linalg
 import scipy.special
 import sympy as sp
-from helpers import W0, G, L, jacobian_monodromy, mathieu_ivp_trace
 
 from kapitza import floquet as fq
 from kapitza.closed_forms import _mathieu as mm
@@ -21,6 +20,8 @@ from kapitza.floquet._multipliers import _analyse
 from kapitza.pendulum import KapitzaPendulum
 from lagrange_core import problems
 from lagrange_core import t as t_sym
+
+from helpers import W0, G, L, jacobian_monodromy, mathieu_ivp_trace
 
 
 @pytest.fixture(scope="session")
@@ -170,8 +171,8 @@ def test_stability_window_against_scipy_characteristic_values(pendulum):
     win = pendulum.window(w, tol=1e-10)
     for i, om in enumerate(w):
         a = -4 * W0**2 / om**2
-        q0 = brentq(lambda q: scipy.special.mathieu_a(0, q) - a, 1e-9, 3, xtol=1e-15)
-        q1 = brentq(lambda q: scipy.special.mathieu_b(1, q) - a, 1e-9, 3, xtol=1e-15)
+        q0 = brentq(lambda q, a=a: scipy.special.mathieu_a(0, q) - a, 1e-9, 3, xtol=1e-15)
+        q1 = brentq(lambda q, a=a: scipy.special.mathieu_b(1, q) - a, 1e-9, 3, xtol=1e-15)
         assert win.A_min[i] == pytest.approx(q0 * L / 2, rel=1e-9)
         assert win.A_max[i] == pytest.approx(q1 * L / 2, rel=1e-9)
     assert np.all(win.accuracy <= 1e-10)

@@ -18,7 +18,6 @@ import math
 import numpy as np
 import pytest
 import sympy as sp
-from helpers import G, jacobian_monodromy
 
 import lagrange_core as lc
 from kapitza import figures as plots
@@ -29,6 +28,8 @@ from kapitza.floquet._margins import margin
 from kapitza.floquet._probe import _Probe
 from kapitza.results import AdaptiveMap, BoundaryCurves, StabilityWindow
 from lagrange_core import problems, t
+
+from helpers import G, jacobian_monodromy
 
 MASSES, LENGTHS = (1.0, 0.5), (1.0, 0.7)            # an unequal double pendulum
 DP = {"g": G, "l1": LENGTHS[0], "l2": LENGTHS[1], "m1": MASSES[0], "m2": MASSES[1]}

@@ -152,7 +152,7 @@ def test_failing_trial_flow_is_a_rejected_step(monkeypatch, failure):
     mass matrix) is a rejected step: the step is halved and the iteration goes on to the
     same orbit (the horizontal drive's tilted orbit, to the residual tolerance).  Before,
     the exception escaped from the first trial."""
-    po = sys.modules["kapitza.simulation._shooting"]
+    po = sys.modules["kapitza.floquet._shooting"]
     s = problems.driven_pendulum("horizontal")
     P = dict(m=1.0, l=1.0, g=G, A=0.05, omega=2 * math.pi * 60)
     ref = periodic_orbit(s, P, [1.5])

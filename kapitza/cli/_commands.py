@@ -103,7 +103,7 @@ def _map_outputs(args, result, pend, partial=False):
     frame = result.to_dataframe()
     write_frame(frame, data_path)
     overlays = []
-    if args.about == "inverted" and not partial:
+    if args.about == "inverted" and pend.drive == "vertical" and not partial:
         fine = np.geomspace(result.omega.min(), result.omega.max(), 200) \
             if result.omega.min() > 0 else np.linspace(result.omega.min(), result.omega.max(), 200)
         fine = fine[fine > 0]
@@ -120,6 +120,11 @@ def _map_outputs(args, result, pend, partial=False):
 def _map(args) -> int:
     from ..results import ComputationInterrupted
     pend = pendulum_from(args)
+    if args.about is None:
+        args.about = "hanging" if pend.drive == "horizontal" else "inverted"
+    elif pend.drive == "vertical" and args.about not in ("inverted", "hanging"):
+        raise UsageError(f"--about {args.about}: the vertical drive keeps the equilibria "
+                         "inverted and hanging; tilted orbits need --drive horizontal.")
     A = parse_amplitude(args, grid=True)
     omega = parse_frequency(args, grid=True)
     data_file(args.data)

@@ -144,6 +144,7 @@ _EXAMPLES = {
     "window": ["kapitza window --omega 100,200,400",
                "kapitza window --omega-over-omega0 10:1000:30 --log-omega --json"],
     "map": ["kapitza map --A 0:0.5:101 --omega 20:2000:100 --log-omega --out map.png",
+            "kapitza map --drive horizontal --A 0:0.2:41 --omega 40:400:30 --about hanging",
             "kapitza map --A-over-l 0:0.5:51 --omega-over-omega0 5:500:60 --log-omega "
             "--data map.parquet --dimensionless"],
     "measure": ["kapitza measure --A 0.05 --f 60 --theta0 3.13",
@@ -237,9 +238,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tol", type=float, default=1e-10, help="relative accuracy of the edges")
     p.add_argument("--log-omega", action="store_true", help="START:STOP:NUM of ω geometric")
 
-    p = add("map", "the exact (A, ω) stability map (vertical drive): a PNG and its data",
-            pend)
-    p.add_argument("--about", choices=("inverted", "hanging"), default="inverted")
+    p = add("map", "the exact (A, ω) stability map: a PNG and its data (about the upright or "
+            "hanging equilibrium of the vertical drive; about the periodic orbits of the "
+            "horizontal drive, followed across the grid)", pend)
+    p.add_argument("--about", choices=("inverted", "hanging", "tilted", "tilted-"), default=None,
+                   help="the state: inverted (default, vertical drive) or hanging; horizontal "
+                   "drive: hanging (default), inverted, tilted, tilted- (periodic orbits)")
     p.add_argument("--out", default="kapitza-map.png", help="figure (default kapitza-map.png)")
     p.add_argument("--data", help="data file, .csv or .parquet (default: the figure's name "
                    "with .csv)")

@@ -1,5 +1,6 @@
 """Floquet analysis of any driven system: the monodromy by a Taylor method on the exact
-Jacobian, per point and over grids; stability maps; exact windows and boundary curves.
+Jacobian, per point and over grids; stability maps, exact windows and boundary curves,
+about an equilibrium or a periodic orbit.
 
 The linear time-periodic system
 -------------------------------
@@ -42,6 +43,26 @@ keywords named by the parameter they vary:
     The curves A_k(ω) by continuation, ``omega=``, ``A_range=`` →
     :class:`~kapitza.results.BoundaryCurves`.
 
+For the simulation room (not in ``__all__``): the Newton shooting of periodic orbits,
+``shoot``, ``Shot``, ``symmetry_defect``, ``flow_or_none``, ``SYMMETRY_RTOL``,
+``MAX_HALVINGS`` (:mod:`kapitza.floquet._shooting`), the engine of
+:func:`kapitza.periodic_orbit` and of the maps about orbits.
+
+About a periodic orbit
+----------------------
+Most driven states do not persist: the horizontal and elliptic pivots' hanging and tilted
+states, any drive with two phases.  Where ``about`` does not persist under the drive,
+:func:`stability_map`, :func:`adaptive_map`, :func:`window` and :func:`boundaries` are about
+the T-periodic orbit it names — coordinates at rest or a state [q, q̇] (Newton's guess at
+the grid's lowest amplitude, per ω), or a :class:`~kapitza.results.PeriodicOrbit` from
+:func:`kapitza.periodic_orbit` (followed from where it was found) — continued from grid
+point to grid point by Newton shooting (:mod:`kapitza.floquet._orbits`,
+:mod:`kapitza.floquet._shooting`), symmetric orbits on the half-period map (regular at the
+symmetry-breaking pitchfork); a point the orbit's branch does not reach has no orbit
+(unstable, NaN, flagged), never another branch's.  :func:`floquet_point`,
+:func:`floquet_grid` and :func:`monodromy_data` stay about equilibria
+(:func:`kapitza.periodic_orbit` is the one orbit).
+
 Windows, boundaries and adaptive maps find where stability changes as roots of smooth
 margins such as det(M ∓ I) (:mod:`kapitza.floquet._margins`), not by bisection on the flag;
 windows and boundaries look between their scan points too
@@ -62,6 +83,12 @@ The inverted pendulum (l = 1 m) shaken vertically with A = 5 cm at 60 Hz is stab
 """
 from ._maps import adaptive_map, stability_map
 from ._point import floquet_grid, floquet_point, monodromy_data
+from ._shooting import MAX_HALVINGS as MAX_HALVINGS
+from ._shooting import SYMMETRY_RTOL as SYMMETRY_RTOL
+from ._shooting import Shot as Shot
+from ._shooting import flow_or_none as flow_or_none
+from ._shooting import shoot as shoot
+from ._shooting import symmetry_defect as symmetry_defect
 from ._window import boundaries, window
 
 __all__ = ["floquet_point", "floquet_grid", "monodromy_data", "stability_map", "window",

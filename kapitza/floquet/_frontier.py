@@ -145,7 +145,8 @@ def _state(row, lowest):
     same, want = _examined(row["stable"], lowest)
     towards, crossing, left, right, w, floor = _bounds(row, want)
     open_ = same & (~(towards < 0.0) | crossing)
-    limited = open_ & ~crossing & (towards - floor < 0.0)
+    with np.errstate(invalid="ignore"):     # inf − inf: a point without a monodromy
+        limited = open_ & ~crossing & (towards - floor < 0.0)
     return dict(want=want, towards=towards, crossing=crossing & ~(towards >= 0.0),
                 left=left, right=right, w=w, open=open_, limited=limited)
 

@@ -54,26 +54,49 @@ def stability_map(system, params, about, *, A, omega, amplitude="A", frequency="
     params : dict
         The other parameters (scalars); values of ``amplitude`` and ``frequency`` in it
         are ignored.
-    about : sequence or dict
-        The equilibrium's coordinates (velocities zero).
+    about : sequence, dict or kapitza.results.PeriodicOrbit
+        The equilibrium's coordinates (velocities zero).  Where that state does not
+        persist under the drive, the map is of the T-periodic orbit ``about`` names
+        (see the Notes): coordinates at rest or the state [q, q̇]
+        at t = 0 (Newton's guess at each ω's lowest amplitude), or a
+        :class:`~kapitza.results.PeriodicOrbit` (followed from its own amplitude and ω).
     A, omega : 1-d arrays
         Grid axes (m, rad/s) for the parameters named ``amplitude`` and ``frequency``.
     amplitude, frequency : str
         The names of the drive's amplitude and angular frequency parameters.
     tol : float
-        Target error of the monodromy near boundaries (relative to max(1, ‖M‖)).
+        Target error of the monodromy near boundaries (relative to max(1, ‖M‖)); about
+        a periodic orbit, the shooting's residual (at least 1e-10).
     progress : None, bool or callable
         Progress line and Ctrl-C, as for :func:`floquet_grid`; the
         :class:`~kapitza.results.ComputationInterrupted` raised carries this map
-        with the finished points filled.
+        with the finished points filled (about an orbit: the finished ω columns).
 
     Returns
     -------
     kapitza.results.StabilityMap
-        Arrays of shape (len(A), len(omega)); ``about`` is the equilibrium's
-        coordinates as text, ``params`` the fixed parameters, with timing, the
-        numbers of refined, uncertified and flagged points; ``l``, ``g``,
+        Arrays of shape (len(A), len(omega)); ``about`` is the equilibrium's coordinates as
+        text (the orbit's description about an orbit), ``params`` the fixed parameters, with
+        timing, the numbers of refined, uncertified and flagged points; ``l``, ``g``,
         ``damping`` are None (they name the single pendulum's constants).
+
+    Notes
+    -----
+    About a periodic orbit: each ω's orbit is found by Newton shooting from ``about`` at the
+    lowest amplitude of the grid (or, for a PeriodicOrbit, followed in ω from where it was
+    found) and continued along the amplitudes by natural continuation: each point's shooting
+    starts from the tangent predictor of its neighbour, and a step is accepted only where
+    the tangents at both ends agree with it (a jump to another branch, or past a fold or the
+    branch point where a tilted orbit is born, fails) — rejected steps are halved down to
+    1e-6 of A (:mod:`kapitza.floquet._orbits`). Orbits with the half-period reflection
+    symmetry about ``about`` (the horizontal drive about θ = 0, π; tested on the vector
+    field) are shot on the half-period map, regular at the symmetry-breaking pitchfork where
+    the full period map is singular. Stability, labels and margins come from the orbit's
+    monodromy as above (``method`` says which map was shot). A point the orbit does not
+    reach is unstable with label 3, NaN ``trace``, and flagged "no periodic orbit"; an orbit
+    whose state is known only to more than √tol (the shooting equations ill-conditioned) is
+    flagged and counted uncertified. ``coarse_tol`` and ``order`` do not apply. ValueError
+    where Newton finds no orbit near ``about`` at any ω.
 
     Examples
     --------
@@ -88,12 +111,21 @@ def stability_map(system, params, about, *, A, omega, amplitude="A", frequency="
     ...                   [math.pi, math.pi], A=[0.0, 0.1], omega=[100.0], tol=1e-8)
     >>> m.stable[:, 0].tolist(), m.flagged_points
     ([False, True], 0)
+
+    The pendulum on a horizontally driven pivot: no angle persists, and the map is that
+    of the hanging orbit, stable up to the pitchfork at A = 7.38 cm (ω = 60 rad/s):
+
+    >>> horizontal = problems.driven_pendulum("horizontal")
+    >>> m = stability_map(horizontal, dict(m=1.0, l=1.0, g=9.81), [0.0],
+    ...                   A=[0.05, 0.07, 0.08], omega=[60.0])
+    >>> m.stable[:, 0].tolist(), m.about
+    ([True, True, False], 'periodic orbit symmetric about q = [0.0]')
     """
     _check_params("stability_map", params)
     A = arguments.grid_axis(amplitude, A, None, positive=None)
     omega = arguments.grid_axis(frequency, omega, "rad/s", positive=True)
     fixed = {k: v for k, v in params.items() if k not in (amplitude, frequency)}
-    if A.size and omega.size:
+    if A.size and omega.size and all(np.ndim(v) == 0 for v in fixed.values()):
         request = orbit_request(system, fixed_parameters(system, params, amplitude, frequency),
                                 about, amplitude, frequency, _probes(A, omega))
         if request is not None:
@@ -175,8 +207,9 @@ def adaptive_map(system, params, about, *, A, omega, amplitude="A", frequency="o
     Parameters
     ----------
     system, params, about, amplitude, frequency, order, guard_tol
-        As for :func:`stability_map`; kapitza 0.1's order ``adaptive_map(system, A, omega,
-        params, about)`` still works in 0.2, with a DeprecationWarning.
+        As for :func:`stability_map` (about a periodic orbit too); kapitza 0.1's order
+        ``adaptive_map(system, A, omega, params, about)`` still works in 0.2, with a
+        DeprecationWarning.
     A, omega : 1-d arrays
         The full grid's axes (m, rad/s), keywords.
     coarse_step : int

@@ -37,6 +37,7 @@ from lagrange_core.progress import defer_ctrl_c as _defer_ctrl_c
 from ..results import ComputationInterrupted, StabilityMap
 from ._multipliers import _analyse
 from ._orbits import Follower
+from ._shooting import Shot
 
 __all__ = ["OrbitProbe", "orbit_map", "conservative"]
 
@@ -77,11 +78,22 @@ class OrbitProbe:
         amplitudes visited in ascending order (continuation)."""
         A = np.asarray(A, float).ravel()
         w = np.asarray(omega, float).ravel()
-        out = [None] * A.size
+        out: list[Shot | None] = [None] * A.size
         for i in np.lexsort((A, w)):
             if _SIGINT["hit"]:
                 raise KeyboardInterrupt
             out[i] = self.follower.at(A[i], w[i])
+        lines = self.follower.lines
+        if lines and all(line is None for line in lines.values()):
+            w0 = next(iter(lines))
+            y = self.request.state
+            n = y.size // 2
+            raise ValueError(
+                f"about: the state q = {np.round(y[:n], 12).tolist()} does not persist under "
+                f"the drive, and no periodic orbit near it was found: "
+                f"{self.follower.why.get(w0, 'no orbit')}.  Pass an equilibrium's exact "
+                "coordinates, a better guess of the orbit (its state [q, q̇] at t = 0), or a "
+                "kapitza.periodic_orbit(...) result (followed from where it was found).")
         return out
 
     def __call__(self, A, omega, analyse=False):
@@ -96,7 +108,7 @@ class OrbitProbe:
         Mb = np.full((m, d, d), np.nan)
         delta = np.full(m, np.inf)
         liou = np.zeros(m)
-        flags = [()] * m
+        flags: list[tuple[str, ...]] = [()] * m
         T = 2 * np.pi / w
         for i, s in enumerate(shots):
             if s is None:
@@ -136,10 +148,10 @@ class OrbitProbe:
             stable, label, signed = res["stable"], res["label"], res["signed"]
             stable[~have], label[~have], signed[~have] = False, 3, np.nan
             res["margin"][~have] = 0.0
-            ill = np.array([bool(f) and f[0].startswith("ill") for f in flags])
+            ill = np.array([len(f) > 0 and f[0].startswith("ill") for f in flags], dtype=bool)
             res["margin"][ill] = 0.0
-            for i in np.nonzero(have)[0]:
-                flags[i] = tuple(flags[i]) + tuple(res["flags"][i])
+            for k in np.nonzero(have)[0]:
+                flags[k] = tuple(flags[k]) + tuple(res["flags"][k])
             out.update(stable=stable, label=label, signed=signed, analysis=res)
         return out
 

@@ -33,11 +33,19 @@ branch both misses are O(h²) against O(h), so fine steps always pass; where the
 turns — a fold, or the square-root end of a branch born at a pitchfork (the tilted orbit
 at the hanging one's pitchfork) — y′ grows without bound, the two tangents disagree
 unless h is small against the distance to the turn, and a step landing on another branch
-or beyond the end fails one of the two checks whatever its length.  A rejected step is
-halved; below 1e-6 of x the branch has ended, and every point beyond is reported without
-an orbit, never with the orbit of another branch.  Accepted points are kept, so later
-requests at the same ω interpolate between them (the linear interpolation as the guess,
-accepted where the corrector stays within half the two points' difference).
+or beyond the end fails one of the two checks whatever its length.  A step across which
+det(∂G/∂y) changes sign (on a branch only at a fold or a branch point; a long step can
+land on another branch with similar tangents) is accepted only once shorter than 1e-3 of
+x.  A rejected step is halved; below 1e-6 of x the branch has ended, and every point
+beyond is reported without an orbit, never with the orbit of another branch.  Accepted
+points are kept, so later requests at the same ω interpolate between them (the linear
+interpolation as the guess, accepted where the corrector stays within half the two
+points' difference and det(∂G/∂y) keeps a neighbour's sign).
+
+Limits: natural continuation in x cannot go round a fold (the branch then ends there:
+:func:`kapitza.continuation` follows branches through folds), and a branch that turns
+within less than a step and lands on another orbit with the same tangents and the same
+sign of det(∂G/∂y) is not told apart; finer grids make that rarer.
 
 Accuracy: each orbit to the shooting's residual ``tol`` · max(1, |y|) (flow to tol/100);
 its state's error ‖J⁻¹‖ (residual + flow error) and the monodromy's error (integration
@@ -65,6 +73,12 @@ MAX_NEWTON = 6
 JUMP = 0.5
 #: a step shorter than this × |x| ends the branch
 MIN_STEP = 1e-6
+#: a step across which det(∂G/∂y) changes sign is accepted only when at most this × |x|
+#: long (a branch point crossed on the branch followed, not a jump to another branch)
+CROSS_STEP = 1e-3
+#: a seed orbit found from a guess must lie within this × max(1, |guess|) of it (balanced
+#: variables): the orbit near the guess, not another one Newton wandered to
+NEAR = 0.25
 #: the longest flow of a seed (fixed steps per interval shot)
 MAX_STEPS = 1 << 16
 #: a continuation step's flows may take this many times the steps of its neighbour's:
@@ -151,7 +165,6 @@ def _given_orbit(system, fixed, orbit, amplitude, frequency):
         if name not in orbit.params:
             raise ValueError(f"about: the periodic orbit's params have no {name!r}.")
     A_s, w_s = float(orbit.params[amplitude]), float(orbit.params[frequency])
-    n = system.n_dof
     y = np.asarray(orbit.state, dtype=float)
     center = None
     c = np.asarray(orbit.q_mean, dtype=float)
@@ -163,12 +176,19 @@ def _given_orbit(system, fixed, orbit, amplitude, frequency):
         fl = m.flow(y, 64)
         if fl is not None and np.max(np.abs(m.residual(y, fl))) <= 1e-6 * max(1.0, np.max(
                 np.abs(y))):
-            center = np.round(c, 9) if np.allclose(c, np.round(c, 9), atol=1e-9) else c
+            center = c
     label = (f"periodic orbit through [q, q̇] = {np.round(y, 9).tolist()} at {amplitude} = "
              f"{A_s:.6g}, {frequency} = {w_s:.6g}" + (" (symmetric)" if center is not None
                                                       else ""))
-    del n
     return OrbitRequest(state=y.copy(), center=center, seed=(A_s, w_s), label=label)
+
+
+def _side(shot):
+    """The sign of det(∂G/∂y) of the equations shot (X − I, or R X_h − I): it changes
+    only where the branch has a fold or a branch point (or where a step jumped)."""
+    J = (shot.reduced if shot.reduced is not None else shot.monodromy) \
+        - np.eye(shot.state.size)
+    return int(np.sign(np.linalg.det(J)))
 
 
 class Line:
@@ -204,7 +224,7 @@ class Line:
             self.solves += 1
             shot = self.solve(x, pred, max(sa.steps, sb.steps))
             if shot is not None and self._small(x, shot.state - pred, sb.state - sa.state,
-                                                shot):
+                                                shot) and _side(shot) in (_side(sa), _side(sb)):
                 self._insert(x, shot, None)
                 return shot
             return self._march(x, i - 1 if u < 0.5 else i)
@@ -253,7 +273,12 @@ class Line:
         branch turns (a fold, the square-root end of a branch born at a pitchfork) the
         tangents at the two ends disagree unless h is small against the distance to the
         turn — a step that lands on another branch, or beyond the end, fails one of the
-        two, whatever its length."""
+        two, whatever its length.  A step across which det(∂G/∂y) changes sign is also
+        rejected unless shorter than CROSS_STEP × |x|: the sign changes on a branch only
+        at a fold or a branch point, and a long step that lands on another branch with
+        similar tangents (the damped elliptic pivot's hanging orbit turning sharply into
+        the tilted one, with the far side of a fold nearby) changes it; refined, the
+        branch followed either shows the crossing within a short step or turns away."""
         direction = 1 if x > self.x[k] else -1
         h = x - self.x[k]
         failed = x               # the nearest point a step failed to reach: not overshot
@@ -272,8 +297,10 @@ class Line:
                 self.solves += 1
                 shot = self.solve(x1, pred, s0.steps)
                 v1 = None
-                if shot is not None and self._small(x1, shot.state - pred, pred - s0.state,
-                                                    shot):
+                crossing = shot is not None and _side(shot) != _side(s0) and \
+                    abs(x1 - x0) > CROSS_STEP * max(abs(x0), abs(x1))
+                if shot is not None and not crossing and self._small(
+                        x1, shot.state - pred, pred - s0.state, shot):
                     v1 = self._slope(x1, shot)
                     back = shot.state - v1 * (x1 - x0) if v1 is not None else None
                     if back is not None and self._small(x0, s0.state - back,
@@ -287,6 +314,8 @@ class Line:
             self._insert(x1, shot, v1)
             if x1 == x:
                 return shot
+            if x1 == failed:                    # reached after all, from closer
+                failed = x
             k = bisect.bisect_left(self.x, x1)
             h *= 2
 
@@ -336,6 +365,7 @@ class Follower:
 
     def _amplitude_of(self, shot, w):
         line = self.lines[float(w)]
+        assert line is not None              # the shot came from it
         return line.x[next(i for i, s in enumerate(line.shots) if s is shot)]
 
     def _residual(self, A, w, y, steps):
@@ -353,6 +383,14 @@ class Follower:
                     self.tol)
 
     # -- per ω ---------------------------------------------------------------------------
+    def _near(self, y, guess, w):
+        """Whether a seed orbit's state is near the guess: within NEAR × max(1, |guess|) in
+        the balanced variables (Newton from a state near no orbit wanders to another one,
+        e.g. an equilibrium a radian away)."""
+        d = self._scale(w)
+        return float(np.max(np.abs(d * (y - guess)))) <= NEAR * max(
+            1.0, float(np.max(np.abs(d * guess))))
+
     def line(self, w) -> Line | None:
         w = float(w)
         if w in self.lines:
@@ -361,9 +399,13 @@ class Follower:
         if req.seed is None:
             A0 = self.start
             shot = self.shoot(A0, w, req.state)
+            where = f"at {self.amplitude} = {A0:.6g}, {self.frequency} = {w:.6g}"
             if shot is None:
-                self.why[w] = (f"Newton shooting from about = {np.round(req.state, 9).tolist()} "
-                               f"found no periodic orbit at {self.amplitude} = {A0:.6g}")
+                self.why[w] = f"Newton shooting from about found no periodic orbit {where}"
+            elif not self._near(shot.state, req.state, w):
+                self.why[w] = (f"Newton shooting from about went to the orbit through "
+                               f"{np.round(shot.state, 6).tolist()} {where}, not one near about")
+                shot = None
         else:
             A0, w_s = req.seed
             if self.across is None:

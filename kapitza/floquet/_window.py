@@ -110,8 +110,19 @@ def window(system, params, about, *, omega, A_range=None, amplitude="A", frequen
     params : dict
         The other parameters (scalars); values of ``amplitude`` and ``frequency`` in
         it are ignored.
-    about : sequence or dict
-        The driven equilibrium's coordinates (velocities zero).
+    about : sequence, dict or kapitza.results.PeriodicOrbit
+        The driven equilibrium's coordinates (velocities zero); where that state does
+        not persist under the drive, the T-periodic orbit it names, followed in the
+        amplitude from A = 0 at each ω (a PeriodicOrbit: from where it was found) as
+        :func:`kapitza.stability_map` does (its Notes).  The
+        orbit's margins are those of its monodromy, their entries' error measured
+        against a second shooting at 100× the tolerance; the shooting's residual is
+        tol/100 within 1e-10 … 1e-8 (float64 flows meet ~1e-12), so edges reach
+        about 1e-11 (the hanging orbit's pitchfork, horizontal drive).  Where the scan
+        reaches a point the orbit does not (its branch ends), the window there is
+        "undecided".  The default ``A_range`` about an orbit: up to where the drive's
+        modulation or forcing at ``about`` reaches 2 in the balanced variables (2 l for
+        a pendulum on a horizontal pivot).
     omega : float or 1-d array
         Drive angular frequencies (rad/s), keyword; a scalar gives a window of scalar
         fields.
@@ -263,7 +274,8 @@ def boundaries(system, params, about, *, omega, A_range=None, amplitude="A",
     Parameters
     ----------
     system, params, about, amplitude, frequency, tol, order, guard_tol
-        As for :func:`window`.
+        As for :func:`window` (about a periodic orbit too: followed from the lowest
+        amplitude of ``A_range``).
     omega : 1-d array
         Drive angular frequencies (rad/s), ascending, keyword; the finer, the shorter each
         continuation step.  (kapitza 0.1's ``boundaries(system, params, about, omega)``

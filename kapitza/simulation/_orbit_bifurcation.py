@@ -1,7 +1,7 @@
 """Where a symmetric periodic orbit loses its symmetry: the symmetry-breaking pitchfork.
 
 The horizontally driven pendulum's hanging orbit is symmetric under the half-period
-reflection (θ(t + T/2) = −θ(t); :mod:`kapitza.simulation._shooting`).  It loses stability
+reflection (θ(t + T/2) = −θ(t); :mod:`kapitza.floquet._shooting`).  It loses stability
 where the tilted orbits branch off: a multiplier of the monodromy M = (R X_h)² reaches +1
 from an antisymmetric direction, i.e. a multiplier μ of the half-period map R X_h reaches
 −1.  The margin
@@ -27,8 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..floquet import SYMMETRY_RTOL, shoot, symmetry_defect
 from ._periodic_orbit import _period, _start
-from ._shooting import SYMMETRY_RTOL, shoot, symmetry_defect
 
 __all__ = ["SymmetryBreaking", "symmetry_breaking"]
 

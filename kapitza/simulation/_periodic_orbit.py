@@ -9,7 +9,7 @@ pivot's states, any damped drive with two phases.  There the slow state of avera
 *periodic orbit* — the motion repeats with the drive's period T — and its stability is
 that of the orbit's monodromy.
 
-Method (Newton shooting, :mod:`kapitza.simulation._shooting`)
+Method (Newton shooting, :mod:`kapitza.floquet._shooting`)
 -------------------------------------------------------------
 With φ_T the flow over one period (``periods`` periods for a subharmonic orbit), a
 T-periodic orbit is a root of G(y0) = φ_T(y0) − y0.  Newton's step solves
@@ -67,8 +67,8 @@ import warnings
 import numpy as np
 
 from .._deprecation import renamed_keywords
+from ..floquet import SYMMETRY_RTOL, shoot, symmetry_defect
 from ..results import PeriodicOrbit
-from ._shooting import SYMMETRY_RTOL, shoot, symmetry_defect
 
 __all__ = ["periodic_orbit", "PeriodicOrbit"]
 
