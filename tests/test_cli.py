@@ -55,7 +55,7 @@ def test_version(capsys):
     (["nonsense"], "invalid choice"),
     (["map", "--A", "0:0.1:3", "--omega", "100", "--data", "x.txt"], "--data"),
     (["run", "no_such_scene.toml"], "no_such_scene.toml"),
-    (["window", "--drive", "horizontal", "--omega", "300"], "drive='vertical'"),
+    (["window", "--drive", "horizontal", "--omega", "300"], "about='hanging'"),
     (["map", "--A", "0.01,0.05", "--omega", "2:1:3", "--log-omega", "--omega-over-omega0",
       "3"], "not allowed"),
     (["--rtol", "2"], "--rtol"),
