@@ -134,3 +134,11 @@ def averaging_order(order) -> int:
         raise ValueError(f"order must be 1 (first-order averaging) or 2 (next order), got "
                          f"{order!r}.")
     return int(order)
+
+
+def whole_number(value, name: str, minimum: int) -> int:
+    """``value`` as an int ≥ ``minimum``; booleans, floats and strings are refused (a
+    count of periods, blocks, starts: 2.5 of them is a mistake, not a rounding)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise ValueError(f"{name} must be a whole number ≥ {minimum}, got {value!r}.")
+    return int(value)

@@ -13,7 +13,7 @@ from collections.abc import Callable
 from typing import Any
 
 __all__ = ["SINCE", "REMOVED_IN", "warn_deprecated", "deprecated_alias",
-           "renamed_keywords", "keyword_options"]
+           "renamed_keywords", "keyword_options", "state_was_first"]
 
 SINCE = "0.2.0"
 REMOVED_IN = "0.3"
@@ -119,6 +119,30 @@ def keyword_options(where: str, positional: int, options: tuple[str, ...] = (),
                 warn_deprecated(f"{where}({old}=...)", f"{where}({shown})")
                 value = kwargs.pop(old)
                 kwargs[new] = value if convert is None else convert(value)
+            return function(*args, **kwargs)
+
+        return wrapper
+
+    return decorate
+
+
+def state_was_first(where: str, *, method: bool = False) -> Callable:
+    """Decorate ``where(A, omega, *, theta)`` whose 0.1 spelling was ``(theta, A, omega)``:
+    a call with three positional arguments (after ``self`` for a ``method``) is that order;
+    it still works and warns. Giving ``theta`` both ways is an error."""
+    skip = 1 if method else 0
+
+    def decorate(function: Callable) -> Callable:
+        @functools.wraps(function)
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            head, rest = args[:skip], args[skip:]
+            if len(rest) == 3:
+                if "theta" in kwargs:
+                    raise TypeError(f"{where}() got theta twice; call "
+                                    f"{where}(A, omega, theta=theta).")
+                warn_deprecated(f"{where}(theta, A, omega)", f"{where}(A, omega, theta=theta)")
+                theta, A, omega = rest
+                args, kwargs = (*head, A, omega), dict(kwargs, theta=theta)
             return function(*args, **kwargs)
 
         return wrapper

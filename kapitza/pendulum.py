@@ -28,7 +28,7 @@ from lagrange_core.checks import real_array
 from . import _arguments as arguments
 from . import closed_forms
 from . import floquet as _floquet
-from ._deprecation import keyword_options, warn_deprecated
+from ._deprecation import keyword_options, state_was_first, warn_deprecated
 from .floquet import floquet_point
 from .results import (
     FloquetResult,
@@ -52,22 +52,6 @@ def _driven_pendulum(drive: str, damped: bool):
     return problems.driven_pendulum(drive, damping=damped)
 
 
-def _theta_was_first(method: Callable) -> Callable:
-    """Before kapitza 0.2 ``effective_potential(theta, A, omega)``: a call with three
-    positional arguments is that order; it still works and warns."""
-    @functools.wraps(method)
-    def wrapper(self, *args, **kwargs):
-        if len(args) == 3:
-            if "theta" in kwargs:
-                raise TypeError("KapitzaPendulum.effective_potential() got theta twice; call "
-                                "effective_potential(A, omega, theta=theta).")
-            warn_deprecated("KapitzaPendulum.effective_potential(theta, A, omega)",
-                            "KapitzaPendulum.effective_potential(A, omega, theta=theta)")
-            theta, A, omega = args
-            args, kwargs = (A, omega), dict(kwargs, theta=theta)
-        return method(self, *args, **kwargs)
-
-    return wrapper
 
 
 #: ``simulate``'s arguments before kapitza 0.2, in their order then
@@ -209,7 +193,7 @@ class KapitzaPendulum:
         return p
 
     # -- averaging (kapitza.closed_forms) ------------------------------------------------
-    @_theta_was_first
+    @state_was_first("KapitzaPendulum.effective_potential", method=True)
     def effective_potential(self, A, omega, *, theta):
         """Kapitza effective potential per unit mass U_eff(θ)/m (J/kg), first-order averaging.
 

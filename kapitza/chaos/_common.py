@@ -13,7 +13,7 @@ import numpy as np
 
 from lagrange_core.checks import real_array, real_number
 
-__all__ = ["parameters", "drive_frequency", "state", "whole", "tolerances", "angle_names",
+__all__ = ["parameters", "drive_frequency", "state", "tolerances", "angle_names",
            "unconstrained", "generic_basis"]
 
 
@@ -86,13 +86,6 @@ def state(system, values, what, *, single=False, starts=False):
         raise ValueError(f"{what} must be one state of the {n} coordinate(s) {names}, got "
                          f"shape {arr.shape}.")
     return arr
-
-
-def whole(value, name, minimum):
-    """A whole number ≥ ``minimum``."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise ValueError(f"{name} must be a whole number ≥ {minimum}, got {value!r}.")
-    return int(value)
 
 
 def tolerances(rtol, atol):

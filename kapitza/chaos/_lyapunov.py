@@ -63,6 +63,7 @@ from lagrange_core.batch import STATUS_NAMES
 from lagrange_core.checks import real_number
 from lagrange_core.progress import defer_ctrl_c, run_in_chunks
 
+from .._arguments import whole_number
 from ..results import ComputationInterrupted, LyapunovGrid, LyapunovSpectrum
 from . import _kernels as _k
 from ._common import (
@@ -74,7 +75,6 @@ from ._common import (
     state,
     tolerances,
     unconstrained,
-    whole,
 )
 
 __all__ = ["lyapunov", "lyapunov_grid"]
@@ -101,7 +101,7 @@ def _count(exponents, d, where):
         return d
     if exponents == "largest":
         return 1
-    k = whole(exponents, "exponents", 1)
+    k = whole_number(exponents, "exponents", 1)
     if k > d:
         raise ValueError(f"{where}: exponents={k} but the phase space has only {d} "
                          "dimensions; ask for 'all' (or fewer).")
@@ -195,13 +195,13 @@ def lyapunov(system, params, q0, qdot0=0.0, *, periods=1000, transient=100, expo
     y = np.concatenate([state(system, q0, "q0", single=True),
                         state(system, qdot0, "qdot0", single=True)])
     k = _count(exponents, d, where)
-    periods = whole(periods, "periods", 1)
-    transient = whole(transient, "transient", 0)
-    every = whole(every, "every", 1)
-    blocks = whole(blocks, "blocks", 2)
+    periods = whole_number(periods, "periods", 1)
+    transient = whole_number(transient, "transient", 0)
+    every = whole_number(every, "every", 1)
+    blocks = whole_number(blocks, "blocks", 2)
     t0 = real_number(t0, "t0", unit="s")
     rtol, atol = tolerances(rtol, atol)
-    budget = (1 << 62) if max_steps is None else whole(max_steps, "max_steps", 1)
+    budget = (1 << 62) if max_steps is None else whole_number(max_steps, "max_steps", 1)
     intervals = -(-periods // every)
     if intervals < blocks:
         raise ValueError(f"{where}: {periods} periods in intervals of every={every} give "
@@ -331,14 +331,14 @@ def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200,
     omega = drive_frequency(system, pv, frequency, where)
     Q0 = state(system, q0, "q0")
     V0 = state(system, qdot0, "qdot0")
-    periods = whole(periods, "periods", 1)
-    transient = whole(transient, "transient", 0)
-    blocks = whole(blocks, "blocks", 2)
+    periods = whole_number(periods, "periods", 1)
+    transient = whole_number(transient, "transient", 0)
+    blocks = whole_number(blocks, "blocks", 2)
     if periods < blocks:
         raise ValueError(f"{where}: periods={periods} must be at least blocks={blocks}.")
     t0 = real_number(t0, "t0", unit="s")
     rtol, atol = tolerances(rtol, atol)
-    budget = (1 << 62) if max_steps is None else whole(max_steps, "max_steps", 1)
+    budget = (1 << 62) if max_steps is None else whole_number(max_steps, "max_steps", 1)
     shapes = [v.shape for v in pv.values()] + [omega.shape, Q0.shape[:-1], V0.shape[:-1]]
     try:
         S = np.broadcast_shapes(*shapes)

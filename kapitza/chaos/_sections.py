@@ -27,8 +27,9 @@ import numpy as np
 from lagrange_core.batch import GridInterrupted
 from lagrange_core.checks import real_number
 
+from .._arguments import whole_number
 from ..results import Basin, BifurcationDiagram, ComputationInterrupted, PoincareSection
-from ._common import angle_names, drive_frequency, parameters, state, tolerances, whole
+from ._common import angle_names, drive_frequency, parameters, state, tolerances
 
 __all__ = ["bifurcation_diagram", "poincare_section", "basin"]
 
@@ -167,8 +168,8 @@ def bifurcation_diagram(system, params, about=None, *, parameter, values, q0=Non
     S = starts[0] if starts else 1
     Q0 = np.broadcast_to(Q0, (S, n))
     V0 = np.broadcast_to(V0, (S, n))
-    periods = whole(periods, "periods", 1)
-    transient = whole(transient, "transient", 0)
+    periods = whole_number(periods, "periods", 1)
+    transient = whole_number(transient, "transient", 0)
     t0 = real_number(t0, "t0", unit="s")
     rtol, atol = tolerances(rtol, atol)
     names = angle_names(system, angles)
@@ -232,8 +233,8 @@ def poincare_section(system, params, q0, qdot0=0.0, *, periods=1000, transient=0
     n = system.n_dof
     Q0 = np.broadcast_to(Q0, S + (n,))
     V0 = np.broadcast_to(V0, S + (n,))
-    periods = whole(periods, "periods", 1)
-    transient = whole(transient, "transient", 0)
+    periods = whole_number(periods, "periods", 1)
+    transient = whole_number(transient, "transient", 0)
     t0 = real_number(t0, "t0", unit="s")
     rtol, atol = tolerances(rtol, atol)
     names = angle_names(system, angles)
@@ -325,7 +326,7 @@ def basin(system, params, about, *, q0, qdot0=0.0, periods=500, band=math.pi / 2
         raise ValueError(f"{where}: the start q0 = {bad.tolist()} lies outside the band "
                          f"|q − about| < {half.tolist()} about {ref.tolist()}; every cell must "
                          "start inside it. Narrow the grid or widen the band.")
-    periods = whole(periods, "periods", 1)
+    periods = whole_number(periods, "periods", 1)
     t0 = real_number(t0, "t0", unit="s")
     rtol, atol = tolerances(rtol, atol)
     interrupted = False

@@ -27,7 +27,7 @@ import scipy.linalg
 from lagrange_core.progress import run_in_chunks
 
 from .. import _arguments as arguments
-from .._deprecation import warn_deprecated
+from .._deprecation import state_was_first
 from ..averaging import MAX_AMPLITUDE_RATIO, MIN_FREQUENCY_RATIO, AveragingValidityWarning
 from ..results import (
     ComputationInterrupted,
@@ -52,25 +52,9 @@ __all__ = ["MAX_CORRECTION", "pendulum_effective_potential", "pendulum_averaged"
 MAX_CORRECTION = 0.1
 
 
-def _theta_was_first(function):
-    """Before kapitza 0.2 the angle came first, ``(theta, A, omega)``: a call with three
-    positional arguments is that order; it still works and warns."""
-    @functools.wraps(function)
-    def wrapper(*args, **kwargs):
-        if len(args) == 3:
-            if "theta" in kwargs:
-                raise TypeError("pendulum_effective_potential() got theta twice; call "
-                                "pendulum_effective_potential(A, omega, theta=theta).")
-            warn_deprecated("kapitza.pendulum_effective_potential(theta, A, omega)",
-                            "kapitza.pendulum_effective_potential(A, omega, theta=theta)")
-            theta, A, omega = args
-            args, kwargs = (A, omega), dict(kwargs, theta=theta)
-        return function(*args, **kwargs)
-
-    return wrapper
 
 
-@_theta_was_first
+@state_was_first("kapitza.pendulum_effective_potential")
 def pendulum_effective_potential(A, omega, *, theta, l=1.0, g=9.81, drive="vertical"):
     """U_eff(θ)/m (J/kg) of the driven pendulum, first-order averaging.
 

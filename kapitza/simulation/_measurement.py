@@ -101,6 +101,7 @@ import numpy as np
 from lagrange_core.batch import GridInterrupted
 from lagrange_core.checks import real_array, real_number
 
+from .._arguments import whole_number
 from ..results import ComputationInterrupted, Measurement
 
 __all__ = ["measure", "measure_grid", "slow_frequencies", "Measurement", "RESIDUAL_FACTOR",
@@ -450,10 +451,6 @@ def _strobe_frequency(system, params, frequency):
     return omega
 
 
-def _whole(value, name, minimum):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise ValueError(f"{name} must be a whole number ≥ {minimum}, got {value!r}.")
-    return int(value)
 
 
 def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIODS,
@@ -521,7 +518,7 @@ def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIOD
     >>> m.stayed_up, m.omega_slow.round(3).tolist(), bool(np.all(m.omega_slow_error < 1e-7))
     (True, [5.735, 36.595], True)
     """
-    periods = _whole(periods, "periods", 1)
+    periods = whole_number(periods, "periods", 1)
     omega = _strobe_frequency(system, params, frequency)
     period = 2 * np.pi / omega
     t0 = real_number(t0, "t0", unit="s")
