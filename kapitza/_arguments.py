@@ -136,9 +136,13 @@ def averaging_order(order) -> int:
     return int(order)
 
 
-def whole_number(value, name: str, minimum: int) -> int:
-    """``value`` as an int ≥ ``minimum``; booleans, floats and strings are refused (a
-    count of periods, blocks, starts: 2.5 of them is a mistake, not a rounding)."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+def whole_number(value, name: str, minimum: int, *, integral_floats: bool = False) -> int:
+    """``value`` as an int ≥ ``minimum``; booleans and strings are refused, and floats
+    too unless ``integral_floats`` (then 3.0 is 3, 2.5 refused) — a count of periods,
+    blocks, starts: 2.5 of them is a mistake, not a rounding."""
+    whole = isinstance(value, (int, np.integer)) or (
+        integral_floats and isinstance(value, (float, np.floating)) and math.isfinite(value)
+        and int(value) == value)
+    if isinstance(value, bool) or not whole or value < minimum:
         raise ValueError(f"{name} must be a whole number ≥ {minimum}, got {value!r}.")
     return int(value)

@@ -428,3 +428,16 @@ def test_neimark_sacker_test_function_on_monodromies():
     assert below[0] * above[0] > 0 and below[1] * above[1] > 0
     cons, _ = test_functions(M(1.0), 1e-14, conservative=True)
     assert math.isnan(cons[2])
+
+
+@pytest.mark.parametrize("options,named", [(dict(periods="a"), "periods"),
+                                           (dict(periods=None), "periods"),
+                                           (dict(periods=1.5), "periods"),
+                                           (dict(max_points="x"), "max_points")])
+def test_counts_that_are_not_whole_numbers_are_named(options, named):
+    """A count given as a string, None or 1.5 is refused naming the argument (it raised
+    int()'s own message before)."""
+    system = problems.driven_pendulum("vertical")
+    params = dict(m=1.0, l=1.0, g=9.81, A=0.02, omega=20 * math.sqrt(9.81))
+    with pytest.raises(ValueError, match=f"continuation: {named} must be a whole number"):
+        kapitza.continuation(system, params, [math.pi], parameter="A", stop=0.6, **options)

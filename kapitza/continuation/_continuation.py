@@ -48,6 +48,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from .._arguments import whole_number
 from ..results import Branch
 from ._branch import Engine
 
@@ -183,13 +184,10 @@ def continuation(system, params, about, *, parameter="A", stop, periods=1,
         raise ValueError(f"continuation: stop = {stop!r} equals the start value "
                          f"params[{parameter!r}]; give the other end of the interval.")
     _number(f"params[{frequency!r}]", params[frequency], positive=True)
-    if isinstance(periods, bool) or int(periods) != periods or periods < 1:
-        raise ValueError(f"continuation: periods must be a whole number ≥ 1, got {periods!r}.")
+    whole_number(periods, "continuation: periods", 1, integral_floats=True)
     if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 1e-13 <= tol <= 1e-6:
         raise ValueError(f"continuation: tol must be a number in [1e-13, 1e-6], got {tol!r}.")
-    if isinstance(max_points, bool) or int(max_points) != max_points or max_points < 2:
-        raise ValueError(f"continuation: max_points must be a whole number ≥ 2, got "
-                         f"{max_points!r}.")
+    whole_number(max_points, "continuation: max_points", 2, integral_floats=True)
     span = abs(stop - p0)
     step = span / 100 if step is None else _number("step", step, positive=True)
     max_step = max(span / 20, step) if max_step is None else _number("max_step", max_step,

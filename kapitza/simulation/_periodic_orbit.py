@@ -66,6 +66,7 @@ import warnings
 
 import numpy as np
 
+from .._arguments import whole_number
 from .._deprecation import renamed_keywords
 from ..floquet import SYMMETRY_RTOL, shoot, symmetry_defect
 from ..results import PeriodicOrbit
@@ -80,8 +81,7 @@ def _period(system, params, frequency, periods):
     if not (w > 0 and math.isfinite(w)):
         raise ValueError(f"periodic_orbit: the drive frequency {frequency} = {w!r} must be a "
                          "positive number (rad/s).")
-    if int(periods) != periods or periods < 1:
-        raise ValueError(f"periods must be a whole number ≥ 1, got {periods!r}.")
+    whole_number(periods, "periods", 1, integral_floats=True)
     return int(periods) * 2 * math.pi / w
 
 
