@@ -48,6 +48,7 @@ from pathlib import Path
 from lagrange_core import effects as fx
 
 from ._checker import Checker, SceneError, SceneProblem, kind_of
+from ._rigs import RigDeclaration, check_declaration, velocity_unit
 from ._schema import (
     AXIS,
     CATALOGUE,
@@ -97,6 +98,10 @@ class SceneSpec:
         ``directory`` (Path or None) and ``formats`` (tuple).
     data : dict
         The parsed TOML, as written (for the record; Hz where the file has Hz).
+    declaration : kapitza.scenes._rigs.RigDeclaration
+        The units of the rig's coordinates and its named states (the catalogue's, or what
+        a user's rig declares: :mod:`kapitza.scenes._rigs`); also :attr:`units` and
+        :attr:`states`.
     """
 
     source: str
@@ -111,6 +116,26 @@ class SceneSpec:
     sweep: dict | None
     output: dict
     data: dict = field(repr=False, default_factory=dict)
+    declaration: RigDeclaration | None = None
+
+    @property
+    def units(self) -> dict:
+        """The unit of each coordinate ("rad", "m" or "1"), in the rig's order."""
+        return dict(self.declaration.units) if self.declaration is not None else {}
+
+    @property
+    def states(self) -> dict:
+        """The rig's named states: name → coordinates (a tuple, the rig's order and units)."""
+        return dict(self.declaration.states) if self.declaration is not None else {}
+
+    def declared_key(self) -> dict:
+        """What a user's rig declares (its units and states), for the scene's key: the
+        numbers depend on the state ``about`` names.  Empty for a rig that declares nothing
+        (the catalogue's, a rig of angles only), whose key is as it was."""
+        d = self.declaration
+        if d is None or d.declared_by in ("catalogue", "angles"):
+            return {}
+        return {"rig": {"units": d.units, "states": {k: list(v) for k, v in d.states.items()}}}
 
 
 def read_scene(path) -> SceneSpec:
@@ -154,17 +179,20 @@ def read_scene_data(data: dict, *, text: str = "", source: str = "<data>") -> Sc
     if title is not None and not isinstance(title, str):
         c.error("title", f"must be text, got {kind_of(title)} {title!r}")
         title = None
-    rig_name, rig = _check_system(c, data.get("system"))
+    rig_name, rig, factory = _check_system(c, data.get("system"))
     effects, effect_params = _check_effects(c, data.get("effects", {}), rig)
     params = _check_parameters(c, data.get("parameters"), rig, effects, effect_params)
-    initial = _check_initial(c, data.get("initial", {}), rig)
-    analyses = check_analyses(c, data.get("analyses", {}), effects, rig, params)
-    sweep = _check_sweep(c, data.get("sweep"), rig, params, effects, analyses)
+    system = data.get("system")
+    declaration = check_declaration(c, system if isinstance(system, dict) else {}, rig,
+                                    rig_name, factory, params)
+    initial = _check_initial(c, data.get("initial", {}), rig, declaration)
+    analyses = check_analyses(c, data.get("analyses", {}), effects, rig, params, declaration)
+    sweep = _check_sweep(c, data.get("sweep"), rig, params, effects, analyses, declaration)
     output = _check_output(c, data.get("output", {}), source)
     c.done()
     return SceneSpec(source=source, text=text, title=title, rig_name=rig_name, rig=rig,
                      effects=tuple(effects), params=params, initial=initial, analyses=analyses,
-                     sweep=sweep, output=output, data=data)
+                     sweep=sweep, output=output, data=data, declaration=declaration)
 
 
 def _check_schema(c, data):
@@ -181,21 +209,23 @@ def _check_schema(c, data):
 # -- system -------------------------------------------------------------------------------
 
 def _check_system(c, system):
+    """(name, rig, the user's rig function or None): the rig is None where it is wrong
+    (reported)."""
     if system is None:
         c.error("system", "missing table; say what hangs from the pivot, e.g. [system] "
                           'name = "pendulum"')
-        return None, None
-    system = c.table(system, "system", ("name", "links", "options"))
+        return None, None, None
+    system = c.table(system, "system", ("name", "links", "options", "units", "states"))
     if system is None:
-        return None, None
+        return None, None, None
     name = system.get("name")
     if name is None:
         c.error("system.name", 'missing; a rig of the catalogue (' + ", ".join(CATALOGUE)
                 + ') or "package.module:function"')
-        return None, None
+        return None, None, None
     if not isinstance(name, str):
         c.error("system.name", f"must be text, got {kind_of(name)} {name!r}")
-        return None, None
+        return None, None, None
     options = system.get("options", {})
     if not isinstance(options, dict):
         c.error("system.options", f"must be a table of keyword arguments, got {kind_of(options)}")
@@ -204,46 +234,47 @@ def _check_system(c, system):
     if name == "chain":
         if links is None:
             c.error("system.links", "missing; a chain needs its number of links, e.g. links = 3")
-            return name, None
+            return name, None, None
         n = c.number(links, "system.links", integer=True, minimum=1)
-        return (name, fx.n_link_rig(n)) if n is not None else (name, None)
+        return (name, fx.n_link_rig(n), None) if n is not None else (name, None, None)
     if links is not None:
         c.error("system.links", f"only for name = \"chain\" (system.name is {name!r})")
     if ":" in name:
-        return name, _user_rig(c, name, options)
+        return (name, *_user_rig(c, name, options))
     if name not in fx.RIGS:
         c.unknown("system.name", name, CATALOGUE, what="rig",
                   extra=', or "package.module:function"')
-        return name, None
+        return name, None, None
     if options:
         c.error("system.options", "only for a user's rig (\"package.module:function\")")
-    return name, fx.RIGS[name]()
+    return name, fx.RIGS[name](), None
 
 
 def _user_rig(c, name, options):
+    """(rig, its function): (None, None) where either is wrong (reported)."""
     module, _, function = name.partition(":")
     try:
         mod = importlib.import_module(module)
     except Exception as e:      # noqa: BLE001 - any import failure is the user's to see
         c.error("system.name", f"cannot import module {module!r} ({type(e).__name__}: {e})")
-        return None
+        return None, None
     fn = getattr(mod, function, None)
     if not callable(fn):
         c.unknown("system.name", function,
                   [k for k, v in vars(mod).items() if callable(v) and not k.startswith("_")],
                   what=f"function of {module}")
-        return None
+        return None, None
     try:
         rig = fn(**options)
     except Exception as e:      # noqa: BLE001
         c.error("system.name", f"{name}(**system.options) raised {type(e).__name__}: {e}")
-        return None
+        return None, None
     if not isinstance(rig, fx.Rig):
         c.error("system.name", f"{name} must return a lagrange_core.effects.Rig (coordinates "
                                f"and masses, so that effects can be applied), got "
                                f"{type(rig).__name__}")
-        return None
-    return rig
+        return None, None
+    return rig, fn
 
 
 # -- effects ------------------------------------------------------------------------------
@@ -415,17 +446,26 @@ def _check_parameters(c, given, rig, effects, effect_params):
     return params
 
 
-def _check_initial(c, initial, rig):
+def _check_initial(c, initial, rig, declaration):
     if c.table(initial, "initial", initial if rig is None else _state_names(rig),
                what="coordinate") is None or rig is None:
         return {}
     out = {}
     for k, v in initial.items():
         if k in _state_names(rig):
-            v = c.number(v, f"initial.{k}", unit="rad/s" if k.endswith("_dot") else "rad")
+            v = c.number(v, f"initial.{k}", unit=state_unit(k, declaration))
             if v is not None:
                 out[k] = v
     return out
+
+
+def state_unit(name, declaration):
+    """The unit of a coordinate or of its rate ``<coordinate>_dot`` (rad, rad/s for a rig
+    whose declaration is unknown: reported already)."""
+    units = declaration.units if declaration is not None else {}
+    if name in units or not name.endswith("_dot"):
+        return units.get(name, "rad")
+    return velocity_unit(units.get(name[:-len("_dot")], "rad"))
 
 
 def _state_names(rig):
@@ -447,7 +487,7 @@ def _flatten_axes(c, axes, key, prefix=()):
     return out
 
 
-def _check_sweep(c, sweep, rig, params, effects, analyses):
+def _check_sweep(c, sweep, rig, params, effects, analyses, declaration):
     if sweep is None:
         return None
     if c.table(sweep, "sweep", ("axes", "analyses", "tile_points")) is None:
@@ -470,7 +510,7 @@ def _check_sweep(c, sweep, rig, params, effects, analyses):
         if swept in where.values():
             c.error(key, f"sweeps {swept}, which another axis sweeps already")
             continue
-        kind, minimum, strict, unit = axis_range(target, rig)
+        kind, minimum, strict, unit = axis_range(target, rig, declaration)
         ax = check_axis(c, v, key, name, minimum=minimum, strict=strict, unit=unit)
         if ax is not None and target == "frequency_hz":    # read in Hz, swept as omega (rad/s)
             ax = in_rad_s(ax)

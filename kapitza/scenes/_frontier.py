@@ -15,8 +15,7 @@ import numpy as np
 from ..chaos import bifurcation_diagram, lyapunov
 from ..continuation import continuation
 from ..simulation import periodic_orbit
-from ._schema import CATALOGUE
-from ._states import about_state, averaged_state
+from ._states import about_state, averaged_state, checked_state, naming_state, persists
 
 __all__ = ["Branches", "FRONTIER_POINT", "frontier_method", "SWITCHABLE"]
 
@@ -121,16 +120,19 @@ def _continuation(scene, s, progress):
     params = dict(scene.spec.params)
     params[parameter] = float(s.get("start", params[parameter]))
     about = s.get("about", "auto")
-    if scene.capabilities["floquet"] == "equilibrium":
-        x0 = about_state(scene, about)                    # an equilibrium, at rest
+    if scene.capabilities["floquet"] == "equilibrium" or about not in (None, "auto"):
+        x0 = checked_state(scene, about_state(scene, about), about, params)
     else:
-        # a drive that leaves no equilibrium: start on the periodic orbit near ``about``
-        guess = averaged_state(scene, params, scene.q0) if about in (None, "auto") \
-            else about_state(scene, about)
-        x0 = periodic_orbit(system, params, guess).state
-    main = continuation(system, params, x0, parameter=parameter, stop=s["stop"],
-                        periods=s.get("periods", 1), max_points=s.get("max_points", 500),
-                        progress=progress)
+        x0 = checked_state(scene, averaged_state(scene, params, scene.q0), about, params)
+    with naming_state(scene, x0, about):
+        if not persists(scene, x0, params):
+            # the drive moves the state (no equilibrium, or a length on a shaken pivot):
+            # start on the periodic orbit born from it
+            x0 = periodic_orbit(system, params, x0).state
+        main = continuation(system, params, x0, parameter=parameter, stop=s["stop"],
+                            periods=s.get("periods", 1), max_points=s.get("max_points", 500),
+                            progress=progress,
+                            **{k: s[k] for k in ("tol", "step", "max_step") if k in s})
     branches, origins, notes = [main], [None], []
     if s.get("switch"):
         for b in main.bifurcations:
@@ -149,7 +151,8 @@ def _continuation(scene, s, progress):
 
 def _bifurcation_diagram(scene, s, progress):
     """Strobe samples over ``values`` × ``starts`` (at rest; default the scene's initial
-    state).  The catalogue's rigs' coordinates are angles: drawn modulo 2π."""
+    state).  The rig's angles (its coordinates in rad: every one of the catalogue's rigs')
+    are drawn modulo 2π."""
     starts = s.get("starts")
     if starts is None:
         q0, qdot0 = scene.q0[None, :], scene.qdot0[None, :]
@@ -157,18 +160,29 @@ def _bifurcation_diagram(scene, s, progress):
         q0, qdot0 = np.array(starts, dtype=float), np.zeros((len(starts), scene.system.n_dof))
     if scene.system.n_dof == 1:         # one coordinate: its value per start, shape (S,)
         q0, qdot0 = q0[:, 0], qdot0[:, 0]
-    angles = True if scene.spec.rig_name in CATALOGUE else ()
-    return bifurcation_diagram(scene.system, scene.spec.params, parameter=s.get("parameter", "A"),
+    units = scene.spec.units
+    angles = tuple(q for q in scene.system.coordinates if units.get(q) == "rad")
+    angles = True if len(angles) == scene.system.n_dof else angles
+    about = None if s.get("about") is None else about_state(scene, s["about"])
+    return bifurcation_diagram(scene.system, scene.spec.params, about,
+                               parameter=s.get("parameter", "A"),
                                values=np.asarray(s["values"].values), q0=q0, qdot0=qdot0,
                                periods=s.get("periods", 200), transient=s.get("transient", 500),
-                               angles=angles, progress=progress)
+                               angles=angles, progress=progress,
+                               **{k: s[k] for k in _INTEGRATION if k in s})
 
 
 def _lyapunov(scene, s, progress):
     """The exponents of the trajectory from the scene's initial state."""
     return lyapunov(scene.system, scene.spec.params, scene.q0, scene.qdot0,
                     periods=s.get("periods", 1000), transient=s.get("transient", 100),
-                    exponents=s.get("exponents", "all"), progress=progress)
+                    exponents=s.get("exponents", "all"), progress=progress,
+                    **{k: s[k] for k in ("every", "blocks", "t0", "tangent", "rtol", "atol",
+                                         "max_steps") if k in s})
+
+
+#: The integration settings a diagram passes on (as :meth:`lagrange_core.System.simulate_grid`).
+_INTEGRATION = ("t0", "method", "rtol", "atol", "max_steps")
 
 
 #: The frontier's analyses at the scene's point: name → function(scene, settings, progress).

@@ -17,6 +17,29 @@ Top level: ``schema = 1`` (required), ``title`` (text, optional) and the tables
     function ``"package.module:function"`` that returns a
     :class:`lagrange_core.effects.Rig` (called with the keyword arguments of the
     optional table ``[system.options]``).
+
+    A user's rig declares, in its own terms, what the analyses are about
+    (:mod:`kapitza.scenes._rigs`):
+
+    * ``units``: each coordinate's unit, ``{ r = "m", theta = "rad" }`` — "rad" (an
+      angle), "m" (a length) or "1" (a pure number); velocities are per second.  An
+      undeclared one is inferred: "rad" where every mass's position is 2π-periodic in
+      it, "m" where they are linear in it; otherwise it must be declared.
+    * ``states``: its named states, ``{ hanging = { r = 1.245, theta = 0.0 }, inverted =
+      { r = 0.755, theta = 3.14159 } }`` (a table per state giving every coordinate, or a
+      list in the rig's order); ``about`` may name them.
+
+    Either may also be an attribute of the rig function (``spring_pendulum.units = {...}``;
+    ``spring_pendulum.states`` a dict, or a function of the scene's parameters ``params →
+    {name: {coordinate: value}}``, for states that move with them, r = l0 + m g / k — a
+    spring's rest length l0 is not a parameter, so such a function knows it itself; an
+    example: ``tests/data/spring_rigs.py``); the scene's keys win, state by state and
+    coordinate by coordinate.  A rig of angles only
+    that declares no states has the catalogue's "inverted" (every angle π) and "hanging"
+    (0); a rig with another coordinate has only the states it declares, and an analysis
+    about "auto" (the default) or averaging without ``guesses`` needs them.  The
+    catalogue's rigs take neither key: their coordinates are angles from the downward
+    vertical, their states "inverted" and "hanging".
 ``[parameters]``
     The rig's parameters by name (the pendulum: ``l`` (m), ``m`` (kg); a chain ``l1`` …
     ``ln``, ``m1`` … ``mn``) and ``g`` (m/s²) with gravity on.  Lengths are required;
@@ -35,38 +58,87 @@ Top level: ``schema = 1`` (required), ``title`` (text, optional) and the tables
     * ``[effects.air_drag]``: ``c`` (kg/m, ≥ 0), −c |v| v on every mass;
     * ``[effects.spring.<coordinate>]``: ``k`` (> 0), ``rest`` (default 0).
 ``[initial]``
-    Initial coordinates by name and velocities ``<coordinate>_dot`` (default 0).
+    Initial coordinates by name and velocities ``<coordinate>_dot`` (default 0), in the
+    coordinates' units (rad and rad/s for the catalogue's rigs).
 ``[analyses]``
     Each ``name = true`` or a table of its settings; only those named run (how each is
     computed: :class:`kapitza.Scene`).  An *axis* is a list of values or a range
-    ``{start, stop, num, scale = "linear" | "log"}``; ``about`` is "inverted",
-    "hanging", "auto" (default) or a list of coordinate values.
+    ``{start, stop, num, scale = "linear" | "log"}``; ``about`` is a state the rig
+    declares by name ("inverted" or "hanging" for the catalogue's rigs), "auto" (default:
+    the declared state nearest the initial one; each angle's nearest multiple of π for a
+    rig of angles only), or the state's values, a list in the rig's order or a table
+    ``{ r = 1.245, theta = 0.0 }``, in the coordinates' units.  A name the rig does not
+    declare is refused, listing those it does.
 
     ======================  =========================================================
-    ``averaging``           ``order`` (1, or 2 for the plain pendulum)
-    ``floquet``             ``about``, ``tol``
+    ``averaging``           ``order`` (1, or 2 for the plain pendulum), ``guesses``
+                            (starting points of the search for equilibria, a list of
+                            states; default: 0, ±π/2, π for angles, the declared states
+                            for a rig with another coordinate)
+    ``floquet``             ``about``, ``tol``; about an equilibrium ``guard_tol``,
+                            ``taylor_order``; about a state the drive moves (the periodic
+                            orbit) ``periods`` (1), ``symmetry`` ("auto" or "none"),
+                            ``shooting`` ("auto", "single" or "multiple"),
+                            ``max_iterations``, ``max_steps``
     ``stability_map``       ``A`` (axis, m), ``omega`` (axis, rad/s) or ``frequency_hz``,
-                            ``about``, ``tol``
+                            ``about``, ``tol``, ``coarse_tol``, ``guard_tol``,
+                            ``taylor_order``
     ``window``              ``omega`` or ``frequency_hz`` (axis), ``about``, ``method``
                             ("floquet", the default, or "averaging"), ``order`` (averaging
-                            only: 1 (default), or 2 for the plain pendulum), ``tol``
-    ``measure``             ``about``, ``periods`` (1000), ``band`` (π/2 rad), ``rtol``
+                            only: 1 (default), or 2 for the plain pendulum), ``tol``,
+                            ``A_range`` ([low, high], m), ``scan``, ``min_width`` (m),
+                            ``guard_tol``, ``taylor_order``
+    ``measure``             ``about``, ``periods`` (1000), ``band`` (below),
+                            ``observables`` ("all" (default), "classification", or a list
+                            of "amplitude", "omega_slow"), ``rtol``, ``atol``, ``method``,
+                            ``t0`` (s), ``max_steps``
     ``simulate``            ``periods`` (100) or ``duration`` (s), ``samples`` (1001),
-                            ``method``, ``rtol``
+                            ``method``, ``rtol``, ``atol``, ``max_steps``, ``h`` (s, a
+                            fixed-step method's step), ``error_check`` (false)
     ``verify``              ``A``, ``omega`` or ``frequency_hz`` (axes), ``about``,
                             ``periods``, ``offset``, ``band``, ``tol``, ``rtol``,
-                            ``fit_order`` (false)
+                            ``fit_order`` (false), ``method``, ``length`` (m), ``omega0``
+                            (rad/s)
     ``continuation``        ``parameter`` ("A" (default), "omega", "frequency_hz" or any
                             parameter), ``stop`` (required), ``start`` (default: the
                             scene's value), ``periods`` (1), ``about``, ``switch``
-                            (false), ``max_points`` (500)
+                            (false), ``max_points`` (500), ``tol``, ``step``,
+                            ``max_step``
     ``bifurcation_diagram`` ``parameter`` (as for continuation), ``values`` (axis,
                             required), ``starts`` (list of starting coordinates, at rest;
-                            default the scene's initial state), ``periods`` (200 strobe
-                            samples kept), ``transient`` (500 periods)
+                            default the scene's initial state), ``about`` (optional: the
+                            state the diagram is about, kept in its result), ``periods``
+                            (200 strobe samples kept), ``transient`` (500 periods),
+                            ``t0``, ``method``, ``rtol``, ``atol``, ``max_steps``
     ``lyapunov``            ``periods`` (1000, ≥ 8), ``transient`` (100), ``exponents``
-                            ("all" (default), "largest" or how many)
+                            ("all" (default), "largest" or how many), ``every``,
+                            ``blocks``, ``t0``, ``tangent`` ("jacobian" or
+                            "difference"), ``rtol``, ``atol``, ``max_steps``
     ======================  =========================================================
+
+    Every keyword argument of the function an analysis calls has a key (the defaults and
+    ranges are the function's: :func:`kapitza.floquet_point`, :func:`kapitza.window`,
+    :func:`kapitza.measure`, ...), named as the function names it but ``taylor_order``
+    (the Floquet functions' ``order``: ``order`` is averaging's), ``fit_order`` (verify's
+    ``line``) and ``samples`` (simulate's ``t_eval``); :data:`API_ONLY` lists the few a
+    scene sets otherwise, and why.  A key of the general functions given for the plain
+    pendulum (``guesses``, ``guard_tol``, ``taylor_order``, ``coarse_tol``, ``A_range``,
+    ``scan``, ``min_width``; verify's ``offset``, ``band``, ``length``, ``omega0``) runs
+    the general function instead of the closed form, and the ``method`` column says so.
+
+    **Bands** (``measure``, ``verify``): a trajectory is measured while every coordinate
+    stays within its band about the state.  ``band`` is a number (every angle's
+    half-width, rad) or a table per coordinate in its unit (``band = { r = 0.2, theta =
+    1.0 }``); a coordinate not given keeps its default: π/2 for an angle, half its value
+    at the state for a length (:data:`kapitza.scenes._rigs.LENGTH_BAND_FRACTION`), none
+    (unbounded) for a pure number or a length at 0.
+
+    **Floquet about a state the drive moves.**  A drive along the vertical keeps the
+    catalogue's states (every angle 0 or π), so Floquet analysis is about an equilibrium;
+    a length on a vertically shaken pivot (a bob on a spring) is moved by the drive, and
+    a drive off the vertical moves every state: then ``floquet`` (and ``continuation``)
+    is about the periodic orbit born from the state (Newton shooting), as its ``method``
+    column says.  The state tried is named in every error, with its units.
 
     **Each analysis names its method, and exact and averaging never stand in for each
     other silently.**  ``window`` is the exact window (Floquet: the Mathieu
@@ -120,27 +192,49 @@ import math
 
 from lagrange_core import effects as fx
 
-__all__ = ["SCHEMA", "ANALYSES", "WINDOW_METHODS", "FRONTIER", "SWEEPABLE", "NEED_DRIVE",
-           "ABOUT_EQUILIBRIUM", "TOP", "EFFECTS", "DRIVE", "AXIS", "ABOUT", "UNITS", "KEY_TARGETS",
-           "OWNERS", "CATALOGUE", "ONE_NUMBER_EFFECTS", "hz_to_rad_s"]
+__all__ = ["SCHEMA", "ANALYSES", "API_ONLY", "WINDOW_METHODS", "FRONTIER", "SWEEPABLE",
+           "NEED_DRIVE", "ABOUT_EQUILIBRIUM", "TOP", "EFFECTS", "DRIVE", "AXIS", "ABOUT", "UNITS",
+           "KEY_TARGETS", "OWNERS", "CATALOGUE", "ONE_NUMBER_EFFECTS", "hz_to_rad_s"]
 
 #: The schema version this module describes.
 SCHEMA = 1
 
 #: Analyses a scene may ask for, and their settings (name → allowed keys).
 ANALYSES = {
-    "averaging": ("order",),
-    "floquet": ("about", "tol"),
-    "stability_map": ("A", "omega", "frequency_hz", "about", "tol"),
-    "window": ("omega", "frequency_hz", "about", "method", "order", "tol"),
-    "measure": ("about", "periods", "band", "rtol"),
-    "simulate": ("periods", "duration", "samples", "method", "rtol"),
+    "averaging": ("order", "guesses"),
+    "floquet": ("about", "tol", "guard_tol", "taylor_order", "periods", "symmetry",
+                "shooting", "max_iterations", "max_steps"),
+    "stability_map": ("A", "omega", "frequency_hz", "about", "tol", "coarse_tol", "guard_tol",
+                      "taylor_order"),
+    "window": ("omega", "frequency_hz", "about", "method", "order", "tol", "A_range", "scan",
+               "min_width", "guard_tol", "taylor_order"),
+    "measure": ("about", "periods", "band", "observables", "rtol", "atol", "method", "t0",
+                "max_steps"),
+    "simulate": ("periods", "duration", "samples", "method", "rtol", "atol", "max_steps", "h",
+                 "error_check"),
     "verify": ("A", "omega", "frequency_hz", "about", "periods", "offset", "band", "tol",
-               "rtol", "fit_order"),
+               "rtol", "fit_order", "method", "length", "omega0"),
     "continuation": ("parameter", "start", "stop", "periods", "about", "switch",
-                     "max_points"),
-    "bifurcation_diagram": ("parameter", "values", "starts", "periods", "transient"),
-    "lyapunov": ("periods", "transient", "exponents"),
+                     "max_points", "tol", "step", "max_step"),
+    "bifurcation_diagram": ("parameter", "values", "starts", "about", "periods", "transient",
+                            "t0", "method", "rtol", "atol", "max_steps"),
+    "lyapunov": ("periods", "transient", "exponents", "every", "blocks", "t0", "tangent",
+                 "rtol", "atol", "max_steps"),
+}
+#: The API's keyword arguments a scene sets otherwise, or not at all, and why
+#: (tests/test_scene_rigs.py holds every analysis's keys to its functions' arguments; a
+#: scene key named differently: ``taylor_order`` is the Floquet functions' ``order``,
+#: ``fit_order`` verify's ``line``, ``samples`` simulate's ``t_eval``).
+API_ONLY = {
+    "frequency": "the scene's drive frequency is always the parameter omega",
+    "amplitude": "the scene's drive amplitude is always the parameter A",
+    "progress": "Scene.run(progress=...) and the command line decide it",
+    "q0": "[initial]",
+    "qdot0": "[initial]",
+    "warn": "averaging's validity is flagged on its result",
+    "angles": "the rig's units (its coordinates in rad are the angles)",
+    "certify": "a sweep's Floquet tiles are plain grids (certifying needs the whole map)",
+    "winding": "a rotating orbit starts from a full state [q, q̇]; a scene's about is at rest",
 }
 #: The ways a window is computed (``window = { method = ... }``): exact first.
 WINDOW_METHODS = ("floquet", "averaging")

@@ -18,8 +18,8 @@ from lagrange_core import effects as fx
 from lagrange_core.symbols import t as t_symbol
 
 from ._checker import kind_of
+from ._rigs import state_values, velocity_unit
 from ._schema import (
-    ABOUT,
     ABOUT_EQUILIBRIUM,
     ANALYSES,
     AXIS,
@@ -60,11 +60,15 @@ def rig_symbols(rig):
     return syms, masses
 
 
-def axis_range(target, rig):
+def axis_range(target, rig, declaration=None):
     """(kind, minimum, strict, unit) of a quantity's physical range: a parameter's, or an
-    initial value's (``initial.<state>``)."""
+    initial value's (``initial.<state>``, in its coordinate's unit: ``declaration``)."""
     if target.startswith("initial."):
-        return "state", None, False, "rad/s" if target.endswith("_dot") else "rad"
+        units = declaration.units if declaration is not None else {}
+        name = target[len("initial."):]
+        if name in units or not name.endswith("_dot"):
+            return "state", None, False, units.get(name, "rad")
+        return "state", None, False, velocity_unit(units.get(name[:-len("_dot")], "rad"))
     if target in ("omega", "frequency_hz"):
         return "param", 0.0, True, UNITS[target]
     if target in ("A", "gamma", "c_drag", "g"):
@@ -80,8 +84,10 @@ def axis_range(target, rig):
 
 # -- [analyses] -------------------------------------------------------------------------------
 
-def check_analyses(c, analyses, effects, rig, params):
-    """The analyses asked for, name → checked settings (in the file's order)."""
+def check_analyses(c, analyses, effects, rig, params, declaration=None):
+    """The analyses asked for, name → checked settings (in the file's order).
+    ``declaration``: the rig's units and named states (:mod:`._rigs`), which ``about``,
+    ``band``, ``guesses`` and ``starts`` are checked against."""
     out = {}
     if c.table(analyses, "analyses", ANALYSES, what="analysis") is None:
         return out
@@ -92,12 +98,12 @@ def check_analyses(c, analyses, effects, rig, params):
         key = f"analyses.{name}"
         if isinstance(value, bool):
             if value:
-                out[name] = _check_settings(c, name, {}, key, rig, params)
+                out[name] = _check_settings(c, name, {}, key, rig, params, declaration)
             continue
         s = c.table(value, key, ANALYSES[name], what="setting")
         if s is None:
             continue
-        out[name] = _check_settings(c, name, s, key, rig, params)
+        out[name] = _check_settings(c, name, s, key, rig, params, declaration)
     for name in out:
         if name in NEED_DRIVE and drive is None:
             c.error(f"analyses.{name}", f"{name} needs a drive: add [effects.drive]")
@@ -114,14 +120,46 @@ def check_analyses(c, analyses, effects, rig, params):
 _PARAMETER_VALUES = ("start", "stop", "values")
 
 
-def _check_settings(c, name, s, key, rig, params):
+#: Settings that are a number > 0, and their units (tolerances are relative: none).
+_POSITIVE = {"tol": "", "rtol": "", "atol": "", "guard_tol": "", "coarse_tol": "",
+             "duration": "s", "offset": "", "min_width": "m", "length": "m", "omega0": "rad/s",
+             "h": "s", "step": "", "max_step": ""}
+#: Settings that are a whole number, and their least value.
+_WHOLE = {"periods": 1, "samples": 2, "transient": 0, "max_points": 2, "scan": 4,
+          "max_iterations": 1, "max_steps": 1, "every": 1, "blocks": 2}
+
+
+def _check_settings(c, name, s, key, rig, params, declaration=None):
     out = {}
     for k, v in s.items():
         if k not in ANALYSES[name] or k in _PARAMETER_VALUES:
             continue
         kk = f"{key}.{k}"
         if k == "about":
-            out[k] = _check_about(c, v, kk)
+            out[k] = _check_about(c, v, kk, rig, declaration)
+        elif k == "band":
+            out[k] = _check_band(c, v, kk, rig, declaration)
+        elif k == "guesses":
+            out[k] = _check_guesses(c, v, kk, rig, declaration)
+        elif k == "taylor_order":
+            out[k] = c.number(v, kk, integer=True, minimum=4)
+            if out[k] is not None and out[k] > 40:
+                c.error(kk, f"must be at most 40, got {v!r} (12–24 are sensible)")
+                out[k] = None
+        elif k == "symmetry":
+            out[k] = c.choice(v, kk, ("auto", "none"))
+        elif k == "shooting":
+            out[k] = c.choice(v, kk, ("auto", "single", "multiple"))
+        elif k == "observables":
+            out[k] = _check_observables(c, v, kk)
+        elif k == "tangent":
+            out[k] = c.choice(v, kk, ("jacobian", "difference"))
+        elif k == "t0":
+            out[k] = c.number(v, kk, unit="s")
+        elif k == "A_range":
+            out[k] = _check_amplitude_range(c, v, kk)
+        elif k == "error_check":
+            out[k] = c.boolean(v, kk)
         elif k == "order":
             if v not in (1, 2) or isinstance(v, bool):
                 c.error(kk, f"must be 1 or 2, got {v!r}")
@@ -129,18 +167,16 @@ def _check_settings(c, name, s, key, rig, params):
                 out[k] = v
         elif k in ("fit_order", "switch"):
             out[k] = c.boolean(v, kk)
-        elif k in ("tol", "rtol", "band", "duration", "offset"):
-            out[k] = c.number(v, kk, minimum=0.0, strict=True,
-                              unit={"band": "rad", "duration": "s", "offset": "rad"}.get(k, ""))
+        elif k in _POSITIVE:
+            out[k] = c.number(v, kk, minimum=0.0, strict=True, unit=_POSITIVE[k])
         elif k == "periods" and name == "lyapunov":
             out[k] = c.number(v, kk, integer=True, minimum=1)
             if out[k] is not None and out[k] < 8:
                 c.error(kk, f"must be ≥ 8, got {v!r}: the error estimate splits the record "
                             "into 8 blocks of at least one drive period")
                 out[k] = None
-        elif k in ("periods", "samples", "transient", "max_points"):
-            out[k] = c.number(v, kk, integer=True,
-                              minimum={"samples": 2, "transient": 0, "max_points": 2}.get(k, 1))
+        elif k in _WHOLE:
+            out[k] = c.number(v, kk, integer=True, minimum=_WHOLE[k])
         elif k == "method" and name == "window":
             out[k] = c.choice(v, kk, WINDOW_METHODS)
         elif k == "method":
@@ -154,7 +190,7 @@ def _check_settings(c, name, s, key, rig, params):
         elif k == "parameter":
             out[k] = _check_parameter(c, v, kk, rig, params)
         elif k == "starts":
-            out[k] = _check_starts(c, v, kk, rig)
+            out[k] = _check_starts(c, v, kk, rig, declaration)
         elif k == "exponents":
             out[k] = _check_exponents(c, v, kk, rig)
     if name in ABOUT_EQUILIBRIUM:
@@ -170,18 +206,136 @@ def _check_settings(c, name, s, key, rig, params):
                                 '"floquet", the default) has no order')
     if name in ("continuation", "bifurcation_diagram"):
         _check_parameter_values(c, name, s, key, rig, params, out)
+    _check_needs_states(c, name, s, key, rig, declaration)
     return out
 
 
-def _check_about(c, v, key):
+# -- states, bands, guesses: in the rig's own terms (its declaration, :mod:`._rigs`) ----------
+
+def _declared(rig, declaration):
+    """(coordinate names, units, named states) of the rig (None where it is unknown)."""
+    if rig is None or declaration is None:
+        return None
+    return [q.name for q in rig.coordinates], declaration.units, declaration.states
+
+
+def _check_about(c, v, key, rig=None, declaration=None):
+    """A state the rig declares by name, "auto", or explicit values per coordinate (a list
+    in the rig's order or a table coordinate → value), each in its coordinate's unit."""
+    known = _declared(rig, declaration)
     if isinstance(v, str):
-        return c.choice(v, key, ABOUT)
+        if known is None:                   # the rig is wrong: reported already
+            return v
+        names, units, states = known
+        allowed = [*states, "auto"] if states else []       # "auto" chooses among them
+        if v not in allowed:
+            whose = "declares no states" if not states else "declares " + ", ".join(states)
+            c.unknown(key, v, allowed, what="value",
+                      extra=f' (the {rig.name} {whose}; "auto" is the declared state nearest '
+                            "the initial one; or give the state's values, e.g. about = { "
+                            + ", ".join(f"{q} = …" for q in names) + " })")
+            return None
+        return v
+    if known is not None and (isinstance(v, dict) or isinstance(v, list) and v):
+        names, units, _ = known
+        return state_values(c, v, key, names, units)
     if isinstance(v, list) and v:
-        vals = [c.number(x, f"{key}[{i}]", unit="rad") for i, x in enumerate(v)]
+        vals = [c.number(x, f"{key}[{i}]") for i, x in enumerate(v)]
         return tuple(vals) if None not in vals else None
-    c.error(key, f'must be "inverted", "hanging", "auto" or a list of coordinate values, got '
-                 f"{kind_of(v)} {v!r}")
+    c.error(key, f'must be the name of a state the rig declares ("inverted", "hanging" for '
+                 f'the catalogue\'s rigs), "auto", a list of coordinate values or a table '
+                 f"coordinate → value, got {kind_of(v)} {v!r}")
     return None
+
+
+def _check_band(c, v, key, rig, declaration):
+    """A measurement's band: a number (every angle's half-width, rad) or a table
+    coordinate → half-width in its unit (> 0); what is not given keeps its default
+    (:func:`kapitza.scenes._rigs.default_band`)."""
+    known = _declared(rig, declaration)
+    if not isinstance(v, dict):
+        return c.number(v, key, minimum=0.0, strict=True, unit="rad")
+    if known is None:
+        return None
+    names, units, _ = known
+    out = {}
+    for q, w in v.items():
+        if q not in names:
+            c.unknown(f"{key}.{q}", str(q), names, what="coordinate")
+            continue
+        w = c.number(w, f"{key}.{q}", minimum=0.0, strict=True, unit=units[q])
+        if w is not None:
+            out[q] = w
+    return out if len(out) == len(v) else None
+
+
+def _check_guesses(c, v, key, rig, declaration):
+    """Averaging's starting points: a non-empty list of states (lists of n values or
+    tables coordinate → value)."""
+    known = _declared(rig, declaration)
+    if not isinstance(v, list) or not v:
+        c.error(key, "must be a non-empty list of starting points, each a list of coordinate "
+                     "values or a table coordinate → value, e.g. [[1.2, 0.0]], got "
+                     f"{kind_of(v)} {v!r}")
+        return None
+    if known is None:
+        return None
+    names, units, _ = known
+    out = [state_values(c, x, f"{key}[{i}]", names, units) for i, x in enumerate(v)]
+    return tuple(out) if None not in out else None
+
+
+#: Analyses whose ``about`` is optional (default: none, not "auto").
+_ABOUT_DEFAULT = {"bifurcation_diagram": None}
+
+
+def _check_needs_states(c, name, s, key, rig, declaration):
+    """"auto" (the default ``about``) and averaging's default starting points need the
+    rig's states where a coordinate is not an angle: say so here, not at run time."""
+    if declaration is None or declaration.states or all(
+            u == "rad" for u in declaration.units.values()):
+        return
+    names = [q.name for q in rig.coordinates]
+    coords = ", ".join(f"{q} ({declaration.units[q]})" for q in names)
+    fix = ("declare the rig's states ([system] states = { hanging = { "
+           + ", ".join(f"{q} = …" for q in names) + " } }, or a `states` attribute of the rig "
+           "function)")
+    if "about" in ANALYSES[name] and s.get("about", _ABOUT_DEFAULT.get(name, "auto")) == "auto":
+        c.error(f"{key}.about", f'"auto" is the declared state nearest the initial one, and the '
+                                f"{rig.name} (coordinates {coords}) declares none: {fix}, or "
+                                "give about = { " + ", ".join(f"{q} = …" for q in names) + " }")
+    if name == "averaging" and "guesses" not in s:
+        c.error(f"{key}.guesses", f"missing; averaging looks for equilibria from starting "
+                                  f"points, which for angles are 0, ±π/2, π, but the {rig.name} "
+                                  f"has coordinates {coords}: give guesses = [["
+                                  + ", ".join("…" for _ in names) + f"]], or {fix}")
+
+
+def _check_observables(c, v, key):
+    """What a measurement measures: "all", "classification", or a non-empty list of
+    "amplitude", "omega_slow" (a tuple)."""
+    if isinstance(v, str):
+        return c.choice(v, key, ("all", "classification"))
+    if not isinstance(v, list) or not v:
+        c.error(key, 'must be "all", "classification" or a list of "amplitude", "omega_slow", '
+                     f"got {kind_of(v)} {v!r}")
+        return None
+    out = [c.choice(x, f"{key}[{i}]", ("amplitude", "omega_slow")) for i, x in enumerate(v)]
+    return tuple(out) if None not in out else None
+
+
+def _check_amplitude_range(c, v, key):
+    """A window's scanned amplitudes [low, high] (m), 0 ≤ low < high."""
+    if not isinstance(v, list) or len(v) != 2:
+        c.error(key, f"must be [low, high] (m) with 0 ≤ low < high, got {kind_of(v)} {v!r}")
+        return None
+    lo, hi = (c.number(x, f"{key}[{i}]", unit="m", minimum=0.0) for i, x in enumerate(v))
+    if None in (lo, hi):
+        return None
+    if not lo < hi:
+        c.error(key, f"must be [low, high] (m) with low < high, got {v!r}")
+        return None
+    return (lo, hi)
 
 
 def check_axis(c, v, key, name, *, minimum=None, strict=False, unit=""):
@@ -278,10 +432,12 @@ def _check_parameter_values(c, name, s, key, rig, params, out):
                                "other end of the interval")
 
 
-def _check_starts(c, v, key, rig):
-    """A list of starting coordinates: numbers (one coordinate each) or lists of n."""
+def _check_starts(c, v, key, rig, declaration=None):
+    """A list of starting coordinates: numbers (one coordinate each) or lists of n, each
+    in its coordinate's unit."""
     n = len(rig.coordinates) if rig is not None else None
     names = [q.name for q in rig.coordinates] if rig is not None else []
+    units = declaration.units if declaration is not None else {}
     if not isinstance(v, list) or not v:
         c.error(key, "must be a non-empty list of starting coordinates (rad), e.g. [0.1, 2.0] "
                      "for one coordinate or [[0.1, 0.0], [2.0, 1.0]] for two, got "
@@ -290,7 +446,9 @@ def _check_starts(c, v, key, rig):
     out = []
     for i, x in enumerate(v):
         row = x if isinstance(x, list) else [x]
-        vals = [c.number(y, f"{key}[{i}]", unit="rad") for y in row]
+        vals = [c.number(y, f"{key}[{i}]",
+                         unit=units.get(names[j], "rad") if j < len(names) else "rad")
+                for j, y in enumerate(row)]
         if n is not None and len(vals) != n:
             c.error(f"{key}[{i}]", f"a start needs {n} coordinate values ({', '.join(names)}), "
                                    f"got {len(vals)}")
