@@ -61,6 +61,7 @@ Continuation and bifurcations (:mod:`kapitza.continuation`)
         multipliers along it and its bifurcations located and classified; returns a
         ``Branch`` (``Branch.switch(bifurcation)`` starts the emanating branch).
     Branch, Bifurcation
+        A continued branch (its points, multipliers and bifurcations); one bifurcation.
 
 The route to chaos (:mod:`kapitza.chaos`)
     lyapunov, lyapunov_grid
@@ -71,6 +72,7 @@ The route to chaos (:mod:`kapitza.chaos`)
     poincare_section, basin
         The stroboscopic section of a trajectory; the starts that stay near a state.
     LyapunovSpectrum, LyapunovGrid, BifurcationDiagram, PoincareSection, Basin
+        What each of them returns.
 
 Verification (:mod:`kapitza.verification`)
     verify
@@ -80,14 +82,16 @@ Verification (:mod:`kapitza.verification`)
 Results (:mod:`kapitza.results`; frozen dataclasses with ``to_dataframe()``)
     ComputationInterrupted
         Ctrl-C during a long map, grid or sweep; ``.result`` holds the finished points.
-    FloquetResult, FloquetGrid, MonodromyData, StabilityMap, StabilityWindow,
-    BoundaryCurves, AdaptiveMap, InceStruttChart, SlowModes, AveragingPrediction,
-    SlowModeSweep, PendulumAveraging, EquilibriumPrediction, MultiplePendulumPrediction,
-    PeriodicOrbit, Measurement, Verification, OrderFit
+    What the analyses return
+        FloquetResult, FloquetGrid, MonodromyData, StabilityMap, StabilityWindow,
+        BoundaryCurves, AdaptiveMap, InceStruttChart, SlowModes, AveragingPrediction,
+        SlowModeSweep, PendulumAveraging, EquilibriumPrediction,
+        MultiplePendulumPrediction, PeriodicOrbit, Measurement, Verification, OrderFit
 
 Figures (:mod:`kapitza.figures`; they draw results and compute nothing)
-    stability_map_figure, effective_potential_figure, ince_strutt_figure,
-    verification_figure
+    Exported here
+        stability_map_figure, effective_potential_figure, ince_strutt_figure,
+        verification_figure; the others are in :mod:`kapitza.figures`.
 
 Animation (:mod:`kapitza.animation`)
     pendulum_animation, system_animation, Animation, SystemAnimation
@@ -97,9 +101,13 @@ Animation (:mod:`kapitza.animation`)
 Scenes and sweeps (:mod:`kapitza.scenes`)
     Scene, SceneResults, SceneError, SweepResult, example_scenes
         A set-up in a TOML file, the analyses it asks for, resumable Parquet sweeps.
+    open_sweep
+        A finished sweep's directory as one xarray Dataset over its axes (the optional
+        extra ``kapitza[xarray]``).
 
 The report (:mod:`kapitza.report`; the CLI's ``kapitza report``)
     build_report, Report
+        One self-contained folder: an HTML page, its figures, a GIF and the data.
 
 Installation
     warmup
@@ -193,6 +201,7 @@ from .scenes import SceneError as SceneError
 from .scenes import SceneResults as SceneResults
 from .scenes import SweepResult as SweepResult
 from .scenes import example_scenes as example_scenes
+from .scenes import open_sweep as open_sweep
 from .simulation import measure as measure
 from .simulation import measure_grid as measure_grid
 from .simulation import periodic_orbit as periodic_orbit
@@ -227,7 +236,7 @@ __all__ = [
     "stability_map_figure", "effective_potential_figure", "ince_strutt_figure",
     "verification_figure",
     "pendulum_animation", "system_animation", "Animation", "SystemAnimation",
-    "Scene", "SceneResults", "SceneError", "SweepResult", "example_scenes",
+    "Scene", "SceneResults", "SceneError", "SweepResult", "example_scenes", "open_sweep",
     "build_report", "Report",
     "warmup",
     # deprecated (DEPRECATED): they warn and name their replacement

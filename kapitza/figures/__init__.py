@@ -1,4 +1,4 @@
-"""Figures: matplotlib ``Figure``s that draw results and overlays; they compute no physics.
+"""Figures: matplotlib ``Figure`` objects that draw results and overlays; they compute no physics.
 
 Each function draws the results it is given (the value types of :mod:`kapitza.results`,
 read by their fields: this room never imports them) and returns a
@@ -11,11 +11,14 @@ effective potential, the window's error, slow frequencies and the tilt against A
 work against precision), ``_branches`` (a continued branch and its bifurcations), ``_chaos`` (the
 Lyapunov map, the bifurcation diagram's dots, a Poincaré section, a basin),
 ``_verification`` (a verification's map and its slow
-frequencies), ``_common`` (the canvas, the check of what a figure is given, labels).
+frequencies), ``_windows`` (a window's edges and boundary curves against ω), ``_grids``
+(one quantity of a gridded result over its axes: measurement grids, sweeps), ``_common``
+(the canvas, the check of what a figure is given, labels).
 """
 from ._branches import branch_figure
 from ._chaos import basin_figure, bifurcation_figure, lyapunov_map_figure, section_figure
 from ._common import legend_below
+from ._grids import grid_figure
 from ._lines import (
     effective_potential_figure,
     slow_frequency_line_figure,
@@ -25,9 +28,11 @@ from ._lines import (
 )
 from ._maps import ince_strutt_figure, spot_check_figure, stability_map_figure
 from ._verification import slow_frequency_figure, verification_figure
+from ._windows import boundaries_figure, window_figure
 
 __all__ = ["stability_map_figure", "effective_potential_figure", "ince_strutt_figure",
            "verification_figure", "work_precision_figure", "spot_check_figure",
            "slow_frequency_figure", "slow_frequency_line_figure", "tilt_figure",
            "window_error_figure", "legend_below", "branch_figure", "lyapunov_map_figure",
-           "bifurcation_figure", "section_figure", "basin_figure"]
+           "bifurcation_figure", "section_figure", "basin_figure", "window_figure",
+           "boundaries_figure", "grid_figure"]

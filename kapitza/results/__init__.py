@@ -17,7 +17,14 @@ continuation (``Branch``, ``BranchPoints``, ``Bifurcation``); the route to chaos
 
 For sibling rooms (not in ``__all__``): ``BOUNDARIES`` (the names of the stability
 labels), ``VERIFICATION_METHODS``, ``BIFURCATION_KINDS``, ``BRANCH_STATUSES`` and
-``scalar_or_array``.
+``scalar_or_array``; for a sweep's display and Dataset (:mod:`kapitza.scenes`):
+``LabelledGrid``, ``quantity_of``, ``coordinate_units`` and ``require_xarray`` (the shared
+xarray builder, ``_xarray``), ``html_card``, ``html_span``, ``html_share``,
+``html_quantity`` and ``draw_figure`` (the cards of ``_repr_html_``, ``_display``).
+
+Every result has a compact ``_repr_html_`` (Jupyter); every gridded result has
+``to_xarray()`` (an :class:`xarray.Dataset` with named, united coordinates: the optional
+extra ``kapitza[xarray]``); where a picture is the natural summary, ``figure()``.
 """
 from ._averaging import (
     AveragingPrediction,
@@ -34,6 +41,11 @@ from ._branches import BIFURCATION_KINDS as BIFURCATION_KINDS
 from ._branches import BRANCH_STATUSES as BRANCH_STATUSES
 from ._branches import Bifurcation, Branch, BranchPoints
 from ._chaos import Basin, BifurcationDiagram, LyapunovGrid, LyapunovSpectrum, PoincareSection
+from ._display import card as html_card  # noqa: F401 - for kapitza.scenes, not in __all__
+from ._display import draw as draw_figure  # noqa: F401
+from ._display import quantity as html_quantity  # noqa: F401
+from ._display import share as html_share  # noqa: F401
+from ._display import span as html_span  # noqa: F401
 from ._floquet import FloquetGrid, FloquetResult, MonodromyData
 from ._maps import (
     AdaptiveMap,
@@ -45,6 +57,10 @@ from ._maps import (
 from ._simulation import Measurement, PeriodicOrbit
 from ._verification import VERIFICATION_METHODS as VERIFICATION_METHODS
 from ._verification import OrderFit, Verification
+from ._xarray import LabelledGrid as LabelledGrid
+from ._xarray import coordinate_units as coordinate_units
+from ._xarray import quantity_of as quantity_of
+from ._xarray import require_xarray as require_xarray
 
 __all__ = [
     "ComputationInterrupted", "FloquetResult", "MonodromyData", "FloquetGrid", "StabilityMap",

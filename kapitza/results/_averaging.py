@@ -9,12 +9,15 @@ A and ω), :class:`MultiplePendulumPrediction` (the upright N-link chain).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from . import _display as display
 from ._base import scalar_or_array
+from ._xarray import LabelledGrid
 
 __all__ = ["SlowModes", "AveragingPrediction", "SlowModeSweep", "EquilibriumPrediction",
            "PendulumAveraging", "MultiplePendulumPrediction"]
@@ -82,6 +85,30 @@ class SlowModes:
             "amplitude_ratio": [self.amplitude_ratio] * n, "valid": [self.valid] * n,
             "reasons": ["; ".join(self.reasons)] * n})
 
+    def _card(self, kind: str = "SlowModes") -> tuple:
+        """(rows, badges, warnings) of this equilibrium's card."""
+        rows = [("about", display.state(list(np.asarray(self.about, float)))),
+                ("Ω", ", ".join(display.quantity(w, "rad/s") for w in self.frequencies)),
+                ("Ω²", ", ".join(display.quantity(w, "rad²/s²") for w in self.omega_squared))]
+        if np.any(self.damped_frequencies != self.frequencies):
+            rows.append(("damped Ω", ", ".join(display.quantity(w, "rad/s")
+                                                for w in self.damped_frequencies)))
+            rows.append(("decay rate", display.quantity(self.decay_rate, "1/s")))
+        rows += [("ω / Ω", display.number(self.frequency_ratio)),
+                 ("fast amplitude ratio", display.number(self.amplitude_ratio))]
+        badges = [("stable", "good") if self.stable else ("unstable", "bad")]
+        warnings = []
+        if not self.valid:
+            badges.append(("outside validity", "warn"))
+            warnings.append("outside averaging's validity: " + ("; ".join(self.reasons)
+                                                                  or "see reasons"))
+        return rows, badges, warnings
+
+    def _repr_html_(self) -> str:
+        rows, badges, warnings = self._card()
+        return display.card("SlowModes", "averaged motion about an equilibrium", rows=rows,
+                            badges=badges, warnings=warnings)
+
 
 @dataclass(frozen=True)
 class AveragingPrediction:
@@ -110,6 +137,25 @@ class AveragingPrediction:
         import pandas as pd
         frames = [e.to_dataframe().assign(equilibrium=i) for i, e in enumerate(self.equilibria)]
         return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+    def _repr_html_(self) -> str:
+        rows = [("parameters", ", ".join(f"{display.symbol(k)} = "
+                                         f"{display.quantity(v, display.unit(k))}"
+                                         for k, v in self.params.items()))]
+        warnings = []
+        for e in self.equilibria:
+            where = display.state(list(np.asarray(e.about, float)))
+            state = "stable" if e.stable else "unstable"
+            slow = ", ".join(display.quantity(w, "rad/s") for w in e.frequencies)
+            rows.append((where, f"{state}; Ω = {slow}"
+                                + ("" if e.valid else " (outside validity)")))
+            if not e.valid:
+                warnings.append(f"{where}: outside averaging's validity: "
+                                + "; ".join(e.reasons))
+        if not self.equilibria:
+            warnings.append("no equilibrium found")
+        return display.card("AveragingPrediction", f"{len(self.equilibria)} equilibria, "
+                            f"{len(self.stable)} stable", rows=rows, warnings=warnings)
 
 
 @dataclass(frozen=True)
@@ -145,10 +191,56 @@ class SlowModeSweep:
         cols["valid"] = self.valid.ravel()
         return pd.DataFrame(cols)
 
+    def _labelled(self) -> LabelledGrid:
+        grid = LabelledGrid("SlowModeSweep", method="first-order averaging",
+                            about=np.asarray(self.about).tolist())
+        shape = np.shape(self.stable)
+        dims = grid.broadcast_axes(self.params, shape)
+        grid.drive_axes(*grid.pendulum_scales(self.params))
+        grid.variable("omega_squared", dims + ("mode",), self.omega_squared, "rad^2/s^2",
+                      "Ω² of the averaged linearisation, ascending (negative: unstable)")
+        grid.variable("stable", dims, np.asarray(self.stable, bool), None,
+                      "stable by averaging")
+        grid.variable("valid", dims, np.asarray(self.valid, bool), None,
+                      "within averaging's validity")
+        return grid
+
+    def to_xarray(self):
+        """The sweep as an :class:`xarray.Dataset`: axes named by the varying parameters,
+        ``omega_squared`` (rad²/s²) over ``mode``, ``stable`` and ``valid``.  Needs
+        ``pip install "kapitza[xarray]"``."""
+        return self._labelled().to_xarray()
+
+    def _repr_html_(self) -> str:
+        shape = np.shape(self.stable)
+        rows = [("grid", " × ".join(map(str, shape)) or "one point")]
+        rows += display.axis_rows(self.params)
+        rows += [("stable", display.share(self.stable)), ("valid", display.share(self.valid))]
+        invalid = int(np.size(self.valid) - np.count_nonzero(self.valid))
+        warnings = [f"outside averaging's validity at {invalid} points"] if invalid else []
+        return display.card("SlowModeSweep", "averaged slow modes over a grid", rows=rows,
+                            warnings=warnings)
+
 
 _EQUILIBRIUM_COLUMNS = ("theta", "exists", "stable", "omega_squared", "omega_slow",
                         "damped_frequency", "decay_rate", "overdamped", "error_estimate",
                         "frequency_ratio", "fast_drive", "small_amplitude", "converged", "valid")
+#: Those fields' units and long names (to_xarray).
+_EQUILIBRIUM_QUANTITIES = (
+    ("theta", "rad", "angle from the downward vertical (NaN where none)"),
+    ("exists", None, "the equilibrium exists"),
+    ("stable", None, "stable by averaging"),
+    ("omega_squared", "rad^2/s^2", "Ω² of the undamped averaged motion"),
+    ("omega_slow", "rad/s", "slow angular frequency Ω"),
+    ("damped_frequency", "rad/s", "damped slow angular frequency"),
+    ("decay_rate", "1/s", "slowest decay rate of small oscillations"),
+    ("overdamped", None, "overdamped"),
+    ("error_estimate", "1", "relative size of the next-order correction"),
+    ("frequency_ratio", "1", "ω / max(ω0, Ω, γ)"),
+    ("fast_drive", None, "frequency ratio within averaging's validity"),
+    ("small_amplitude", None, "A/l within averaging's validity"),
+    ("converged", None, "next-order correction small enough"),
+    ("valid", None, "within averaging's validity (all three)"))
 
 
 @dataclass(frozen=True)
@@ -212,6 +304,41 @@ class EquilibriumPrediction:
     small_amplitude: ArrayLike
     converged: ArrayLike
     valid: ArrayLike
+
+    def _card(self) -> tuple:
+        """(rows, warnings) of this equilibrium's part of a card."""
+        one = np.ndim(self.theta) == 0
+
+        def show(x, unit=""):
+            return display.quantity(x, unit) if one else display.span(x, unit)
+
+        exists = np.asarray(self.exists, bool)
+        rows = [("θ", show(self.theta, "rad"))]
+        if one and not exists:
+            return [("θ", "does not exist")], []
+        rows += [("stable", ("stable" if bool(self.stable) else "unstable") if one
+                  else display.share(np.asarray(self.stable) & exists)),
+                 ("Ω", show(self.omega_slow, "rad/s")),
+                 ("error estimate", show(self.error_estimate) + " (relative, of order 1)")]
+        if np.any(np.asarray(self.damped_frequency, float) != np.asarray(self.omega_slow,
+                                                                         float)):
+            rows.append(("damped Ω", show(self.damped_frequency, "rad/s")))
+        warnings = []
+        invalid = exists & ~np.asarray(self.valid, bool)
+        if invalid.any():
+            why = [name.replace("_", " ") for name in ("fast_drive", "small_amplitude",
+                                                      "converged")
+                   if not np.all(np.asarray(getattr(self, name), bool)[exists])]
+            where = "" if one else f" at {int(invalid.sum())} of {invalid.size} points"
+            warnings.append(f"{self.name}: outside averaging's validity{where} (fails: "
+                            f"{', '.join(why) or 'exists'})")
+        return rows, warnings
+
+    def _repr_html_(self) -> str:
+        rows, warnings = self._card()
+        badges = [("outside validity", "warn")] if warnings else []
+        return display.card("EquilibriumPrediction", self.name, rows=rows, badges=badges,
+                            warnings=warnings)
 
 
 @dataclass(frozen=True)
@@ -281,6 +408,60 @@ class PendulumAveraging:
             rows.append(pd.DataFrame({"A": A, "omega": w, "equilibrium": e.name, **cols}))
         return pd.concat(rows, ignore_index=True).assign(order=self.order, drive=self.drive)
 
+    def _labelled(self) -> LabelledGrid:
+        grid = LabelledGrid("PendulumAveraging", drive=self.drive, order=self.order,
+                            method=f"averaging, order {self.order} (closed form)")
+        shape = np.broadcast_shapes(np.shape(self.A), np.shape(self.omega))
+        dims = grid.broadcast_axes({"A": self.A, "omega": self.omega}, shape)
+        grid.parameters({"l": self.l, "g": self.g, "damping": self.damping})
+        grid.drive_axes(self.l, math.sqrt(self.g / self.l))
+        grid.coord("equilibrium", "equilibrium",
+                   np.asarray([e.name for e in self.equilibria], dtype=str), None,
+                   "equilibrium of the averaged motion")
+        for name, units, long_name in _EQUILIBRIUM_QUANTITIES:
+            values = np.stack([np.broadcast_to(np.asarray(getattr(e, name)), shape)
+                               for e in self.equilibria], axis=-1)
+            grid.variable(name, dims + ("equilibrium",), values, units, long_name)
+        return grid
+
+    def to_xarray(self):
+        """The predictions as an :class:`xarray.Dataset`: the drive's axes (``A`` in m,
+        ``omega`` in rad/s, with ``A_over_l`` and ``omega_over_omega0``; a scalar drive
+        goes to ``attrs``), an ``equilibrium`` dimension ("hanging", "inverted", …) and one
+        variable per field of :class:`EquilibriumPrediction` (``theta`` in rad,
+        ``omega_squared`` in rad²/s², ``omega_slow`` in rad/s, …, the validity flags).
+        Needs ``pip install "kapitza[xarray]"``."""
+        return self._labelled().to_xarray()
+
+    def _repr_html_(self) -> str:
+        one = np.ndim(self.A) == 0 and np.ndim(self.omega) == 0
+        if one:
+            rows = [("A", display.quantity(self.A, "m")),
+                    ("ω", display.quantity(self.omega, "rad/s"))]
+        else:
+            rows = [("A", display.span(self.A, "m")), ("ω", display.span(self.omega, "rad/s"))]
+        rows.append(("l, g", f"{display.quantity(self.l, 'm')}, "
+                             f"{display.quantity(self.g, 'm/s²')}"))
+        if self.damping:
+            rows.append(("γ", display.quantity(self.damping, "1/s")))
+        warnings = []
+        for e in self.equilibria:
+            sub, warn = e._card()
+            warnings += warn
+            exists = np.asarray(e.exists, bool)
+            if not exists.any():
+                text = "does not exist"
+            elif one:
+                text = f"{sub[1][1]}; Ω = {sub[2][1]}"
+            else:
+                text = (f"exists at {int(exists.sum())} of {exists.size}; stable at "
+                        f"{int((np.asarray(e.stable, bool) & exists).sum())}; "
+                        f"Ω = {sub[2][1]}")
+            rows.append((e.name, text))
+        badges = [("outside validity", "warn")] if warnings else []
+        return display.card("PendulumAveraging", f"{self.drive} drive, order {self.order}",
+                            rows=rows, badges=badges, warnings=warnings)
+
 
 @dataclass(frozen=True)
 class MultiplePendulumPrediction:
@@ -342,3 +523,61 @@ class MultiplePendulumPrediction:
             frames.append(df.assign(mode=k, hanging_frequency=self.hanging_frequencies[k],
                                     effective_length=self.effective_lengths[k]))
         return pd.concat(frames, ignore_index=True)
+
+    def _labelled(self) -> LabelledGrid:
+        grid = LabelledGrid("MultiplePendulumPrediction", order=self.order,
+                            minimum_drive=self.minimum_drive, minimum_drive_units="m/s",
+                            method=f"averaging, order {self.order} (Acheson)")
+        grid.parameters({"g": self.g})
+        grid.coord("link", "link", np.arange(len(self.masses)), None,
+                   "link, from the pivot outwards")
+        grid.variable("mass", "link", self.masses, "kg", "bob mass")
+        grid.variable("length", "link", self.lengths, "m", "rod length")
+        grid.coord("mode", "mode", np.arange(len(self.hanging_frequencies)), None,
+                   "mode of the hanging chain, ascending frequency")
+        grid.variable("hanging_frequency", "mode", self.hanging_frequencies, "rad/s",
+                      "angular frequency of the undriven hanging chain")
+        grid.variable("effective_length", "mode", self.effective_lengths, "m",
+                      "effective length g/ω_k²")
+        if self.A is not None and self.omega_squared is not None:
+            shape = np.broadcast_shapes(np.shape(np.asarray(self.A, dtype=float)),
+                                        np.shape(np.asarray(self.omega, dtype=float)))
+            dims = grid.broadcast_axes({"A": self.A, "omega": self.omega}, shape)
+            grid.variable("omega_squared", dims + ("mode",),
+                          np.broadcast_to(self.omega_squared, shape + (len(self.masses),)),
+                          "rad^2/s^2", "slow Ω_k² about the upright")
+            grid.variable("stable", dims, np.broadcast_to(np.asarray(self.stable, bool),
+                                                          shape), None, "every mode stable")
+            grid.variable("valid", dims, np.broadcast_to(np.asarray(self.valid, bool), shape),
+                          None, "every mode within averaging's validity")
+        return grid
+
+    def to_xarray(self):
+        """The chain as an :class:`xarray.Dataset`: ``mass`` (kg) and ``length`` (m) over
+        ``link``, ``hanging_frequency`` (rad/s) and ``effective_length`` (m) over ``mode``,
+        and with a drive, its axes (``A``, ``omega``) and ``omega_squared`` (rad²/s²),
+        ``stable``, ``valid``.  Needs ``pip install "kapitza[xarray]"``."""
+        return self._labelled().to_xarray()
+
+    def _repr_html_(self) -> str:
+        rows = [("links", str(len(self.masses))),
+                ("(A ω)_min", display.quantity(self.minimum_drive, "m/s")),
+                ("hanging ω_k", ", ".join(display.quantity(w, "rad/s")
+                                          for w in self.hanging_frequencies))]
+        warnings, badges = [], []
+        if self.A is not None:
+            one = np.ndim(self.A) == 0 and np.ndim(np.asarray(self.omega, dtype=float)) == 0
+            rows += [("A", display.quantity(self.A, "m") if one else display.span(self.A, "m")),
+                     ("ω", display.quantity(self.omega, "rad/s") if one
+                      else display.span(self.omega, "rad/s")),
+                     ("stable", display.number(bool(self.stable)) if one
+                      else display.share(self.stable))]
+            valid = np.asarray(self.valid, bool)
+            if not valid.all():
+                badges.append(("outside validity", "warn"))
+                warnings.append("outside averaging's validity"
+                                + ("" if one else f" at {int((~valid).sum())} of "
+                                                  f"{valid.size} points"))
+        return display.card("MultiplePendulumPrediction",
+                            f"upright {len(self.masses)}-link chain, order {self.order}",
+                            rows=rows, badges=badges, warnings=warnings)

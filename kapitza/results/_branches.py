@@ -15,6 +15,9 @@ from typing import Any
 
 import numpy as np
 
+from . import _display as display
+from ._xarray import LabelledGrid, coordinate_units, quantity_of
+
 __all__ = ["BIFURCATION_KINDS", "BRANCH_STATUSES", "BranchPoints", "Bifurcation", "Branch"]
 
 #: The kinds of :class:`Bifurcation`: a multiplier at +1 where the parameter turns
@@ -74,6 +77,12 @@ class BranchPoints:
     def __len__(self) -> int:
         return int(self.parameter.size)
 
+    def _repr_html_(self) -> str:
+        return display.card("BranchPoints", f"{len(self)} orbits",
+                            rows=[("parameter", display.span(self.parameter)),
+                                  ("stable", display.share(self.stable, "points")),
+                                  ("residual", display.span(self.residual))])
+
 
 @dataclass(frozen=True, eq=False)
 class Bifurcation:
@@ -131,6 +140,20 @@ class Bifurcation:
     def __str__(self) -> str:
         crit = f", {self.criticality}" if self.criticality else ""
         return (f"{self.kind} at {self.parameter:.12g} (± {self.accuracy:.2g}){crit}")
+
+    def _repr_html_(self) -> str:
+        rows = [("parameter", display.quantity(self.parameter, "", self.accuracy, digits=10)),
+                ("test function", self.test_function),
+                ("multipliers", ", ".join(f"{display.number(m.real, 6)}"
+                                          f"{'+' if m.imag >= 0 else '−'}"
+                                          f"{display.number(abs(m.imag), 3)}i"
+                                          for m in np.asarray(self.multipliers, complex))),
+                ("orbit period", f"{self.periods} drive periods")]
+        if self.side:
+            rows.append(("emanating branch", "above" if self.side > 0 else "below"))
+        badges = [(self.criticality, "info")] if self.criticality else []
+        return display.card("Bifurcation", self.kind.replace("_", " "), rows=rows,
+                            badges=badges, notes=[self.note] if self.note else [])
 
 
 @dataclass(frozen=True, eq=False)
@@ -267,6 +290,76 @@ class Branch:
         ``label=``). Returns a :class:`matplotlib.figure.Figure`."""
         from ..figures import branch_figure
         return branch_figure(self, **options)
+
+    def _labelled(self) -> LabelledGrid:
+        pts, n = self.points, len(self.coordinates)
+        grid = LabelledGrid(
+            "Branch", parameter=self.parameter, frequency=self.frequency,
+            periods=int(self.periods), status=self.status, message=self.message, tol=self.tol,
+            flows=int(self.flows), origin=self.origin, domain=list(self.domain),
+            method="pseudo-arclength continuation on the period map (Newton shooting)",
+            bifurcations=[{"kind": b.kind, "parameter": b.parameter, "accuracy": b.accuracy,
+                           "index": b.index, "criticality": b.criticality,
+                           "test_function": b.test_function} for b in self.bifurcations])
+        grid.parameters({k: v for k, v in self.params.items() if k != self.parameter})
+        units, long_name = quantity_of(self.parameter)
+        grid.coord("point", "point", np.arange(len(pts)), None,
+                   "point along the branch, in arclength order")
+        grid.coord(self.parameter, "point", pts.parameter, units, long_name)
+        grid.coord("arclength", "point", pts.arclength, None, "position along the branch "
+                   "(scaled units)")
+        grid.coord("coordinate", "coordinate", np.asarray(self.coordinates, dtype=str), None,
+                   "coordinate of the system")
+        q_units = {coordinate_units(c)[0] for c in self.coordinates}
+        rate_units = {coordinate_units(c)[1] for c in self.coordinates}
+        q_unit = q_units.pop() if len(q_units) == 1 else None
+        rate_unit = rate_units.pop() if len(rate_units) == 1 else None
+        dims = ("point", "coordinate")
+        grid.variable("q0", dims, pts.state[:, :n].reshape(len(pts), n), q_unit,
+                      "q on the orbit at t = 0")
+        grid.variable("qdot0", dims, pts.state[:, n:].reshape(len(pts), n), rate_unit,
+                      "q̇ on the orbit at t = 0")
+        grid.variable("q_mean", dims, pts.q_mean.reshape(len(pts), n), q_unit,
+                      "mean of q over the orbit's period")
+        grid.variable("amplitude", dims, pts.amplitude.reshape(len(pts), n), q_unit,
+                      "half the peak-to-peak range of q over the orbit's period")
+        grid.variable("multiplier", ("point", "multiplier"),
+                      pts.multipliers.reshape(len(pts), 2 * n), "1",
+                      "Floquet multiplier over the orbit's period (by decreasing modulus)")
+        grid.variable("stable", "point", np.asarray(pts.stable, bool), None, "stable orbit")
+        grid.variable("residual", "point", pts.residual, None, "|φ(x) − x|∞ at the point")
+        grid.variable("error_estimate", "point", pts.error_estimate, "1",
+                      "the monodromy's error estimate")
+        grid.variable("label", "point", np.asarray(pts.label, dtype=str), None,
+                      "bifurcation located at the point, start or end (empty: regular)")
+        return grid
+
+    def to_xarray(self):
+        """The branch as an :class:`xarray.Dataset` over ``point`` (arclength order; the
+        continued parameter and ``arclength`` as coordinates beside it) and
+        ``coordinate``: ``q0``, ``qdot0``, ``q_mean``, ``amplitude``,
+        ``multiplier_real``/``multiplier_imag``, ``stable``, ``residual``,
+        ``error_estimate``, ``label``; the status, tolerance and bifurcations (JSON) in
+        ``attrs``.  Needs ``pip install "kapitza[xarray]"``."""
+        return self._labelled().to_xarray()
+
+    def _repr_html_(self) -> str:
+        pts = self.points
+        unit = quantity_of(self.parameter)[0] or ""
+        rows = [(self.parameter, display.span(pts.parameter, unit, digits=6, what="points")),
+                ("stable", display.share(pts.stable)),
+                ("orbits", f"{self.periods}T-periodic" if self.periods > 1 else "T-periodic"),
+                ("bifurcations", "; ".join(str(b) for b in self.bifurcations) or "none"),
+                ("tolerance", f"{display.number(self.tol, 2)} (corrector), "
+                              f"{self.flows} flows")]
+        ended = self.status in ("completed", "closed")
+        badges = [(self.status, "good" if ended else "warn")]
+        warnings = [] if ended else [f"stopped early ({self.status}): {self.message}"]
+        notes = [f"from {self.origin}"] if self.origin else []
+        return display.card("Branch", f"{', '.join(self.coordinates)} along "
+                            f"{self.parameter}", rows=rows, badges=badges,
+                            warnings=warnings, notes=notes,
+                            figure=self.figure if len(pts) > 1 else None, alt="branch")
 
     @property
     def label(self) -> str:

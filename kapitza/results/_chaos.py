@@ -23,6 +23,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import _display as display
+from ._xarray import LabelledGrid, coordinate_units, quantity_of
+
 __all__ = ["LyapunovSpectrum", "LyapunovGrid", "BifurcationDiagram", "PoincareSection",
            "Basin", "wrap_angles"]
 
@@ -42,8 +45,34 @@ _FIGURES = {"LyapunovGrid": "lyapunov_map_figure", "BifurcationDiagram": "bifurc
 
 def _draw(result, options):
     """``result`` drawn by its figure function in :mod:`kapitza.figures`."""
-    from .. import figures
-    return getattr(figures, _FIGURES[type(result).__name__])(result, **options)
+    return display.draw(_FIGURES[type(result).__name__], result, **options)
+
+
+def _state_variables(grid, dims, coordinates, q, qdot, what, prefix=""):
+    """``q`` and ``q̇`` (…, n) as variables over ``dims`` + ("coordinate",), with the
+    coordinates' units where kapitza knows them (all alike)."""
+    q_units = {coordinate_units(c)[0] for c in coordinates}
+    rate_units = {coordinate_units(c)[1] for c in coordinates}
+    grid.variable(f"{prefix}q", dims + ("coordinate",), q,
+                  q_units.pop() if len(q_units) == 1 else None, f"q {what}")
+    grid.variable(f"{prefix}qdot", dims + ("coordinate",), qdot,
+                  rate_units.pop() if len(rate_units) == 1 else None, f"q̇ {what}")
+
+
+def _failed(status, ok=("finished",)) -> list:
+    """A warning naming the runs that did not finish (empty if all did)."""
+    status = np.asarray(status).reshape(-1)
+    bad = status[~np.isin(status, ok)]
+    if not bad.size:
+        return []
+    counts = ", ".join(f"{k}: {int((bad == k).sum())}" for k in np.unique(bad))
+    return [f"{bad.size} of {status.size} runs did not finish ({counts}); their numbers are "
+            "from a shorter record or NaN"]
+
+
+def _start_dims(shape) -> tuple:
+    """Dimension names of a grid of starts: ``start`` for a line, ``start_<k>`` for more."""
+    return ("start",) if len(shape) == 1 else tuple(f"start_{k}" for k in range(len(shape)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -148,6 +177,21 @@ class LyapunovSpectrum:
                                  period=self.period, periods=self.periods,
                                  transient=self.transient, status=self.status))
 
+    def _repr_html_(self) -> str:
+        rows = [("λ₁", display.quantity(self.largest, "1/s", self.error[0])
+                 + f"   ({display.number(self.per_period[0])} per period)"),
+                ("spectrum", ", ".join(display.number(x) for x in self.exponents) + " 1/s"
+                 + ("" if self.complete else " (leading only)")),
+                ("Σλ", display.quantity(float(np.sum(self.exponents)), "1/s",
+                                        self.sum_error)),
+                ("record", f"{self.periods} periods after {self.transient}, "
+                           f"{self.blocks} blocks; T = {display.quantity(self.period, 's')}"),
+                ("tangent", f"{self.tangent}, rtol {display.number(self.rtol, 2)}")]
+        chaotic = self.largest - self.error[0] > 0
+        badges = [("λ₁ > 0: chaotic", "bad") if chaotic else ("λ₁ ≤ 0 within its error", "good")]
+        return display.card("LyapunovSpectrum", ", ".join(self.coordinates), rows=rows,
+                            badges=badges, warnings=_failed(self.status))
+
 
 @dataclass(frozen=True, eq=False)
 class LyapunovGrid:
@@ -220,6 +264,54 @@ class LyapunovGrid:
         """The map of λ_max over the grid's two varying parameters
         (:func:`kapitza.chaos.lyapunov_map_figure`; ``options`` go to it)."""
         return _draw(self, options)
+
+    def _labelled(self) -> LabelledGrid:
+        grid = LabelledGrid("LyapunovGrid", periods=int(self.periods),
+                            transient=int(self.transient), blocks=int(self.blocks),
+                            tangent=self.tangent, rtol=self.rtol, atol=self.atol,
+                            wall_time=self.wall_time,
+                            method="Benettin's method on the variational equations")
+        dims = grid.broadcast_axes(self.params, self.shape)
+        grid.drive_axes(*grid.pendulum_scales(self.params))
+        grid.coord("coordinate", "coordinate", np.asarray(self.coordinates, dtype=str), None,
+                   "coordinate of the system")
+        grid.variable("exponent", dims, self.exponent, "1/s", "largest Lyapunov exponent λ_max")
+        grid.variable("error", dims, self.error, "1/s", "error estimate of λ_max")
+        grid.variable("per_period", dims, self.exponent * self.period, "1",
+                      "λ_max per drive period, λ_max T")
+        grid.variable("chaotic", dims, self.chaotic, None, "λ_max − error > 0")
+        grid.variable("period", dims, np.broadcast_to(self.period, self.shape), "s",
+                      "drive period T")
+        grid.variable("block_exponents", dims + ("block",), self.block_exponents, "1/s",
+                      "λ_max of each block of the record")
+        _state_variables(grid, dims, self.coordinates, self.q0, self.qdot0, "at the start",
+                         "initial_")
+        _state_variables(grid, dims, self.coordinates, self.q, self.qdot, "where the run "
+                         "stopped")
+        grid.variable("status", dims, np.asarray(self.status, dtype=str), None,
+                      "how the run ended")
+        grid.variable("steps", dims, self.steps, "1", "integration steps")
+        return grid
+
+    def to_xarray(self):
+        """The chaos map as an :class:`xarray.Dataset`: the grid's axes named by the
+        varying parameters, ``exponent`` and ``error`` (1/s), ``per_period``, ``chaotic``,
+        ``block_exponents`` over ``block``, the initial and final states over
+        ``coordinate``, ``status``; the record's settings in ``attrs``.  Needs
+        ``pip install "kapitza[xarray]"``."""
+        return self._labelled().to_xarray()
+
+    def _repr_html_(self) -> str:
+        rows = [("grid", " × ".join(map(str, self.shape)) or "one point")]
+        rows += display.axis_rows(self.params)
+        rows += [("λ_max", display.span(self.exponent, "1/s")),
+                 ("error", display.span(self.error, "1/s")),
+                 ("chaotic", display.share(self.chaotic)),
+                 ("record", f"{self.periods} periods after {self.transient}")]
+        drawable = sum(n > 1 for n in self.shape) == 2
+        return display.card("LyapunovGrid", ", ".join(self.coordinates), rows=rows,
+                            warnings=_failed(self.status),
+                            figure=self.figure if drawable else None, alt="Lyapunov map")
 
 
 @dataclass(frozen=True, eq=False)
@@ -315,6 +407,59 @@ class BifurcationDiagram:
         ``coordinate=``)."""
         return _draw(self, options)
 
+    def _labelled(self) -> LabelledGrid:
+        grid = LabelledGrid("BifurcationDiagram", parameter=self.parameter,
+                            periods=int(self.periods), transient=int(self.transient),
+                            angles=list(self.angles), method=self.method, rtol=self.rtol,
+                            wall_time=self.wall_time,
+                            orbit_period_settings="max_period=64, tol=1e-6")
+        grid.parameters(self.params)
+        units, long_name = quantity_of(self.parameter)
+        p = self.parameter
+        grid.coord(p, p, self.values, units, long_name)
+        grid.coord("coordinate", "coordinate", np.asarray(self.coordinates, dtype=str), None,
+                   "coordinate of the system")
+        grid.coord("sample", "sample", np.arange(self.q.shape[2]), None,
+                   "strobe sample k, at t0 + (transient + k) T")
+        dims = (p, "start", "sample")
+        _state_variables(grid, dims, self.coordinates, self.q, self.qdot,
+                         "at the strobe samples (angles unwrapped)")
+        _state_variables(grid, ("start",), self.coordinates, self.q0, self.qdot0,
+                         "at the start", "initial_")
+        if self.about is not None:
+            grid.variable("about", "coordinate", np.asarray(self.about, float), None,
+                          "the state the diagram is about")
+        grid.variable("period", p, self.period, "s", "drive period T")
+        grid.variable("status", (p, "start"), np.asarray(self.status, dtype=str), None,
+                      "how the run ended")
+        grid.variable("orbit_period", (p, "start"), self.orbit_period(), "1",
+                      "period of the strobe sequence in drive periods (0: none found)")
+        return grid
+
+    def to_xarray(self):
+        """The diagram as an :class:`xarray.Dataset` over the parameter's values (a
+        dimension named by it, with units where known), ``start``, ``sample`` and
+        ``coordinate``: ``q`` and ``qdot`` (unwrapped; ``attrs['angles']`` names the
+        angles), the starts, ``period``, ``status`` and ``orbit_period``
+        (:meth:`orbit_period` with its defaults).  Needs ``pip install "kapitza[xarray]"``."""
+        return self._labelled().to_xarray()
+
+    def _repr_html_(self) -> str:
+        V, S, K, _ = self.q.shape
+        unit = quantity_of(self.parameter)[0] or ""
+        periods = self.orbit_period()
+        found = ", ".join(f"{k}: {int((periods == k).sum())}" for k in np.unique(periods)
+                          if k > 0)
+        none = int((periods == 0).sum())
+        rows = [(self.parameter, display.span(self.values, unit)),
+                ("runs", f"{V} values × {S} starts, {K} samples after {self.transient} "
+                         "periods"),
+                ("orbit periods", (found or "none") + (f"; none found: {none}" if none else ""))]
+        return display.card("BifurcationDiagram", f"{', '.join(self.coordinates)} against "
+                            f"{self.parameter}", rows=rows,
+                            warnings=_failed(self.status, ("finished", "left_band")),
+                            figure=self.figure if V > 1 else None, alt="bifurcation diagram")
+
 
 def _strobe_states(result):
     """Strobe samples as (…, K, 2n) in comparable units: q, and q̇ T/2π."""
@@ -391,6 +536,42 @@ class PoincareSection:
         """The section's dots in the (q, q̇) plane of one coordinate
         (:func:`kapitza.chaos.section_figure`)."""
         return _draw(self, options)
+
+    def _labelled(self) -> LabelledGrid:
+        grid = LabelledGrid("PoincareSection", period=self.period, t0=self.t0,
+                            periods=int(self.periods), transient=int(self.transient),
+                            angles=list(self.angles), method=self.method, rtol=self.rtol,
+                            wall_time=self.wall_time)
+        grid.parameters(self.params)
+        starts = _start_dims(np.shape(self.status))
+        grid.coord("coordinate", "coordinate", np.asarray(self.coordinates, dtype=str), None,
+                   "coordinate of the system")
+        grid.coord("t", "sample", self.times, "s", "time of the strobe sample")
+        _state_variables(grid, starts + ("sample",), self.coordinates, self.q, self.qdot,
+                         "on the section (angles unwrapped)")
+        _state_variables(grid, starts, self.coordinates, self.q0, self.qdot0, "at the start",
+                         "initial_")
+        grid.variable("status", starts, np.asarray(self.status, dtype=str), None,
+                      "how the run ended")
+        return grid
+
+    def to_xarray(self):
+        """The section as an :class:`xarray.Dataset` over the starts (``start``, or
+        ``start_0``, … for a grid of them; none for one trajectory), ``sample`` (with its
+        time ``t`` in s) and ``coordinate``: ``q``, ``qdot``, the starts and ``status``.
+        Needs ``pip install "kapitza[xarray]"``."""
+        return self._labelled().to_xarray()
+
+    def _repr_html_(self) -> str:
+        K = self.q.shape[-2]
+        starts = int(np.size(self.status))
+        rows = [("samples", f"{K} per start, after {self.transient} periods"),
+                ("starts", str(starts)),
+                ("T", display.quantity(self.period, "s")),
+                ("phase ω t0", display.quantity(2 * math.pi * self.t0 / self.period, "rad"))]
+        return display.card("PoincareSection", ", ".join(self.coordinates), rows=rows,
+                            warnings=_failed(self.status, ("finished", "left_band")),
+                            figure=self.figure if K > 1 else None, alt="Poincaré section")
 
 
 @dataclass(frozen=True, eq=False)
@@ -483,3 +664,41 @@ class Basin:
     def figure(self, **options):
         """The basin in its plane (:func:`kapitza.chaos.basin_figure`)."""
         return _draw(self, options)
+
+    def _labelled(self) -> LabelledGrid:
+        grid = LabelledGrid("Basin", about=np.asarray(self.about).tolist(),
+                            band=np.asarray(self.band).tolist(), period=self.period,
+                            periods=int(self.periods), method=self.method, rtol=self.rtol,
+                            wall_time=self.wall_time, fraction=self.fraction,
+                            area=self.area)
+        grid.parameters(self.params)
+        starts = {}
+        for j, c in enumerate(self.coordinates):
+            starts[f"initial.{c}"] = self.q0[..., j]
+            starts[f"initial.{c}_dot"] = self.qdot0[..., j]
+        dims = grid.broadcast_axes(starts, self.shape, prefer=(), fixed_to="initial_state")
+        grid.variable("stays", dims, np.asarray(self.stays, bool), None,
+                      "stayed in the band for the whole run")
+        grid.variable("exit_time", dims, self.exit_time, "s",
+                      "time after t0 it left the band (NaN: stayed, or failed)")
+        grid.variable("status", dims, np.asarray(self.status, dtype=str), None,
+                      "how the run ended")
+        return grid
+
+    def to_xarray(self):
+        """The basin as an :class:`xarray.Dataset` over its grid of starts (axes named by
+        the component of the initial state that varies along them, e.g.
+        ``initial.theta`` in rad and ``initial.theta_dot`` in rad/s): ``stays``,
+        ``exit_time`` (s), ``status``; the state, band, fraction and area in ``attrs``.
+        Needs ``pip install "kapitza[xarray]"``."""
+        return self._labelled().to_xarray()
+
+    def _repr_html_(self) -> str:
+        rows = [("grid", " × ".join(map(str, self.shape)) or "one start"),
+                ("stays", display.share(self.stays, "starts")),
+                ("area", display.number(self.area) if self.plane() else "— (not a plane)"),
+                ("about", display.state(list(np.asarray(self.about, float)))),
+                ("run", f"{self.periods} periods of T = {display.quantity(self.period, 's')}")]
+        return display.card("Basin", ", ".join(self.coordinates), rows=rows,
+                            warnings=_failed(self.status, ("finished", "left_band")),
+                            figure=self.figure if self.plane() else None, alt="basin")

@@ -12,7 +12,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import _display as display
 from ._base import BOUNDARIES, boundary_names, scalar_if_one, unscale
+from ._xarray import LabelledGrid
 
 __all__ = ["FloquetResult", "MonodromyData", "FloquetGrid"]
 
@@ -108,6 +110,24 @@ class FloquetResult:
                              "exponent": self.exponents,
                              "stable": self.stable, "boundary": self.boundary})
 
+    def _repr_html_(self) -> str:
+        slow = np.atleast_1d(np.asarray(self.omega_slow, dtype=float))
+        rows = [("T", display.quantity(self.period, "s")),
+                ("max |λ|", display.number(np.abs(self.multipliers[0]), 6)
+                 + f"   (log|λ| = {display.number(self.log_growth, 4)} per period)"),
+                ("tr M", display.number(self.trace, 8)),
+                ("Ω", ", ".join(display.quantity(w, "rad/s", digits=8) for w in slow)),
+                ("error estimate", display.number(self.error_estimate, 2)
+                 + " (of M, relative)"),
+                ("residuals", f"Liouville {display.number(self.liouville_residual, 2)}, "
+                              f"pairing {display.number(self.pairing_residual, 2)}"),
+                ("steps / samples", f"{self.steps} / {self.samples} per period")]
+        badges = [("stable", "good") if self.stable else (f"unstable ({self.boundary})", "bad")]
+        if self.flags:
+            badges.append(("flagged", "warn"))
+        return display.card("FloquetResult", "", rows=rows, badges=badges,
+                            warnings=self.flags)
+
 
 @dataclass(frozen=True)
 class MonodromyData:
@@ -166,6 +186,46 @@ class MonodromyData:
         """One row per grid point: the parameters, period, log_scale, error_estimate, steps."""
         import pandas as pd
         return pd.DataFrame(self._columns())
+
+    def _labelled(self, matrices: bool = True) -> LabelledGrid:
+        grid = LabelledGrid(type(self).__name__, samples=int(self.samples))
+        dims = grid.broadcast_axes(self.params, self.shape)
+        length, omega0 = grid.pendulum_scales(self.params)
+        grid.drive_axes(length, omega0)
+        grid.variable("period", dims, np.broadcast_to(self.period, self.shape), "s",
+                      "drive period T = 2π/ω")
+        if matrices:
+            grid.variable("monodromy_scaled", dims + ("row", "column"), self.monodromy_scaled,
+                          "1", "monodromy matrix M e^(−log_scale)")
+        grid.variable("log_scale", dims, self.log_scale, "1",
+                      "log of the factor divided out of M")
+        grid.variable("error_estimate", dims, self.error_estimate, "1",
+                      "estimated error of M relative to max(1, ‖M‖)")
+        grid.variable("steps", dims, self.steps, "1", "Taylor steps per period")
+        return grid
+
+    def to_xarray(self):
+        """The grid as an :class:`xarray.Dataset`: its axes named by the parameters that
+        vary along them (``A``, ``omega``, … with units; ``axis_<k>`` where none does), the
+        fixed parameters in ``attrs``, and per point ``period`` (s), ``monodromy_scaled``
+        (over ``row`` × ``column``), ``log_scale``, ``error_estimate`` and ``steps``.
+        Needs ``pip install "kapitza[xarray]"``."""
+        return self._labelled().to_xarray()
+
+    def _varying(self) -> list:
+        """(name, values) of the parameters that vary over the grid."""
+        out = []
+        for k, v in self.params.items():
+            v = np.asarray(v)
+            if v.size > 1 and not np.all(v == v.reshape(-1)[0]):
+                out.append((k, v))
+        return out
+
+    def _repr_html_(self) -> str:
+        rows = [("grid", " × ".join(map(str, self.shape)) or "one point")]
+        rows += display.axis_rows(self.params)
+        rows.append(("error estimate", display.span(self.error_estimate) + " (of M)"))
+        return display.card(type(self).__name__, "monodromies", rows=rows)
 
 
 @dataclass(frozen=True)
@@ -246,3 +306,65 @@ class FloquetGrid(MonodromyData):
                     trace=np.ravel(self.trace), log_growth=np.ravel(self.log_growth),
                     margin=np.ravel(self.margin))
         return pd.DataFrame(cols)
+
+    def _labelled(self, matrices: bool = True) -> LabelledGrid:
+        grid = super()._labelled(matrices)
+        grid.attrs["refined_points"] = int(self.refined_points)
+        dims = tuple(d for d in grid.dims if d not in ("row", "column"))
+        grid.variable("stable", dims, np.asarray(self.stable, bool), None, "linearly stable")
+        grid.label_variable("label", dims, self.label, "kind of the stability region",
+                            BOUNDARIES)
+        grid.variable("trace", dims, self.trace, "1", "trace of the monodromy matrix")
+        grid.variable("log_growth", dims, self.log_growth, "1",
+                      "largest log|λ| per drive period (> 0 unstable)")
+        grid.variable("margin", dims, self.margin, "1",
+                      "distance of the stability test from its threshold in error bounds "
+                      "(> 1 certified)")
+        grid.variable("multiplier", dims + ("multiplier",), self.multipliers, "1",
+                      "Floquet multiplier λ (by decreasing modulus)")
+        grid.variable("exponent", dims + ("multiplier",), self.exponents, "1/s",
+                      "Floquet exponent log λ / T")
+        grid.variable("omega_slow", dims + ("mode",),
+                      np.asarray(self.omega_slow).reshape(self.shape + (-1,)), "rad/s",
+                      "slow angular frequency of a stable mode (NaN where unstable)")
+        grid.variable("liouville_residual", dims, self.liouville_residual, "1",
+                      "|det M / exp(∮ tr J) − 1|")
+        grid.variable("pairing_residual", dims, self.pairing_residual, "1",
+                      "max |c_k − c_(2n−k)| of the characteristic polynomial (relative)")
+        grid.variable("flags", dims, np.array(["; ".join(f) for f in self.flags],
+                                              dtype=str).reshape(self.shape), None,
+                      "accuracy warnings (empty: every guard passed)")
+        return grid
+
+    def to_xarray(self):
+        """As :meth:`MonodromyData.to_xarray`, with the analysis per point: ``stable``,
+        ``label`` (CF flags: stable, T, 2T, complex), ``trace``, ``log_growth``,
+        ``margin``, ``multiplier_real``/``multiplier_imag`` and ``exponent_real``/
+        ``exponent_imag`` (1/s) over ``multiplier``, ``omega_slow`` (rad/s) over ``mode``,
+        the residuals and ``flags``."""
+        return self._labelled().to_xarray()
+
+    def figure(self, variable: str = "stable", **options):
+        """One quantity over the grid's one or two varying axes (default ``stable``; e.g.
+        ``"log_growth"``, ``"margin"``): :func:`kapitza.figures.grid_figure`
+        (``options`` go to it).  Returns a :class:`matplotlib.figure.Figure`."""
+        return display.draw("grid_figure", self._labelled(matrices=False), variable,
+                            **options)
+
+    def _repr_html_(self) -> str:
+        rows = [("grid", " × ".join(map(str, self.shape)) or "one point")]
+        rows += display.axis_rows(self.params)
+        rows.append(("stable", display.share(self.stable)))
+        rows.append(("error estimate", display.span(self.error_estimate) + " (of M)"))
+        if self.refined_points:
+            rows.append(("refined", f"{self.refined_points} points"))
+        flagged = sum(bool(f) for f in self.flags)
+        warnings = [f"{flagged} points flagged (e.g. "
+                    f"{'; '.join(next(f for f in self.flags if f))})"] if flagged else []
+        uncertain = int(np.count_nonzero(np.asarray(self.margin) <= 1))
+        if uncertain:
+            warnings.append(f"{uncertain} points uncertified (margin ≤ 1: the test is within "
+                            "its error bound of the threshold)")
+        drawable = 0 < len(self._varying()) and sum(n > 1 for n in self.shape) <= 2
+        return display.card("FloquetGrid", "Floquet analysis", rows=rows, warnings=warnings,
+                            figure=self.figure if drawable else None, alt="Floquet grid")

@@ -12,13 +12,35 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from . import _display as display
+from ._xarray import LabelledGrid, coordinate_units
+
 __all__ = ["Measurement", "PeriodicOrbit"]
 
 #: Measurement fields with one entry per slow mode (ascending frequency) or per coordinate.
 _MODE_FIELDS = ("omega_slow", "omega_slow_error", "refined", "growth_rate")
 _COORDINATE_FIELDS = ("about", "amplitude", "mean_angle", "max_deviation")
 _POINT_FIELDS = ("period", "stayed_up", "fall_time", "fit_residual", "samples",
-                 "energy_drift", "status")
+                 "energy_drift", "status", "t_reached", "completed_periods")
+#: Units and long names of the fields (to_xarray); None: per coordinate.
+_QUANTITIES = {
+    "period": ("s", "drive period T"), "stayed_up": (None, "stayed in the band throughout"),
+    "fall_time": ("s", "time to leaving the band (NaN: stayed)"),
+    "omega_slow": ("rad/s", "slow angular frequency Ω"),
+    "omega_slow_error": ("rad/s", "error estimate of the slow angular frequency"),
+    "refined": (None, "the slow frequency is the rotation number"),
+    "growth_rate": ("1/s", "growth rate log|λ|/T of the mode's strobe-map eigenvalue"),
+    "fit_residual": ("1", "relative residual of the linear strobe-map fit"),
+    "about": (None, "state the band is centred on"),
+    "amplitude": (None, "slow amplitude (half the strobe samples' range)"),
+    "mean_angle": (None, "time average of the coordinate"),
+    "max_deviation": (None, "largest distance from the state, fast motion included"),
+    "energy_drift": ("J", "largest drift of the conserved energy"),
+    "samples": ("1", "strobe samples recorded"), "status": (None, "how the run ended"),
+    "t_reached": ("s", "time the run reached (its end, exit or interruption)"),
+    "completed_periods": ("1", "whole drive periods simulated")}
+#: Statuses of a run that measured something (the others are failed integrations).
+_RAN = ("finished", "left_band")
 
 
 @dataclass(frozen=True)
@@ -52,10 +74,12 @@ class Measurement:
         left the band or the integration failed (see ``status``).
     fall_time : array (S)
         Time from the start to leaving the band (s); NaN where it did not.
-    omega_slow : array (S + (n,))
+    omega_slow : array (S + (n,)) or None
         Slow angular frequencies (rad/s) of the motion, ascending, from the
         stroboscopic samples up to the stop, folded into [0, ω/2] (aliasing); NaN where
-        a mode is not resolved (too few samples, a real multiplier).
+        a mode is not resolved (too few samples, a real multiplier).  This field and
+        the next four are None where they were not asked for (``observables``), as
+        are ``amplitude`` and ``samples`` without the strobe samples.
     omega_slow_error : array (S + (n,))
         Error estimate of ``omega_slow`` (rad/s): the estimator's error for the
         simulated motion (the record's two halves, the fit's bias); not the
@@ -83,11 +107,18 @@ class Measurement:
         Strobe samples recorded (up to a stop).
     status : str array (S)
         How each run ended: "finished", "left_band", "underflow", "non_finite",
-        "singular", "max_steps" (:data:`lagrange_core.batch.STATUS_NAMES`).
+        "singular", "max_steps", or on Ctrl-C "interrupted" (stopped part-way: every
+        field measures the run up to ``t_reached``) and "not_run"
+        (:data:`lagrange_core.batch.STATUS_NAMES`).
     method : str
         The integration method.
     rtol : float
         Its relative tolerance.
+    t_reached : array (S) or None
+        The time each run reached (s): t0 + periods·T when it finished, where it left
+        the band or failed, or where Ctrl-C stopped it.
+    completed_periods : int array (S) or None
+        Whole drive periods simulated up to ``t_reached``.
     """
 
     coordinates: tuple
@@ -97,19 +128,21 @@ class Measurement:
     periods: int
     stayed_up: ArrayLike
     fall_time: ArrayLike
-    omega_slow: ArrayLike
-    omega_slow_error: ArrayLike
-    refined: ArrayLike
-    growth_rate: ArrayLike
-    fit_residual: ArrayLike
-    amplitude: ArrayLike
+    omega_slow: ArrayLike | None
+    omega_slow_error: ArrayLike | None
+    refined: ArrayLike | None
+    growth_rate: ArrayLike | None
+    fit_residual: ArrayLike | None
+    amplitude: ArrayLike | None
     mean_angle: ArrayLike
     max_deviation: ArrayLike
     energy_drift: ArrayLike | None
-    samples: ArrayLike
+    samples: ArrayLike | None
     status: ArrayLike
     method: str
     rtol: float
+    t_reached: ArrayLike | None = None
+    completed_periods: ArrayLike | None = None
 
     @property
     def shape(self) -> tuple:
@@ -136,6 +169,112 @@ class Measurement:
             for j, label in enumerate(labels):
                 data[f"{name}_{label}"] = value[..., j].reshape(size)
         return pd.DataFrame(data)
+
+    def _labelled(self) -> LabelledGrid:
+        S = self.shape
+        grid = LabelledGrid("Measurement", method=self.method, rtol=self.rtol,
+                            periods=int(self.periods))
+        dims = grid.broadcast_axes(self.params, S)
+        grid.drive_axes(*grid.pendulum_scales(self.params))
+        grid.coord("coordinate", "coordinate", np.asarray(self.coordinates, dtype=str), None,
+                   "coordinate of the system")
+        known = {coordinate_units(c)[0] for c in self.coordinates}
+        coordinate_unit = known.pop() if len(known) == 1 else None
+        for name in _POINT_FIELDS[:3] + _MODE_FIELDS + _COORDINATE_FIELDS + _POINT_FIELDS[3:]:
+            value = getattr(self, name)
+            if value is None:
+                continue
+            value = np.asarray(value)
+            units, long_name = _QUANTITIES[name]
+            if name in _POINT_FIELDS:
+                grid.variable(name, dims, np.broadcast_to(value, S), units, long_name)
+                continue
+            if value.ndim == len(S):
+                value = value[..., None]            # one coordinate: no trailing axis
+            extra = "mode" if name in _MODE_FIELDS else "coordinate"
+            if name in _COORDINATE_FIELDS:
+                units = coordinate_unit
+            grid.variable(name, dims + (extra,), value, units, long_name)
+        return grid
+
+    def to_xarray(self):
+        """The measurement as an :class:`xarray.Dataset`: the grid's axes named by the
+        parameters that vary along them (``A`` in m, ``omega`` in rad/s, with ``A_over_l``
+        and ``omega_over_omega0`` for a pendulum; ``axis_<k>`` where no parameter varies,
+        e.g. over initial states), every field as a variable (per-mode fields over
+        ``mode``, per-coordinate fields over ``coordinate``), the method, ``rtol`` and the
+        periods in ``attrs``.  Needs ``pip install "kapitza[xarray]"``."""
+        return self._labelled().to_xarray()
+
+    def figure(self, variable: str | None = None, **options):
+        """One quantity over the grid's one or two varying axes:
+        :func:`kapitza.figures.grid_figure`.  Default: the slow frequency of the lowest
+        mode where the run stayed in the band, the runs that left it grey (the fall
+        time if none stayed).  ``variable`` names another field (``"fall_time"``,
+        ``"amplitude"``, …); ``options`` go to the figure function.
+
+        Raises
+        ------
+        ValueError
+            A measurement of one point (nothing to draw over).
+        """
+        if not self.shape or int(np.prod(self.shape)) < 2:
+            raise ValueError("a Measurement of one point has no figure; measure a grid "
+                             "(kapitza.measure_grid) to draw one.")
+        grid = self._labelled()
+        stayed = np.asarray(self.stayed_up, bool)
+        if variable is None:
+            variable = ("omega_slow" if stayed.any() and self.omega_slow is not None
+                        else "fall_time")
+            if variable == "omega_slow":
+                options.setdefault("select", {"mode": 0})
+                options.setdefault("mask", ~stayed[..., None])
+                options.setdefault("mask_label", "left the band")
+        return display.draw("grid_figure", grid, variable, **options)
+
+    def _repr_html_(self) -> str:
+        S = self.shape
+        status = np.asarray(self.status).reshape(-1)
+        failed = status[~np.isin(status, _RAN)]
+        warnings = [f"{failed.size} of {status.size} runs failed ("
+                    + ", ".join(f"{k}: {int((failed == k).sum())}" for k in np.unique(failed))
+                    + ")"] if failed.size else []
+        slow = np.asarray(self.omega_slow, dtype=float)
+        error = np.asarray(self.omega_slow_error, dtype=float)
+        if not S:
+            stayed = bool(self.stayed_up)
+            slow, error = np.atleast_1d(slow), np.atleast_1d(error)
+            rows = [("Ω", ", ".join(display.quantity(w, "rad/s", e)
+                                    for w, e in zip(slow, error, strict=True))),
+                    ("growth rate", ", ".join(display.quantity(r, "1/s") for r in
+                                              np.atleast_1d(np.asarray(self.growth_rate,
+                                                                       dtype=float)))),
+                    ("amplitude", ", ".join(
+                        display.quantity(a, coordinate_units(c)[0] or "")
+                        for a, c in zip(np.atleast_1d(np.asarray(self.amplitude, float)),
+                                        self.coordinates, strict=True))),
+                    ("mean", ", ".join(
+                        display.quantity(a, coordinate_units(c)[0] or "", digits=6)
+                        for a, c in zip(np.atleast_1d(np.asarray(self.mean_angle, float)),
+                                        self.coordinates, strict=True))),
+                    ("run", f"{self.periods} periods of T = "
+                            f"{display.quantity(self.period, 's')}; {np.asarray(self.status)}")]
+            badges = [("stayed", "good") if stayed else
+                      (f"left at t = {display.quantity(self.fall_time, 's')}", "bad")]
+            return display.card("Measurement", f"{', '.join(self.coordinates)} · "
+                                f"{self.method}", rows=rows, badges=badges,
+                                warnings=warnings)
+        rows = [("grid", " × ".join(map(str, S)))]
+        rows += display.axis_rows(self.params)
+        lowest = slow if slow.ndim <= len(S) else slow[..., 0]     # (None: not measured)
+        rows += [("stayed", display.share(self.stayed_up, "runs")),
+                 ("Ω (lowest mode)", display.span(lowest, "rad/s")),
+                 ("Ω error", display.span(error, "rad/s")),
+                 ("run", f"{self.periods} periods each, rtol {display.number(self.rtol, 2)}")]
+        drawable = sum(n > 1 for n in S) in (1, 2)
+        return display.card("Measurement", f"{', '.join(self.coordinates)} · {self.method}",
+                            rows=rows, warnings=warnings,
+                            figure=self.figure if drawable else None, alt="measurement grid")
 
 
 @dataclass(frozen=True, eq=False)
@@ -174,15 +313,19 @@ class PeriodicOrbit:
         The residual of the equations shot at the returned state: |φ_T(y0) − y0|, or for
         a symmetric orbit shot on the half period |φ_{T/2}(y0) − S y0|.
     error_estimate : float
-        A bound on the error of the state and the monodromy: the larger of
-        ‖J⁻¹‖ (residual + integration error) for the state (J the Newton matrix of the
-        equations shot) and the monodromy's integration error plus the state's error
-        carried through it.
+        A bound on the error of the state and the monodromy (the larger): the
+        Newton–Kantorovich bound for the state (β = ‖J⁻¹‖ of the Newton matrix J of the
+        equations shot, η ≥ ‖J⁻¹F‖, K J's Lipschitz constant measured near the orbit;
+        ≤ 2η/(1 + √(1 − 2βKη)), integration errors included) and the monodromy's
+        integration error plus its change over the state's error ball.  inf where no
+        bound can be established (βKη > 1/2: near a multiplier +1 of the map shot), the
+        reason in ``flags``.
     iterations : int
         Newton steps taken (0: a persisting equilibrium).
     method : str
-        Which map was shot ("period map", "half-period map (symmetric)") and, where
-        it is ill-conditioned, by how much.
+        Which map was shot ("period map", "half-period map (symmetric)"), whether by
+        multiple shooting (one segment per drive period) or for a rotating orbit, and,
+        where it is ill-conditioned, by how much.
     condition : float
         ‖J⁻¹‖∞ of the Newton matrix of the equations shot (NaN for a persisting
         equilibrium): how much a residual is amplified into an error of the state.
@@ -219,3 +362,33 @@ class PeriodicOrbit:
                              "q_mean": self.q_mean, "amplitude": self.amplitude,
                              "omega_slow": slow, "period": self.period, "stable": self.stable},
                             index=pd.Index(self.coordinates, name="coordinate"))
+
+    def _repr_html_(self) -> str:
+        n = len(self.coordinates)
+        slow = np.atleast_1d(np.asarray(self.omega_slow, dtype=float))
+
+        def units(c):
+            return coordinate_units(c)[0] or ""
+
+        rows = [("period", display.quantity(self.period, "s")
+                 + (f" ({self.periods} drive periods)" if self.periods > 1 else "")),
+                ("q(0)", ", ".join(f"{c} = {display.quantity(q, units(c), digits=8)}"
+                                   for c, q in zip(self.coordinates, self.state[:n],
+                                                   strict=True))),
+                ("mean q", ", ".join(display.quantity(q, units(c), digits=6)
+                                     for c, q in zip(self.coordinates, self.q_mean,
+                                                     strict=True))),
+                ("fast amplitude", ", ".join(display.quantity(q, units(c))
+                                             for c, q in zip(self.coordinates, self.amplitude,
+                                                             strict=True))),
+                ("max |λ|", display.number(np.max(np.abs(self.multipliers)), 8)),
+                ("Ω", ", ".join(display.quantity(w, "rad/s", digits=8) for w in slow)),
+                ("residual", display.number(self.residual, 2)),
+                ("error estimate", display.number(self.error_estimate, 2)),
+                ("Newton", f"{self.iterations} iterations, condition "
+                           f"{display.number(self.condition, 2)}")]
+        badges = [("stable", "good") if self.stable else ("unstable", "bad")]
+        if self.flags:
+            badges.append(("flagged", "warn"))
+        return display.card("PeriodicOrbit", self.method, rows=rows, badges=badges,
+                            warnings=self.flags)

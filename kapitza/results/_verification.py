@@ -18,7 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import _display as display
 from ._maps import StabilityWindow
+from ._xarray import LabelledGrid
 
 __all__ = ["VERIFICATION_METHODS", "OrderFit", "Verification"]
 
@@ -89,6 +91,45 @@ class OrderFit:
         return pd.DataFrame({"epsilon": self.epsilon, "omega": self.omega, "A": self.A,
                              "error": self.error, "floor": self.floor, "used": self.used,
                              "order": self.order})
+
+    def _labelled(self) -> LabelledGrid:
+        grid = LabelledGrid("OrderFit", order=self.order, small_parameter=self.small_parameter,
+                            exponent=self.exponent, exponent_error=self.exponent_error,
+                            prefactor=self.prefactor, theory=self.theory,
+                            method="least squares, log error = log c + p log ε")
+        grid.coord("epsilon", "epsilon", self.epsilon, "1", f"small parameter: "
+                   f"{self.small_parameter}")
+        grid.coord("omega", "epsilon", self.omega, "rad/s", "drive angular frequency ω")
+        grid.coord("A", "epsilon", self.A, "m", "drive amplitude A")
+        grid.variable("error", "epsilon", self.error, "1",
+                      "relative error of averaging's Ω against Floquet's")
+        grid.variable("floor", "epsilon", self.floor, "1", "Floquet's relative error bound on Ω")
+        grid.variable("used", "epsilon", np.asarray(self.used, bool), None, "point fitted")
+        return grid
+
+    def to_xarray(self):
+        """The line as an :class:`xarray.Dataset` over ``epsilon`` (with ``omega`` and
+        ``A`` beside it): ``error``, ``floor``, ``used``; the fit in ``attrs``.  Needs
+        ``pip install "kapitza[xarray]"``."""
+        return self._labelled().to_xarray()
+
+    def _text(self) -> str:
+        return (f"p = {display.quantity(self.exponent, '', self.exponent_error)} "
+                f"(theory {display.number(self.theory)})")
+
+    def _repr_html_(self) -> str:
+        used = int(np.count_nonzero(self.used))
+        warnings = []
+        if used < 3:
+            warnings.append(f"only {used} points resolved above Floquet's floor: no exponent")
+        elif abs(self.exponent - self.theory) > 3 * self.exponent_error:
+            warnings.append("the exponent differs from theory by more than 3 standard errors")
+        return display.card(
+            "OrderFit", f"averaging of order {self.order}",
+            rows=[("exponent", self._text()), ("ε", self.small_parameter),
+                  ("points", f"{used} of {np.size(self.used)} fitted"),
+                  ("error", display.span(self.error) + " (relative)")],
+            warnings=warnings)
 
 
 @dataclass(frozen=True)
@@ -162,6 +203,23 @@ class Verification:
         Floquet's tolerance and the simulation's relative tolerance.
     notes : tuple of str
         What was not available or not located, said once.
+    averaging_2_valid : bool ndarray (S) or None
+        Next-order averaging's own validity flag (``valid`` of its prediction); None where
+        there is no next order, or where it was not given (then next-order averaging
+        claims validity at every point).
+
+    Notes
+    -----
+    Where a method claims validity.  A disagreement counts against the methods
+    (:attr:`disagreements_within_validity`; ``kapitza verify`` exits 1) only where both
+    claim validity at the point (:meth:`valid`): first-order averaging where
+    ``averaging_valid`` (its fast-drive, small-amplitude and convergence criteria; it
+    cannot see the upright pendulum's upper edge A_max, 0.454 l as ω → ∞, and flags
+    every A/l > 0.3 invalid), next-order averaging where ``averaging_2_valid``, Floquet where
+    its classification is certified (``floquet_margin`` > 1), simulation where the run
+    classified the point.  The rest are reported, not failed: :attr:`outside_validity`
+    lists every point outside a method's validity, and the ``within_validity`` column of
+    :attr:`disagreements` marks the disagreements that count.
     """
 
     A: np.ndarray
@@ -196,6 +254,7 @@ class Verification:
     tol: float
     rtol: float
     notes: tuple = ()
+    averaging_2_valid: np.ndarray | None = None
 
     @property
     def shape(self) -> tuple:
@@ -206,6 +265,68 @@ class Verification:
     def methods(self) -> tuple:
         """The methods present (next-order averaging only where there is one)."""
         return tuple(m for m in VERIFICATION_METHODS if getattr(self, f"stable_{m}") is not None)
+
+    def valid(self, method: str) -> np.ndarray:
+        """Where ``method`` claims validity (class docstring): a bool ndarray (S).
+
+        Parameters
+        ----------
+        method : str
+            A method of :attr:`methods`.
+
+        Raises
+        ------
+        ValueError
+            A method this verification does not have.
+        """
+        if method not in self.methods:
+            raise ValueError(f"no method {method!r} in this verification; it has "
+                             f"{list(self.methods)}.")
+        flag: object
+        if method == "averaging":
+            flag = self.averaging_valid
+        elif method == "averaging_2":
+            flag = True if self.averaging_2_valid is None else self.averaging_2_valid
+        elif method == "floquet":
+            with np.errstate(invalid="ignore"):
+                flag = np.asarray(self.floquet_margin, dtype=float) > 1.0
+        else:
+            flag = np.isin(self.simulation_status, _CLASSIFIED)
+        return np.array(np.broadcast_to(np.asarray(flag, bool), self.shape))
+
+    @property
+    def outside_validity(self):
+        """Every point outside a method's validity (:meth:`valid`), one row per method and
+        point: method, point (flat index), the point's location (A, ω, A/l, ω/ω0, boundary
+        distance) and why.  Disagreements at these points are reported, not counted
+        against the methods."""
+        import pandas as pd
+        where = self._location()
+        why = {"averaging": "first-order averaging flags itself invalid (averaging_valid)",
+               "averaging_2": "next-order averaging flags itself invalid",
+               "floquet": "Floquet's classification is not certified (floquet_margin ≤ 1)"}
+        frames = []
+        for m in self.methods:
+            out = np.flatnonzero(~np.ravel(self.valid(m)))
+            if not out.size:
+                continue
+            reason = (np.char.add("the run did not classify the point: ",
+                                  np.ravel(self.simulation_status)[out].astype(str))
+                      if m == "simulation" else why[m])
+            frames.append(pd.DataFrame({"method": m, "point": out,
+                                        **{k: v[out] for k, v in where.items()},
+                                        "reason": reason}))
+        if not frames:
+            return pd.DataFrame(columns=["method", "point", *where, "reason"])
+        return pd.concat(frames, ignore_index=True)
+
+    @property
+    def disagreements_within_validity(self):
+        """The rows of :attr:`disagreements` where both methods claim validity at the point:
+        the disagreements that count against the methods (``kapitza verify`` exits 1 on
+        any)."""
+        bad = self.disagreements
+        return bad[bad["within_validity"].astype(bool)].reset_index(drop=True)
 
     @property
     def exponent(self) -> float:
@@ -310,15 +431,18 @@ class Verification:
     @property
     def agreement(self):
         """Agreement statistics: one row per pair of methods and quantity ("stability",
-        "omega_slow") with the points compared, agreeing, disagreeing and the fraction
-        agreeing (NaN where none was compared)."""
+        "omega_slow") with the points compared, agreeing, disagreeing, the fraction
+        agreeing (NaN where none was compared) and the disagreements where both methods
+        claim validity (``disagreeing_within_validity``, :meth:`valid`)."""
         import pandas as pd
         rows = []
         for a, b, quantity, compared, agree in self._comparisons():
             n, k = int(compared.sum()), int((compared & agree).sum())
+            counted = int((compared & ~agree & self.valid(a) & self.valid(b)).sum())
             rows.append({"first": a, "second": b, "quantity": quantity, "compared": n,
                          "agreeing": k, "disagreeing": n - k,
-                         "fraction": k / n if n else math.nan})
+                         "fraction": k / n if n else math.nan,
+                         "disagreeing_within_validity": counted})
         return pd.DataFrame(rows)
 
     def _location(self) -> dict:
@@ -337,8 +461,9 @@ class Verification:
         """Every disagreement, located: one row per point, pair of methods and quantity
         that disagree, with the point's A, ω (A/l, ω/ω0), distance to the nearest Floquet
         boundary, both methods' classifications and Ω (the mode that differs most,
-        relative to the tolerance), the tolerance, first-order averaging's validity and
-        the simulation's status."""
+        relative to the tolerance), the tolerance, first-order averaging's validity, the
+        simulation's status and ``within_validity`` (both methods claim validity at the
+        point, :meth:`valid`: the disagreement counts against them)."""
         import pandas as pd
         where = self._location()
         frames = []
@@ -362,12 +487,13 @@ class Verification:
                 "first_omega_slow": _at(wa, j), "second_omega_slow": _at(wb, j),
                 "tolerance": _at(tt, j) if quantity == "omega_slow" else math.nan,
                 "averaging_valid": np.ravel(self.averaging_valid)[bad],
-                "simulation_status": np.ravel(self.simulation_status)[bad]}))
+                "simulation_status": np.ravel(self.simulation_status)[bad],
+                "within_validity": np.ravel(self.valid(a) & self.valid(b))[bad]}))
         if not frames:
             return pd.DataFrame(columns=["point", *where, "quantity", "first", "second",
                                          "first_stable", "second_stable", "first_omega_slow",
                                          "second_omega_slow", "tolerance", "averaging_valid",
-                                         "simulation_status"])
+                                         "simulation_status", "within_validity"])
         return pd.concat(frames, ignore_index=True)
 
     def to_dataframe(self):
@@ -404,3 +530,107 @@ class Verification:
         Returns a :class:`matplotlib.figure.Figure`."""
         from ..figures import verification_figure  # lazily: results never import figures at load
         return verification_figure(self, **options)
+
+    def _labelled(self) -> LabelledGrid:
+        S = self.shape
+        grid = LabelledGrid("Verification", about=str(self.about), periods=int(self.periods),
+                            tol=self.tol, rtol=self.rtol, notes=list(self.notes),
+                            methods=list(self.methods),
+                            method="averaging, Floquet analysis and direct simulation, "
+                                   "compared point by point")
+        dims = grid.broadcast_axes({"A": self.A, "omega": self.omega}, S)
+        omega0 = self.omega0
+        grid.drive_axes(self.length, omega0)
+        if self.length is not None:
+            grid.parameters({"l": self.length})
+        for fit in self.fits:
+            for name in ("exponent", "exponent_error", "theory"):
+                grid.attrs[f"order_{fit.order}_{name}"] = getattr(fit, name)
+            grid.attrs[f"order_{fit.order}_small_parameter"] = fit.small_parameter
+        names = {"averaging": "first-order averaging", "averaging_2": "next-order averaging",
+                 "floquet": "Floquet analysis", "simulation": "direct simulation"}
+        for m in self.methods:
+            grid.variable(f"stable_{m}", dims, np.asarray(getattr(self, f"stable_{m}"), bool),
+                          None, f"stable by {names[m]}")
+            grid.variable(f"omega_slow_{m}", dims + ("mode",), self.modes(f"omega_slow_{m}"),
+                          "rad/s", f"slow angular frequency by {names[m]}")
+            grid.variable(f"tolerance_{m}", dims + ("mode",), self.modes(f"tolerance_{m}"),
+                          "rad/s", f"stated error of {names[m]}'s slow frequency")
+        grid.variable("averaging_valid", dims, np.asarray(self.averaging_valid, bool), None,
+                      "first-order averaging's own validity flag")
+        second = getattr(self, "averaging_2_valid", None)
+        if second is not None:
+            grid.variable("averaging_2_valid", dims, np.asarray(second, bool), None,
+                          "next-order averaging's own validity flag")
+        for name, units, long_name in (
+                ("floquet_margin", "1", "distance of Floquet's test from its threshold in "
+                                        "error bounds (> 1 certified)"),
+                ("simulation_status", None, "how the simulated run ended"),
+                ("fall_time", "s", "time to leaving the band (NaN: stayed)"),
+                ("amplitude", None, "simulated slow amplitude (largest over coordinates)"),
+                ("boundary_distance", "1", "|A − A_b|/A to the nearest Floquet boundary"),
+                ("nearest_boundary", "m", "nearest Floquet boundary A_b at the point's ω")):
+            grid.variable(name, dims, np.asarray(getattr(self, name)), units, long_name)
+        labels = self.to_dataframe()["disagreements"].to_numpy(dtype=str).reshape(S)
+        grid.variable("disagreements", dims, labels, None,
+                      "pairs of methods that disagree at the point")
+        grid.variable("boundary_A", "boundary_point", self.boundary_A, "m",
+                      "a Floquet boundary located at the grid's frequencies")
+        grid.variable("boundary_omega", "boundary_point", self.boundary_omega, "rad/s",
+                      "its drive angular frequency")
+        if self.window is not None:
+            w = np.atleast_1d(np.asarray(self.window.omega, float))
+            grid.variable("window_omega", "window_omega_point", w, "rad/s",
+                          "exact window: drive angular frequency")
+            for edge in ("A_min", "A_max"):
+                grid.variable(f"window_{edge}", "window_omega_point",
+                              np.broadcast_to(np.asarray(getattr(self.window, edge), float),
+                                              np.shape(self.window.omega)).reshape(-1), "m",
+                              f"exact window: {edge}")
+        return grid
+
+    def to_xarray(self):
+        """The verification as an :class:`xarray.Dataset` over the grid's axes (``A`` in m
+        and ``omega`` in rad/s, with ``A_over_l`` and ``omega_over_omega0``; ``axis_<k>``
+        where neither varies alone): per method ``stable_<method>``, and
+        ``omega_slow_<method>`` and ``tolerance_<method>`` (rad/s) over ``mode``; the
+        validity flags, ``floquet_margin``, ``simulation_status``, ``fall_time``,
+        ``boundary_distance``, ``nearest_boundary``, ``disagreements`` (text per point);
+        the located boundaries and the exact window on their own dimensions; the
+        equilibrium, tolerances, notes and the fitted orders of averaging in ``attrs``.
+        Needs ``pip install "kapitza[xarray]"``."""
+        return self._labelled().to_xarray()
+
+    def _repr_html_(self) -> str:
+        S = self.shape
+        rows = [("grid", " × ".join(map(str, S)) or "one point")]
+        rows += display.axis_rows({"A": self.A, "omega": self.omega})
+        if self.length is not None and self.omega0 is not None:
+            rows += [(f"{k}", v) for k, v in display.axis_rows(
+                {"A/l": np.asarray(self.A) / self.length,
+                 "ω/ω0": np.asarray(self.omega) / self.omega0})]
+        table = self.agreement
+        warnings = []
+        for quantity in ("stability", "omega_slow"):
+            part = table[table["quantity"] == quantity]
+            text = "; ".join(f"{r.first}–{r.second} {r.agreeing}/{r.compared}"
+                             for r in part.itertuples())
+            rows.append((f"agree on {'stability' if quantity == 'stability' else 'Ω'}",
+                         text or "—"))
+            if "disagreeing_within_validity" in part:
+                counted = int(part["disagreeing_within_validity"].sum())
+            else:
+                counted = int(part["disagreeing"].sum())
+            if counted:
+                warnings.append(f"{counted} disagreements on {quantity} where both methods "
+                                "claim validity")
+        for fit in self.fits:
+            rows.append((f"order {fit.order} exponent", fit._text()))
+        rows.append(("simulation", f"{self.periods} periods, rtol {display.number(self.rtol)}; "
+                                   f"Floquet tol {display.number(self.tol)}"))
+        badges = [("disagreements", "warn")] if warnings else [("methods agree", "good")]
+        drawable = sum(n > 1 for n in S) == 2
+        return display.card("Verification", display.state(self.about), rows=rows,
+                            badges=badges,
+                            warnings=warnings, notes=self.notes,
+                            figure=self.figure if drawable else None, alt="verification map")
