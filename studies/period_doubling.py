@@ -32,16 +32,16 @@ Method
 ------
 Each doubling is located on the exact periodic orbit, not read off a diagram:
 
-* **An orbit.** :func:`kapitza.periodic_orbit` (``periods=2**k``, ``symmetry=None``) shoots
-  the 2^k T swing from a guess extrapolated from the two nearest solved amplitudes.  Its
-  single flow over P = 2^k periods must converge to tol/100 in the monodromy too, whose
-  rounding floor grows with P (~1e-11 relative over 64 periods),
-  so its tolerance is 2e-9 · P^1.5 and on the 256T orbit it does not converge at all.  The
-  orbit is then *polished*: Newton's method on the composition of P one-period flows
-  (:func:`lagrange_core.variational.flow`, each converged to 1e-13), which reaches a
-  residual of 1e-15 … 1e-12 (128T) and gives the monodromy as the product of the
-  one-period Jacobians.  An answer with a real multiplier above +1 is the half-period orbit
-  (also a fixed point of the longer map): it is rejected and the step halved.
+* **An orbit.** :func:`kapitza.periodic_orbit` (``periods=2**k``, ``symmetry=None``,
+  ``tol=0``) shoots the 2^k T swing from a guess extrapolated from the two nearest solved
+  amplitudes.  From 4 periods on it shoots by *multiple shooting*: one segment per drive
+  period, each a flow of :func:`lagrange_core.variational.flow` converged to 1e-13, Newton
+  on the block-bordered system of all segments, the monodromy M the product of the
+  segments' Jacobians — one flow over P periods cannot converge in its Jacobian (its
+  rounding floor grows with P: ~1e-11 relative over 64 periods, no convergence over 256).
+  ``tol=0`` goes on until a Newton step no longer lowers the residual (1e-15 … 1e-14).
+  An answer with a real multiplier above +1 is the half-period orbit (also a fixed point
+  of the longer map): it is rejected and the step halved.
 * **p_k.** The monodromy has the multiplier −1 where det(M + I) = (1 + λ1)(1 + λ2) = 0:
   marching in A brackets the sign change, ``scipy.optimize.brentq`` the root.
 * **The next orbit.** Just past p_k (p_k + 0.3 × the expected gap) the 2^(k+1) T orbit is
@@ -53,15 +53,17 @@ Each doubling is located on the exact periodic orbit, not read off a diagram:
 Accuracy
 --------
 * **The measured error of p_k**: the bracket plus the largest shift of p_k when its orbit is
-  computed with three other discretizations: 100, 192 and 256 fixed steps per period
-  instead of the adaptive 128.  Every rounding and the orbit's Newton path change, and
-  p_k moves by ≤ 1.5e-14.  δ_k's error follows linearly.
+  computed with three other discretizations: the orbit polished on the composition of P
+  one-period flows at 100, 192 and 256 fixed steps per period (the study's own Newton,
+  :func:`polish`, independent of the library's multiple shooting) instead of the
+  adaptive 128.  Every rounding and the orbit's Newton path change.  δ_k's error follows
+  linearly.
 * **The propagated bound**: the bracket plus the noise of det(M + I) over its slope.  The
   noise is 2‖adj(M + I)‖_F times the monodromy's error, which is the one-period flows'
   errors carried through the products plus the state's error ‖(M − I)⁻¹‖ (residual + flow
-  error) times ‖∂M/∂y‖.  It multiplies worst cases and grows with P: 3e-14 at p_1,
-  4e-9 at p_6, 7e-7 at p_7 and p_8, where it no longer bounds the gaps.  It is tabulated
-  beside the measured error.
+  error) times ‖∂M/∂y‖ (the composition of one-period flows from the orbit's state).  It
+  multiplies worst cases and grows with P: it no longer bounds the gaps from p_7 on.  It
+  is tabulated beside the measured error.
 
 Independent checks (``check``)
 ------------------------------
@@ -117,10 +119,8 @@ T = 2 * math.pi / OMEGA
 A_START = 0.345
 #: A start that settles on the asymmetric swing at A_START (θ rad, θ̇ rad/s, at t = 0).
 START_STATE = (0.36, 4.5)
-#: periodic_orbit's tolerance per period of the orbit shot (× P^1.5; see the module
-#: docstring): what its single flow over P periods can meet.
-TOL_PER_PERIOD = 2e-9
-#: The polish's one-period flows converge to this (step doublings; rounding is ~1e-14).
+#: The composed one-period flows (the error analysis) converge to this (step doublings;
+#: rounding is ~1e-14), as the library's segments do with ``tol=0``.
 FLOW_TOL = 1e-13
 #: Fixed steps per period of the other discretizations that measure p_k's error.
 DISCRETIZATIONS = (100, 192, 256)
@@ -146,12 +146,12 @@ def params(A):
 
 def shoot(system, A, guess, periods):
     """:func:`kapitza.periodic_orbit` for the orbit of ``periods`` drive periods near
-    ``guess`` at amplitude A, at the tolerance its single flow over P periods can meet
-    (TOL_PER_PERIOD · P^1.5).  Returns (orbit, tol); ValueError where it fails."""
-    tol = TOL_PER_PERIOD * periods**1.5
+    ``guess`` at amplitude A, to the floor of its flows (``tol=0``; multiple shooting from
+    4 periods on).  Returns an :class:`Orbit`; ValueError where it fails."""
     orbit = kapitza.periodic_orbit(system, params(A), np.asarray(guess, dtype=float),
-                                   periods=periods, symmetry=None, tol=tol)
-    return orbit, tol
+                                   periods=periods, symmetry=None, tol=0)
+    return Orbit(float(A), int(periods), orbit.state.copy(), orbit.monodromy,
+                 float(orbit.residual), math.nan, math.nan, orbit.method)
 
 
 def compose(system, A, y0, periods, steps=64, fixed=None):
@@ -190,20 +190,21 @@ def compose(system, A, y0, periods, steps=64, fixed=None):
 
 
 class Orbit:
-    """A periodic orbit of P drive periods at amplitude A, polished: the state at t = 0,
-    the monodromy M (the product of the one-period Jacobians), the residual
-    |φ_PT(y) − y|∞, the composed flows' errors (see :func:`compose`) and periodic_orbit's
-    tolerance (NaN where it did not converge).  (A plain class: tests/test_studies.py
-    loads the study without registering it in sys.modules, which a dataclass needs.)"""
+    """A periodic orbit of P drive periods at amplitude A: the state at t = 0, the
+    monodromy M (the product of the one-period Jacobians), the residual of the equations
+    shot, the composed flows' errors (see :func:`compose`; NaN for an orbit from
+    :func:`shoot`, whose errors :func:`orbit_errors` composes where they are needed) and
+    how it was found.  (A plain class: tests/test_studies.py loads the study without
+    registering it in sys.modules, which a dataclass needs.)"""
 
     __slots__ = ("A", "periods", "state", "monodromy", "residual", "flow_error",
-                 "monodromy_flow_error", "shooting_tol")
+                 "monodromy_flow_error", "method")
 
     def __init__(self, A, periods, state, monodromy, residual, flow_error,
-                 monodromy_flow_error, shooting_tol):
+                 monodromy_flow_error, method):
         self.A, self.periods, self.state, self.monodromy = A, periods, state, monodromy
         self.residual, self.flow_error = residual, flow_error
-        self.monodromy_flow_error, self.shooting_tol = monodromy_flow_error, shooting_tol
+        self.monodromy_flow_error, self.method = monodromy_flow_error, method
 
     @property
     def multipliers(self) -> np.ndarray:
@@ -220,21 +221,20 @@ class Orbit:
         return float(np.linalg.det(self.monodromy + np.eye(self.monodromy.shape[0])))
 
 
-def polish(system, A, y0, periods, shooting_tol=math.nan, fixed=None):
-    """Newton's method on the composed one-period maps from ``y0`` (an orbit from
-    :func:`kapitza.periodic_orbit`), a step halved (up to 6 times) where it does not lower
-    the residual, until the residual is below the flows' own error or stops falling: the
-    orbit to the rounding floor of its flows, which one flow over P periods cannot reach
-    (its Jacobian must converge to tol/100 too).  ``fixed``: that many steps per period
-    instead (:func:`compose`).  Returns an :class:`Orbit`; ValueError where the residual
-    stays above 1e-8 (no orbit near y0)."""
+def polish(system, A, y0, periods, fixed=None):
+    """The study's own Newton, for the error check of other discretizations (the orbits
+    themselves come from :func:`shoot`): Newton's method on the composed one-period maps
+    from ``y0``, a step halved (up to 6 times) where it does not lower the residual, until
+    the residual is below the flows' own error or stops falling.  ``fixed``: that many
+    steps per period (:func:`compose`).  Returns an :class:`Orbit`; ValueError where the
+    residual stays above 1e-8 (no orbit near y0)."""
     state = {"steps": 64}
 
     def evaluate(y):
         y1, M, e_y, e_M, state["steps"] = compose(system, A, y, periods, state["steps"],
                                                   fixed)
         return (Orbit(float(A), int(periods), y.copy(), M, float(np.max(np.abs(y1 - y))), e_y,
-                      e_M, shooting_tol), y1 - y)
+                      e_M, "composed one-period flows"), y1 - y)
 
     best, G = evaluate(np.asarray(y0, dtype=float).copy())
     for _ in range(12):
@@ -263,13 +263,17 @@ def polish(system, A, y0, periods, shooting_tol=math.nan, fixed=None):
 
 
 def orbit_errors(system, orbit):
-    """(state error, monodromy error) of a polished orbit: the state's is
-    ‖(M − I)⁻¹‖ (residual + e_y); the monodromy's is e_M plus the state's error times
-    ‖∂M/∂y‖ (central differences along each coordinate, h = 1e-6)."""
+    """(state error, monodromy error) of an orbit, from the composition of its one-period
+    flows from its state (:func:`compose`): the state's is ‖(M − I)⁻¹‖ (|φ_PT(y) − y| +
+    e_y); the monodromy's is e_M, plus the gap between the orbit's M and the composed one,
+    plus the state's error times ‖∂M/∂y‖ (central differences along each coordinate,
+    h = 1e-6)."""
     d = orbit.state.size
+    y1, M_c, e_y, e_M, _ = compose(system, orbit.A, orbit.state, orbit.periods)
+    residual = float(np.max(np.abs(y1 - orbit.state)))
     J = orbit.monodromy - np.eye(d)
-    state_error = float(np.linalg.norm(np.linalg.inv(J), np.inf)) * (orbit.residual
-                                                                      + orbit.flow_error)
+    state_error = float(np.linalg.norm(np.linalg.inv(J), np.inf)) * (residual + e_y)
+    e_M += float(np.max(np.abs(M_c - orbit.monodromy)))
     h = 1e-6
     dM = 0.0
     for i in range(d):
@@ -278,7 +282,7 @@ def orbit_errors(system, orbit):
         Mp = compose(system, orbit.A, orbit.state + e, orbit.periods)[1]
         Mm = compose(system, orbit.A, orbit.state - e, orbit.periods)[1]
         dM = max(dM, float(np.max(np.abs(Mp - Mm))) / (2 * h))
-    return state_error, orbit.monodromy_flow_error + state_error * dM
+    return state_error, e_M + state_error * dM
 
 
 def _real_multiplier_above_one(lam):
@@ -305,14 +309,8 @@ class Branch:
         return y0 + (y1 - y0) * (A - a0) / (a1 - a0)
 
     def solve(self, A, guess):
-        """periodic_orbit from ``guess``, then the polish; where periodic_orbit fails (its
-        single flow over a long orbit), the polish alone from the guess."""
-        try:
-            po, tol = shoot(self.system, A, guess, self.periods)
-            guess = po.state
-        except ValueError:
-            tol = math.nan
-        return polish(self.system, A, guess, self.periods, tol)
+        """The orbit near ``guess`` at A (:func:`shoot`: the library's multiple shooting)."""
+        return shoot(self.system, A, guess, self.periods)
 
     def orbit(self, A, depth=0):
         A = float(A)
@@ -339,8 +337,8 @@ class Branch:
         return self.orbit(A).margin()
 
     @property
-    def tols(self):
-        return [o.shooting_tol for o in self.points.values() if math.isfinite(o.shooting_tol)]
+    def residuals(self):
+        return [o.residual for o in self.points.values()]
 
 
 def _margin_noise(orbit, monodromy_error):
@@ -402,7 +400,7 @@ def switch(branch, p, orbit_at_p, A_new):
     """The orbit of twice the branch's period born at p, at A_new just past p, where it is
     the attractor: a direct simulation from the old orbit nudged by 1e-6 v (v the
     eigenvector of M for −1) leaves the old orbit, now unstable, and settles on the new
-    one (150 of its periods); shooting and the polish make it exact.  Returns (new Branch,
+    one (150 of its periods); shooting makes it exact.  Returns (new Branch,
     split = max |y_new − y_old|)."""
     system = branch.system
     old = branch.orbit(A_new)
@@ -429,12 +427,11 @@ def switch(branch, p, orbit_at_p, A_new):
 
 def first_orbit(system):
     """The asymmetric 2T swing at A_START: a direct simulation from START_STATE settles on
-    it (800 periods), periodic_orbit and the polish make it exact."""
+    it (800 periods), periodic_orbit makes it exact."""
     tr = system.simulate([START_STATE[0]], [START_STATE[1]], (0.0, 800 * T), params(A_START),
                          t_eval=[800 * T], rtol=1e-11, method="dop853")
     y = np.array([tr.q[-1, 0], tr.qdot[-1, 0]])
-    po, tol = shoot(system, A_START, y, 2)
-    return polish(system, A_START, po.state, 2, tol)
+    return shoot(system, A_START, y, 2)
 
 
 def cascade(system, levels):
@@ -451,10 +448,9 @@ def cascade(system, levels):
         clock = time.perf_counter()
         xtol = max(1e-16, 1e-12 * gap)
         d = locate_doubling(branch, A_from, step, xtol)
-        tols = branch.tols          # periodic_orbit's, where it converged (not on 256T)
-        d.update(k=k, periods=branch.periods, tol_min=min(tols, default=math.nan),
-                 tol_max=max(tols, default=math.nan), evaluations=len(branch.points),
-                 shot=len(tols))
+        res = branch.residuals      # periodic_orbit's, to the floor of its flows
+        d.update(k=k, periods=branch.periods, residual_max=max(res),
+                 evaluations=len(branch.points), method=d["orbit"].method)
         d["shifts"] = discretization_shifts(system, d)
         d["error"] = d["xtol"] + float(np.max(np.abs(d["shifts"])))
         if found:
@@ -588,8 +584,8 @@ def run(out: Path, quick: bool = False) -> dict:
             det_noise_bound=d["noise"],
             **{f"shift_{s}_steps": float(v) for s, v in zip(DISCRETIZATIONS, d["shifts"],
                                                                 strict=True)},
-            shooting_tol_min=d["tol_min"], shooting_tol_max=d["tol_max"],
-            orbits_solved=d["evaluations"], orbits_from_periodic_orbit=d["shot"],
+            largest_residual_on_branch=d["residual_max"], orbit_method=d["method"],
+            orbits_solved=d["evaluations"],
             brentq_iterations=d["iterations"],
             seconds=d["seconds"],
             state_theta=float(d["orbit"].state[0]), state_theta_dot=float(d["orbit"].state[1]),

@@ -165,11 +165,27 @@ def test_tilted_map_is_the_complement_of_the_hanging_map():
     assert tilted.flagged_points == int(none.sum()) > 0
     assert np.all(np.isnan(tilted.trace[none])) and np.all(np.isfinite(tilted.trace[~none]))
     assert "no periodic orbit" in tilted.flags_example[0]
+    # ... and labelled so: 4, "no orbit" (before: 3, "complex", read as an instability),
+    # in the table and drawn apart in the figure, with its legend entry
+    assert np.all(tilted.label[none] == 4) and not np.any(tilted.label == 3)
+    assert set(tilted.boundary[none]) == {"no orbit"}
+    table = tilted.to_dataframe()
+    assert (table.boundary == "no orbit").sum() == int(none.sum())
+    fig = tilted.figure()
+    legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert "no periodic orbit found (undecided)" in legend
+    assert "unstable, complex multipliers" not in legend
     # the same map about the tilted orbit given as a kapitza.periodic_orbit result
     orbit = pend.floquet(0.2, 80.0, about="tilted")
     general = kapitza.stability_map(pend.system, BASE, orbit, A=A, omega=omega)
     assert np.array_equal(general.stable, tilted.stable)
     assert general.about.startswith("periodic orbit through [q, q̇]")
+    # its long title (the orbit and the method) is wrapped inside the figure, not cut off
+    fig = general.figure()
+    fig.canvas.draw()
+    box = fig.axes[0].title.get_window_extent(fig.canvas.get_renderer())
+    assert fig.bbox.x0 - 0.5 <= box.x0 and box.x1 <= fig.bbox.x1 + 0.5
+    assert box.y1 <= fig.bbox.y1 + 0.5
     # the mirror image has the same stability
     assert np.array_equal(pend.stability_map(A, omega, about="tilted-").stable, tilted.stable)
 

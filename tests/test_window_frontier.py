@@ -266,3 +266,27 @@ def test_frontier_finds_an_unstable_gap_inside_the_window():
     np.testing.assert_allclose([out["A_min"][0], out["A_max"][0]],
                                [2.0 - math.sqrt(4.0001 / 16), 2.0 - math.sqrt(1e-4 / 16)],
                                rtol=1e-9)
+
+
+def test_window_warnings_point_at_the_callers_line():
+    """``kapitza.window``'s accuracy RuntimeWarning (the single pendulum at ω = 300 rad/s
+    asked for tol = 1e-13, certified to 3.5e-11) names the caller's file and line, also
+    through the deprecated positional ``omega`` (whose wrapper sat between: the warning
+    pointed into kapitza/floquet/_old_spellings.py before), and so does ``boundaries``'."""
+    import kapitza
+    system, params = problems.driven_pendulum("vertical"), dict(m=1.0, l=1.0, g=G)
+    for call in (lambda: kapitza.window(system, params, [math.pi], omega=300.0, tol=1e-13),
+                 lambda: kapitza.window(system, params, [math.pi], 300.0, tol=1e-13)):
+        with warnings.catch_warnings(record=True) as rec:
+            warnings.simplefilter("always")
+            call()
+        accuracy = [r for r in rec if "certified only to" in str(r.message)]
+        assert accuracy and all(r.filename == __file__ for r in accuracy), \
+            [(r.filename, str(r.message)[:40]) for r in rec]
+        assert all(r.filename == __file__ for r in rec)
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        fq.boundaries(system, params, [math.pi], omega=[300.0, 310.0], A_range=(0.0, 0.2),
+                      tol=1e-13)
+    assert rec and all(r.filename == __file__ for r in rec), \
+        [(r.filename, str(r.message)[:40]) for r in rec]

@@ -39,9 +39,12 @@ if TYPE_CHECKING:
 
 __all__ = ["stability_map_figure", "spot_check_figure", "ince_strutt_figure"]
 
-_COLORS = {0: "#d9f0d3", 1: "#fdd49e", 2: "#c6dbef", 3: "#e7d4e8"}
+_COLORS = {0: "#d9f0d3", 1: "#fdd49e", 2: "#c6dbef", 3: "#e7d4e8", 4: "#bdbdbd"}
 _NAMES = {0: "stable", 1: "unstable, period-T boundary", 2: "unstable, period-2T boundary",
-          3: "unstable, complex multipliers"}
+          3: "unstable, complex multipliers",
+          4: "no periodic orbit found (undecided)"}
+#: Characters per title line at the title's font size (10 pt) on the 6.4 in wide axes
+_TITLE_WIDTH = 72
 _LINE_STYLES = ("--", ":", "-.", "-")
 _CURVE_COLORS = {"T": "#b35806", "2T": "#2166ac", "complex": "#762a83"}
 
@@ -116,7 +119,7 @@ def stability_map_figure(result: StabilityMap, *, overlays=(), ax=None, title=No
     fig, ax = axes(ax, (6.4, 4.6))
     labels = np.asarray(result.label)
     present = sorted(set(np.unique(labels).tolist()) | {0})
-    cmap = ListedColormap([_COLORS[k] for k in range(4)])
+    cmap = ListedColormap([_COLORS[k] for k in range(len(_COLORS))])
     # axis scales: SI, or A/l and ω/ω0
     a_scale, w_scale = 1.0, 1.0
     if dimensionless:
@@ -131,8 +134,8 @@ def stability_map_figure(result: StabilityMap, *, overlays=(), ax=None, title=No
         if on and axis.min() <= 0:
             raise ValueError(f"{name}=True needs positive values, but the map's axis starts at "
                              f"{axis.min():g}; compute the map from a positive value.")
-    ax.pcolormesh(w, A, labels, cmap=cmap, vmin=-0.5, vmax=3.5, shading="nearest",
-                  rasterized=True)
+    ax.pcolormesh(w, A, labels, cmap=cmap, vmin=-0.5, vmax=len(_COLORS) - 0.5,
+                  shading="nearest", rasterized=True)
     handles = [Patch(color=_COLORS[k], label=_NAMES[k]) for k in present]
     margin = getattr(result, "margin", None)      # an AdaptiveMap's continuous margin
     if boundaries and 0 < np.count_nonzero(labels == 0) < labels.size:
@@ -159,10 +162,18 @@ def stability_map_figure(result: StabilityMap, *, overlays=(), ax=None, title=No
     ax.set_yscale("log" if log_A else "linear")
     ax.set_xlim(w.min(), w.max())
     ax.set_ylim(A.min(), A.max())
-    ax.set_title(title or f"Floquet stability of {about_text(result.about)}\n({result.method})",
-                 fontsize=10)
+    ax.set_title(title or _default_title(result), fontsize=10)
     ax.legend(handles=handles, loc="upper right", fontsize=8, framealpha=0.9)
     return fig
+
+
+def _default_title(result) -> str:
+    """The state and the method, each wrapped to the axes' width (a periodic orbit's
+    method string is long enough to run off the figure)."""
+    import textwrap
+    head = textwrap.fill(f"Floquet stability of {about_text(result.about)}", _TITLE_WIDTH)
+    method = textwrap.fill(f"({result.method})", _TITLE_WIDTH)
+    return f"{head}\n{method}"
 
 
 def spot_check_figure(result: StabilityMap, A, omega, stayed_up, agrees, *, overlays=(),

@@ -19,7 +19,8 @@ is below 1e-12 T.
 
 A point the followed orbit does not reach (its branch ends at a fold or a branch point
 first, or Newton finds no orbit from the guess) has no monodromy: NaN, unstable, flagged
-"no periodic orbit"; an orbit whose shooting equations are so ill-conditioned that its
+"no periodic orbit", and on the stability map the label 4, "no orbit" (undecided, drawn
+apart); an orbit whose shooting equations are so ill-conditioned that its
 state is known only to more than √tol is flagged "ill-conditioned" and counts as
 uncertified.
 """
@@ -40,6 +41,10 @@ from ._orbits import Follower
 from ._shooting import Shot
 
 __all__ = ["OrbitProbe", "orbit_map", "conservative"]
+
+#: The map label of a point the orbit followed does not reach (``"no orbit"``: index 4 of
+#: :data:`kapitza.results._maps.MAP_LABELS`)
+NO_ORBIT = 4
 
 
 def conservative(system, fixed) -> bool:
@@ -123,14 +128,20 @@ class OrbitProbe:
             Mb[i] = M
             Mb[i, n:, :] /= w[i]
             Mb[i, :, n:] *= w[i]
-            delta[i] = s.monodromy_error * max(1.0, w[i], 1.0 / w[i])
+            # where no bound is established (Kantorovich's h > 1/2 near a bifurcation) the
+            # analysis reads the monodromy with its integration error, uncertified (below)
+            bounded = math.isfinite(s.monodromy_error)
+            delta[i] = (s.monodromy_error if bounded else s.integration_error) * max(
+                1.0, w[i], 1.0 / w[i])
             if not self.undamped_system:
                 liou[i] = np.linalg.slogdet(M)[1]
             scale = max(1.0, float(np.max(np.abs(s.state))))
-            if not s.state_error <= math.sqrt(self.tol) * scale:
+            if not bounded or not s.state_error <= math.sqrt(self.tol) * scale:
+                known = (f"known only to {s.state_error:.3g}" if bounded else
+                         f"not bounded ({s.bound_note})")
                 flags[i] = (f"ill-conditioned: ‖J⁻¹‖ = {s.condition:.3g} for the shooting "
                             f"equations (a multiplier near +1: a bifurcation), the orbit's "
-                            f"state known only to {s.state_error:.3g}",)
+                            f"state {known}",)
         have = np.all(np.isfinite(Mb), axis=(1, 2))
         size = np.where(have, np.maximum(1.0, np.max(np.abs(np.where(have[:, None, None], Mb,
                                                                         0.0)), axis=(1, 2))),
@@ -233,7 +244,10 @@ def orbit_map(system, params, request, A, omega, amplitude, frequency, tol, guar
         for j in columns[a:b]:
             data = probe(A, np.full(nA, omega[j]), True)
             res = data["analysis"]
-            fields["stable"][:, j], fields["label"][:, j] = data["stable"], data["label"]
+            found = np.isfinite(data["Mb"][:, 0, 0])
+            # no orbit there: label 4, "no orbit" (kapitza.results.MAP_LABELS), undecided
+            fields["stable"][:, j] = data["stable"]
+            fields["label"][:, j] = np.where(found, data["label"], NO_ORBIT)
             fields["trace"][:, j] = np.where(np.isfinite(data["Mb"][:, 0, 0]), res["trace"],
                                              np.nan)
             fields["log_growth"][:, j] = np.where(np.isfinite(data["Mb"][:, 0, 0]),

@@ -48,8 +48,10 @@ within less than a step and lands on another orbit with the same tangents and th
 sign of det(∂G/∂y) is not told apart; finer grids make that rarer.
 
 Accuracy: each orbit to the shooting's residual ``tol`` · max(1, |y|) (flow to tol/100);
-its state's error ‖J⁻¹‖ (residual + flow error) and the monodromy's error (integration
-plus the state's error carried through) are those of :class:`~._shooting.Shot`.
+its state's error (the Newton–Kantorovich bound, inf where none holds) and the
+monodromy's error (integration plus its change over the state's error ball) are those of
+:class:`~._shooting.Shot`; the continuation's acceptance tests use the cheaper first-order
+scale ‖J⁻¹‖ (residual + flow error) (:attr:`~._shooting.Shot.linear_error`).
 """
 from __future__ import annotations
 
@@ -174,7 +176,7 @@ def _given_orbit(system, fixed, orbit, amplitude, frequency):
         # the field has the symmetry about the orbit's mean: keep it where the orbit has it
         m = _Map(system, p, T, c, 1e-12, MAX_STEPS)
         fl = m.flow(y, 64)
-        if fl is not None and np.max(np.abs(m.residual(y, fl))) <= 1e-6 * max(1.0, np.max(
+        if fl is not None and np.max(np.abs(m.residual1(y, fl))) <= 1e-6 * max(1.0, np.max(
                 np.abs(y))):
             center = c
     label = (f"periodic orbit through [q, q̇] = {np.round(y, 9).tolist()} at {amplitude} = "
@@ -240,7 +242,10 @@ class Line:
         """|error| ≤ JUMP |step| + the shooting's accuracy (balanced variables)."""
         d = self.scale(x)
         size = max(1.0, float(np.max(np.abs(d * shot.state))))
-        floor = max(100.0 * self.tol, 10.0 * shot.state_error) * size
+        # the shooting's own first-order accuracy (a scale, not a bound; none where J is
+        # singular: then only the tolerance)
+        linear = shot.linear_error if math.isfinite(shot.linear_error) else 0.0
+        floor = max(100.0 * self.tol, 10.0 * linear) * size
         return float(np.max(np.abs(d * error))) <= JUMP * float(np.max(np.abs(d * step))) \
             + floor
 
@@ -372,7 +377,7 @@ class Follower:
         m = _Map(self.system, self._p(A, w), 2 * math.pi / w, self.request.center,
                  self.tol / 100, MAX_STEPS)
         fl = m.flow(y, max(8, steps // 2))
-        return None if fl is None else m.residual(y, fl)
+        return None if fl is None else m.residual1(y, fl)
 
     def _scale(self, w):
         return np.r_[np.ones(self.n), np.full(self.n, 1.0 / w)]

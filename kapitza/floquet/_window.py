@@ -12,8 +12,12 @@ faster and exact to rounding.
 """
 from __future__ import annotations
 
+import functools
 import math
+import os
+import sys
 import time
+import warnings
 
 import numpy as np
 
@@ -64,7 +68,34 @@ def _scan_grid(lo, hi, points):
     return lo + (hi - lo) * u
 
 
+_PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _warnings_at_caller(func):
+    """Re-raise the warnings of ``func`` at the user's call line: the first frame outside
+    the kapitza package (a fixed ``stacklevel`` in the internals pointed at the deprecation
+    wrapper or at whichever kapitza function called).  Python 3.11 has no
+    ``skip_file_prefixes``; the warnings are collected and raised again in order, after the
+    computation (filters such as "error" apply then)."""
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        caught: list = []
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                return func(*args, **kwargs)
+        finally:
+            level, frame = 1, sys._getframe(0)
+            while frame is not None and os.path.abspath(
+                    frame.f_code.co_filename).startswith(_PACKAGE + os.sep):
+                frame, level = frame.f_back, level + 1
+            for w in caught:
+                warnings.warn(w.message, w.category, stacklevel=level)
+    return wrapper
+
+
 @frequency_as_keyword
+@_warnings_at_caller
 def window(system, params, about, *, omega, A_range=None, amplitude="A", frequency="omega",
            tol=1e-10, scan=96, min_width=None, order=16, guard_tol=1e-8) -> StabilityWindow:
     """The exact window of drive amplitudes A_min < A < A_max that stabilises ``about``,
@@ -256,6 +287,7 @@ def _amplitude_range(A_range):
 
 
 @frequency_as_keyword
+@_warnings_at_caller
 def boundaries(system, params, about, *, omega, A_range=None, amplitude="A",
                frequency="omega", tol=1e-10, seed_every=10, scan=64, side=1e-6,
                min_width=None, order=16, guard_tol=1e-8) -> BoundaryCurves:
@@ -269,7 +301,7 @@ def boundaries(system, params, about, *, omega, A_range=None, amplitude="A",
     frequencies in between by predictor–corrector continuation (a few monodromies per
     point), all curves together; finally every point is classified at A(1 ∓ ``side``)
     and kept only where exactly its stable side is stable
-    (:func:`kapitza.floquet._curves.trace_curves`).
+    (``kapitza.floquet._curves.trace_curves``).
 
     Parameters
     ----------
