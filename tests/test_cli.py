@@ -148,7 +148,7 @@ def test_window_exact_with_averaging_beside(capsys):
     assert [r["A_min"] for r in rows] == exact.A_min.tolist()
     assert [r["A_max"] for r in rows] == exact.A_max.tolist()
     assert [r["A_min_averaging"] for r in rows] == np.asarray(approx.A_min).tolist()
-    assert all(r["A_max_averaging"] is None for r in rows)          # inf: no upper edge
+    assert all(r["A_max_averaging"] == "inf" for r in rows)         # no upper edge
 
 
 def test_window_geometric_frequency_range(capsys):
@@ -229,7 +229,7 @@ def test_measure_json_equals_the_api(capsys):
     m = KapitzaPendulum().measure(0.05, W60, theta0=3.13, periods=300)
     assert code == 0
     got = data["measurement"]
-    assert got["stayed_up"] is True and got["fall_time"] is None          # NaN → null
+    assert got["stayed_up"] is True and got["fall_time"] == "nan"         # NaN, as text
     assert got["omega_slow"] == m.omega_slow and got["amplitude"] == m.amplitude
 
 

@@ -17,6 +17,7 @@ from ._output import (
     emit,
     plain,
     records,
+    save_figure,
     say,
     with_error,
     write_frame,
@@ -25,10 +26,13 @@ from ._parsing import (
     UsageError,
     data_file,
     drive_point,
+    over_omega0,
     parse_amplitude,
     parse_frequency,
     pendulum_from,
     read_scene,
+    refuse_with_scene,
+    writable,
 )
 
 
@@ -56,7 +60,7 @@ def _predict(args) -> int:
     data = {**drive_point(args, A, omega), "averaging": {"order": args.order, **equilibria},
             "floquet": floquet}
     lines = [f"drive {args.drive}: A = {A:.6g} m (A/l = {A / args.l:.6g}), ω = {omega:.6g} rad/s "
-             f"(ω/ω0 = {omega / math.sqrt(args.g / args.l):.6g}), l = {args.l:g} m, "
+             f"(ω/ω0 = {over_omega0(omega, args):.6g}), l = {args.l:g} m, "
              f"g = {args.g:g} m/s², γ = {args.damping:g} 1/s",
              f"averaging (order {args.order}):"]
     for e in avg.equilibria:
@@ -111,8 +115,7 @@ def _map_outputs(args, result, pend, partial=False):
             overlays.append(pend.window(fine, method="averaging", order=1))
     fig = stability_map_figure(result, overlays=overlays, dimensionless=args.dimensionless,
                                log_omega=args.log_omega)
-    png.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(png, dpi=120)
+    save_figure(fig, png)
     plt.close(fig)
     return png, data_path, frame
 
@@ -127,7 +130,8 @@ def _map(args) -> int:
                          "inverted and hanging; tilted orbits need --drive horizontal.")
     A = parse_amplitude(args, grid=True)
     omega = parse_frequency(args, grid=True)
-    data_file(args.data)
+    png = writable("--out", args.out)
+    data_file(args.data) or writable("--out", png.with_suffix(".csv"))
     try:
         result = pend.stability_map(A, omega, about=args.about, trace=args.trace, tol=args.tol)
     except ComputationInterrupted as stop:
@@ -150,13 +154,21 @@ def _map(args) -> int:
 def _measure(args) -> int:
     pend = pendulum_from(args)
     A, omega = parse_amplitude(args), parse_frequency(args)
-    about = args.about
-    m = pend.measure(A, omega, theta0=args.theta0, theta_dot0=args.theta_dot0,
-                     periods=args.periods, about=about, rtol=args.rtol)
+    about = _angle_or_name(args.about)
+    from ..results import ComputationInterrupted
+    try:
+        m = pend.measure(A, omega, theta0=args.theta0, theta_dot0=args.theta_dot0,
+                         periods=args.periods, about=about, rtol=args.rtol)
+        interrupted = False
+    except ComputationInterrupted as stop:      # Ctrl-C: the run so far, measured
+        m, interrupted = stop.result, True
+        say(f"measure: interrupted at t = {m.t_reached:.6g} s after {m.completed_periods} of "
+            f"{args.periods} periods; the measurement below covers the run so far.")
     fields = {k: getattr(m, k) for k in ("stayed_up", "fall_time", "omega_slow",
                                          "omega_slow_error", "amplitude", "mean_angle",
                                          "growth_rate", "max_deviation", "about", "period",
-                                         "periods", "status", "method", "rtol")}
+                                         "periods", "status", "method", "rtol", "t_reached",
+                                         "completed_periods")}
     data = {**drive_point(args, A, omega), "theta0": args.theta0, "theta_dot0": args.theta_dot0,
             "measurement": fields}
     emit(args, data, f"released at θ0 = {args.theta0:.6g} rad, θ̇0 = {args.theta_dot0:g} rad/s, "
@@ -165,7 +177,15 @@ def _measure(args) -> int:
           f"  Ω = {with_error(m.omega_slow, m.omega_slow_error)} rad/s  "
           f"slow amplitude {m.amplitude:.4g} rad  mean angle {m.mean_angle:.6g} rad\n"
           f"  status {m.status}")
-    return EXIT_OK
+    return EXIT_INTERRUPTED if interrupted else EXIT_OK
+
+
+def _angle_or_name(text):
+    """--about: a state's name as is, an angle (rad) as a number."""
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        return text
 
 
 def _verify(args) -> int:
@@ -175,32 +195,48 @@ def _verify(args) -> int:
     data_path = data_file(args.data)
     v = pend.verify(A[:, None], omega[None, :], theta0=args.theta0, periods=args.periods,
                     tol=args.tol, rtol=args.rtol, line=None if args.fit_order else False)
-    agreement, bad = v.agreement, v.disagreements
+    agreement, every = v.agreement, v.disagreements
+    counted = every[every["within_validity"].astype(bool)]
+    reported = every[~every["within_validity"].astype(bool)]
+    outside = v.outside_validity
+    per_method = {m: int((outside["method"] == m).sum()) for m in v.methods}
     if data_path:
         write_frame(v.to_dataframe(), data_path)
     data = {"pendulum": drive_point(args, 0.0, 0.0)["pendulum"], "A": A, "omega": omega,
             "points": int(np.prod(v.shape)), "methods": list(v.methods),
-            "agreement": records(agreement), "disagreements": records(bad),
+            "agreement": records(agreement), "disagreements": records(every),
+            "disagreements_within_validity": len(counted),
+            "disagreements_outside_validity": len(reported),
+            "outside_validity": per_method, "outside_validity_points": records(outside),
             "exponent": v.exponent, "exponent_error": v.exponent_error,
-            "notes": list(v.notes), "data": args.data, "agree": bool(len(bad) == 0)}
+            "notes": list(v.notes), "data": data_path, "agree": bool(len(counted) == 0)}
     text = [f"verification over {len(A)} amplitudes × {len(omega)} frequencies "
             f"({int(np.prod(v.shape))} points):", as_table(agreement)]
     if args.fit_order:
         text.append(f"order of first-order averaging: {v.exponent:.3f} ± "
                     f"{v.exponent_error:.3f} (theory 2)")
-    if len(bad):
-        text += [f"{len(bad)} disagreement(s) beyond the methods' tolerances:", as_table(bad)]
+    if any(per_method.values()):
+        text.append("outside a method's validity (reported, not failed): " + ", ".join(
+            f"{m} at {k} point(s)" for m, k in per_method.items() if k))
+    if len(reported):
+        text += [f"{len(reported)} disagreement(s) where a method is outside its validity "
+                 "(not failures):", as_table(reported)]
+    if len(counted):
+        text += [f"{len(counted)} disagreement(s) beyond the tolerances of methods that both "
+                 "claim validity there:", as_table(counted)]
     else:
-        text.append("all methods agree within their tolerances.")
+        text.append("all methods agree within their tolerances where they claim validity.")
     emit(args, data, "\n".join(text))
-    if len(bad):
-        say(f"verify: {len(bad)} disagreement(s) beyond tolerance (exit code 1).")
+    if len(counted):
+        say(f"kapitza verify: {len(counted)} disagreement(s) between methods that both claim "
+            "validity (exit code 1).")
         return EXIT_DISAGREEMENT
     return EXIT_OK
 
 
 def _animate(args) -> int:
     from ..animation import pendulum_animation, system_animation
+    writable("--out", args.out)
     scenes = [read_scene(path) for path in args.scene]
     if scenes:
         given = [n for n, k in (("--A", "A"), ("--A-over-l", "A_over_l"), ("--omega", "omega"),
@@ -209,7 +245,11 @@ def _animate(args) -> int:
         if given:
             raise UsageError(f"{', '.join(given)}: the scene sets the drive; give either "
                              "scenes or the drive options.")
+        refuse_with_scene(args, "l", "g", "damping", "drive", "theta0")
     pend = scenes[0].pendulum if len(scenes) == 1 else None
+    if scenes and (pend is None or pend.drive != "vertical"):
+        refuse_with_scene(args, "A_fall", why="each scene is a panel of its own; none falls "
+                          "beside it")
     try:
         if scenes and (pend is None or pend.drive != "vertical"):
             # chains (or several scenes): each scene a panel, from its own [initial] state
@@ -241,7 +281,8 @@ def _animate(args) -> int:
         return EXIT_INTERRUPTED
     data, head, fate = _gif_summary(anim)
     data.update(A=anim.A[0], A_fall=anim.A[1], omega=omega, A_over_l=anim.A[0] / l,
-                omega_over_omega0=omega / math.sqrt(g / l), theta0=theta0, window=anim.window,
+                omega_over_omega0=omega / math.sqrt(g / l) if g > 0 else math.inf,
+                theta0=theta0, window=anim.window,
                 pendulum={"l": l, "g": g, "damping": damping, "omega0": math.sqrt(g / l)})
     emit(args, data, f"{head}\n  shaken A = {A:.4g} m (window {anim.window[0]:.4g} < A < "
           f"{anim.window[1]:.4g} m): {fate[0]}\n  A = {anim.A[1]:.4g} m: {fate[1]}")
@@ -269,6 +310,7 @@ def _gif_summary(anim):
 
 def _report(args) -> int:
     from ..report import ReportInterrupted, build_report
+    writable("--out", args.out, folder=True)
     scene = None if args.scene is None else read_scene(args.scene)
     try:
         report = build_report(scene, args.out, quick=args.quick)
@@ -298,6 +340,9 @@ _MAX_JSON_ROWS = 1000
 def _run(args) -> int:
     scene = read_scene(args.scene)
     say(f"run: {scene.spec.source}: {scene.system.name}; analyses {list(scene.analyses)}")
+    if scene.spec.sweep:        # run computes [analyses] at the scene's point only
+        say(f"run: the [sweep] of {', '.join(scene.spec.sweep['analyses'])} is not run here; "
+            f"run it with: kapitza sweep {args.scene}")
     res = scene.run(write=not args.no_write)
     tables = res.tables()
     data = {"scene": scene.spec.source, "system": scene.system.name, "seconds": res.seconds,
@@ -317,6 +362,8 @@ def _run(args) -> int:
 
 def _sweep(args) -> int:
     from ..results import ComputationInterrupted
+    if args.directory is not None:
+        writable("--directory", args.directory, folder=True)
     scene = read_scene(args.scene)
     try:
         result = scene.sweep(args.analysis, directory=args.directory,
@@ -359,12 +406,12 @@ def _summary(args) -> int:
         with pd.option_context("display.width", 200, "display.max_columns", 20,
                                "display.float_format", "{:.3g}".format):
             print()
-            print(df.to_string(index=False))
+            print(df.to_string(index=False, na_rep="nan"))
     failed = df["status"].astype(str).str.startswith("error")
     if failed.any():
         say(f"\n{int(failed.sum())} problem(s) failed.")
-        return 1
-    return 0
+        return EXIT_DISAGREEMENT
+    return EXIT_OK
 
 
 #: Each command's function, by its name on the command line.

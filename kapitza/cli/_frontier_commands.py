@@ -15,8 +15,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ._output import EXIT_OK, as_table, emit, records, write_frame
-from ._parsing import UsageError, data_file, number_list, parse_amplitude, parse_frequency
+from ._output import EXIT_OK, as_table, emit, records, save_figure, write_frame
+from ._parsing import (
+    UsageError,
+    data_file,
+    number_list,
+    parse_amplitude,
+    parse_frequency,
+    refuse_with_scene,
+    writable,
+)
 from ._parsing import read_scene as read_scene_file
 
 __all__ = ["FRONTIER_COMMANDS"]
@@ -68,6 +76,7 @@ def _scene(args, analysis, settings, *, A=None, omega=None):
         if given:
             raise UsageError(f"{', '.join(given)}: the scene sets the drive; give either a "
                              "scene or the drive options.")
+        refuse_with_scene(args, "l", "g", "damping", "drive")
         base = read_scene_file(args.scene)
         data = copy.deepcopy(base.spec.data)
         own = data.get("analyses", {}).get(analysis, {})
@@ -155,10 +164,7 @@ def _given(**settings):
 
 
 def _write_figure(fig, path):
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    return path
+    return save_figure(fig, path)
 
 
 # -- continue ---------------------------------------------------------------------------------
@@ -169,7 +175,8 @@ def _continue(args) -> int:
                       periods=args.periods, switch=args.switch, max_points=args.max_points,
                       about=_about(args.about))
     parameter = settings.get("parameter", "A")
-    data_path = data_file(args.data) or Path(args.out).with_suffix(".csv")
+    data_path = data_file(args.data) or writable("--out", Path(args.out).with_suffix(".csv"))
+    writable("--out", args.out)
     start = args.start
     scene = _scene(args, "continuation", settings,
                    A=start if parameter == "A" and start is not None else None,
@@ -224,7 +231,8 @@ def _bifurcation(args) -> int:
     first = None
     if values is not None:
         first = values["start"] if isinstance(values, dict) else values[0]
-    data_path = data_file(args.data) or Path(args.out).with_suffix(".csv")
+    data_path = data_file(args.data) or writable("--out", Path(args.out).with_suffix(".csv"))
+    writable("--out", args.out)
     scene = _scene(args, "bifurcation_diagram", settings,
                    A=first if parameter == "A" else None,
                    omega=first if parameter == "omega" and first else None)
@@ -276,6 +284,9 @@ def _lyapunov(args) -> int:
         if A is not None and omega is not None and (A.size > 1 or omega.size > 1):
             return _lyapunov_grid(args, settings, A, omega)
         A, omega = (None if x is None else float(x[0]) for x in (A, omega))
+    if "log_omega" in getattr(args, "given", ()):
+        raise UsageError("--log-omega: for a grid of ω given as START:STOP:NUM; here is one "
+                         "drive" + (" (the scene's)" if args.scene is not None else "") + ".")
     if args.out or args.data:
         raise UsageError("--out, --data: for a grid of several --A or ω values.")
     scene = _scene(args, "lyapunov", settings, A=A, omega=omega)
@@ -308,6 +319,8 @@ def _lyapunov_grid(args, settings, A, omega) -> int:
     if "exponents" in settings:
         raise UsageError("--exponents: a grid computes the largest exponent only.")
     data_path = data_file(args.data)
+    if args.out:
+        writable("--out", args.out)
     scene = _scene(args, "lyapunov", settings, A=float(A[0]), omega=float(omega[0]))
     s = scene.analyses["lyapunov"]
     params = {**scene.params, "A": A[:, None], "omega": omega[None, :]}

@@ -6,7 +6,8 @@ Commands (``kapitza COMMAND --help`` shows each one's options and an example):
   window    the exact window of stabilising amplitudes per ω, the averaging one beside it
   map       the exact (A, ω) stability map: a PNG and the data (CSV or Parquet)
   measure   simulate the full nonlinear motion at one drive and measure it
-  verify    averaging, Floquet and simulation compared over a grid (exit 1: disagreement)
+  verify    averaging, Floquet and simulation compared over a grid (exit 1: methods that
+            claim validity at a point disagree; the others are reported)
   animate   a GIF of the stabilised inverted pendulum beside one that falls
   continue  follow a branch of periodic orbits in A or ω: its bifurcations, a PNG
   bifurcation  the stroboscopic bifurcation diagram over A or ω: a PNG and the dots
@@ -18,22 +19,55 @@ Commands (``kapitza COMMAND --help`` shows each one's options and an example):
   summary   derive, compile and integrate the catalogue (the default: ``kapitza --rtol 1e-6``)
 
 Drive parameters are SI numbers (``--A`` m, ``--omega`` rad/s or ``--f`` Hz) or
-dimensionless ratios (``--A-over-l``, ``--omega-over-omega0`` with ω0 = √(g/l)).
+dimensionless ratios (``--A-over-l``, ``--omega-over-omega0`` with ω0 = √(g/l)); a
+legal but implausible value is run with a warning that names the likely slip (``--A 5``:
+"A is in metres; did you mean 0.05?"; ``--theta0 179``: "θ0 is in radians").  Each
+command takes only the options it uses; another is refused, naming it.
 ``--json`` writes the results as JSON on stdout; messages and progress go to stderr.
-Exit codes: 0 success, 1 a verification found disagreement beyond the methods'
-tolerances (or a catalogue problem failed), 2 a usage or scene error, 130 interrupted.
+JSON has no literal for ∞ and NaN: they are the strings "inf", "-inf" and "nan", the
+tokens the text prints (``float()`` reads them back); null means no value.
+Errors are one line on stderr naming the option, the value and the fix; ``--traceback``
+(or KAPITZA_DEBUG=1) adds Python's traceback to an internal error.
+Exit codes: 0 success; 1 methods that both claim validity at a point disagree beyond
+their tolerances (verify), or a report section or catalogue problem failed; 2 a usage,
+input or scene error; 70 an internal error (a bug; please report it with the
+traceback); 130 interrupted (Ctrl-C; what finished is kept).
 """
 from __future__ import annotations
 
 import argparse
+import difflib
 import math
+import os
 from pathlib import Path
 
 import numpy as np
 
+from ._output import plain_message, say
+
+#: Above this A/l the pivot swings farther than the pendulum is long: legal, but more
+#: often a length given in centimetres than meant.
+PLAUSIBLE_A_OVER_L = 1.0
+#: Above this |angle| (rad) an angle is more often degrees than meant.
+PLAUSIBLE_ANGLE = 2 * math.pi
+
 
 class UsageError(Exception):
     """A command's arguments are wrong (exit code 2); the message names what."""
+
+
+class CommandLineParser(argparse.ArgumentParser):
+    """argparse's parser whose errors are one line: the command, the problem, and where
+    the help is (argparse prints the whole usage first)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {plain_message(message)} (see '{self.prog} "
+                  "--help')\n")
+
+
+def warn(args, message: str) -> None:
+    """A warning on stderr, one line, naming the command: the input is legal and is run."""
+    say(f"kapitza {args.command}: warning: {message}")
 
 
 def pendulum_from(args):
@@ -43,7 +77,8 @@ def pendulum_from(args):
 
 
 def number_list(text: str, name: str) -> np.ndarray:
-    """``"0.05"``, ``"0.01,0.03,0.1"`` or ``"START:STOP:NUM"`` (NUM points, linear)."""
+    """``"0.05"``, ``"0.01,0.03,0.1"`` or ``"START:STOP:NUM"`` (NUM points, linear); finite
+    numbers only."""
     try:
         if ":" in text:
             parts = text.split(":")
@@ -52,14 +87,17 @@ def number_list(text: str, name: str) -> np.ndarray:
             start, stop, num = float(parts[0]), float(parts[1]), int(parts[2])
             if num < 1:
                 raise ValueError
-            return np.linspace(start, stop, num)
-        values = np.array([float(v) for v in text.split(",") if v.strip()])
-        if not values.size:
-            raise ValueError
-        return values
+            values = np.linspace(start, stop, num)
+        else:
+            values = np.array([float(v) for v in text.split(",") if v.strip()])
+            if not values.size:
+                raise ValueError
     except ValueError:
         raise UsageError(f"{name}: expected a number, a comma-separated list or START:STOP:NUM, "
                          f"got {text!r}.") from None
+    if not np.all(np.isfinite(values)):
+        raise UsageError(f"{name}: the values must be finite numbers, got {text!r}.")
+    return values
 
 
 def geometric(text: str, name: str) -> np.ndarray:
@@ -81,6 +119,7 @@ def parse_amplitude(args, grid: bool = False):
     values = number_list(text, name)
     if args.A is None:
         values = values * args.l
+    _check_amplitude(args, name, text, values)
     if not grid:
         if values.size != 1:
             raise UsageError(f"{name}: one value here, got {text!r}.")
@@ -102,6 +141,9 @@ def parse_frequency(args, grid: bool = False):
     if name == "--f":
         values = 2 * math.pi * values
     elif name == "--omega-over-omega0":
+        if not args.g > 0:
+            raise UsageError(f"--omega-over-omega0: ω0 = √(g/l) is 0 with --g {args.g:g}; "
+                             "give the frequency as --omega (rad/s) or --f (Hz).")
         values = values * math.sqrt(args.g / args.l)
     if not grid:
         if values.size != 1:
@@ -110,22 +152,85 @@ def parse_frequency(args, grid: bool = False):
     return values
 
 
+def _check_amplitude(args, name, text, values):
+    """Warn where A/l > 1: legal, but most often centimetres (or a percentage) meant."""
+    ratio = float(np.max(np.abs(values))) / args.l if values.size else 0.0
+    if not ratio > PLAUSIBLE_A_OVER_L:
+        return
+    what = (f"{name} {text}: A/l = {ratio:.4g} > {PLAUSIBLE_A_OVER_L:g}, the pivot swings "
+            f"farther than the pendulum is long (l = {args.l:g} m)")
+    if name == "--A":
+        unit = "A is in metres"
+        if values.size == 1:
+            warn(args, f"{what}; {unit}: did you mean {float(values[0]) / 100:g} "
+                 f"({float(values[0]):g} cm)?")
+        else:
+            warn(args, f"{what}; {unit} (centimetres meant? divide by 100).")
+    else:
+        warn(args, f"{what}; A/l is a ratio (a percentage meant? did you mean "
+             f"{float(values.flat[0]) / args.l / 100:g}?).")
+
+
+def check_angle(args, option: str, value) -> bool:
+    """Warn where an angle (rad) exceeds 2π in size: most often degrees meant.  Whether
+    it warned."""
+    if value is None or not np.isfinite(value) or abs(value) <= PLAUSIBLE_ANGLE:
+        return False
+    name = {"--theta0": "θ0", "--about": "the state's angle",
+            "--starts": "a starting angle"}.get(option, option)
+    warn(args, f"{option} {value:g}: |{value:g}| > 2π; {name} is in radians: did you mean "
+         f"{value:g}° = {math.radians(value):.4g} rad?")
+    return True
+
+
 def drive_point(args, A, omega) -> dict:
     """The drive (SI and dimensionless) and the pendulum, as every command's JSON states them."""
     omega0 = math.sqrt(args.g / args.l)
+    with np.errstate(divide="ignore", invalid="ignore"):     # g = 0: ω0 = 0, ω/ω0 = inf
+        ratio = np.asarray(omega, dtype=float) / omega0
     return {"A": A, "omega": omega, "A_over_l": np.asarray(A) / args.l,
-            "omega_over_omega0": np.asarray(omega) / omega0,
+            "omega_over_omega0": ratio,
             "pendulum": {"l": args.l, "g": args.g, "damping": args.damping,
                          "drive": args.drive, "omega0": omega0}}
 
 
-def data_file(text):
-    """A data file's path: .csv or .parquet."""
+def over_omega0(omega, args) -> float:
+    """ω/ω0 with ω0 = √(g/l) of the options (inf where g = 0)."""
+    omega0 = math.sqrt(args.g / args.l)
+    return float(omega) / omega0 if omega0 > 0 else math.inf
+
+
+def data_file(text, option="--data"):
+    """A data file's path: .csv or .parquet, in a place that can be written."""
     if text is None:
         return None
     path = Path(text)
     if path.suffix not in (".csv", ".parquet"):
-        raise UsageError(f"--data must end in .csv or .parquet, got {text!r}.")
+        raise UsageError(f"{option} must end in .csv or .parquet, got {text!r}.")
+    return writable(option, text)
+
+
+def writable(option: str, text, *, folder: bool = False) -> Path:
+    """The path ``option`` names for writing, checked before any work: a file (or with
+    ``folder`` a folder, new or existing) that can be made there — a usage error naming
+    the option, the path and the fix otherwise (a file where a folder is due or the
+    reverse, a part of the path a file, no permission)."""
+    path = Path(text)
+    if folder and path.exists() and not path.is_dir():
+        raise UsageError(f"{option} {text}: a file is there, and this is a folder (new or "
+                         "existing): choose another name, or remove the file.")
+    if not folder and path.is_dir():
+        raise UsageError(f"{option} {text}: a folder is there, and this is a file: give a "
+                         f"file name, e.g. {path / ('name' + (path.suffix or '.csv'))}.")
+    probe = path if folder else path.parent
+    while not probe.exists() and probe != probe.parent:     # the nearest existing ancestor
+        probe = probe.parent
+    if probe.exists() and not probe.is_dir():
+        raise UsageError(f"{option} {text}: {probe} is a file, not a folder: choose another "
+                         "path.")
+    if probe.exists() and not os.access(probe, os.W_OK | os.X_OK):
+        raise UsageError(f"{option} {text}: no permission to write in {probe}: choose "
+                         "another path.")
     return path
 
 
@@ -184,11 +289,13 @@ def _epilog(name):
     return "examples:\n" + "\n".join(f"  {e}" for e in _EXAMPLES[name])
 
 
-def _common(p, json_only=False):
+def _common(p, json_only=False, amplitude=True):
     """The options every command shares (added to each parser: argparse's ``parents``
-    would lose the drive's group title in the help)."""
+    would lose the drive's group title in the help); ``amplitude=False``: no --A,
+    --A-over-l (a command that finds the amplitudes itself)."""
     p.add_argument("--json", action="store_true",
-                   help="write the results as JSON on stdout (messages go to stderr)")
+                   help="write the results as JSON on stdout (messages go to stderr; "
+                   'non-finite numbers as "inf", "-inf", "nan")')
     if json_only:
         return
     g = p.add_argument_group("the pendulum")
@@ -199,9 +306,10 @@ def _common(p, json_only=False):
                    help="direction of the pivot's oscillation A cos ωt (default vertical)")
     d = p.add_argument_group("the drive (SI numbers or dimensionless ratios; grids as "
                              "a,b,c or START:STOP:NUM where a command takes several)")
-    a = d.add_mutually_exclusive_group()
-    a.add_argument("--A", metavar="A", help="amplitude A (m)")
-    a.add_argument("--A-over-l", dest="A_over_l", metavar="A/l", help="amplitude as A/l")
+    if amplitude:
+        a = d.add_mutually_exclusive_group()
+        a.add_argument("--A", metavar="A", help="amplitude A (m)")
+        a.add_argument("--A-over-l", dest="A_over_l", metavar="A/l", help="amplitude as A/l")
     f = d.add_mutually_exclusive_group()
     f.add_argument("--omega", metavar="ω", help="angular frequency ω (rad/s)")
     f.add_argument("--f", metavar="Hz", help="frequency f = ω/2π (Hz)")
@@ -213,15 +321,16 @@ def build_parser() -> argparse.ArgumentParser:
     """The ``kapitza`` parser: one sub-command each, its name in ``args.command``."""
     from .._version import __version__
     raw = argparse.RawDescriptionHelpFormatter
-    parser = argparse.ArgumentParser(prog="kapitza", description=__doc__, formatter_class=raw)
+    parser = CommandLineParser(prog="kapitza", description=__doc__, formatter_class=raw,
+                               epilog=_MAIN_EPILOG)
     parser.add_argument("--version", action="version", version=f"kapitza {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     pend, plain = False, True
 
-    def add(name, helptext, json_only):
+    def add(name, helptext, json_only, **options):
         p = sub.add_parser(name, help=helptext, description=helptext, epilog=_epilog(name),
                            formatter_class=raw)
-        _common(p, json_only)
+        _common(p, json_only, **options)
         return p
 
     p = add("predict", "averaging and Floquet analysis at one drive (A, ω)", pend)
@@ -231,7 +340,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tol", type=float, default=1e-10, help="Floquet tolerance (default 1e-10)")
 
     p = add("window", "the exact window A_min < A < A_max per ω (vertical drive), the "
-            "averaging window beside it", pend)
+            "averaging window beside it", pend, amplitude=False)
     p.add_argument("--about", choices=("inverted", "hanging"), default="inverted")
     p.add_argument("--order", type=int, choices=(1, 2), default=1,
                    help="order of the averaging window (default 1)")
@@ -266,7 +375,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rtol", type=float, default=1e-9, help="integration tolerance")
 
     p = add("verify", "averaging, Floquet and simulation of the upright pendulum compared "
-            "over an A × ω grid; exit code 1 where they disagree beyond tolerance", pend)
+            "over an A × ω grid; exit code 1 where two methods that both claim validity at a "
+            "point disagree beyond their tolerances (points outside a method's validity, e.g. "
+            "first-order averaging beyond A/l = 0.3, are listed, not failed)", pend)
     p.add_argument("--theta0", type=float, default=math.pi - 0.01,
                    help="the simulations' release angle (rad; default π − 0.01)")
     p.add_argument("--periods", type=int, default=None,
@@ -332,7 +443,134 @@ def build_parser() -> argparse.ArgumentParser:
     p = add("summary", "derive, compile and integrate the catalogue (the default)", plain)
     p.add_argument("--rtol", type=float, default=1e-10,
                    help="integration tolerance (default 1e-10)")
+    parser.commands = sub.choices           # name → its parser (unknown_option reads them)
     return parser
+
+
+#: ``kapitza --help``'s epilog: what every command shares.
+_MAIN_EPILOG = """\
+every command:
+  --json        the results as JSON on stdout ("inf", "-inf", "nan" for non-finite numbers,
+                as the text prints them; null: no value)
+  --traceback   with an internal error, Python's traceback too (or KAPITZA_DEBUG=1)
+
+exit codes:
+  0    success
+  1    methods that both claim validity at a point disagree (verify); a report section
+       or a catalogue problem failed
+  2    a usage, input or scene error (one line naming the option, the value, the fix)
+  70   an internal error: a bug (--traceback shows where; please report it)
+  130  interrupted (Ctrl-C): what finished is kept
+"""
+
+#: Why a command has no such option, where the reason is not obvious.
+_NOT_HERE = {
+    ("window", "--A"): "the window is the range of amplitudes A_min < A < A_max at each ω, "
+                       "so it takes ω only (one drive (A, ω): kapitza predict)",
+    ("window", "--A-over-l"): "the window is the range of amplitudes at each ω, so it takes "
+                              "ω only (one drive (A, ω): kapitza predict)",
+}
+
+
+def unknown_option(parser, command: str, extras: list) -> str:
+    """The one-line error for arguments ``command`` does not take: the first of them, the
+    commands that do take it or the nearest spelling, and why where known."""
+    sub = parser.commands[command]
+    first = next((a for a in extras if a.startswith("-") and a != "-"), None)
+    if first is None:
+        return (f"unexpected argument {extras[0]!r} (kapitza {command} takes "
+                f"{_positionals(sub) or 'no positional arguments'}; see 'kapitza {command} "
+                "--help').")
+    option = first.split("=", 1)[0]
+    message = f"{option} is not an option of kapitza {command}"
+    if (command, option) in _NOT_HERE:
+        message += ": " + _NOT_HERE[(command, option)]
+    else:
+        others = [name for name, p in parser.commands.items()
+                  if option in p._option_string_actions]
+        near = difflib.get_close_matches(option, [o for o in sub._option_string_actions
+                                                  if o.startswith("--") and o != "--help"],
+                                         n=1)
+        if near:
+            message += f"; did you mean {near[0]}?"
+        elif others:
+            message += f" (the commands that take it: {', '.join(others)})"
+    return f"{message} (see 'kapitza {command} --help')."
+
+
+def _positionals(p) -> str:
+    return ", ".join(a.metavar or a.dest for a in p._actions if not a.option_strings)
+
+
+def given_options(argv) -> set:
+    """The destinations of the options ``argv`` gives explicitly (not defaults): the same
+    parse with every default suppressed."""
+    parser = build_parser()
+    for p in (parser, *parser.commands.values()):
+        for action in p._actions:
+            if action.dest not in ("help", "version", "command"):
+                action.default = argparse.SUPPRESS
+    args, _ = parser.parse_known_args(argv)
+    return set(vars(args)) - {"command"}
+
+
+#: Option names by their destination, where a message names an option.
+_OPTION_NAMES = {"l": "--l", "g": "--g", "damping": "--damping", "drive": "--drive",
+                 "theta0": "--theta0", "theta_dot0": "--theta-dot0", "A_fall": "--A-fall"}
+
+
+def refuse_with_scene(args, *keys, why="the scene file sets it (edit the scene, or leave "
+                      "the scene out to use the options)") -> None:
+    """A usage error naming the options of ``keys`` given explicitly alongside a scene file,
+    which does not use them."""
+    given = [_OPTION_NAMES[k] for k in keys if k in getattr(args, "given", ())]
+    if given:
+        raise UsageError(f"{', '.join(given)}: not used with a scene file: {why}.")
+
+
+def check_pendulum_options(args) -> None:
+    """--l, --g and --damping, where the command takes them: finite, l > 0, g and
+    damping ≥ 0 (a usage error naming the option otherwise)."""
+    for option, key, low, strict in (("--l", "l", 0.0, True), ("--g", "g", 0.0, False),
+                                     ("--damping", "damping", 0.0, False)):
+        value = getattr(args, key, None)
+        if value is None:
+            continue
+        if not math.isfinite(value) or value < low or (strict and value == low):
+            need = "> 0" if strict else "≥ 0"
+            unit = {"l": "m", "g": "m/s²", "damping": "1/s"}[key]
+            raise UsageError(f"{option} must be a finite number {need} ({unit}), got "
+                             f"{value:g}.")
+
+
+def check_tolerances(args) -> None:
+    """--tol and --rtol, where the command takes them: relative tolerances in (0, 1) (the
+    analyses refine the range; a command that uses --tol only sometimes still refuses a
+    meaningless one)."""
+    for option, key in (("--tol", "tol"), ("--rtol", "rtol")):
+        value = getattr(args, key, None)
+        if value is not None and not (math.isfinite(value) and 0 < value < 1):
+            raise UsageError(f"{option} must be a relative tolerance in (0, 1), e.g. 1e-10; "
+                             f"got {value:g}.")
+
+
+def check_angles(args) -> None:
+    """Warn where an angle option (rad) looks like degrees: --theta0, --about, --starts."""
+    check_angle(args, "--theta0", getattr(args, "theta0", None))
+    about = getattr(args, "about", None)
+    if about is not None:
+        try:
+            values = [float(x) for x in str(about).replace(",", " ").split()]
+        except ValueError:
+            values = []
+        any(check_angle(args, "--about", v) for v in values)         # one warning
+    starts = getattr(args, "starts", None)
+    if starts:
+        try:
+            values = [float(x) for x in str(starts).replace(",", " ").split()]
+        except ValueError:
+            values = []                 # the command names a malformed --starts
+        any(check_angle(args, "--starts", v) for v in values)
 
 
 def _frontier_parsers(add):
