@@ -7,21 +7,21 @@ else: an effect left out contributes no term to the statement, so none to the de
 equations, the generated kernels or the cost of a run (tests inspect the equations;
 ``benchmarks/bench_effects.py`` measures the saving).
 
-==================  ============================================  =====================
-effect              term of the statement                         parameters
-==================  ============================================  =====================
-:class:`Gravity`    V += Σ m_i g y_i                              ``g`` (m/s²)
-:class:`PivotDrive` P(t) = A Σ_k a_k d cos(k ω t + φ_k) along a   ``A`` (m), ``omega``
-                    direction d (vertical, horizontal, a vector),  (rad/s); elliptic:
-                    or the ellipse (A cos ωt, B sin ωt)            also ``B`` (m)
-:class:`Damping`    D = γ T_rel (T_rel: kinetic energy relative    ``gamma`` (1/s)
-                    to the pivot), i.e. −γ M q̇ in the equations:
-                    θ̈ = −γ θ̇ − … for the pendulum
-:class:`AirDrag`    F_i = −c |v_i| v_i on every mass (v_i its       ``c_drag`` (kg/m)
-                    velocity through still air), by virtual work
-:class:`Spring`     V += ½ k (q_j − q_j0)² (a torsion spring at a  ``k_<coordinate>``
-                    joint, or a linear spring on a length)         (N m/rad or N/m)
-==================  ============================================  =====================
+===================  =============================================  ====================
+effect               term of the statement                          parameters
+===================  =============================================  ====================
+:class:`Gravity`     V += Σ m_i g y_i                               ``g`` (m/s²)
+:class:`PivotDrive`  P(t) = A Σ_k a_k d cos(k ω t + φ_k) along a    ``A`` (m), ``omega``
+                     direction d (vertical, horizontal, a vector),  (rad/s); elliptic:
+                     or the ellipse (A cos ωt, B sin ωt)            also ``B`` (m)
+:class:`Damping`     D = γ T_rel (T_rel: kinetic energy relative    ``gamma`` (1/s)
+                     to the pivot), i.e. −γ M q̇ in the equations:
+                     θ̈ = −γ θ̇ − … for the pendulum
+:class:`AirDrag`     F_i = −c |v_i| v_i on every mass (v_i its      ``c_drag`` (kg/m)
+                     velocity through still air), by virtual work
+:class:`Spring`      V += ½ k (q_j − q_j0)² (a torsion spring at a  ``k_<coordinate>``
+                     joint, or a linear spring on a length)         (N m/rad or N/m)
+===================  =============================================  ====================
 
 What each effect allows (:func:`capabilities`): velocity forces (damping, drag) rule
 out the Runge–Kutta–Nyström and symplectic integrators (q̈ = f(q, t) is needed); a
@@ -167,6 +167,14 @@ class PivotDrive:
         if self.path == "elliptic" and harm != ((1, 1.0, 0.0),):
             raise ValueError("PivotDrive: the elliptic path has no extra harmonics.")
         object.__setattr__(self, "harmonics", harm)
+        # a drive whose terms vanish or cancel (every a_k = 0, or a cos(kωt) beside
+        # −a cos(kωt)) moves nothing: its statement would lose A and omega, which every
+        # analysis of the drive asks for
+        px, py = self.pivot() if self.path != "elliptic" else (1, 1)
+        if px == 0 and py == 0:
+            raise ValueError(f"PivotDrive: the harmonics {harm} cancel (Σ a_k cos(k ω t + φ_k) "
+                             "is 0 at every t), so the pivot does not move; give a nonzero "
+                             "relative amplitude a_k, or leave the drive out.")
 
     @property
     def direction(self):

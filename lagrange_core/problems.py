@@ -132,8 +132,10 @@ def rolling_disc(constrained: bool = False) -> System:
         The multiplier λ is then the friction force along +s (N): the generalized
         constraint force is Φ_qᵀλ = (λ, −R λ).
 
-    Closed forms
-    ------------
+    Notes
+    -----
+    Closed forms:
+
     * s̈ = g sin α / (1 + I/(m R²))   (uniform disc: 2 g sin α / 3);
     * the friction force acts up the incline, λ = −I s̈ / R²;
     * energy m ṡ² (1 + I/(m R²))/2 − m g s sin α is conserved.
@@ -160,8 +162,10 @@ def atwood_machine() -> System:
     by y/R).  Parameters ``M``, ``R`` (m; it cancels from the equations), ``g``, ``m1``,
     ``m2``.
 
-    Closed forms
-    ------------
+    Notes
+    -----
+    Closed forms:
+
     * ÿ = (m1 − m2) g / (m1 + m2 + I/R²) = (m1 − m2) g / (m1 + m2 + M/2);
     * the string's tensions T1 = m1 (g − ÿ) and T2 = m2 (g + ÿ) differ by the torque
       that turns the pulley: (T1 − T2) R = I ÿ / R.
@@ -192,8 +196,10 @@ def central_force(V=None) -> System:
         sympy expression, or an expression in a symbol named ``r`` (any
         assumptions); its other free symbols become parameters.
 
-    Closed forms (any V(r))
-    -----------------------
+    Notes
+    -----
+    Closed forms (any V(r)):
+
     * φ is cyclic: the angular momentum p_φ = L = m r² φ̇ is conserved
       (``system.equations.conserved_momenta['phi']``), and so is the energy
       E = ½ m ṙ² + L²/(2 m r²) + V(r).
@@ -251,8 +257,10 @@ def spherical_pendulum(form: str = "spherical") -> System:
         including through the poles.  The multiplier λ gives the constraint
         force 2λ (x, y, z) on the bob, so the rod's tension is T = −2 λ l (N).
 
-    Closed forms (spherical form)
-    -----------------------------
+    Notes
+    -----
+    Closed forms (spherical form):
+
     * φ is cyclic: p_φ = m l² sin² θ φ̇ is conserved; so is the energy
       E = ½ m l² (θ̇² + sin² θ φ̇²) − m g l cos θ.
     * Steady conical motion at θ0 (0 < θ0 < π/2) needs φ̇² = g / (l cos θ0).
@@ -300,8 +308,10 @@ def block_on_wedge(normal_coordinate: bool = False) -> System:
         constraint n = 0.  The multiplier λ is then the generalized force on n,
         which is the normal force N the wedge exerts on the block (N).
 
-    Closed forms
-    ------------
+    Notes
+    -----
+    Closed forms:
+
     With D = M + m sin² α:
 
     * s̈ = (M + m) g sin α / D   (the block's acceleration relative to the wedge),
@@ -341,8 +351,10 @@ def swinging_atwood() -> System:
 
         L = m ṙ² + ½ m r² θ̇² − m g r (1 − cos θ).
 
-    Closed forms
-    ------------
+    Notes
+    -----
+    Closed forms:
+
     * The energy E = m ṙ² + ½ m r² θ̇² + m g r (1 − cos θ) is conserved.
     * 2 r̈ = r θ̇² − g (1 − cos θ): with θ = θ̇ = 0 initially r moves uniformly,
       r(t) = r0 + ṙ0 t, so with ṙ0 < 0 it reaches 0 at t = −r0/ṙ0.

@@ -10,11 +10,27 @@ import os
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, settings
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
+# Property-based tests (tests/test_properties_*.py).  "ci", the default: few examples, the
+# same ones every run (derandomized: a failure reproduces, and the kernels of the random
+# systems stay in the disk cache), no example database, no per-example deadline (the
+# machine is shared; each test bounds its own inputs).  "thorough", by hand
+# (``pytest tests/test_properties_*.py --hypothesis-profile=thorough``): 20 times as many,
+# freshly random, the failures kept in ./.hypothesis.  A test asks for a multiple of
+# ``max_examples``, so both profiles scale it.
+_PROPERTY_CHECKS = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow],
+                        print_blob=True)
+settings.register_profile("ci", max_examples=10, derandomize=True, database=None,
+                          **_PROPERTY_CHECKS)
+settings.register_profile("thorough", max_examples=200, **_PROPERTY_CHECKS)
+settings.load_profile("ci")
+
 #: Test files (and studies) that take longest, started first; the rest keep their order.
-_FIRST = ("test_studies.py", "test_report_browser.py", "test_report.py", "test_batch.py",
+_FIRST = ("test_studies.py", "test_docs.py", "test_docs_browser.py", "test_notebooks.py",
+          "test_report_browser.py", "test_report.py", "test_batch.py",
           "test_sweeps.py", "test_continuation.py", "test_batch_physics.py",
           "test_lyapunov.py", "test_floquet_boundaries.py", "test_verify.py")
 
@@ -23,6 +39,13 @@ def _group(item) -> str:
     path = item.nodeid.split("::")[0]
     if path.endswith("test_studies.py") and hasattr(item, "callspec"):
         return f"{path}::{item.callspec.id}"
+    # the site is built once for both files (tests/docs_site.py); each notebook runs on
+    # its own, so the two workers share them
+    if path.endswith(("test_docs.py", "test_docs_browser.py")):
+        return "docs-site"
+    if (path.endswith("test_notebooks.py")
+            and getattr(item, "originalname", "") == "test_notebook_runs"):
+        return f"notebook-{item.callspec.id}"     # as marked in the file
     return path
 
 

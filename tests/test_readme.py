@@ -1,4 +1,5 @@
-"""The README's command-line examples, run and compared with their printed output.
+"""The command-line examples of the README and of the guide's command-line page
+(docs/guide/command-line.md), run and compared with their printed output.
 
 The Python examples of the README are doctests (``--doctest-glob=README.md``); the shell
 examples are ```` ```console ```` blocks: each ``$ kapitza …`` line is run through
@@ -16,6 +17,8 @@ import pytest
 from kapitza import cli
 
 README = Path(__file__).resolve().parent.parent / "README.md"
+#: the command line's page of the site's guide, where the README's examples moved (issue 23)
+GUIDE = README.parent / "docs" / "guide" / "command-line.md"
 
 
 def console_examples(text: str):
@@ -35,7 +38,7 @@ def console_examples(text: str):
     return examples
 
 
-EXAMPLES = console_examples(README.read_text())
+EXAMPLES = console_examples(README.read_text() + GUIDE.read_text())
 
 
 def test_the_readme_has_command_line_examples():

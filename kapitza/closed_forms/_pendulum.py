@@ -62,7 +62,7 @@ def pendulum_effective_potential(A, omega, *, theta, l=1.0, g=9.81, drive="verti
     horizontal: U_eff/m = −g l cos θ + A² ω² cos² θ / 4
 
     Relative error O(ε²), ε² ~ ω0²/ω² ~ A²/l² (see
-    :func:`kapitza.closed_forms._characteristic.exponent_squared`).  Broadcasts over
+    ``kapitza.closed_forms._characteristic.exponent_squared``).  Broadcasts over
     A (m), ω (rad/s) and θ (rad).  The drive comes first (``docs/api-conventions.md``
     §2); before kapitza 0.2 the order was ``(theta, A, omega)``, which still works and
     warns.
@@ -132,9 +132,9 @@ def pendulum_averaged(A, omega, *, l=1.0, g=9.81, damping=0.0, drive="vertical",
     kapitza.results.PendulumAveraging
         ``.hanging``, ``.inverted``, ``.tilted`` (:class:`~kapitza.results.EquilibriumPrediction`).
 
-    Damping
-    -------
-    The averaged equation is θ̈ + γ θ̇ + ∂U_eff/∂θ = 0: damping does not move the
+    Notes
+    -----
+    Damping: the averaged equation is θ̈ + γ θ̇ + ∂U_eff/∂θ = 0: damping does not move the
     equilibria nor the first-order stability limit; small oscillations become
     e^{−γt/2} cos(√(Ω² − γ²/4) t), overdamped when γ > 2Ω.  For the linearised
     pendulum this is exact in form: the damped Mathieu equation equals the
@@ -313,7 +313,7 @@ def averaged_window(omega, *, l=1.0, g=9.81, damping=0.0, order=2, warn=True,
 
     Order 1: A_min = √(2 g l)/ω, A_max = +inf (first order cannot see the upper
     limit).  Order 2: A_min from ν²(a′, q) = −γ²/ω²
-    (:func:`~kapitza.closed_forms._characteristic.exponent_squared`), i.e. (undamped)
+    (``exponent_squared``), i.e. (undamped)
     A²ω²(1 − 7A²/(16 l²)) ≈ 2 g l, relative error O(ε⁴); A_max from the parametric
     resonance a′ = b₁(2A/l), → 0.4540 l as ω → ∞ (b₁ from its series,
     :func:`~kapitza.closed_forms._characteristic.mathieu_b1`, up to q = 1, A/l = 0.5,
