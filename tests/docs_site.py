@@ -1,0 +1,69 @@
+"""The reference site (``docs/``), built once per test process for tests/test_docs.py and
+tests/test_docs_browser.py (tests/conftest.py puts both files in one xdist group).
+
+The build is the README's command with two differences: it goes to a temporary folder,
+and the notebooks are rendered as stored (``nb_execution_mode=off``: stripped of outputs)
+because tests/test_notebooks.py executes each of them on its own.  Everything else is as
+a reader's build: warnings are errors, the guide's examples run, the API pages are written
+from the packages' ``__all__``.  It runs as a subprocess: a fresh interpreter as on the
+command line, and ``-j auto`` (two cores: two processes).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+DOCS = ROOT / "docs"
+#: s: a build that takes longer has hung (a full one takes ~1 min on two idle cores)
+BUILD_TIMEOUT = 900
+
+
+@dataclass(frozen=True)
+class Site:
+    """A finished build: the HTML folder, the command's output, its exit code and time."""
+
+    html: Path
+    log: str
+    returncode: int
+    seconds: float
+
+
+def sphinx(source: Path, out: Path, *options: str, timeout: float = BUILD_TIMEOUT):
+    """Run ``python -m sphinx -W --keep-going -b html`` on ``source`` into ``out/html``."""
+    command = [
+        sys.executable,
+        "-m",
+        "sphinx",
+        "-W",
+        "--keep-going",
+        "-b",
+        "html",
+        *options,
+        str(source),
+        str(out / "html"),
+        "-d",
+        str(out / "doctrees"),
+    ]
+    env = dict(os.environ, MPLBACKEND="Agg")
+    start = time.perf_counter()
+    run = subprocess.run(
+        command, cwd=ROOT, capture_output=True, text=True, timeout=timeout, env=env
+    )
+    return Site(out / "html", run.stdout + run.stderr, run.returncode, time.perf_counter() - start)
+
+
+_BUILT: dict[str, Site] = {}
+
+
+def built_site(tmp_path_factory) -> Site:
+    """The quick build of ``docs/``, made on first use in this process."""
+    if "site" not in _BUILT:
+        out = tmp_path_factory.mktemp("docs-site")
+        _BUILT["site"] = sphinx(DOCS, out, "-j", "auto", "-D", "nb_execution_mode=off")
+    return _BUILT["site"]
