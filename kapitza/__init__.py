@@ -131,6 +131,7 @@ True
 >>> pend.floquet(A=0.05, omega=2 * math.pi * 60, about="inverted").stable   # exact, linear
 True
 """
+from ._arguments import GridTooLargeError as GridTooLargeError
 from ._version import __version__ as __version__
 from .animation import Animation as Animation
 from .animation import SystemAnimation as SystemAnimation
@@ -237,6 +238,7 @@ __all__ = [
     "verification_figure",
     "pendulum_animation", "system_animation", "Animation", "SystemAnimation",
     "Scene", "SceneResults", "SceneError", "SweepResult", "example_scenes", "open_sweep",
+    "GridTooLargeError",
     "build_report", "Report",
     "warmup",
     # deprecated (DEPRECATED): they warn and name their replacement

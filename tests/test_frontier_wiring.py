@@ -137,7 +137,7 @@ def test_period_doubling_scene_writes_each_table(period_doubling):
     scene, res, out = period_doubling
     assert list(res.results) == ["continuation", "bifurcation_diagram", "lyapunov"]
     assert sorted(p.name for p in out.iterdir()) == [
-        "bifurcation_diagram.parquet", "continuation.parquet",
+        "_run.json", "bifurcation_diagram.parquet", "continuation.parquet",
         "continuation_bifurcations.parquet", "lyapunov.parquet"]
     families = {"continuation": "continuation", "continuation_bifurcations": "continuation",
                 "bifurcation_diagram": "simulation", "lyapunov": "lyapunov"}

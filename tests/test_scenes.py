@@ -585,9 +585,10 @@ def test_only_the_analyses_asked_for_run_and_tables_are_written(tmp_path):
     tr = res["simulate"]
     assert tr.t.shape == (11,) and tr.t[-1] == pytest.approx(5 * 2 * math.pi / 300.0)
     out = tmp_path / "out"
-    assert sorted(p.name for p in out.iterdir()) == [
-        "floquet.csv", "floquet.parquet", "simulate.csv", "simulate.parquet", "window.csv",
-        "window.parquet"]
+    assert sorted(p.name for p in out.iterdir()) == [      # each CSV with its sidecar
+        "_run.json", "floquet.csv", "floquet.csv-metadata.json", "floquet.parquet",
+        "simulate.csv", "simulate.csv-metadata.json", "simulate.parquet", "window.csv",
+        "window.csv-metadata.json", "window.parquet"]
     import json
 
     import pyarrow.parquet as pq

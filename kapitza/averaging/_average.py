@@ -107,10 +107,12 @@ import scipy.linalg
 import scipy.optimize
 import sympy as sp
 
+from lagrange_core.checks import real_array
 from lagrange_core.progress import run_in_chunks
 from lagrange_core.systems import System
 from lagrange_core.systems import t as t_symbol
 
+from .. import _arguments as arguments
 from .._deprecation import keyword_options, warn_deprecated
 from ..results import (
     AveragingPrediction,
@@ -327,7 +329,7 @@ class AveragedSystem:
             raise ValueError(f"the drive frequency {self.omega.name} must be > 0 (rad/s), got {w}.")
 
     def mean_drag(self, params, q) -> np.ndarray:
-        """The mean drag force D(q) of a damped two-phase drive (see :meth:`_drag`), in the
+        """The mean drag force D(q) of a damped two-phase drive (see ``_drag``), in the
         units of the generalized forces; zeros when there is none.
 
         Before kapitza 0.2 the order was ``mean_drag(q, params)``; it still works and warns.
@@ -570,9 +572,18 @@ class AveragedSystem:
             stable, not valid) and ``.computed`` marks them.
         """
         names = list(params)
-        arrays = np.broadcast_arrays(*[np.asarray(params[k], float) for k in names])
+        values = [real_array(params[k], f"params[{k!r}]") for k in names]
+        try:
+            arrays = np.broadcast_arrays(*values)
+        except ValueError:
+            raise ValueError("AveragedSystem.sweep: the parameters must broadcast together, got "
+                             "shapes " + ", ".join(f"{k} {v.shape}" for k, v in zip(
+                                 names, values, strict=True)) + ".") from None
         shape = arrays[0].shape
         n = self.system.n_dof
+        arguments.check_grid_memory("params (broadcast)", shape,
+                                    arguments.averaging_bytes_per_point(n),
+                                    where="AveragedSystem.sweep: ")
         w2 = np.full(shape + (n,), np.nan)
         stable = np.zeros(shape, bool)
         valid = np.zeros(shape, bool)

@@ -92,7 +92,8 @@ def mathieu_parameters(A, omega, l, g, damping=0.0, about="inverted"):
     sign = arguments.about_sign(about)
     l, g, damping = arguments.pendulum_constants(l, g, damping)
     A, omega = arguments.amplitude(A), arguments.frequency(omega)
-    a = sign * 4.0 * g / (l * omega**2)
+    with np.errstate(over="ignore"):        # ω² beyond 1.8e308: a = 0, its limit
+        a = sign * 4.0 * g / (l * omega**2)
     q = 2.0 * A / l
     c = 2.0 * damping / omega
     return a, q, c
@@ -435,6 +436,9 @@ def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, damping=0.0, about="inver
     arguments.about_sign(about)
     A = arguments.grid_axis("A", A, "m", positive=False)
     w = arguments.grid_axis("omega", omega, "rad/s", positive=True)
+    arguments.check_grid_memory("A × omega", (A.size, w.size), arguments.MATHIEU_MAP_BYTES if (
+        damping == 0.0 and not trace) else arguments.MATHIEU_TRACE_MAP_BYTES,
+        where="pendulum_stability_map: ")
     t0 = time.perf_counter()
     with np.errstate(over="ignore", divide="ignore"):
         a, q, c = mathieu_parameters(A, w, l, g, damping, about)    # a, c per ω; q per A
@@ -449,7 +453,13 @@ def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, damping=0.0, about="inver
     err = 1e-15
     if damping == 0.0:
         if _kmax_needed(q, a) > _KMAX_LIMIT:
-            wmin = float(np.min(w))
+            wmin, amax = float(np.min(w)), float(np.max(A))
+            if 2.0 * float(np.max(np.abs(q))) > float(np.max(a)):     # the drive is too big
+                raise ValueError(
+                    f"A = {amax!r} m: q = 2A/l = {2.0 * amax / l:.3g} lies above "
+                    f"~{_kmax_needed(q, a):.2g} resonance tongues, too many to count; the "
+                    "pivot swings that far only in a mistake (A is in metres): use A/l ≤ 1e6, "
+                    "or kapitza.floquet.stability_map(pendulum.system, ...).")
             raise ValueError(
                 f"about={about!r} with omega = {wmin!r} rad/s: a = 4 g/(l ω²) = "
                 f"{float(np.max(a)):.3g} lies above ~{_kmax_needed(q, a):.2g} resonance "

@@ -124,6 +124,9 @@ def stability_map(system, params, about, *, A, omega, amplitude="A", frequency="
     _check_params("stability_map", params)
     A = arguments.grid_axis(amplitude, A, None, positive=None)
     omega = arguments.grid_axis(frequency, omega, "rad/s", positive=True)
+    arguments.check_grid_memory(f"{amplitude} × {frequency}", (A.size, omega.size),
+                                arguments.monodromy_bytes_per_point(getattr(system, "n_dof", 1)),
+                                where="stability_map: ")
     fixed = {k: v for k, v in params.items() if k not in (amplitude, frequency)}
     if A.size and omega.size and all(np.ndim(v) == 0 for v in fixed.values()):
         request = orbit_request(system, fixed_parameters(system, params, amplitude, frequency),
@@ -238,6 +241,8 @@ def adaptive_map(system, params, about, *, A, omega, amplitude="A", frequency="o
     _check_params("adaptive_map", params)
     A = arguments.grid_axis(amplitude, A, None, positive=None)
     w = arguments.grid_axis(frequency, omega, "rad/s", positive=True)
+    arguments.check_grid_memory(f"{amplitude} × {frequency}", (A.size, w.size),
+                                arguments.ADAPTIVE_MAP_BYTES, where="adaptive_map: ")
     if isinstance(coarse_step, bool) or not isinstance(coarse_step, int) or coarse_step < 1:
         raise ValueError(f"coarse_step must be an integer ≥ 1, got {coarse_step!r}.")
     probe = probe_for(system, params, about, amplitude, frequency, tol, order, guard_tol,

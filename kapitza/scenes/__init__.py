@@ -13,7 +13,9 @@ scene's point with given settings: the report's quick mode), :func:`read_scene_d
 scene checked from its parsed tables: the command line's scenes from options) and
 :func:`storable` (a table with its complex columns split for Parquet),
 :func:`table_metadata` and :func:`write_frame` (the record a written table carries, and
-the writing of a table with it: the report's tables).
+the writing of a table with it: the report's tables), :class:`SweepLockedError` (another
+sweep writes the dataset) and :class:`DamagedPartWarning` (a damaged part moved aside and
+computed again).
 
 Modules: ``_schema`` (the file's tables, keys and units), ``_checker`` (problems collected
 and raised together), ``_file`` (reading and checking; Hz → rad/s happens here and nowhere
@@ -35,11 +37,16 @@ from ._file import read_scene_data as read_scene_data
 from ._frontier import Branches as Branches
 from ._outputs import table_metadata as table_metadata
 from ._outputs import write_frame as write_frame
+from ._rigs import default_band as default_band
 from ._scene import Scene, SceneResults, code_fingerprint, example_scenes
 from ._scene import fingerprinted_modules as fingerprinted_modules
 from ._settings import Axis as Axis
+from ._states import about_state as about_state
+from ._states import persists as persists
 from ._sweep import SweepResult
 from ._sweep import storable as storable
+from ._sweep_store import DamagedPartWarning as DamagedPartWarning
+from ._sweep_store import SweepLockedError as SweepLockedError
 from ._sweep_xarray import open_sweep
 
 __all__ = ["Scene", "SceneResults", "SceneError", "SweepResult", "example_scenes",

@@ -174,7 +174,7 @@ def _measure(scene, s, progress):
     with naming_state(scene, q, s.get("about")):
         return measure(scene.system, scene.spec.params, q, scene.q0, scene.qdot0,
                        periods=s.get("periods", 1000), band=_band(scene, s, q),
-                       rtol=s.get("rtol", 1e-9), progress=progress,
+                       rtol=s.get("rtol"), progress=progress,
                        **_options(s, _INTEGRATION_KEYS))
 
 
@@ -315,7 +315,7 @@ def _grid_measure(scene, s, params, q0, qdot0):
     else:
         about = checked_state(scene, _about(scene, about, q0), about, _point_params(params, 0))
     m = measure_grid(scene.system, params, about, q0, qdot0, periods=s.get("periods", 1000),
-                     band=_band(scene, s, about), rtol=s.get("rtol", 1e-9), progress=False,
+                     band=_band(scene, s, about), rtol=s.get("rtol"), progress=False,
                      **_options(s, _INTEGRATION_KEYS))
     return _drop_params(m.to_dataframe(), scene)
 

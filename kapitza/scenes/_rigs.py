@@ -197,7 +197,7 @@ def _check_units(c, value, key, names, prefix=""):
         if q not in names:
             c.unknown(f"{key}.{q}" if not prefix else key, str(q), names,
                       what=f"{prefix}coordinate")
-        elif u not in UNITS_OF_COORDINATES:
+        elif not isinstance(u, str) or u not in UNITS_OF_COORDINATES:
             c.error(f"{key}.{q}" if not prefix else key,
                     f"{prefix}unknown unit {u!r} of {q}; allowed: "
                     + ", ".join(f"\"{k}\" ({v})" for k, v in UNITS_OF_COORDINATES.items()))

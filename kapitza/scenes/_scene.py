@@ -4,9 +4,10 @@
 :mod:`._file`): ``Scene.from_toml(path)``, then ``scene.system`` is the
 :class:`lagrange_core.System` with only the effects the file names
 (:func:`lagrange_core.effects.build`), and ``scene.run()`` computes the analyses of
-``[analyses]`` — only those — at the scene's point, and each sweepable one that
-``[sweep]`` names over the sweep's grid (:mod:`._sweep`).  How each analysis is computed:
-:meth:`Scene.run`; the functions: :mod:`._analyses`.
+``[analyses]`` — only those — at the scene's point, and ``scene.sweep()`` a sweepable one
+over the ``[sweep]`` grid (:mod:`._sweep`).  How each analysis is computed:
+:meth:`Scene.run`; the functions: :mod:`._analyses`; what is written and the record each
+table carries: :mod:`._outputs`.
 
 Examples
 --------
@@ -22,9 +23,7 @@ Examples
 from __future__ import annotations
 
 import functools
-import importlib
 import json
-import pkgutil
 import threading
 import time
 from dataclasses import dataclass, field
@@ -34,63 +33,20 @@ from pathlib import Path
 import numpy as np
 
 from lagrange_core import effects as fx
-from lagrange_core.module_store import content_key, source_fingerprint
+from lagrange_core.module_store import content_key
 
 from ..pendulum import KapitzaPendulum
 from . import _sweep as sweeps
 from ._analyses import GRID, POINT, method_of, tile_inputs
 from ._file import SceneSpec, read_scene, read_scene_text
+from ._fingerprint import _package_fingerprint as _package_fingerprint
+from ._fingerprint import code_fingerprint, fingerprinted_modules
+from ._outputs import check_scene_grids, sweep_metadata, table_metadata, write_outputs
 from ._schema import SWEEPABLE
 from ._settings import Axis
 
 __all__ = ["Scene", "SceneResults", "code_fingerprint", "example_scenes",
            "fingerprinted_modules"]
-
-#: Modules and subpackages whose code does not change what a scene computes (figures, the
-#: command line, installation, the cluster executor); everything else, at any depth, counts.
-_NOT_FINGERPRINTED = ("kapitza.figures", "kapitza.cli", "kapitza.warmup", "kapitza.__main__",
-                      "kapitza.scenes._sweep_dask", "lagrange_core.warmup")
-
-
-def _excluded(name: str) -> bool:
-    return any(name == x or name.startswith(x + ".") for x in _NOT_FINGERPRINTED)
-
-
-def fingerprinted_modules() -> list:
-    """Every module of lagrange_core and kapitza whose code can change a number: the
-    packages walked recursively (subpackages and their private modules included), less
-    ``_NOT_FINGERPRINTED``."""
-    mods, todo = [], ["lagrange_core", "kapitza"]
-    while todo:
-        package = importlib.import_module(todo.pop(0))
-        mods.append(package)
-        for info in pkgutil.iter_modules(package.__path__, prefix=f"{package.__name__}."):
-            if _excluded(info.name):
-                continue
-            if info.ispkg:
-                todo.append(info.name)
-            else:
-                mods.append(importlib.import_module(info.name))
-    # an empty file (a bare __init__.py) has no code, and no source for inspect to read
-    return [m for m in mods if Path(m.__file__).stat().st_size > 0]
-
-
-@functools.cache
-def _package_fingerprint() -> str:
-    mods = fingerprinted_modules()
-    return source_fingerprint(*mods)
-
-
-def code_fingerprint(user_module: str | None = None) -> str:
-    """The fingerprint of the code that computes a scene's results: every module of
-    lagrange_core and kapitza that can change a number (docstrings and comments
-    excluded, :func:`lagrange_core.module_store.source_fingerprint`), and a user rig's
-    module."""
-    base = _package_fingerprint()
-    if user_module is None:
-        return base
-    return content_key(base, source_fingerprint(importlib.import_module(user_module)))
-
 
 def example_scenes() -> dict:
     """The scene files that ship with kapitza: name → path."""
@@ -171,7 +127,7 @@ class Scene:
     @property
     def analyses(self) -> dict:
         """The analyses asked for, name → settings, in the file's order.  A setting that
-        is an axis is a :class:`kapitza.scenes.Axis` in SI units (the drive frequencies
+        is an axis is a ``Axis`` (``kapitza.scenes._settings``) in SI units (the drive frequencies
         always ``omega``, rad/s, also where the file gave ``frequency_hz``)."""
         return dict(self.spec.analyses)
 
@@ -222,7 +178,7 @@ class Scene:
         initial state, and the settings and sweep of ``analysis``, or of every analysis);
         the output place and the title are not part of it."""
         parts = {"statement": self.system.statement_key(), "params": self.spec.params,
-                 "initial": self.spec.initial}
+                 "initial": self.spec.initial, **self.spec.declared_key()}
         if analysis is None:
             parts["analyses"] = self.spec.analyses
             parts["sweep"] = self._sweep_record()
@@ -246,25 +202,37 @@ class Scene:
     # -- running -------------------------------------------------------------------------
     def run(self, *, progress=None, executor=None, worker_threads: int = 1,
             write: bool = True) -> SceneResults:
-        """Compute the analyses the scene asks for.
+        """Compute the analyses of ``[analyses]``, each once at the scene's point.
 
-        Those named in ``[sweep] analyses`` run over the sweep's grid (:meth:`sweep`), the
-        others once at the scene's point.  With ``[output] directory`` (and ``write``)
-        every table is written there: ``<analysis>.parquet`` (and ``.csv``) for the
-        point analyses, a Parquet dataset per sweep.
+        A ``[sweep]`` is not run here (its grid is :meth:`sweep`'s, ``kapitza sweep``): an
+        analysis it names runs at the scene's point like the others.  Before any work,
+        every grid of ``[analyses]`` (a map's, a verification's, a diagram's) is checked
+        against the memory it needs (``kapitza.scenes._outputs.check_scene_grids``).
+        With ``[output] directory`` (and ``write``) every table is written there,
+        ``<table>.parquet`` and/or ``<table>.csv`` (with its ``.csv-metadata.json``
+        sidecar), each carrying the record of ``kapitza.scenes._outputs.table_metadata``
+        (the scene, parameters with units, method, tolerances, integrator, versions) — all
+        or nothing, the manifest ``_run.json`` last (:mod:`kapitza.scenes._outputs`).
 
         Parameters
         ----------
         progress : None or bool
-            Progress bars of sweeps and long grids (None: when stderr is a terminal).
+            Progress lines of long grids (None: when stderr is a terminal).
         executor, worker_threads
-            Where sweeps run (:func:`kapitza.scenes._sweep.run_sweep`).
+            Not used since the sweep runs only through :meth:`sweep` (kept so that old
+            calls still work).
         write : bool
-            Write the output tables.
+            Write the output tables (False: nothing is written anywhere).
 
         Returns
         -------
         SceneResults
+
+        Raises
+        ------
+        kapitza.GridTooLargeError
+            A grid of ``[analyses]`` that would not fit in memory, before any work (a
+            ValueError naming the scene key, the estimate and the limit).
 
         Notes
         -----
@@ -313,7 +281,7 @@ class Scene:
             the periodic orbit found by :func:`kapitza.periodic_orbit`), with
             ``switch = true`` the branches born at its period doublings, pitchforks and
             transcritical points (:meth:`kapitza.results.Branch.switch`):
-            :class:`~kapitza.scenes.Branches`; tables ``continuation`` and
+            ``Branches``; tables ``continuation`` and
             ``continuation_bifurcations``.
         ``bifurcation_diagram``
             Strobe samples after a transient over the parameter's values × the starts
@@ -333,12 +301,9 @@ class Scene:
         nearest it.
         """
         t0 = time.perf_counter()
-        swept = self.spec.sweep["analyses"] if self.spec.sweep else ()
-        results, sweep_results, methods = {}, {}, {}
+        check_scene_grids(self)
+        results, methods = {}, {}
         for name, settings in self.spec.analyses.items():
-            if name in swept:
-                methods[name] = method_of(name, self, settings)
-                continue
             try:
                 results[name] = POINT[name](self, settings, progress)
             except ValueError as e:
@@ -349,18 +314,16 @@ class Scene:
         written = []
         out = self.spec.output
         if write and out["directory"] is not None and results:
-            written = _write_tables(self, results, methods, out["directory"], out["formats"])
-        for name in swept:
-            sweep_results[name] = self.sweep(name, executor=executor,
-                                             worker_threads=worker_threads, progress=progress)
-            written.append(sweep_results[name].path)
-        return SceneResults(scene=self, results=results, sweeps=sweep_results,
+            written = write_outputs(self, _tables_with_metadata(self, results, methods),
+                                    out["directory"], out["formats"])
+        return SceneResults(scene=self, results=results, sweeps={},
                             written=tuple(written), seconds=time.perf_counter() - t0,
                             methods=methods)
 
     def sweep(self, analysis: str | None = None, *, directory=None, executor=None,
               worker_threads: int = 1, tile_points: int | None = None,
-              tile_seconds: float = 0.5, progress=None, csv: bool | None = None):
+              tile_seconds: float = 0.5, progress=None, csv: bool | None = None,
+              wait=False):
         """Run ``analysis`` over the scene's ``[sweep]`` grid, tile by tile, resumable.
 
         Parameters
@@ -373,10 +336,13 @@ class Scene:
             subdirectory ``<analysis>-<key>``, ``key`` a hash of the scene, the analysis
             and the code: a changed scene or code starts a new dataset.
         executor, worker_threads, tile_points, tile_seconds, progress
-            See :func:`kapitza.scenes._sweep.run_sweep` (``tile_points`` default: the scene's
+            See ``kapitza.scenes._sweep.run_sweep`` (``tile_points`` default: the scene's
             ``[sweep] tile_points``, else calibrated).
         csv : bool, optional
             Also write ``<dataset>.csv`` (default: "csv" in ``[output] formats``).
+        wait : bool or float
+            Another sweep writing the same dataset: refuse naming it (False), wait for it
+            (True) or at most this many seconds.
 
         Returns
         -------
@@ -398,18 +364,14 @@ class Scene:
         fingerprint = code_fingerprint(self._user_module)
         key = self.key(analysis)
         path = base / f"{analysis}-{content_key(key, fingerprint)[:12]}"
-        meta = {"scene": self.spec.text, "source": self.spec.source, "analysis": analysis,
-                "settings": _plain(self.spec.analyses.get(analysis, {})),
-                "system": self.system.name,
-                "parameters": self.spec.params, "initial": self.spec.initial,
-                "targets": s["targets"], "scene_key": key}
+        meta = sweep_metadata(self, analysis, key)
         return sweeps.run_sweep(
             _SweepWork(self.spec.text, self.spec.source, analysis), s["axes"], path, key=key,
             fingerprint=fingerprint, metadata=meta,
             tile_points=tile_points if tile_points is not None else s["tile_points"],
             tile_seconds=tile_seconds, executor=executor, worker_threads=worker_threads,
             progress=progress, csv=("csv" in self.spec.output["formats"]) if csv is None else csv,
-            label=f"{analysis} sweep")
+            label=f"{analysis} sweep", wait=wait)
 
     def _output_directory(self) -> Path:
         if self.spec.output["directory"] is not None:
@@ -430,9 +392,10 @@ class SceneResults:
         Analysis name → its result at the scene's point (the types named in the
         :meth:`Scene.run` notes), in the file's order.
     sweeps : dict
-        Analysis name → :class:`kapitza.SweepResult`.
+        Analysis name → :class:`kapitza.SweepResult` (empty from :meth:`Scene.run`, which
+        does not run the ``[sweep]``: :meth:`Scene.sweep` does).
     written : tuple of Path
-        Files and datasets written.
+        Files written, the manifest ``_run.json`` last (empty with ``write=False``).
     seconds : float
     methods : dict
         Analysis name → how it was computed, "<family>: <detail>" (e.g. "floquet:
@@ -473,6 +436,36 @@ class SceneResults:
             name = next(iter(tables))
         return tables[name]
 
+    def to_xarray(self, name: str):
+        """The :class:`xarray.Dataset` of analysis ``name``: a sweep's
+        (:meth:`SweepResult.to_xarray`) or a gridded result's (a map, a window, a
+        verification, …: its ``to_xarray()``).  Needs ``pip install "kapitza[xarray]"``.
+
+        Raises
+        ------
+        KeyError
+            No analysis ``name`` was computed.
+        ValueError
+            Its result is not a grid (it has no ``to_xarray``).
+        """
+        result = self[name]
+        if not hasattr(result, "to_xarray"):
+            gridded = [k for k, r in {**self.results, **self.sweeps}.items()
+                       if hasattr(r, "to_xarray")]
+            raise ValueError(f"the result of {name!r} ({type(result).__name__}) is not a grid "
+                             f"and has no Dataset; these have: {gridded}.")
+        return result.to_xarray()
+
+    def _repr_html_(self) -> str:
+        from ..results import html_card
+        rows = [(name, f"{type(r).__name__} — {self.methods.get(name, '')}")
+                for name, r in self.results.items()]
+        rows += [(f"{name} (sweep)", f"{r.size} points, {r.path}")
+                 for name, r in self.sweeps.items()]
+        rows.append(("time", f"{self.seconds:.3g} s; {len(self.written)} files written"))
+        return html_card("SceneResults", self.scene.spec.title or "", rows=rows,
+                         notes=["results[name] displays one result"])
+
 
 def _table(result, method=None):
     import pandas as pd
@@ -496,28 +489,15 @@ def _result_tables(name, result, method=None) -> dict:
     return out
 
 
-def _write_tables(scene, results, methods, directory, formats):
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    meta = {"scene": scene.spec.text, "source": scene.spec.source,
-            "settings": _plain(scene.spec.analyses), "system": scene.system.name,
-            "parameters": scene.spec.params,
-            "initial": scene.spec.initial, "scene_key": scene.key(),
-            "fingerprint": code_fingerprint(scene._user_module),
-            "versions": sweeps.package_versions()}
-    written = []
+def _tables_with_metadata(scene, results, methods) -> dict:
+    """Every table of the results with the record it carries: name → (frame, metadata)."""
+    out = {}
     for analysis, r in results.items():
         method = methods.get(analysis)
+        meta = table_metadata(scene, analysis, method=method, result=r)
         for name, frame in _result_tables(analysis, r, method).items():
-            if "parquet" in formats:
-                written.append(sweeps.write_table(frame, directory / f"{name}.parquet",
-                                                  dict(meta, analysis=analysis,
-                                                       method=method)))
-            if "csv" in formats:
-                path = directory / f"{name}.csv"
-                sweeps.write_text(path, frame.to_csv(index=False))
-                written.append(path)
-    return written
+            out[name] = (frame, meta)
+    return out
 
 
 def _plain(x):

@@ -10,8 +10,10 @@ Rules of the store (each holds for every executor)
 1. **A tile is one call of ≥ ~100 ms.**  Unless ``tile_points`` is given, the tile
    size is calibrated once: the work runs on one point (which also compiles or loads
    every kernel it needs into the on-disk cache), then on 8 points spread over the
-   grid until two runs agree within 30 %, all on one numba thread; a tile gets
-   ``tile_seconds`` (default 0.5 s) of that one-thread work, by the fastest pilot run.
+   grid until two runs agree within 30 %, all on one numba thread — and where those
+   take under a quarter of ``tile_seconds``, on 64 points too, which separates a call's
+   fixed cost from its cost per point; a tile gets ``tile_seconds`` (default 0.5 s) of
+   that one-thread work, by the fastest pilot runs.
    The plan (tile size, number of points) is written to the dataset's ``_sweep.json``
    before the first tile, and a restarted sweep uses it, so its tiles are the same.
 2. **A finished tile is one Parquet part, written atomically**: to a temporary name
@@ -20,7 +22,8 @@ Rules of the store (each holds for every executor)
    points and the code's fingerprint (:func:`lagrange_core.module_store.source_fingerprint`).
    A killed process leaves a whole part or none (a stray temporary file, removed by the
    next run), never half a part.
-3. **A restarted sweep skips every tile whose part exists**; a tile is one file, so a
+3. **A restarted sweep skips every tile whose part exists** (and passes its check, rule
+   7); a tile is one file, so a
    point is never computed into two parts: no row is lost or duplicated, whatever was
    interrupted (Ctrl-C, a killed process, a failed worker).
 4. **The result** is the parts read in order: a tidy DataFrame (columns ``point``, the
@@ -36,6 +39,18 @@ Rules of the store (each holds for every executor)
    in ``.result`` (they are on disk already).
 6. **Progress**: a tqdm bar with the time left on stderr, quiet when stderr is not a
    terminal (``progress=None``; True forces it, False silences it).
+7. **Damage never blocks a resume** (:mod:`kapitza.scenes._sweep_store`): each part's
+   rows, bytes and SHA-256 go to the ledger ``_parts.jsonl`` as it is written; a resumed
+   sweep checks every part, moves a damaged one aside (``_<part>.damaged``, with a
+   :class:`~kapitza.scenes._sweep_store.DamagedPartWarning` naming it) and computes its
+   tile again.  A part that cannot be written (a full disk) leaves nothing behind and
+   stops the sweep with an ``OSError`` saying how to resume.  The lock ``_sweep.lock``
+   keeps a second sweep of the dataset from writing (it refuses, naming the first, or
+   waits: ``wait``); a lock whose process is gone is taken over.
+8. **A result too large for memory is not loaded**: where the parts' rows would take
+   more than :func:`kapitza._arguments.memory_limit`, ``SweepResult.frame`` is None
+   (read the dataset in pieces with ``pyarrow.dataset``) and the CSV is written part by
+   part.  Metadata store the axes compactly (a range as start, stop, num and scale).
 
 Executors
 ---------
@@ -68,10 +83,13 @@ import numpy as np
 from lagrange_core.module_store import content_key
 from lagrange_core.progress import defer_ctrl_c, interrupt_requested
 
+from .. import _arguments as arguments
 from ..results import ComputationInterrupted
+from ._sweep_store import dataset_lock, record_part, verified_tiles
 
 __all__ = ["SweepResult", "run_sweep", "grid_size", "tile_columns", "numba_threads",
-           "package_versions", "write_table", "write_text", "storable", "MANIFEST"]
+           "package_versions", "write_table", "write_text", "storable", "axis_record",
+           "MANIFEST"]
 
 #: The plan of a dataset directory (tile size, points, keys), written before the first tile.
 MANIFEST = "_sweep.json"
@@ -87,8 +105,9 @@ class SweepResult:
     ----------
     path : pathlib.Path
         The Parquet dataset (a directory of parts).
-    frame : pandas.DataFrame
-        The finished tiles' rows, in point order (:meth:`to_dataframe`).
+    frame : pandas.DataFrame or None
+        The finished tiles' rows, in point order (:meth:`to_dataframe`); None where they
+        would not fit in memory (module docstring, rule 8).
     metadata : dict
         What every part records (scene, axes, parameters, versions, code fingerprint).
     size : int
@@ -118,7 +137,34 @@ class SweepResult:
 
     def to_dataframe(self):
         """The sweep's rows: ``point``, the axes, then the analysis's columns."""
+        if self.frame is None:
+            raise arguments.GridTooLargeError(
+                f"the sweep's rows in {self.path} would not fit in memory (the limit: "
+                f"{arguments.memory_limit()[1]}); read the dataset in pieces, e.g. "
+                f"pyarrow.dataset.dataset('{self.path}').to_batches(), or filter it: "
+                f"pandas.read_parquet('{self.path}', filters=[('point', '<', 1000)]).",
+                argument="the sweep's rows", shape=(self.size,), needed=math.nan,
+                limit=math.nan)
         return self.frame.copy()
+
+    def to_xarray(self):
+        """The sweep as one :class:`xarray.Dataset` over its axes (units, the analysis's
+        columns as variables, the scene and versions in ``attrs``; a partial sweep's
+        missing points NaN): :func:`kapitza.open_sweep` reads the same from the
+        directory.  Needs ``pip install "kapitza[xarray]"``."""
+        from ._sweep_xarray import sweep_dataset
+        return sweep_dataset(self)
+
+    def figure(self, variable=None, **options):
+        """One column over the sweep's first two axes (default: the slow frequency where
+        the run stayed up, or ``stable``): :func:`kapitza.figures.grid_figure`
+        (``select=``, ``mask=``, … go to it)."""
+        from ._sweep_xarray import sweep_figure
+        return sweep_figure(self, variable, **options)
+
+    def _repr_html_(self) -> str:
+        from ._sweep_xarray import sweep_card
+        return sweep_card(self)
 
 
 # -- the grid -----------------------------------------------------------------------------
@@ -183,6 +229,16 @@ def compute_tile(work, axes, start, stop, threads=None):
     with numba_threads(threads), guard:
         frame = work(cols, points)
     return _with_axes(frame, axes, cols, points)
+
+
+def axis_record(axis) -> dict:
+    """An axis as metadata record it, compactly: a range as {kind, start, stop, num} (its
+    values are ``numpy.linspace``/``geomspace(start, stop, num)``), a list as its
+    values."""
+    values = [float(v) for v in axis.values]
+    if axis.kind in ("linear", "log") and len(values) > 1:
+        return {"kind": axis.kind, "start": values[0], "stop": values[-1], "num": len(values)}
+    return {"kind": axis.kind, "values": values}
 
 
 def _with_axes(frame, axes, cols, points):
@@ -309,22 +365,39 @@ def _warm(work, axes):
 
 
 def _calibrate(work, axes, size, tile_seconds) -> int:
-    """Points per tile: ``tile_seconds`` of the work on one numba thread, measured on a
-    pilot spread over the grid (after one point that loads or compiles the kernels)."""
+    """Points per tile: ``tile_seconds`` of the work on one numba thread, measured on
+    pilots spread over the grid (after one point that loads or compiles the kernels).
+
+    A call costs a fixed time plus a time per point.  Where 8 points take under a quarter
+    of ``tile_seconds`` (the fixed cost may dominate them) a pilot of 64 points is timed
+    too, and the two separate the costs; a tile is then ``tile_seconds`` of both."""
     _warm(work, axes)
-    pilot = np.unique(np.linspace(0, size - 1, min(size, _PILOT)).round().astype(np.int64))
+    n1, t1 = _pilot(work, axes, size, _PILOT)
+    per_point, fixed = t1 / n1, 0.0
+    if t1 < tile_seconds / 4 and n1 < size:
+        n2, t2 = _pilot(work, axes, size, 8 * _PILOT)
+        # the slope, not less than a tenth of the mean (timing noise must not make a
+        # tile huge)
+        per_point = max((t2 - t1) / (n2 - n1), 0.1 * t2 / n2)
+        fixed = min(max(0.0, t1 - per_point * n1), tile_seconds / 2)
+    points = (tile_seconds - fixed) / max(per_point, 1e-9)
+    return int(max(1, min(size, math.ceil(points))))
+
+
+def _pilot(work, axes, size, n) -> tuple[int, float]:
+    """(points, seconds) of the work on ``n`` points spread over the grid, one numba
+    thread: run until two runs agree within 30 % (at most 4 times; a pilot may still
+    load code that one point did not need), the fastest."""
+    pilot = np.unique(np.linspace(0, size - 1, min(size, n)).round().astype(np.int64))
     cols = tile_columns(axes, pilot)
     times = []
     with numba_threads(1):
-        # a pilot may still load (or compile) code that one point did not need: time it
-        # until two runs agree within 30 %, at most 4 times, and take the fastest
         while len(times) < 4 and not (len(times) >= 2 and times[-1] > 0.7 * times[-2]
                                       and times[-1] < times[-2] / 0.7):
             t0 = time.perf_counter()
             work(cols, pilot)
             times.append(time.perf_counter() - t0)
-    per_point = min(times) / len(pilot)
-    return int(max(1, min(size, math.ceil(tile_seconds / max(per_point, 1e-9)))))
+    return len(pilot), min(times)
 
 
 def _plan(directory: Path, work, axes, key, fingerprint, tile_points, tile_seconds):
@@ -349,7 +422,7 @@ def _plan(directory: Path, work, axes, key, fingerprint, tile_points, tile_secon
     plan = _Plan(key, fingerprint, size, int(tile_points))
     write_text(manifest, json.dumps({"key": key, "fingerprint": fingerprint, "size": size,
                                       "tile_points": plan.tile_points, "tiles": plan.tiles,
-                                      "axes": {a.name: list(a.values) for a in axes},
+                                      "axes": {a.name: axis_record(a) for a in axes},
                                       "created": time.strftime("%Y-%m-%dT%H:%M:%S%z")},
                                      indent=1))
     return plan, calibrated
@@ -358,8 +431,15 @@ def _plan(directory: Path, work, axes, key, fingerprint, tile_points, tile_secon
 def _bar(progress, total, initial, label):
     from tqdm.auto import tqdm
     disable = None if progress is None else not progress
+    # a terminal that reports no size (a pseudo-terminal nobody sized: script(1), CI
+    # runners, editors' shells) made tqdm draw nothing at all: 80 × 24 there
+    try:
+        sized = min(os.get_terminal_size(sys.stderr.fileno())) > 0
+    except (AttributeError, OSError, ValueError):
+        sized = False
     return tqdm(total=total, initial=initial, unit="pt", desc=label, disable=disable,
-                file=sys.stderr, dynamic_ncols=True, leave=True)
+                file=sys.stderr, dynamic_ncols=sized, ncols=None if sized else 80,
+                nrows=None if sized else 24, leave=True)
 
 
 # -- running ----------------------------------------------------------------------------------
@@ -367,7 +447,7 @@ def _bar(progress, total, initial, label):
 def run_sweep(work, axes, directory, *, key: str, fingerprint: str, metadata: dict,
               tile_points: int | None = None, tile_seconds: float = 0.5, executor=None,
               worker_threads: int = 1, progress=None, csv: bool = False,
-              label: str = "sweep") -> SweepResult:
+              label: str = "sweep", wait=False) -> SweepResult:
     """Compute ``work`` over the grid of ``axes`` tile by tile into the dataset ``directory``.
 
     Parameters
@@ -397,6 +477,9 @@ def run_sweep(work, axes, directory, *, key: str, fingerprint: str, metadata: di
         Also write ``<directory>.csv``.
     label : str
         The progress bar's label.
+    wait : bool or float
+        Another sweep writing the dataset: refuse (False), wait for it (True) or wait at
+        most this many seconds.
 
     Returns
     -------
@@ -409,6 +492,16 @@ def run_sweep(work, axes, directory, *, key: str, fingerprint: str, metadata: di
         points.
     ValueError
         The directory holds another sweep, or was cut into other tiles.
+    kapitza.scenes._sweep_store.SweepLockedError
+        Another sweep writes the dataset (a ValueError naming it).
+    OSError
+        A part could not be written (e.g. no space): nothing of it is left behind, the
+        finished tiles are kept, and the same sweep run again resumes.
+
+    Warns
+    -----
+    kapitza.scenes._sweep_store.DamagedPartWarning
+        A part on disk failed its check: moved aside, its tile computed again.
     """
     start_time = time.perf_counter()
     axes = tuple(axes)
@@ -416,13 +509,22 @@ def run_sweep(work, axes, directory, *, key: str, fingerprint: str, metadata: di
         raise ValueError("a sweep needs at least one axis.")
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    _remove_stray_temporaries(directory)
     mode = _executor_name(executor)
-    plan, calibrated = _plan(directory, work, axes, key, fingerprint, tile_points, tile_seconds)
-    meta = dict(metadata, fingerprint=fingerprint, versions=package_versions(),
+    with dataset_lock(directory, wait):
+        _remove_stray_temporaries(directory)
+        plan, calibrated = _plan(directory, work, axes, key, fingerprint, tile_points,
+                                 tile_seconds)
+        return _run_plan(work, axes, directory, plan, calibrated, metadata, executor, mode,
+                         worker_threads, progress, csv, label, start_time)
+
+
+def _run_plan(work, axes, directory, plan, calibrated, metadata, executor, mode,
+              worker_threads, progress, csv, label, start_time):
+    """The tiles of ``plan`` not finished on disk (the dataset's lock held)."""
+    meta = dict(metadata, fingerprint=plan.fingerprint, versions=package_versions(),
                 tile_points=plan.tile_points, tiles=plan.tiles, size=plan.size,
-                axes={a.name: {"kind": a.kind, "values": list(a.values)} for a in axes})
-    done = [i for i in range(plan.tiles) if (directory / plan.part(i)).exists()]
+                axes={a.name: axis_record(a) for a in axes})
+    done = verified_tiles(directory, plan)
     todo = [i for i in range(plan.tiles) if i not in set(done)]
     skipped = len(done)
     points_done = sum(np.subtract(*plan.bounds(i)[::-1]) for i in done)
@@ -430,7 +532,18 @@ def run_sweep(work, axes, directory, *, key: str, fingerprint: str, metadata: di
     computed = []
 
     def finish(i, frame):
-        write_table(frame, directory / plan.part(i), dict(meta, tile=list(plan.bounds(i))))
+        if i in computed:           # a retried task that finished twice: one part per tile
+            return
+        path = directory / plan.part(i)
+        try:
+            write_table(frame, path, dict(meta, tile=list(plan.bounds(i))))
+            record_part(directory, path, len(frame))
+        except OSError as e:
+            kept = skipped + len(computed)
+            raise OSError(e.errno, f"sweep {directory}: the part of tile {i} could not be "
+                          f"written ({e.strerror or e}); nothing of it is left behind and "
+                          f"the {kept} finished tiles are kept. Free the space (or fix the "
+                          "cause) and run the same sweep again: it resumes.") from e
         computed.append(i)
         bar.update(plan.bounds(i)[1] - plan.bounds(i)[0])
 
@@ -451,7 +564,8 @@ def run_sweep(work, axes, directory, *, key: str, fingerprint: str, metadata: di
             a, b = plan.bounds(i)
             finished[a:b] = True
         raise ComputationInterrupted(partial, finished) from None
-    bar.close()
+    finally:
+        bar.close()
     return _result(directory, plan, meta, skipped, computed, start_time, mode, csv=csv,
                    complete=True)
 
@@ -482,29 +596,59 @@ def _run_local(work, axes, plan, todo, threads, finish):
 
 def _result(directory, plan, meta, skipped, computed, start_time, mode, *, csv,
             complete=False) -> SweepResult:
-    import pandas as pd
     import pyarrow as pa
     import pyarrow.parquet as pq
-    parts = [directory / plan.part(i) for i in range(plan.tiles)]
-    tables = [pq.read_table(p) for p in parts if p.exists()]
-    if tables:
-        table = pa.concat_tables(tables, promote_options="permissive")
-        frame = table.to_pandas()
-    else:
-        table, frame = None, pd.DataFrame()
-    if complete and table is not None:
-        schema = table.schema.with_metadata(
-            dict(table.schema.metadata or {},
+    parts = [p for p in (directory / plan.part(i) for i in range(plan.tiles)) if p.exists()]
+    files = [pq.ParquetFile(p) for p in parts]
+    schema = (pa.unify_schemas([f.schema_arrow for f in files], promote_options="permissive")
+              if files else None)
+    # the rows' size in memory: the parts' uncompressed bytes (rule 8)
+    in_memory = sum(f.metadata.row_group(k).total_byte_size for f in files
+                    for k in range(f.metadata.num_row_groups))
+    limit = arguments.memory_limit()[0]
+    frame = _read_frame(parts) if limit is None or in_memory <= limit else None
+    if complete and schema is not None:
+        common = schema.with_metadata(
+            dict(schema.metadata or {},
                  kapitza=json.dumps(meta, sort_keys=True, default=str).encode()))
         tmp = _tmp_name(directory, ".parquet")
         try:
-            pq.write_metadata(schema, tmp)
+            pq.write_metadata(common, tmp)
             os.replace(tmp, directory / "_common_metadata")
         finally:
             if tmp.exists():
                 tmp.unlink()
         if csv:
-            write_text(directory.parent / f"{directory.name}.csv", frame.to_csv(index=False))
+            _write_csv(directory.parent / f"{directory.name}.csv", parts, schema.names, frame)
     return SweepResult(path=directory, frame=frame, metadata=meta, size=plan.size,
                        tile_points=plan.tile_points, tiles=plan.tiles, computed=len(computed),
                        skipped=skipped, seconds=time.perf_counter() - start_time, executor=mode)
+
+
+def _read_frame(parts):
+    import pandas as pd
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    if not parts:
+        return pd.DataFrame()
+    return pa.concat_tables([pq.read_table(p) for p in parts],
+                            promote_options="permissive").to_pandas()
+
+
+def _write_csv(path: Path, parts, columns, frame):
+    """The dataset as one CSV file, atomically: from ``frame``, or part by part where the
+    rows were not loaded (each part's columns in the dataset's order)."""
+    if frame is not None:
+        write_text(path, frame.to_csv(index=False))
+        return
+    import pyarrow.parquet as pq
+    tmp = _tmp_name(path.parent, path.suffix)
+    try:
+        with open(tmp, "w") as f:
+            for k, p in enumerate(parts):
+                part = pq.read_table(p).to_pandas().reindex(columns=columns)
+                part.to_csv(f, index=False, header=k == 0)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()

@@ -18,6 +18,11 @@ store and the guarantees are in :mod:`kapitza.scenes._sweep`.
   warmed by the client's calibration run before anything is submitted.
 * The client writes each part as its task finishes (workers need no shared disk); on
   Ctrl-C it cancels the tasks not finished.
+* A failed tile is computed again: a worker that dies mid-tile has its tasks rescheduled
+  by the scheduler (up to its ``allowed-failures``), and a task that raises is retried
+  :data:`RETRIES` times before its error stops the sweep.  A tile's part is written once,
+  whichever attempt finishes (:func:`kapitza.scenes._sweep.run_sweep`): no point is lost
+  or duplicated.
 """
 from __future__ import annotations
 
@@ -26,7 +31,11 @@ try:
 except ImportError:         # the optional extra is absent: run_tiles says so
     WorkerPlugin, as_completed = object, None
 
-__all__ = ["WorkerSettings", "run_tiles"]
+__all__ = ["WorkerSettings", "run_tiles", "RETRIES"]
+
+#: Retries of a tile whose task raised (a worker out of memory, a transient failure); a
+#: mistake in the work raises the same on every try and stops the sweep after them.
+RETRIES = 2
 
 
 class WorkerSettings(WorkerPlugin):
@@ -52,7 +61,8 @@ def run_tiles(client, task, work, axes, bounds: dict, threads: int, finish):
         raise ImportError("a sweep on a Dask cluster needs the optional extra: "
                           "pip install 'kapitza[dask]' (dask[distributed]).")
     client.register_plugin(WorkerSettings(threads))
-    futures = {client.submit(task, work, axes, start, stop, threads, pure=False): i
+    futures = {client.submit(task, work, axes, start, stop, threads, pure=False,
+                             retries=RETRIES): i
                for i, (start, stop) in bounds.items()}
     try:
         for fut in as_completed(futures):
