@@ -795,7 +795,7 @@ def check(findings: dict, quick: bool) -> None:
     assert all(b > a for a, b in zip(ps, ps[1:], strict=False))
     # (2) the ratios approach Feigenbaum's δ.  The first ratio of a cascade is not yet
     # universal (the logistic map's are 4.23, 4.55, 4.65, 4.664, 4.668, …); this one's
-    # is 5.29 (+13 %).  Each ratio's numerical error (≤ 4.4e-7) is far below its distance
+    # is 5.29 (+13 %).  Each ratio's numerical error (≤ 1.6e-6) is far below its distance
     # from δ, so the bounds are on that distance: measured with a margin of ~3.
     assert abs(f["delta1"] / FEIGENBAUM_DELTA - 1) < 0.15, f["delta1"]
     if not quick:
