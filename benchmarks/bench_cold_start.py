@@ -1,6 +1,6 @@
 """What a new system's first simulation costs, and what every step and call cost after it.
 
-Run:  python benchmarks/bench_cold_start.py [--quick] [--baseline REV]
+Run:  python benchmarks/bench_cold_start.py [--quick] [--baseline REV] [--only first-use]
 
 1. Cold start (issue 9): each case in a fresh process with an *empty* kernel store
    (``LAGRANGE_CORE_CACHE`` a new directory: the system was never seen) while the
@@ -14,6 +14,14 @@ Run:  python benchmarks/bench_cold_start.py [--quick] [--baseline REV]
    ``--baseline REV`` the same measurement runs on the source tree of git revision REV
    (a temporary worktree), alternating old and new processes, and the ratios new/old are
    printed.
+
+3. First use (issue 24, ``--only first-use``): what a user waits for with *every* cache
+   empty (``LAGRANGE_CORE_CACHE`` and ``NUMBA_CACHE_DIR`` new directories, as after
+   ``pip install .``): ``kapitza report``; ``kapitza.warmup()``; then the first
+   ``KapitzaPendulum.measure`` of each drive in a fresh process after the warm-up, and
+   (``--without-warmup``) on empty caches.  Wall and CPU seconds (the process and its
+   children), with the load average before and after: a figure taken under load
+   overstates the wall time.
 
 Absolute times drift on a shared machine; compare ratios and medians.
 """
@@ -126,6 +134,77 @@ def worker_steps(name, quick):
     return dict(per_step=per_step, fixed=best[0] - steps[0] * per_step, steps=steps[1])
 
 
+MEASURE_CASES = [("vertical", 0.0), ("vertical", 0.5), ("horizontal", 0.0), ("horizontal", 0.5)]
+
+
+def worker_measure(name):
+    """The first ``measure`` of drive ``name`` ("vertical" or "horizontal", ", damped")."""
+    import math
+
+    from kapitza import KapitzaPendulum
+    drive, _, damped = name.partition(",")
+    pend = KapitzaPendulum(l=1.0, g=9.81, drive=drive, damping=0.5 if damped else 0.0)
+    A, omega = 0.05, 2 * math.pi * 60
+    theta0 = (math.pi - 0.1 if drive == "vertical"
+              else math.acos(2 * 9.81 / (A * omega) ** 2) + 0.05)
+    t0 = time.perf_counter()
+    pend.measure(A, omega, theta0, periods=200)
+    return dict(first=time.perf_counter() - t0)
+
+
+def timed(cmd, env):
+    """Wall and CPU seconds (the process and its children) of ``cmd``."""
+    import resource
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    if out.returncode not in (0, 1):          # the report exits 1 when a section failed
+        raise RuntimeError(f"{cmd} failed:\n{out.stderr[-3000:]}")
+    return wall, cpu, out
+
+
+def empty_caches():
+    return {**os.environ, "LAGRANGE_CORE_CACHE": tempfile.mkdtemp(prefix="lc-cold-"),
+            "NUMBA_CACHE_DIR": tempfile.mkdtemp(prefix="numba-cold-")}
+
+
+def first_use_table(without_warmup, report=True):
+    load = os.getloadavg()
+    print(f"3. First use on empty caches (load before {load[0]:.1f}, {os.cpu_count()} CPUs), s")
+    print(f"{'what':>52} {'wall':>7} {'cpu':>7} {'target':>8}")
+
+    def row(what, wall, cpu, target=""):
+        print(f"{what:>52} {wall:7.1f} {cpu:7.1f} {target:>8}", flush=True)
+
+    if report:
+        with tempfile.TemporaryDirectory() as out:
+            wall, cpu, res = timed([sys.executable, "-m", "kapitza", "report", "--out", out],
+                                   empty_caches())
+        notices = res.stderr.count("compiling numba kernels for first use")
+        row(f"kapitza report (compile notices: {notices})", wall, cpu, "<= 45")
+    env = empty_caches()
+    wall, cpu, _ = timed([sys.executable, "-c", "import kapitza; kapitza.warmup()"], env)
+    row("kapitza.warmup()", wall, cpu)
+    for drive, damping in MEASURE_CASES:
+        name = drive + (",damped" if damping else "")
+        wall, cpu, res = timed([sys.executable, os.path.abspath(__file__), "--worker",
+                                "measure", name], env)
+        first = json.loads(res.stdout.strip().splitlines()[-1])["first"]
+        row(f"process with first measure, {name}, after warmup", wall, cpu)
+        row(f"  of which the measure call, {name}", first, float("nan"), "<= 5")
+    if without_warmup:
+        for drive, damping in MEASURE_CASES:
+            name = drive + (",damped" if damping else "")
+            wall, cpu, res = timed([sys.executable, os.path.abspath(__file__), "--worker",
+                                    "measure", name], empty_caches())
+            first = json.loads(res.stdout.strip().splitlines()[-1])["first"]
+            row(f"first measure, {name}, empty caches", first, cpu, "<= 15")
+    print(f"load after: {os.getloadavg()[0]:.1f}")
+
+
 def run_worker(kind, name, *, env=None, quick=False):
     cmd = [sys.executable, os.path.abspath(__file__), "--worker", kind, name]
     if quick:
@@ -198,17 +277,25 @@ def main():
     ap.add_argument("--quick", action="store_true", help="fewer repetitions (a smoke run)")
     ap.add_argument("--baseline", metavar="REV", help="also measure git revision REV")
     ap.add_argument("--worker", nargs=2, metavar=("KIND", "CASE"), help=argparse.SUPPRESS)
-    ap.add_argument("--only", choices=["cold", "steps"], help="run one of the two parts")
+    ap.add_argument("--only", choices=["cold", "steps", "first-use"],
+                    help="run one of the parts (first-use: only when asked)")
+    ap.add_argument("--no-report", action="store_true",
+                    help="first-use: leave out the report (the longest part)")
+    ap.add_argument("--without-warmup", action="store_true",
+                    help="first-use: also each drive's first measure on empty caches")
     args = ap.parse_args()
     if args.worker:
         kind, name = args.worker
-        out = worker_cold(name) if kind == "cold" else worker_steps(name, args.quick)
+        out = (worker_cold(name) if kind == "cold" else worker_measure(name)
+               if kind == "measure" else worker_steps(name, args.quick))
         print(json.dumps(out))
         return
     if args.only in (None, "cold"):
         cold_table(1 if args.quick else 3)
     if args.only in (None, "steps"):
         steps_table(args.quick, args.baseline)
+    if args.only == "first-use":
+        first_use_table(args.without_warmup, report=not args.no_report)
 
 
 if __name__ == "__main__":

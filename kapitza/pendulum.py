@@ -31,6 +31,7 @@ from . import floquet as _floquet
 from ._deprecation import keyword_options, state_was_first, warn_deprecated
 from .floquet import floquet_point
 from .results import (
+    ComputationInterrupted,
     FloquetResult,
     Measurement,
     PendulumAveraging,
@@ -52,6 +53,28 @@ def _driven_pendulum(drive: str, damped: bool):
     return problems.driven_pendulum(drive, damping=damped)
 
 
+
+
+def _check_release(where, theta0, centre, band, about):
+    """theta0 within the band about the state the run is measured about (the general
+    measure_grid checks the same, in its own names: q0, about), and not so large that a
+    float cannot resolve the band there (θ0 = 1e300 made the band's ends equal)."""
+    half = arguments.real_number(band, "band", unit="rad", minimum=0.0, strict=True)
+    theta0, centre = np.broadcast_arrays(theta0, np.asarray(centre, dtype=float))
+    lost = (centre - half) == (centre + half)
+    if np.any(lost):
+        raise ValueError(f"{where}theta0 = {float(theta0[lost].flat[0])!r} rad is too large to "
+                         f"measure about: a float there cannot resolve the band of ±{half:g} "
+                         "rad; give the angle within a few turns of 0 (θ0 mod 2π).")
+    outside = ~(np.abs(theta0 - centre) < half)
+    if np.any(outside):
+        raise ValueError(f"{where}theta0 = {float(theta0[outside].flat[0])!r} rad lies outside "
+                         f"the band |θ − θ*| < {half:g} rad about the state it is measured "
+                         f"about, θ* = {float(centre[outside].flat[0]):.6g} rad ("
+                         + (f"about={about!r}" if about is not None else "about=None: the "
+                            "upright state, or the tilted one of the horizontal drive")
+                         + "); release it near that state, pass the state it starts near as "
+                         "about, a wider band, or band=None.")
 
 
 #: ``simulate``'s arguments before kapitza 0.2, in their order then
@@ -464,7 +487,8 @@ class KapitzaPendulum:
     # -- measurements from direct integration (kapitza.simulation) ---------------------------
     def measure(self, A: float, omega: float, theta0: float, theta_dot0: float = 0.0, *,
                 periods: int = DEFAULT_PERIODS, about=None, band=math.pi / 2,
-                method=None, rtol: float = 1e-9, t0: float = 0.0) -> Measurement:
+                observables="all", method=None, rtol: float | None = None, t0: float = 0.0,
+                progress=None) -> Measurement:
         """Simulate the full nonlinear motion from (θ0, θ̇0) and measure it.
 
         Parameters
@@ -485,9 +509,22 @@ class KapitzaPendulum:
             The run stops, and has not stayed up, where |θ − about| ≥ band (rad).  The
             default π/2 makes ``stayed_up`` the criterion |θ − π| < π/2 throughout for
             the inverted state.  None: no band.
+        observables : "all", "classification", or a list of "amplitude", "omega_slow"
+            What to measure (:func:`kapitza.measure_grid`): "classification" only
+            decides stayed up / fall time / deviation, without strobe samples or the
+            slow-frequency fit (those fields are None), at its own default tolerance.
         method, rtol, t0
             Integration method (None: RKN 12(10) undamped, DOP853 damped), relative
-            tolerance, start time (s; the drive's phase).
+            tolerance (None: 1e-9 with Ω or the amplitude; to classify only 1e-4
+            undamped, 1e-6 damped: :func:`kapitza.measure_grid` says why), start time (s;
+            the drive's phase).
+        progress : None, bool or callable
+            A long run (millions of periods) shows a progress line with the time left
+            when stderr is a terminal (None), always (True), never (False), or calls
+            ``progress(done, total)``.  Ctrl-C stops it within a second and raises
+            :class:`~kapitza.results.ComputationInterrupted` whose ``.result`` is the
+            measurement of the run so far (status "interrupted", ``t_reached``,
+            ``completed_periods``).
 
         Returns
         -------
@@ -517,14 +554,20 @@ class KapitzaPendulum:
         if A.ndim or np.ndim(theta0) or np.ndim(theta_dot0):
             raise ValueError("KapitzaPendulum.measure: A, omega, theta0 and theta_dot0 must be "
                              "scalars; use measure_grid for grids.")
-        return point(self.measure_grid(A, omega, theta0, theta_dot0, periods=periods,
-                                               about=about, band=band, method=method,
-                                               rtol=rtol, t0=t0, progress=False))
+        try:
+            return point(self.measure_grid(A, omega, theta0, theta_dot0, periods=periods,
+                                           about=about, band=band, observables=observables,
+                                           method=method, rtol=rtol, t0=t0,
+                                           progress=progress))
+        except ComputationInterrupted as stop:
+            one = ComputationInterrupted(point(stop.result), stop.computed)
+            one.args = stop.args             # how far it got
+            raise one from None
 
     def measure_grid(self, A, omega, theta0, theta_dot0=0.0, *,
                      periods: int = DEFAULT_PERIODS, about=None, band=math.pi / 2,
-                     method=None, rtol: float = 1e-9, t0: float = 0.0,
-                     progress=None) -> Measurement:
+                     observables="all", method=None, rtol: float | None = None,
+                     t0: float = 0.0, progress=None) -> Measurement:
         """:meth:`measure` over a grid, through the compiled batch integrator.
 
         ``A`` (m), ``omega`` (rad/s), ``theta0`` and ``theta_dot0`` broadcast
@@ -533,6 +576,9 @@ class KapitzaPendulum:
         ``progress`` as for :meth:`lagrange_core.System.simulate_grid` (a line on stderr
         when it is a terminal; Ctrl-C raises
         :class:`~kapitza.results.ComputationInterrupted` with the finished points).
+        ``observables="classification"`` decides stayed up, fall time and deviation at
+        the engine's speed (no strobe samples, no slow-frequency fits; rtol 1e-4 by
+        default undamped, 1e-6 damped): the classification a stability chart needs.
 
         Returns
         -------
@@ -552,6 +598,10 @@ class KapitzaPendulum:
         ...                       math.pi - 0.1, periods=500)
         >>> m.stayed_up.tolist(), bool(m.fall_time[0] > 0)
         ([False, True, True], True)
+        >>> c = pend.measure_grid(np.array([0.01, 0.03, 0.1]), 2 * math.pi * 60,
+        ...                       math.pi - 0.1, periods=500, observables="classification")
+        >>> c.stayed_up.tolist(), c.omega_slow is None, c.rtol
+        ([False, True, True], True, 0.0001)
         """
         where = "KapitzaPendulum.measure_grid: "
         A = arguments.amplitude(A, where=where)
@@ -566,12 +616,14 @@ class KapitzaPendulum:
                              f"{theta_dot0.shape}.") from None
         centre = pendulum_about(about, A, omega, theta0, l=self.l, g=self.g,
                                         drive=self.drive)
+        if band is not None:
+            _check_release(where, theta0, centre, band, about)
         result = measure_system_grid(
             self.system, self.params(A, omega), np.asarray(centre)[..., None],
             theta0[..., None], theta_dot0[..., None], periods=periods,
             band=band if band is None else arguments.real_number(band, "band", unit="rad",
                                                                  minimum=0.0, strict=True),
-            t0=t0, method=method, rtol=rtol, progress=progress)
+            t0=t0, observables=observables, method=method, rtol=rtol, progress=progress)
         return squeeze(result)
 
     # -- verification: the four methods compared (kapitza.verification) -------------------
@@ -629,7 +681,7 @@ class KapitzaPendulum:
         omega = arguments.frequency(omega, where=where)
         measured = self.measure_grid(A, omega, theta0, theta_dot0, periods=periods,
                                      about="inverted", method=method, rtol=rtol,
-                                     progress=progress)
+                                     progress=progress, observables=("omega_slow", "amplitude"))
         return pendulum_verification(A, omega, measured, system=self.system,
                                      params=self.params, l=self.l, g=self.g,
                                      damping=self.damping, tol=tol, rtol=rtol, line=line,

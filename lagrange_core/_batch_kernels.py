@@ -14,8 +14,12 @@ computed as the steps are taken — never the trajectory itself:
 observable         array (per point i)    how
 =================  =====================  ================================================
 final state        ``YF[i]`` (2n)         [q, q̇] where the run stopped, at ``TF[i]``
-strobe samples     ``SQ[i, k]`` (2n)      [q, q̇] at t0 + kT: steps are shortened to land on
-                                          each sample time exactly (``OBS_STROBE``)
+strobe samples     ``SQ[i, k]`` (2n)      [q, q̇] at t0 + kT: the method's own solution there,
+                                          not an interpolation (``OBS_STROBE``): an adaptive
+                                          RKN step is the longest that divides T
+                                          (:func:`_strobe_step`), so the held step lands on
+                                          every sample unshortened; other steps are
+                                          shortened to land on it
 time mean of q     ``QM[i]`` (n)          ∫q dt / (t − t0); per step the corrected trapezoid
                                           h(q0 + q1)/2 + h²(q̇0 − q̇1)/12 (4th order; exact
                                           for a trigonometric polynomial of degree < m on m
@@ -35,7 +39,17 @@ status             ``STATUS[i]``          ``GRID_*`` below
 
 A point that fails (singular mass matrix, a non-finite state, the step size falling
 below the resolution of t, its step budget used) gets its status and the state where it
-stopped; the other points are not affected.  The loops are the drivers of
+stopped; the other points are not affected.
+
+A long run *pauses*: every driver takes a per-call step ``budget``; a point that has
+taken it stops after an accepted step with status GRID_INTERRUPTED, its observables so
+far in place and its whole integrator state (the state and its compensation carries,
+the acceleration at the step's end, the next and the held step, the held step's block
+of error ratios, the drive's rotations) in its row of ``SAVE``/``SAVEI``
+(:func:`save_width` floats, :data:`SAVEI_WIDTH` integers).  The next call with that row
+resumes it exactly: the same steps and the same numbers as an unbroken run.  So
+:func:`lagrange_core.batch.simulate_grid` cuts a long trajectory into calls of about a
+quarter of a second, for progress and Ctrl-C.  The loops are the drivers of
 :mod:`lagrange_core._integrator_kernels` rewritten per point without output buffers
 (RKN 12(10) and the symplectic composition on the drive kernel, with the drive advanced
 by rotations; DOP853 on the generic right-hand side, with projection onto the
@@ -98,7 +112,7 @@ from ._lane_math import lane_sincos_rows
 
 #: per-point status (``GridTrajectories.status``)
 GRID_FINISHED, GRID_LEFT_BAND, GRID_UNDERFLOW, GRID_NON_FINITE, GRID_SINGULAR, \
-    GRID_MAX_STEPS, GRID_NOT_RUN = range(7)
+    GRID_MAX_STEPS, GRID_NOT_RUN, GRID_INTERRUPTED = range(8)
 #: what to observe (bits of ``flags``)
 OBS_STROBE, OBS_REF, OBS_BAND, OBS_ENERGY = 1, 2, 4, 8
 #: columns of ``COUNTS``
@@ -297,10 +311,36 @@ def _rkn_band_exit(ka, t, h, q, v, a0, qn, vn, p, lo, hi, c, A, b, bp, rates, y)
     return xb, j, evals
 
 
+@njit(cache=True, inline=INLINE)
+def _strobe_step(h, T):
+    """The longest step ≤ h that divides the strobe period T (h itself for T ≤ 0): the
+    held step then lands on every strobe time unshortened, and keeps its rotations."""
+    if T > 0.0 and h > 0.0 and math.isfinite(h):
+        return T / math.ceil(T / h)
+    return h
+
+
+# -- pausing a point: its integrator state, saved between calls ----------------------------
+
+#: save[0] of a paused point's integer row: its state is saved (the next call resumes it)
+SAVED = 0
+
+
+def save_width(n, stages, rates, hold_block):
+    """Floats a paused point's state takes in ``SAVE`` (the widest of the drivers):
+    q, q̇, their carries and q̈ (5n), the scalars (10), the held step's state and block,
+    and the drive's rotations over the stages."""
+    return 5 * n + 10 + TV_SIZE + hold_block + stages * max(2 * rates, 1) + 4 * n
+
+
+#: integers a paused point's state takes in ``SAVEI``: the flag and the held step's counters
+SAVEI_WIDTH = 1 + STATS_SIZE
+
+
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, flags, rtol,
                        atol, max_steps, c, A, b, bp, bh, bph, w, yf, sq, qsum, dev, counts,
-                       hbuf, block):
+                       hbuf, block, budget, save, savei):
     """Integrate one point of a q̈ = f(q, t) system (drive kernel) from y0 at t0 to t1.
 
     family 0: RKN 12(10), adaptive (``adaptive``) or at the fixed step ``h0``;
@@ -309,9 +349,16 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
     (:func:`lagrange_core._integrator_kernels.fast_rkn_chunk`): at most DRIVE_STEP periods
     of the fastest drive harmonic, and *held* (:func:`held_step_record`) once the first
     block of ``block`` is complete; an empty ``block`` gives the classic controller (the
-    pilot of "rkn12-fixed").  Observables as in the module docstring.  A non-empty
-    ``hbuf`` records the accepted steps (a pilot run; observables off).  Returns (status,
-    t, exit coordinate, energy drift, error estimate, steps recorded in hbuf).
+    pilot of "rkn12-fixed").  With strobe samples the step is the longest that divides
+    the strobe period (:func:`_strobe_step`).  Observables as in the module docstring.
+    A non-empty ``hbuf`` records the accepted steps (a pilot run; observables off; it
+    stops when ``hbuf`` is full, all a pilot uses).
+
+    After ``budget`` steps of this call the point *pauses*: its integrator state goes to
+    ``save``/``savei`` (``savei[SAVED]`` = 1) and the status is GRID_INTERRUPTED, with the
+    observables so far in place; called again with them it resumes exactly where it
+    stopped (the same steps and numbers as an unbroken run).  Returns (status, t, exit
+    coordinate, energy drift, error estimate, steps recorded in hbuf).
     """
     n = y0.shape[0] // 2
     rates = drive_rates(ka, p)
@@ -347,55 +394,126 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
         for j in range(ns):
             db[j] = b[j] - bh[j]
             dbp[j] = bp[j] - bph[j]
-    for i in range(n):
-        q[i] = y0[i]
-        v[i] = y0[n + i]
-        yf[i] = y0[i]
-        yf[n + i] = y0[n + i]
-        if flags & OBS_REF:
-            dev[i] = abs(y0[i] - ref[i])
-    t = t0
-    for k in range(nd):
-        cs0[2 * k] = np.cos(rates[k] * t)
-        cs0[2 * k + 1] = np.sin(rates[k] * t)
-    if call_fast_accel(ka[FAST_ACCEL], q, t, cs0, p, a0, Wn) != 0:
-        return GRID_SINGULAR, t, -1, 0.0, 0.0, 0
-    counts[CNT_EVALS] += 1
-    for i in range(n):          # no step can start (nor a starting step be estimated)
-        if not np.isfinite(a0[i]):
-            return GRID_NON_FINITE, t, -1, 0.0, 0.0, 0
-    e0 = call_energy(ka[ENERGY], q, v, t, p) if flags & OBS_ENERGY else 0.0
-    drift = 0.0
-    if flags & OBS_STROBE:
-        for i in range(2 * n):
-            sq[0, i] = y0[i]
-    k_next = 1
-    h = h0
-    if adaptive and h <= 0.0:
-        W = np.zeros((n, n + 1))
-        f = np.empty(2 * n)
+    strobe = (flags & OBS_STROBE) != 0 and T > 0.0
+    nb = block.shape[0]
+    nr = ns * max(nd, 1) * 2
+    if savei[SAVED] == 1:           # resume a paused point: its state as it was saved
         for i in range(n):
-            f[i] = v[i]
-            f[n + i] = a0[i]
-        h = starting_step(ka, t, y0, f, p, rtol, atol, W, np.empty(2 * n), np.empty(2 * n),
-                          1.0 / 11.0)
-        counts[CNT_EVALS] += 2
-    if adaptive:
-        h = min(h, h_max)
-    h_rot = -1.0
-    t_carry = 0.0
-    err_sum = 0.0
+            q[i] = save[i]
+            v[i] = save[n + i]
+            a0[i] = save[2 * n + i]
+            cq[i] = save[3 * n + i]
+            cv[i] = save[4 * n + i]
+        o = 5 * n
+        t = save[o]
+        t_carry = save[o + 1]
+        h = save[o + 2]
+        h_rot = save[o + 3]
+        err_sum = save[o + 4]
+        drift = save[o + 5]
+        e0 = save[o + 6]
+        k_next = int(save[o + 7])
+        rejected = save[o + 8] != 0.0
+        o += 10
+        for k in range(TV_SIZE):
+            tvh[k] = save[o + k]
+        o += TV_SIZE
+        for k in range(nb):
+            block[k] = save[o + k]
+        o += nb
+        rot.reshape(nr)[:] = save[o:o + nr]
+        for k in range(STATS_SIZE):
+            sth[k] = savei[1 + k]
+        savei[SAVED] = 0
+    else:
+        for i in range(n):
+            q[i] = y0[i]
+            v[i] = y0[n + i]
+            yf[i] = y0[i]
+            yf[n + i] = y0[n + i]
+            if flags & OBS_REF:
+                dev[i] = abs(y0[i] - ref[i])
+        t = t0
+        for k in range(nd):
+            cs0[2 * k] = np.cos(rates[k] * t)
+            cs0[2 * k + 1] = np.sin(rates[k] * t)
+        if call_fast_accel(ka[FAST_ACCEL], q, t, cs0, p, a0, Wn) != 0:
+            return GRID_SINGULAR, t, -1, 0.0, 0.0, 0
+        counts[CNT_EVALS] += 1
+        for i in range(n):          # no step can start (nor a starting step be estimated)
+            if not np.isfinite(a0[i]):
+                return GRID_NON_FINITE, t, -1, 0.0, 0.0, 0
+        e0 = call_energy(ka[ENERGY], q, v, t, p) if flags & OBS_ENERGY else 0.0
+        drift = 0.0
+        if flags & OBS_STROBE:
+            for i in range(2 * n):
+                sq[0, i] = y0[i]
+        k_next = 1
+        h = h0
+        if adaptive and h <= 0.0:
+            W = np.zeros((n, n + 1))
+            f = np.empty(2 * n)
+            for i in range(n):
+                f[i] = v[i]
+                f[n + i] = a0[i]
+            h = starting_step(ka, t, y0, f, p, rtol, atol, W, np.empty(2 * n),
+                              np.empty(2 * n), 1.0 / 11.0)
+            counts[CNT_EVALS] += 2
+        if adaptive:
+            h = min(h, h_max)
+            if strobe:
+                h = _strobe_step(h, T)
+        h_rot = -1.0
+        t_carry = 0.0
+        err_sum = 0.0
+        rejected = False
+    steps0 = counts[CNT_STEPS]
     n_h = 0
-    rejected = False
     expo = -1.0 / 11.0
     status = GRID_FINISHED
     jx = -1
+    # a strobe-divided step may reach its sample a rounding short: it lands all the same
+    grow = 1.0 + 1e-10 if (strobe or not adaptive) else 1.0
     while True:
         if t >= t1:
             break
         if counts[CNT_STEPS] >= max_steps:
             status = GRID_MAX_STEPS
             break
+        if hbuf.shape[0] > 0 and n_h >= hbuf.shape[0]:
+            break                   # a pilot with all the steps it records
+        if counts[CNT_STEPS] - steps0 >= budget:
+            # pause: save the state (a step just ended; the observables are in place)
+            for i in range(n):
+                save[i] = q[i]
+                save[n + i] = v[i]
+                save[2 * n + i] = a0[i]
+                save[3 * n + i] = cq[i]
+                save[4 * n + i] = cv[i]
+                yf[i] = q[i]
+                yf[n + i] = v[i]
+            o = 5 * n
+            save[o] = t
+            save[o + 1] = t_carry
+            save[o + 2] = h
+            save[o + 3] = h_rot
+            save[o + 4] = err_sum
+            save[o + 5] = drift
+            save[o + 6] = e0
+            save[o + 7] = k_next
+            save[o + 8] = 1.0 if rejected else 0.0
+            o += 10
+            for k in range(TV_SIZE):
+                save[o + k] = tvh[k]
+            o += TV_SIZE
+            for k in range(nb):
+                save[o + k] = block[k]
+            o += nb
+            save[o:o + nr] = rot.reshape(nr)
+            for k in range(STATS_SIZE):
+                savei[1 + k] = sth[k]
+            savei[SAVED] = 1
+            return GRID_INTERRUPTED, t, -1, drift, err_sum, 0
         hmin = 16.0 * _EPS * max(abs(t), abs(t1))
         t_target = _next_stop(t1, T, k_next, t0, flags)
         for k in range(nd):
@@ -405,7 +523,7 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
         while True:
             clipped = False
             hs = h
-            if t + hs >= t_target or (not adaptive and t + hs * (1.0 + 1e-10) >= t_target):
+            if t + hs * grow >= t_target:
                 hs = t_target - t
                 clipped = True
             # a step shortened by rounding only (landing on a strobe time) keeps the
@@ -454,6 +572,8 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
             counts[CNT_REJECTED] += 1
             held_step_record(tvh, sth, block, err, hs, h_max)
             h = hs * max(0.2, 0.9 * err ** expo) if np.isfinite(err) else 0.2 * hs
+            if strobe:
+                h = _strobe_step(h, T)
             rejected = True
             if h < hmin:
                 break
@@ -515,6 +635,8 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
         if adaptive:
             h = rkn_next_step(tvh, sth, block, h, hs, err, clipped, rejected, h_max)
             rejected = False
+            if strobe:
+                h = _strobe_step(h, T)
     if jx < 0:
         for i in range(n):
             yf[i] = q[i]
@@ -537,7 +659,7 @@ def pilot_step(ka, y0, p, t0, t1, T, rtol, atol, c, A, b, bp, bh, bph, counts):
     out = point_second_order(ka, 0, True, y0, p, t0, t0 + span / 50.0, 0.0, 0.0, z, -inf, inf,
                              0, rtol, atol, 1 << 40, c, A, b, bp, bh, bph, np.zeros(1), yf,
                              np.empty((1, 2 * n)), np.zeros(n), np.zeros(n), counts, hbuf,
-                             np.zeros(0))
+                             np.zeros(0), 1 << 62, np.zeros(0), np.zeros(1, dtype=np.int64))
     m = out[5]
     if m == 0:
         return span
@@ -550,22 +672,24 @@ def pilot_step(ka, y0, p, t0, t1, T, rtol, atol, c, A, b, bp, bh, bph, counts):
 @njit(cache=True, parallel=True)
 def grid_second_order(ka, family, adaptive, pilot, hold_block, idx, Y0, P, TS, H, TSTR, REF, LO,
                       HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, w, YF, TF, SQ, QM,
-                      DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS):
+                      DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
     """Every point ``idx[k]`` with :func:`point_second_order` (``pilot``: the fixed step of
     each point from :func:`pilot_step`; ``hold_block``: steps per block of the adaptive
-    held step)."""
+    held step); a point pauses after ``budget`` steps of this call, its state in row
+    ``slot[k]`` of ``SAVE``/``SAVEI``, and resumes from it when that row is marked saved."""
     nb = np.zeros(0)
     for k in prange(idx.shape[0]):
         i = idx[k]
+        s = slot[k]
         block = np.empty(hold_block if adaptive else 0)
         h0 = H[i]
-        if pilot:
+        if pilot and SAVEI[s, SAVED] == 0:
             h0 = pilot_step(ka, Y0[i], P[i], TS[i, 0], TS[i, 1], TSTR[i], rtol, atol, c, A, b,
                             bp, bh, bph, COUNTS[i])
         st, t, jx, drift, err, nh = point_second_order(
             ka, family, adaptive, Y0[i], P[i], TS[i, 0], TS[i, 1], h0, TSTR[i], REF[i], LO[i],
             HI[i], flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, w, YF[i], SQ[i], QM[i],
-            DEV[i], COUNTS[i], nb, block)
+            DEV[i], COUNTS[i], nb, block, budget, SAVE[s], SAVEI[s])
         STATUS[i] = st
         TF[i] = t
         EXITC[i] = jx
@@ -673,7 +797,111 @@ def _lanes_load(ka, l, i, phase, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, a
         h[l] = H[i]
     if phase != _FIXED:
         h[l] = min(h[l], hmax[l])
+    if phase == _ADAPTIVE:
+        h[l] = _strobe_step(h[l], Tl[l])
     return 0
+
+
+@njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
+def _lanes_restore(ka, l, i, save, savei, Y0, P, TS, TSTR, REF, LO, HI, flags, q, v, K, cq, cv,
+                   Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0,
+                   drift, errsum, rejected, ph, QM, DEV, hmax, tvh, sth, blk, rot, scr):
+    """Resume the paused point i in lane l: its inputs from the grid's arrays, its
+    integrator state from ``save``/``savei`` (as :func:`_lanes_save` wrote it), its time
+    mean and deviation so far from QM and DEV, so that it goes on exactly as an unbroken
+    run.  (The stages K[1:] are cleared: a step reads only the ones it computed, and the
+    zero coefficients of the others multiply finite values.)"""
+    n = q.shape[0]
+    p = P[i]
+    r = scr[3]
+    for k in range(p.shape[0]):
+        Pl[k, l] = p[k]
+    call_drive_rates(ka[DRIVE_RATES], p, r)
+    for k in range(nd):
+        R[k, l] = r[k]
+    hmax[l] = _longest_step(r[:nd])
+    t0l[l] = TS[i, 0]
+    t1l[l] = TS[i, 1]
+    Tl[l] = TSTR[i] if flags & OBS_STROBE else 0.0
+    for j in range(n):
+        q[j, l] = save[j]
+        v[j, l] = save[n + j]
+        cq[j, l] = save[2 * n + j]
+        cv[j, l] = save[3 * n + j]
+        K[0, j, l] = save[4 * n + j]
+        for m in range(1, K.shape[0]):
+            K[m, j, l] = 0.0
+        QMl[j, l] = QM[i, j]
+        DEVl[j, l] = DEV[i, j]
+        REFl[j, l] = REF[i, j] if flags & OBS_REF else Y0[i, j]
+        LOl[j, l] = LO[i, j] if flags & OBS_BAND else -np.inf
+        HIl[j, l] = HI[i, j] if flags & OBS_BAND else np.inf
+    o = 5 * n
+    t[l] = save[o]
+    tc[l] = save[o + 1]
+    h[l] = save[o + 2]
+    hrot[l] = save[o + 3]
+    kn[l] = save[o + 4]
+    e0[l] = save[o + 5]
+    drift[l] = save[o + 6]
+    errsum[l] = save[o + 7]
+    rejected[l] = save[o + 8] != 0.0
+    ph[l] = int(save[o + 9])
+    o += 10
+    for k in range(TV_SIZE):
+        tvh[l, k] = save[o + k]
+    o += TV_SIZE
+    nb = blk.shape[1]
+    for k in range(nb):
+        blk[l, k] = save[o + k]
+    o += nb
+    for s in range(rot.shape[0]):
+        for k in range(rot.shape[1]):
+            rot[s, k, l] = save[o]
+            o += 1
+    for k in range(STATS_SIZE):
+        sth[l, k] = savei[1 + k]
+    savei[SAVED] = 0
+
+
+@njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
+def _lanes_save(l, save, savei, q, v, K, cq, cv, t, tc, h, hrot, kn, e0, drift, errsum, rejected,
+                ph, tvh, sth, blk, rot):
+    """Save the state of the point in lane l, paused after an accepted step (the layout
+    :func:`_lanes_restore` reads)."""
+    n = q.shape[0]
+    for j in range(n):
+        save[j] = q[j, l]
+        save[n + j] = v[j, l]
+        save[2 * n + j] = cq[j, l]
+        save[3 * n + j] = cv[j, l]
+        save[4 * n + j] = K[0, j, l]
+    o = 5 * n
+    save[o] = t[l]
+    save[o + 1] = tc[l]
+    save[o + 2] = h[l]
+    save[o + 3] = hrot[l]
+    save[o + 4] = kn[l]
+    save[o + 5] = e0[l]
+    save[o + 6] = drift[l]
+    save[o + 7] = errsum[l]
+    save[o + 8] = 1.0 if rejected[l] else 0.0
+    save[o + 9] = ph[l]
+    o += 10
+    for k in range(TV_SIZE):
+        save[o + k] = tvh[l, k]
+    o += TV_SIZE
+    nb = blk.shape[1]
+    for k in range(nb):
+        save[o + k] = blk[l, k]
+    o += nb
+    for s in range(rot.shape[0]):
+        for k in range(rot.shape[1]):
+            save[o] = rot[s, k, l]
+            o += 1
+    for k in range(STATS_SIZE):
+        savei[1 + k] = sth[l, k]
+    savei[SAVED] = 1
 
 
 @njit(cache=True, inline="always", fastmath=FAST_MATH, error_model="numpy")
@@ -757,7 +985,7 @@ def _stage_positions(s, A, c, K, q, v, hs, qs, acc, L):
 @njit(cache=True, parallel=True, error_model="numpy", fastmath=FAST_MATH)
 def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
                    rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT, EXITC,
-                   EDRIFT, COUNTS, ERR, STATUS):
+                   EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
     """RKN 12(10) over the points ``idx`` on *lanes*: each thread takes blocks of ``block``
     points and advances :data:`LANES` of them together, refilling a lane from its block
     when its trajectory ends.
@@ -777,6 +1005,11 @@ def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO
     and the kernel itself (``fast_accel_lanes``, one call for all lanes) vectorise, and
     the lanes' independent chains fill each other's latencies.  A lane that fails
     (singular, non-finite) gets its status alone; an idle lane keeps a finite state.
+
+    Pausing, as :func:`grid_second_order`: a point that has taken ``budget`` steps in this
+    call (after its pilot) pauses with status GRID_INTERRUPTED, its observables so far
+    written and its state in row ``slot[k]`` of ``SAVE``/``SAVEI``; a point whose row is
+    marked saved resumes from it.
     """
     N = idx.shape[0]
     nblocks = (N + block - 1) // block
@@ -784,13 +1017,14 @@ def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO
         lo_b = blk * block
         _lanes_block(ka, mode, hold_block, idx, lo_b, min(N, lo_b + block), Y0, P, TS, H, TSTR,
                      REF, LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF,
-                     SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS)
+                     SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE,
+                     SAVEI)
 
 
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
                  rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT, EXITC,
-                 EDRIFT, COUNTS, ERR, STATUS):
+                 EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
     """The points idx[lo_b:hi_b] of :func:`grid_rkn_lanes` on one thread's lanes (a
     function of its own, so that numba's parallel pass sees a small loop body)."""
     ns = c.shape[0]
@@ -860,6 +1094,9 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
     special = np.zeros(L, dtype=np.bool_)
     errl = np.zeros(L)
     nh = np.zeros(L, dtype=np.int64)
+    sl = np.zeros(L, dtype=np.int64)        # the lane's point's row of SAVE
+    mx = np.zeros(L, dtype=np.int64)        # the steps its max_steps leaves it
+    lim = np.zeros(L, dtype=np.int64)       # the steps it may take in this call
     nst = np.zeros(L, dtype=np.int64)
     nrej = np.zeros(L, dtype=np.int64)
     nev = np.zeros(L, dtype=np.int64)
@@ -882,7 +1119,19 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
     for l in range(L):
         while nxt < hi_b and pt[l] < 0:
             i = idx[nxt]
+            s_ = slot[nxt]
             nxt += 1
+            sl[l] = s_
+            mx[l] = max_steps - COUNTS[i, CNT_STEPS]
+            lim[l] = min(budget, mx[l])
+            if SAVEI[s_, SAVED] == 1:
+                _lanes_restore(ka, l, i, SAVE[s_], SAVEI[s_], Y0, P, TS, TSTR, REF, LO, HI,
+                               flags, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl,
+                               kn, QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum, rejected, ph,
+                               QM, DEV, hmax, tvh, sth, blk, rot, scr)
+                pt[l] = i
+                active += 1
+                continue
             h[l] = H[i]
             st = _lanes_load(ka, l, i, first, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol,
                              atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl,
@@ -910,7 +1159,8 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
             tg = ts_k if (Tl[l] > 0.0 and ts_k < tg) else tg
             tar[l] = tg
             hh = h[l]
-            grow = 1.0 + 1e-10 if ph[l] == _FIXED else 1.0
+            # (a fixed or strobe-divided step a rounding short of its target lands on it)
+            grow = 1.0 + 1e-10 if (ph[l] == _FIXED or Tl[l] > 0.0) else 1.0
             cl = tt + hh * grow >= tg
             hh = tg - tt if cl else hh
             hh = 0.0 if ph[l] == _IDLE else hh
@@ -1040,15 +1290,16 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
             nev[l] += ns if good[l] else ns - 1
             errsum[l] += est[l] if good[l] else 0.0
             special[l] = (pt[l] >= 0) & ((not u) | clip[l] | (t[l] >= t1l[l])
-                                         | (ph[l] != _FIXED) | (nst[l] >= max_steps)
+                                         | (ph[l] != _FIXED) | (nst[l] >= lim[l])
                                          | energy)
         if mode == LANES_ADAPTIVE:  # a held step that stays held needs no lane-by-lane
             for l in range(L):      # work: record its error ratio (held_step_record)
                 hold = tvh[l, TV_HOLD]
                 k_ = sth[l, ST_BLOCK]
                 if (special[l] and upd[l] and ph[l] == _ADAPTIVE and hold > 0.0
-                        and hs[l] >= hold and not clip[l] and k_ + 1 < hold_block
-                        and t[l] < t1l[l] and nst[l] < max_steps and not energy):
+                        and hs[l] >= _strobe_step(hold, Tl[l]) and not clip[l]
+                        and k_ + 1 < hold_block and t[l] < t1l[l] and nst[l] < lim[l]
+                        and not energy):
                     xr = tvh[l, TV_HREF] / hs[l]
                     x2 = xr * xr
                     x4 = x2 * x2
@@ -1081,6 +1332,7 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                     held_step_record(tvh[l], sth[l], blk[l] if phase == _ADAPTIVE
                                      else blk[l, :0], err, hh, hmax[l])
                     h[l] = hh * max(0.2, 0.9 * err ** expo) if math.isfinite(err) else 0.2 * hh
+                    h[l] = _strobe_step(h[l], Tl[l])
                     rejected[l] = True
                     if h[l] < 16.0 * _EPS * max(abs(tt), abs(t1l[l])):
                         st = GRID_NON_FINITE if not fin[l] else GRID_UNDERFLOW
@@ -1129,15 +1381,19 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                                 SQ[i, k_, j] = q[j, l]
                                 SQ[i, k_, n + j] = v[j, l]
                         kn[l] += 1.0
-                    if t[l] >= t1l[l]:
-                        st = GRID_FINISHED
-                    elif observe and nst[l] >= max_steps:
+                    if t[l] >= t1l[l] or (phase == _PILOT and nh[l] >= PILOT_STEPS):
+                        st = GRID_FINISHED      # (a pilot with all the steps it records)
+                    elif observe and nst[l] >= mx[l]:
                         st = GRID_MAX_STEPS
-                    elif adaptive:
-                        h[l] = rkn_next_step(tvh[l], sth[l], blk[l] if phase == _ADAPTIVE
-                                             else blk[l, :0], h[l], hh, errl[l], clip[l],
-                                             rejected[l], hmax[l])
-                        rejected[l] = False
+                    else:
+                        if adaptive:
+                            h[l] = rkn_next_step(tvh[l], sth[l], blk[l] if phase == _ADAPTIVE
+                                                 else blk[l, :0], h[l], hh, errl[l], clip[l],
+                                                 rejected[l], hmax[l])
+                            h[l] = _strobe_step(h[l], Tl[l])
+                            rejected[l] = False
+                        if observe and nst[l] >= lim[l]:
+                            st = GRID_INTERRUPTED   # pause: saved below, resumed next call
             if st < 0:
                 continue
             if phase == _PILOT:     # the pilot ends (however): the run itself begins
@@ -1153,7 +1409,8 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                                  rtol, atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l,
                                  t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum,
                                  rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh, sth)
-                if st == 0 and nst[l] < max_steps:
+                lim[l] = min(nst[l] + budget, mx[l])
+                if st == 0 and nst[l] < mx[l]:
                     continue
                 if st == 0:         # the pilot used the whole step budget
                     st = GRID_MAX_STEPS
@@ -1173,15 +1430,30 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                 if jx < 0:
                     YF[i, j] = q[j, l]
                     YF[i, n + j] = v[j, l]
+            if st == GRID_INTERRUPTED:
+                _lanes_save(l, SAVE[sl[l]], SAVEI[sl[l]], q, v, K, cq, cv, t, tc, h, hrot, kn,
+                            e0, drift, errsum, rejected, ph, tvh, sth, blk, rot)
             pt[l] = -1
             active -= 1
+            nst[l] = 0
+            nrej[l] = 0
+            nev[l] = 0
             while nxt < hi_b and pt[l] < 0:
                 i2 = idx[nxt]
+                s_ = slot[nxt]
                 nxt += 1
+                sl[l] = s_
+                mx[l] = max_steps - COUNTS[i2, CNT_STEPS]
+                lim[l] = min(budget, mx[l])
+                if SAVEI[s_, SAVED] == 1:
+                    _lanes_restore(ka, l, i2, SAVE[s_], SAVEI[s_], Y0, P, TS, TSTR, REF, LO, HI,
+                                   flags, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l, t1l,
+                                   Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum,
+                                   rejected, ph, QM, DEV, hmax, tvh, sth, blk, rot, scr)
+                    pt[l] = i2
+                    active += 1
+                    continue
                 h[l] = H[i2]
-                nst[l] = 0
-                nrej[l] = 0
-                nev[l] = 0
                 st2 = _lanes_load(ka, l, i2, first, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
                                   rtol, atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot,
                                   t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift,
@@ -1214,10 +1486,11 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
 
 @njit(cache=True)
 def point_dop853(ka, m, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, flags, rtol, atol,
-                 max_steps, A, B, C, E3, E5, yf, sq, qsum, dev, counts):
+                 max_steps, A, B, C, E3, E5, yf, sq, qsum, dev, counts, budget, save, savei):
     """Integrate one point with DOP853 (adaptive, or the fixed 8th-order step ``h0``) on
     the system's ``rhs``; constrained states are projected onto Φ = 0, Φ̇ = 0 after every
-    step.  Observables and returns as :func:`point_second_order`."""
+    step.  Observables, pausing (``budget``, ``save``, ``savei``) and returns as
+    :func:`point_second_order`."""
     n = y0.shape[0] // 2
     n2 = 2 * n
     W = np.zeros((n + m, n + m + 1))
@@ -1228,31 +1501,47 @@ def point_dop853(ka, m, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, flags, rtol
     y = y0.copy()
     ynew = np.empty(n2)
     ytmp = np.empty(n2)
-    for i in range(n2):
-        yf[i] = y[i]
-    if flags & OBS_REF:
-        for i in range(n):
-            dev[i] = abs(y[i] - ref[i])
-    t = t0
-    if m > 0 and project_constraints(ka, m, y, t, p, G, P, res) != 0:
-        return GRID_SINGULAR, t, -1, 0.0, 0.0, 0
-    if call_rhs(ka[RHS], t, y, p, Kst[0], W) != 0:
-        return GRID_SINGULAR, t, -1, 0.0, 0.0, 0
-    counts[CNT_EVALS] += 1
-    e0 = call_energy(ka[ENERGY], y[:n], y[n:], t, p) if flags & OBS_ENERGY else 0.0
-    drift = 0.0
-    if flags & OBS_STROBE:
+    if savei[SAVED] == 1:           # resume a paused point
         for i in range(n2):
-            sq[0, i] = y[i]
-    k_next = 1
-    h = h0
-    if adaptive and h <= 0.0:
-        h = starting_step(ka, t, y, Kst[0], p, rtol, atol, W, np.empty(n2), np.empty(n2),
-                          1.0 / 8.0)
-        counts[CNT_EVALS] += 2
-    t_carry = 0.0
-    err_sum = 0.0
-    rejected = False
+            y[i] = save[i]
+            Kst[0, i] = save[n2 + i]
+        o = 2 * n2
+        t = save[o]
+        t_carry = save[o + 1]
+        h = save[o + 2]
+        err_sum = save[o + 3]
+        drift = save[o + 4]
+        e0 = save[o + 5]
+        k_next = int(save[o + 6])
+        rejected = save[o + 7] != 0.0
+        savei[SAVED] = 0
+    else:
+        for i in range(n2):
+            yf[i] = y[i]
+        if flags & OBS_REF:
+            for i in range(n):
+                dev[i] = abs(y[i] - ref[i])
+        t = t0
+        if m > 0 and project_constraints(ka, m, y, t, p, G, P, res) != 0:
+            return GRID_SINGULAR, t, -1, 0.0, 0.0, 0
+        if call_rhs(ka[RHS], t, y, p, Kst[0], W) != 0:
+            return GRID_SINGULAR, t, -1, 0.0, 0.0, 0
+        counts[CNT_EVALS] += 1
+        e0 = call_energy(ka[ENERGY], y[:n], y[n:], t, p) if flags & OBS_ENERGY else 0.0
+        drift = 0.0
+        if flags & OBS_STROBE:
+            for i in range(n2):
+                sq[0, i] = y[i]
+        k_next = 1
+        h = h0
+        if adaptive and h <= 0.0:
+            h = starting_step(ka, t, y, Kst[0], p, rtol, atol, W, np.empty(n2), np.empty(n2),
+                              1.0 / 8.0)
+            counts[CNT_EVALS] += 2
+        t_carry = 0.0
+        err_sum = 0.0
+        rejected = False
+    steps0 = counts[CNT_STEPS]
     status = GRID_FINISHED
     jx = -1
     kst = 0
@@ -1263,6 +1552,22 @@ def point_dop853(ka, m, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, flags, rtol
         if counts[CNT_STEPS] >= max_steps:
             status = GRID_MAX_STEPS
             break
+        if counts[CNT_STEPS] - steps0 >= budget:      # pause (as point_second_order)
+            for i in range(n2):
+                save[i] = y[i]
+                save[n2 + i] = Kst[0, i]
+                yf[i] = y[i]
+            o = 2 * n2
+            save[o] = t
+            save[o + 1] = t_carry
+            save[o + 2] = h
+            save[o + 3] = err_sum
+            save[o + 4] = drift
+            save[o + 5] = e0
+            save[o + 6] = k_next
+            save[o + 7] = 1.0 if rejected else 0.0
+            savei[SAVED] = 1
+            return GRID_INTERRUPTED, t, -1, drift, err_sum, 0
         hmin = 16.0 * _EPS * max(abs(t), abs(t1))
         t_target = _next_stop(t1, T, k_next, t0, flags)
         while True:
@@ -1376,14 +1681,16 @@ def point_dop853(ka, m, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, flags, rtol
 @njit(cache=True, parallel=True)
 def grid_dop853(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol,
                 max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR,
-                STATUS):
-    """Every point ``idx[k]`` with :func:`point_dop853`."""
+                STATUS, budget, slot, SAVE, SAVEI):
+    """Every point ``idx[k]`` with :func:`point_dop853` (pausing as
+    :func:`grid_second_order`)."""
     for k in prange(idx.shape[0]):
         i = idx[k]
+        s = slot[k]
         st, t, jx, drift, err, nh = point_dop853(
             ka, m, adaptive, Y0[i], P[i], TS[i, 0], TS[i, 1], H[i], TSTR[i], REF[i], LO[i],
             HI[i], flags, rtol, atol, max_steps, A, B, C, E3, E5, YF[i], SQ[i], QM[i], DEV[i],
-            COUNTS[i])
+            COUNTS[i], budget, SAVE[s], SAVEI[s])
         STATUS[i] = st
         TF[i] = t
         EXITC[i] = jx

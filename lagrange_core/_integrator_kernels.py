@@ -20,6 +20,14 @@ and returns a status, with the whole integrator state in the arrays it was given
 (``y``, ``f``, ``tv``, ``stats``) so the next call continues exactly where this
 one stopped.  Python regains control between chunks (Ctrl-C, memory).
 
+Reference counts: numba counts the references to every array handed to an inlined
+helper, an atomic add and subtract per array per call, unless its pruning pass removes
+them, which it does not in a loop as branched as a driver's.  In the RKN driver that was
+~40 atomic operations per step, a third of the step's time (issue 24).  So the q̈ = f(q, t)
+drivers allocate their arrays and hand them to a loop function that works on views which
+own nothing (:func:`unowned`): the counting is then a check of a null pointer.  The
+arrays stay owned, by the caller and by the allocating function, while the loop runs.
+
 Shared state layout (the named slots below)
 -------------------------------------------
 ``tv`` (float64, ``TV_SIZE``): ``TV_T`` time, ``TV_END`` end time, ``TV_H`` next step,
@@ -44,7 +52,9 @@ import math
 import sys
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from ._kernel_calls import (
     DRIVE_RATES,
@@ -100,6 +110,31 @@ INLINE = "always"      # the per-step helpers: no call, no reference counting pe
 
 
 # -- helpers -----------------------------------------------------------------------------
+
+@intrinsic
+def unowned(typingctx, arr):
+    """``arr`` as a view that owns no reference to its memory (its meminfo is NULL).
+
+    numba increments and decrements the reference count of an array (an atomic add,
+    ~20 cycles and a barrier to the memory operations around it) whenever it is bound
+    to a new name, e.g. the argument of an inlined helper; for a view that owns nothing
+    both are a test of a null pointer.  Only for arrays that something else keeps alive
+    for as long as the view is used: a driver's loop function's arguments (the caller's
+    arrays live through the call).  Slices of the view own nothing either.
+    """
+    if not isinstance(arr, types.Array):
+        return None
+
+    def codegen(context, builder, signature, args):
+        src = context.make_array(signature.args[0])(context, builder, args[0])
+        view = context.make_array(signature.return_type)(context, builder)
+        for name in ("parent", "nitems", "itemsize", "data", "shape", "strides"):
+            setattr(view, name, getattr(src, name))
+        view.meminfo = cgutils.get_null_value(view.meminfo.type)
+        return view._getvalue()
+
+    return arr(arr), codegen
+
 
 @njit(cache=True)
 def event_value(ka, kind, idx, val, t, y, p, W, dydt):
@@ -954,11 +989,13 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
     drive's rotations are computed once per step size, and rejections are rare.
     No adaptive step spans more than ``DRIVE_STEP`` periods of the fastest drive
     harmonic.
+
+    This function allocates the scratch; the steps are :func:`_rkn_chunk_loop`'s, on
+    views that own nothing (the module docstring: reference counts).
     """
     n = y.shape[0] // 2
     rates = drive_rates(ka, p)
     nd = rates.shape[0]
-    n2 = 2 * n
     ns = c.shape[0]
     K = np.empty((ns, n))
     qs = np.empty(n)
@@ -979,6 +1016,36 @@ def fast_rkn_chunk(ka, y, f, tv, stats, p, c, A, b, bp, bh, bph, adaptive, rtol,
         dbp[j] = bp[j] - bph[j]
     n_ev = ev_int.shape[0]
     W, dydt, ytmp, g_new, x_root, w0 = _event_scratch(n, n_ev)
+    return _rkn_chunk_loop(ka, y, f, tv, stats, p, c, A, b, bp, adaptive, rtol, atol,
+                           max_steps, t_eval, stride, tout, yout, ev_int, ev_val, ev_g, ev_t,
+                           ev_k, ev_y, block, rates, K, qs, qn, vn, Wn, cq, cv, cqn, cvn, rot,
+                           cs0, css, db, dbp, W, dydt, ytmp, g_new, x_root, w0)
+
+
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+def _rkn_chunk_loop(ka, y, f, tv, stats, p, c, A, b, bp, adaptive, rtol, atol, max_steps,
+                    t_eval, stride, tout, yout, ev_int, ev_val, ev_g, ev_t, ev_k, ev_y, block,
+                    rates, K, qs, qn, vn, Wn, cq, cv, cqn, cvn, rot, cs0, css, db, dbp, W, dydt,
+                    ytmp, g_new, x_root, w0):
+    """The steps of :func:`fast_rkn_chunk` (its arguments, then its scratch)."""
+    ka, y, f, tv, stats, p = unowned(ka), unowned(y), unowned(f), unowned(tv), \
+        unowned(stats), unowned(p)
+    c, A, b, bp, t_eval, tout = unowned(c), unowned(A), unowned(b), unowned(bp), \
+        unowned(t_eval), unowned(tout)
+    yout, ev_int, ev_val, ev_g, ev_t, ev_k = unowned(yout), unowned(ev_int), \
+        unowned(ev_val), unowned(ev_g), unowned(ev_t), unowned(ev_k)
+    ev_y, block, rates, K, qs, qn, vn = unowned(ev_y), unowned(block), unowned(rates), \
+        unowned(K), unowned(qs), unowned(qn), unowned(vn)
+    Wn, cq, cv, cqn, cvn, rot, cs0 = unowned(Wn), unowned(cq), unowned(cv), unowned(cqn), \
+        unowned(cvn), unowned(rot), unowned(cs0)
+    css, db, dbp, W, dydt, ytmp = unowned(css), unowned(db), unowned(dbp), unowned(W), \
+        unowned(dydt), unowned(ytmp)
+    g_new, x_root, w0 = unowned(g_new), unowned(x_root), unowned(w0)
+    n = y.shape[0] // 2
+    nd = rates.shape[0]
+    n2 = 2 * n
+    ns = c.shape[0]
+    n_ev = ev_int.shape[0]
     cap = tout.shape[0]
     q = y[:n]
     v = y[n:]
@@ -1105,12 +1172,12 @@ def fast_symplectic_chunk(ka, y, f, tv, stats, p, w, max_steps, t_eval, stride, 
     drive kernel.  Time advances with the drifts (kick at the current time,
     drift q and t together), which keeps every substep symmetric for a
     time-dependent f; the drive at each drift end is a fixed rotation of its value
-    at the step start.  Same state layout, outputs and events as :func:`fast_rkn_chunk`.
+    at the step start.  Same state layout, outputs and events as :func:`fast_rkn_chunk`;
+    the steps are :func:`_symplectic_chunk_loop`'s, on views that own nothing.
     """
     n = y.shape[0] // 2
     rates = drive_rates(ka, p)
     nd = rates.shape[0]
-    n2 = 2 * n
     nw = w.shape[0]
     Wn = np.zeros((n, n + 1))
     qn = np.empty(n)
@@ -1129,6 +1196,32 @@ def fast_symplectic_chunk(ka, y, f, tv, stats, p, w, max_steps, t_eval, stride, 
     K = np.empty((1, n))             # the trial steps' scratch (family 1 uses row 0)
     qs = np.empty(n)
     z2 = np.zeros((1, 1))
+    return _symplectic_chunk_loop(ka, y, f, tv, stats, p, w, max_steps, t_eval, stride, tout,
+                                  yout, ev_int, ev_val, ev_g, ev_t, ev_k, ev_y, rates, Wn, qn,
+                                  vn, a, S, rot, cs0, css, W, dydt, ytmp, g_new, x_root, z, K,
+                                  qs, z2)
+
+
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+def _symplectic_chunk_loop(ka, y, f, tv, stats, p, w, max_steps, t_eval, stride, tout, yout,
+                           ev_int, ev_val, ev_g, ev_t, ev_k, ev_y, rates, Wn, qn, vn, a, S,
+                           rot, cs0, css, W, dydt, ytmp, g_new, x_root, z, K, qs, z2):
+    """The steps of :func:`fast_symplectic_chunk` (its arguments, then its scratch)."""
+    ka, y, f, tv, stats, p, w = unowned(ka), unowned(y), unowned(f), unowned(tv), \
+        unowned(stats), unowned(p), unowned(w)
+    t_eval, tout, yout, ev_int, ev_val, ev_g = unowned(t_eval), unowned(tout), \
+        unowned(yout), unowned(ev_int), unowned(ev_val), unowned(ev_g)
+    ev_t, ev_k, ev_y, rates, Wn, qn, vn = unowned(ev_t), unowned(ev_k), unowned(ev_y), \
+        unowned(rates), unowned(Wn), unowned(qn), unowned(vn)
+    a, S, rot, cs0, css, W, dydt = unowned(a), unowned(S), unowned(rot), unowned(cs0), \
+        unowned(css), unowned(W), unowned(dydt)
+    ytmp, g_new, x_root, z, K, qs, z2 = unowned(ytmp), unowned(g_new), unowned(x_root), \
+        unowned(z), unowned(K), unowned(qs), unowned(z2)
+    n = y.shape[0] // 2
+    nd = rates.shape[0]
+    n2 = 2 * n
+    nw = w.shape[0]
+    n_ev = ev_int.shape[0]
     cap = tout.shape[0]
     q = y[:n]
     v = y[n:]

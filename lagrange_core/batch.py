@@ -7,7 +7,7 @@ trajectories: memory grows with the number of points (and strobe samples), not w
 the number of steps.
 
 What can be observed (each only when asked; see the kernel module for how)
------------------------------------------------------------------------
+--------------------------------------------------------------------------
 * the final state (always), and the time mean of q over the run (always);
 * ``strobe=T``: q and q̇ at t0 + kT (stroboscopic samples of a drive of period T);
 * ``reference=q_ref``: the running maximum of |q − q_ref| per coordinate;
@@ -24,9 +24,11 @@ steps, at most 3/4 of the fastest drive period), ``"rkn12-fixed"`` (its 12th-ord
 formula at a fixed step: ``h``, or per point from an adaptive pilot over the first 1/50
 of the span, shortened so a whole number of steps spans the strobe period),
 ``"yoshida6"`` (symplectic, ``h`` required), for q̈ = f(q, t); ``"dop853"`` and ``"rk8"``
-(``h`` required) for any system, constrained ones included.  Steps are shortened to
-land on every strobe time, so the samples are the method's own solution, not an
-interpolation.
+(``h`` required) for any system, constrained ones included.  The strobe samples are the
+method's own solution, not an interpolation: the adaptive RKN 12 step (and its held
+step) is the longest that divides the strobe period T, so its steps land on every
+sample time without being shortened (and keep their drive rotations: no step of another
+length between samples); the other methods' steps are shortened to land on them.
 
 ``method=None`` follows the rule of :func:`lagrange_core.integrate.simulate`: "rkn12"
 when the statement has the form q̈ = f(q, t), "dop853" otherwise.  Why "rkn12" and not
@@ -37,10 +39,10 @@ at 1e-9 7.2k against 9.6k), and it is checked at every step, so a point whose mo
 speeds up after the pilot's window keeps its tolerance.  Name "rkn12-fixed" for a
 sweep of periodic drives at tight tolerance.
 
-Both RKN 12 methods run on *lanes* (:func:`lagrange_core._batch_kernels.grid_rkn_lanes`):
+Both RKN 12 methods run on *lanes* (``lagrange_core._batch_kernels.grid_rkn_lanes``):
 each thread advances 64 points together with every loop over them vectorised and one
 call of the drive kernel's ``fast_accel_lanes`` per stage for all of them; the results
-equal those of the per-point loop (:func:`~lagrange_core._batch_kernels.point_second_order`)
+equal those of the per-point loop (``point_second_order``)
 to rounding (sin and cos are the lanes' own polynomials, within 2 ulp of libm), with
 the same steps at a given fixed step.  ``"yoshida6"`` and ``"dop853"`` run per point.
 
@@ -53,11 +55,16 @@ point is affected and nothing is raised.
 
 Chunks, progress and Ctrl-C
 ---------------------------
-The points run in chunks of about a quarter of a second
-(:func:`lagrange_core.progress.run_in_chunks`), each one parallel compiled call; a
-progress line is shown on stderr when it is a terminal (``progress``).  Ctrl-C stops at
-the end of the running chunk and raises :class:`GridInterrupted` (a KeyboardInterrupt)
-whose ``.result`` holds every finished point (the others have status "not_run").
+The points run in compiled parallel calls of about a quarter of a second: chunks of
+points, and within a long run chunks of steps — a point that has taken its step budget
+in a call *pauses* and goes on in the next one exactly where it stopped (its whole
+integrator state saved: the same steps and numbers as an unbroken run; see
+:mod:`lagrange_core._batch_kernels`).  A progress line is shown on stderr when it is a
+terminal (``progress``; a single long run shows its share of the span and the time
+left).  Ctrl-C stops at the end of the running call and raises :class:`GridInterrupted`
+(a KeyboardInterrupt) whose ``.result`` holds every finished point, the points stopped
+part-way (status "interrupted": their observables up to ``t_final``) and the points not
+started (status "not_run").
 """
 from __future__ import annotations
 
@@ -71,13 +78,13 @@ import numpy as np
 from . import _batch_kernels as _bk
 from .checks import real_array
 from .drive_kernel import load_drive_kernel
-from .progress import defer_ctrl_c, run_in_chunks
+from .progress import ProgressLine, defer_ctrl_c, interrupt_requested
 
 __all__ = ["GridTrajectories", "GridInterrupted", "simulate_grid", "STATUS_NAMES"]
 
 #: the per-point status codes of :attr:`GridTrajectories.status`, by value
 STATUS_NAMES = ("finished", "left_band", "underflow", "non_finite", "singular", "max_steps",
-                "not_run")
+                "not_run", "interrupted")
 
 #: fewest points per block of the RKN lanes kernel (a thread takes one block at a time and
 #: runs it on _bk.LANES lanes, refilling a lane when its point ends); a chunk is cut into
@@ -106,8 +113,8 @@ class GridTrajectories:
     params : dict name -> ndarray S
         Every parameter's value at every point.
     t0, t_final : ndarray S
-        Start time and the time each run stopped (s): t1, or where it left the band or
-        failed.
+        Start time and the time each run stopped (s): t1, or where it left the band,
+        failed, or was stopped by Ctrl-C (status "interrupted").
     q, qdot : ndarray S + (n,)
         The state at ``t_final``.
     q_mean : ndarray S + (n,)
@@ -170,7 +177,8 @@ class GridTrajectories:
     @property
     def status_name(self) -> np.ndarray:
         """The status of every point as a string array of shape S."""
-        return np.asarray(STATUS_NAMES, dtype=object)[self.status]
+        status = np.asarray(self.status)        # a 0-d grid's too: an array, not a str
+        return np.asarray(STATUS_NAMES, dtype=object)[status.reshape(-1)].reshape(status.shape)
 
     @property
     def ok(self) -> np.ndarray:
@@ -209,12 +217,15 @@ class GridTrajectories:
 
 
 class GridInterrupted(KeyboardInterrupt):
-    """Ctrl-C during :func:`simulate_grid`; ``.result`` holds the finished points (the
-    others have status "not_run")."""
+    """Ctrl-C during :func:`simulate_grid`; ``.result`` holds the finished points, those
+    stopped part-way (status "interrupted") and those not started ("not_run")."""
 
     def __init__(self, result, done):
-        super().__init__(f"grid interrupted after {done} of {result.size} points; the finished "
-                         "ones are in the exception's .result (status 'not_run' marks the rest)")
+        part = int(np.sum(result.status == _bk.GRID_INTERRUPTED))
+        super().__init__(f"grid interrupted after {done} of {result.size} points"
+                         + (f" ({part} more stopped part-way, status 'interrupted')" if part
+                            else "") + "; they are in the exception's .result (status "
+                         "'not_run' marks the rest)")
         self.result = result
 
 
@@ -288,8 +299,10 @@ def _grid_arrays(system, q0, qdot0, t_span, params, h, strobe, reference, band):
     N = int(np.prod(S, dtype=np.int64))
 
     def flat(a, tail=()):
-        return np.ascontiguousarray(np.broadcast_to(a, S + tail).reshape((N,) + tail),
-                                    dtype=float)
+        # always a writable copy: a view of a broadcast input is read-only, and numba
+        # compiles the grid kernels once more for every read-only/writable mix (~30 s each)
+        return np.array(np.broadcast_to(a, S + tail).reshape((N,) + tail), dtype=float,
+                        order="C")
 
     T0, T1 = flat(t0), flat(t1)
     bad = ~(T1 > T0)
@@ -394,6 +407,67 @@ def _grid_method(kernels, method, h_given):
     return method, family, sub, adaptive
 
 
+# -- the calls: chunks of points, long runs paused and resumed ----------------------------
+
+#: seconds one compiled call is sized to take: Ctrl-C (seen between calls) waits about this
+_TARGET = 0.25
+#: steps a point may take in the first call (the next calls' budget is sized from its time)
+_FIRST_BUDGET = 2048
+
+
+def _run_paused(call, N, TS, TF, STATUS, width, progress, first):
+    """Integrate every point through ``call(idx, budget, slot, SAVE, SAVEI)`` in calls of
+    about :data:`_TARGET` seconds; returns (points ended, interrupted).
+
+    A call takes the points paused by the last one (their saved state first) and new
+    points up to ``size``; a point that has taken ``budget`` steps in a call pauses
+    (:mod:`lagrange_core._batch_kernels`, status GRID_INTERRUPTED) and goes on in the
+    next.  ``size`` (points) and ``budget`` (steps) are sized from the time each call
+    took, at most 8× the last, so a grid of short runs goes by chunks of points and a
+    long run by chunks of steps.  Progress counts a paused point by the share of its
+    span it has reached.  On Ctrl-C (between calls) the paused points keep status
+    GRID_INTERRUPTED with their observables so far, the points never started "not_run".
+    """
+    bar = ProgressLine(progress, N, "simulate_grid", "points" if N != 1 else "of the run",
+                       fraction=N == 1)
+    span = TS[:, 1] - TS[:, 0]
+    nxt = ended = 0
+    size = max(1, min(first, N))
+    budget = _FIRST_BUDGET
+    paused = np.zeros(0, dtype=np.int64)
+    save = np.zeros((0, width))
+    savei = np.zeros((0, _bk.SAVEI_WIDTH), dtype=np.int64)
+    try:
+        while len(paused) or nxt < N:
+            if interrupt_requested():
+                raise KeyboardInterrupt
+            take = min(max(size - len(paused), 0), N - nxt)
+            idx = np.concatenate([paused, np.arange(nxt, nxt + take, dtype=np.int64)])
+            SAVE = np.zeros((len(idx), width))
+            SAVEI = np.zeros((len(idx), _bk.SAVEI_WIDTH), dtype=np.int64)
+            SAVE[:len(paused)] = save
+            SAVEI[:len(paused)] = savei
+            start = time.perf_counter()
+            call(idx, budget, np.arange(len(idx), dtype=np.int64), SAVE, SAVEI)
+            dt = max(time.perf_counter() - start, 1e-6)
+            nxt += take
+            stop = STATUS[idx] == _bk.GRID_INTERRUPTED
+            paused, save, savei = idx[stop], SAVE[stop], SAVEI[stop]
+            ended += len(idx) - len(paused)
+            if len(paused):
+                budget = int(min(max(64.0, budget * _TARGET / dt), 8.0 * budget))
+            else:
+                size = int(min(max(1.0, len(idx) / dt * _TARGET), 8.0 * size))
+            with np.errstate(invalid="ignore", divide="ignore"):
+                share = np.clip((TF[paused] - TS[paused, 0]) / span[paused], 0.0, 1.0)
+            bar.update(ended + float(np.sum(share)))
+    except KeyboardInterrupt:
+        bar.close()
+        return ended, True
+    bar.close()
+    return ended, False
+
+
 # -- simulate_grid -----------------------------------------------------------------------
 
 def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1e-9,
@@ -455,48 +529,55 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
         load_drive_kernel(kernels, lanes=lanes)
     ka = kernels.addresses(*sorted(slots))
 
-    YF = np.full((N, 2 * n), np.nan)
-    TF = np.full(N, np.nan)
-    SQ = np.full((N, max(K, 1) if strobe is not None else 1, 2 * n), np.nan)
-    QM = np.zeros((N, n))
-    DEV = np.zeros((N, n))
-    EXIT = np.full(N, np.nan)
-    EXITC = np.full(N, -1, dtype=np.int64)
-    EDRIFT = np.full(N, np.nan)
-    COUNTS = np.zeros((N, 3), dtype=np.int64)
-    ERR = np.zeros(N)
-    STATUS = np.full(N, _bk.GRID_NOT_RUN, dtype=np.int64)
-    from .integrate import METHODS
-    tab = METHODS[method].table
-    pilot = method == "rkn12-fixed" and h is None
-    common = (g["Y0"], g["P"], g["TS"], g["H"], g["TSTR"], g["REF"], g["LO"], g["HI"], flags,
-              rtol, atol, max_steps)
-    outs = (YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS)
-    order = np.arange(N, dtype=np.int64)
+    # from here on Ctrl-C is seen between calls (the allocations included: the strobe
+    # samples of a long run take a while), and the run stops with what it computed
+    with defer_ctrl_c():
+        YF = np.full((N, 2 * n), np.nan)
+        TF = np.full(N, np.nan)
+        SQ = np.full((N, max(K, 1) if strobe is not None else 1, 2 * n), np.nan)
+        QM = np.zeros((N, n))
+        DEV = np.zeros((N, n))
+        EXIT = np.full(N, np.nan)
+        EXITC = np.full(N, -1, dtype=np.int64)
+        EDRIFT = np.full(N, np.nan)
+        COUNTS = np.zeros((N, 3), dtype=np.int64)
+        ERR = np.zeros(N)
+        STATUS = np.full(N, _bk.GRID_NOT_RUN, dtype=np.int64)
+        from .integrate import METHODS
+        tab = METHODS[method].table
+        pilot = method == "rkn12-fixed" and h is None
+        common = (g["Y0"], g["P"], g["TS"], g["H"], g["TSTR"], g["REF"], g["LO"], g["HI"],
+                  flags, rtol, atol, max_steps)
+        outs = (YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS)
 
-    import numba
+        import numba
 
-    from .integrate import _HOLD_BLOCK
-    lane_mode = (_bk.LANES_ADAPTIVE if adaptive else _bk.LANES_PILOT if pilot
-                 else _bk.LANES_FIXED)
+        from .integrate import _HOLD_BLOCK
+        lane_mode = (_bk.LANES_ADAPTIVE if adaptive else _bk.LANES_PILOT if pilot
+                     else _bk.LANES_FIXED)
+        stages = tab["c"].shape[0] if family == "second_order" and sub == 0 else \
+            tab["w"].shape[0] + 1 if family == "second_order" else 13
+        rates = (_bk.drive_rates(ka, g["P"][0]).shape[0] if family == "second_order" and N
+                 else 0)
+        width = _bk.save_width(n, stages, rates, _HOLD_BLOCK)
 
-    def work(a, b):
-        idx = order[a:b]
-        if lanes:
-            block = max(_BLOCK, -(-(b - a) // (2 * numba.get_num_threads())))
-            _bk.grid_rkn_lanes(ka, lane_mode, _HOLD_BLOCK, idx, block, *common, tab["c"],
-                               tab["A"], tab["b"], tab["bp"], tab["bh"], tab["bph"], *outs)
-        elif family == "second_order":
-            _bk.grid_second_order(ka, sub, adaptive, pilot, _HOLD_BLOCK, idx, *common, tab["c"],
-                                  tab["A"], tab["b"], tab["bp"], tab["bh"], tab["bph"], tab["w"],
-                                  *outs)
-        else:
-            _bk.grid_dop853(ka, m, adaptive, idx, *common, tab["A"], tab["B"], tab["C"],
-                            tab["E3"], tab["E5"], *outs)
+        def call(idx, budget, slot, save, savei):
+            if lanes:
+                block = max(_BLOCK, -(-len(idx) // (2 * numba.get_num_threads())))
+                _bk.grid_rkn_lanes(ka, lane_mode, _HOLD_BLOCK, idx, block, *common, tab["c"],
+                                   tab["A"], tab["b"], tab["bp"], tab["bh"], tab["bph"], *outs,
+                                   budget, slot, save, savei)
+            elif family == "second_order":
+                _bk.grid_second_order(ka, sub, adaptive, pilot, _HOLD_BLOCK, idx, *common,
+                                      tab["c"], tab["A"], tab["b"], tab["bp"], tab["bh"],
+                                      tab["bph"], tab["w"], *outs, budget, slot, save, savei)
+            else:
+                _bk.grid_dop853(ka, m, adaptive, idx, *common, tab["A"], tab["B"], tab["C"],
+                                tab["E3"], tab["E5"], *outs, budget, slot, save, savei)
 
-    with defer_ctrl_c(), numba.parallel_chunksize(1):
-        done, interrupted = run_in_chunks(work, N, progress=progress, label="simulate_grid",
-                                          first=8 * numba.get_num_threads())
+        with numba.parallel_chunksize(1):
+            done, interrupted = _run_paused(call, N, g["TS"], TF, STATUS, width, progress,
+                                            8 * numba.get_num_threads())
     run = STATUS != _bk.GRID_NOT_RUN
     span = TF - g["TS"][:, 0]
     with np.errstate(invalid="ignore", divide="ignore"):

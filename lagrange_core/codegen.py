@@ -63,9 +63,9 @@ The hot kernels (``rhs``, ``solve_state_y``, ``accelerations``) are single
 functions: each call between numba functions costs reference-count updates on
 its array arguments.  The Jacobian is exact, for every system: forward-mode
 derivatives of the entries from the same program
-(:func:`lagrange_core._ir.tangent_evaluator`; ``abs`` and ``sign`` included),
+(``lagrange_core._ir.tangent_evaluator``; ``abs`` and ``sign`` included),
 then two solves compiled once per installation
-(:func:`lagrange_core._core_kernels.jacobian_from_entries`).  Only ``rhs`` is
+(``lagrange_core._core_kernels.jacobian_from_entries``).  Only ``rhs`` is
 compiled when the kernels are made; the others compile on first use
 (:meth:`Kernels.warm`).
 
@@ -668,7 +668,7 @@ class Kernels:
         Parameters
         ----------
         *slots : str
-            Kernel names from :data:`lagrange_core._kernel_calls.SLOTS` that the caller
+            Kernel names from ``lagrange_core._kernel_calls.SLOTS`` that the caller
             will call; their ``c_<name>`` entry points are compiled (or loaded from
             numba's cache) on first request.  Slots not requested hold 0.
 

@@ -134,6 +134,7 @@ whose ``trajectory`` attribute holds everything computed so far (status
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from dataclasses import dataclass, field, replace
@@ -142,6 +143,7 @@ import numpy as np
 
 from . import _integrator_kernels as _kern
 from .drive_kernel import load_drive_kernel
+from .progress import ProgressLine, defer_ctrl_c, interrupt_requested
 
 __all__ = ["Method", "METHODS", "Event", "turning_point", "crossing", "multiplier_zero",
            "Trajectory", "SimulationInterrupted", "simulate", "check_options", "rkn_eligibility"]
@@ -222,6 +224,8 @@ def _yoshida6_table():
             "w": yoshida6_weights()}
 
 
+#: The integration methods by name (``simulate(method=...)``): each a :class:`Method`;
+#: ``"scipy:<name>"`` entries call ``scipy.integrate.solve_ivp`` for comparison.
 METHODS: dict[str, Method] = {
     "dop853": Method("dop853", "dop853", 8, True, "",
                      "Dormand–Prince 8(5,3), adaptive, dense output (Hairer's DOP853)",
@@ -631,10 +635,15 @@ def _addresses(kernels, driver):
 #: evaluated steps per block of the adaptive RKN's held step (_integrator_kernels.held_step_record)
 _HOLD_BLOCK = 64
 _NO_STEP_LIMIT = 2**63 - 1
+#: steps of a DOP853 run's first chunk; the next are sized to take about _TARGET seconds
+#: (at most chunk_steps): Ctrl-C, seen between chunks, waits about that long
+_FIRST_CHUNK = 2000
+_TARGET = 0.25
 
 def simulate(kernels, q0, qdot0, t_span, p, *, method=None, rtol=1e-9, atol=None,
              t_eval=None, events=(), max_steps=None, h=None, stride=1, error_check=False,
-             chunk_steps=20000, max_points=1_000_000, label=None) -> Trajectory:
+             chunk_steps=20000, max_points=1_000_000, label=None,
+             progress=False) -> Trajectory:
     """Integrate a system, given by its compiled ``kernels``, from (q0, q̇0) over ``t_span``.
 
     ``q0``, ``qdot0`` and ``p`` are float arrays (the coordinates and the parameter values
@@ -644,14 +653,15 @@ def simulate(kernels, q0, qdot0, t_span, p, *, method=None, rtol=1e-9, atol=None
     o = check_options(t_span, rtol=rtol, atol=atol, t_eval=t_eval, max_steps=max_steps, h=h,
                       stride=stride, chunk_steps=chunk_steps, max_points=max_points)
     return simulate_checked(kernels, q0, qdot0, p, o, method=method, events=events,
-                            error_check=error_check, label=label)
+                            error_check=error_check, label=label, progress=progress)
 
 
 def simulate_checked(kernels, q0, qdot0, p, options, *, method=None, events=(),
-                     error_check=False, label=None) -> Trajectory:
+                     error_check=False, label=None, progress=False) -> Trajectory:
     """:func:`simulate` with its options checked already (``options`` from
     :func:`check_options`): what :meth:`System.simulate` calls, so that one call checks
-    them once."""
+    them once.  ``progress`` as for :class:`lagrange_core.progress.ProgressLine` (shown
+    for a run of more than one chunk that takes over half a second)."""
     start = time.perf_counter()
     o = options
     label = kernels.label if label is None else label
@@ -669,11 +679,17 @@ def simulate_checked(kernels, q0, qdot0, p, options, *, method=None, events=(),
         if o.h is None and meth.name == "rkn12-fixed":
             o = replace(o, h=_step_from_tolerance(kernels, label, q0, qd0, p, o))
         traj = _run_compiled(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val,
-                             start)
+                             start, progress=progress)
     if error_check and traj.status in ("success", "event"):
-        ref = simulate(kernels, q0, qd0, (o.t0, traj.t[-1]), p, method=meth.name,
-                       rtol=max(o.rtol / 1000, 1e-15), atol=o.atol / 1000, t_eval=traj.t,
-                       h=None if o.h is None else o.h / 4, max_steps=None, label=label)
+        try:
+            ref = simulate(kernels, q0, qd0, (o.t0, traj.t[-1]), p, method=meth.name,
+                           rtol=max(o.rtol / 1000, 1e-15), atol=o.atol / 1000, t_eval=traj.t,
+                           h=None if o.h is None else o.h / 4, max_steps=None, label=label,
+                           progress=progress)
+        except SimulationInterrupted:   # the run itself is whole; its error check is not
+            raise SimulationInterrupted(replace(
+                traj, status="interrupted", message="interrupted (Ctrl-C) during the error "
+                "check (a rerun at rtol/1000); the run itself is complete")) from None
         n = min(len(ref.t), len(traj.t))
         diff = max(np.max(np.abs(ref.q[:n] - traj.q[:n])),
                    np.max(np.abs(ref.qdot[:n] - traj.qdot[:n])))
@@ -732,7 +748,7 @@ def _singular_error(label, m, t, y):
 
 
 def _run_compiled(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, start,
-                  along=True, hold=True):
+                  along=True, hold=True, progress=False):
     """Run a compiled driver chunk by chunk; the Trajectory (``hold=False``: the adaptive
     RKN with its classic step-size controller throughout, for the pilot of rkn12-fixed)."""
     n, m = kernels.n_dof, kernels.n_constraints
@@ -814,36 +830,62 @@ def _run_compiled(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, s
                 run.stride *= 2
 
     interrupted = False
+    bar = None
+    stack = contextlib.ExitStack()
+    # DOP853 goes on exactly across chunks (its whole state is in y, f, tv), so its chunks
+    # are sized by their time; the RKN and symplectic drivers restart their compensated
+    # sums and their drive's cos/sin at a chunk's start (a rounding), so theirs stay
+    # chunk_steps long wherever the machine is fast or slow: the same numbers every run
+    size = min(o.chunk_steps, _FIRST_CHUNK) if meth.driver == "dop853" else o.chunk_steps
+    span = o.t1 - o.t0
     try:
-        while True:
-            budget = int(min(o.chunk_steps, total_limit - stats[_kern.ST_STEPS]))
-            if o.t_eval is None and budget > 0:   # a chunk stores ≤ budget/stride rows
-                budget = min(budget, run.stride * max(o.max_points // 4, 1))
-            if budget <= 0:
-                status_name = "max_steps"
-                message = (f"stopped after max_steps = {o.max_steps} steps at "
-                           f"t = {tv[_kern.TV_T]:.6g} s")
-                break
-            code = driver.chunk(run, budget)
-            drain()
-            if code == _kern.STATUS_DONE:
-                break
-            if code == _kern.STATUS_EVENT:
-                status_name, message = "event", f"terminal event at t = {tv[_kern.TV_T]:.17g} s"
-                break
-            if code == _kern.STATUS_SINGULAR:
-                raise _singular_error(label, m, float(tv[_kern.TV_T]), y)
-            if code == _kern.STATUS_UNDERFLOW:
-                raise FloatingPointError(
-                    f"integration of {label} failed at t = {tv[_kern.TV_T]!r} s: the step size "
-                    f"fell below the resolution of t (state q = {y[:n].tolist()}, q̇ = "
-                    f"{y[n:].tolist()}). The solution may blow up or become non-finite there; "
-                    "check parameters and initial conditions.")
+        with stack:
+            while True:
+                if interrupt_requested():
+                    raise KeyboardInterrupt
+                budget = int(min(size, total_limit - stats[_kern.ST_STEPS]))
+                if o.t_eval is None and budget > 0:   # a chunk stores ≤ budget/stride rows
+                    budget = min(budget, run.stride * max(o.max_points // 4, 1))
+                if budget <= 0:
+                    status_name = "max_steps"
+                    message = (f"stopped after max_steps = {o.max_steps} steps at "
+                               f"t = {tv[_kern.TV_T]:.6g} s")
+                    break
+                started = time.perf_counter()
+                code = driver.chunk(run, budget)
+                if meth.driver == "dop853":
+                    took = max(time.perf_counter() - started, 1e-6)
+                    size = int(min(o.chunk_steps, 8 * size, max(64.0, size * _TARGET / took)))
+                drain()
+                if code == _kern.STATUS_DONE:
+                    if bar is not None:
+                        bar.update(1.0)
+                    break
+                if code == _kern.STATUS_EVENT:
+                    status_name = "event"
+                    message = f"terminal event at t = {tv[_kern.TV_T]:.17g} s"
+                    break
+                if code == _kern.STATUS_SINGULAR:
+                    raise _singular_error(label, m, float(tv[_kern.TV_T]), y)
+                if code == _kern.STATUS_UNDERFLOW:
+                    raise FloatingPointError(
+                        f"integration of {label} failed at t = {tv[_kern.TV_T]!r} s: the step "
+                        f"size fell below the resolution of t (state q = {y[:n].tolist()}, "
+                        f"q̇ = {y[n:].tolist()}). The solution may blow up or become "
+                        "non-finite there; check parameters and initial conditions.")
+                if bar is None:         # more than one chunk: Ctrl-C waits for the chunk's
+                    stack.enter_context(defer_ctrl_c())      # end, and a progress line
+                    bar = ProgressLine(progress, 1, "simulate", "of t_span", fraction=True)
+                bar.update(min(max((tv[_kern.TV_T] - o.t0) / span, 0.0), 1.0))
     except KeyboardInterrupt:
         drain()
         interrupted = True
         status_name = "interrupted"
-        message = f"interrupted (Ctrl-C) at t = {tv[_kern.TV_T]:.6g} s"
+        message = (f"interrupted (Ctrl-C) at t = {tv[_kern.TV_T]:.6g} s, "
+                   f"{100 * (tv[_kern.TV_T] - o.t0) / span:.3g} % of t_span")
+    finally:
+        if bar is not None:
+            bar.close()
     if o.t_eval is not None:
         k = int(stats[_kern.ST_STORED])
         T, Y = tout[:k], yout[:k]

@@ -17,15 +17,21 @@ import time
 
 __all__ = ["ProgressLine", "defer_ctrl_c", "run_in_chunks", "interrupt_requested"]
 
+#: seconds of work before a progress line appears (shorter work shows none)
+SHOW_AFTER = 0.5
+
 
 class ProgressLine:
     """A progress line on stderr (after 0.5 s, at most 10 updates per second), or a callback.
 
     ``progress``: None (a line when stderr is a terminal), False (quiet), True (a line),
-    or a callable ``progress(done, total)`` called after every chunk.
+    or a callable ``progress(done, total)`` called after every chunk.  ``done`` may be
+    fractional (a long run part-way: the share of its span reached); the line shows the
+    whole units done, the percentage and an estimate of the time left (from the rate so
+    far), or with ``fraction`` the percentage only ("simulate: 53 % of t_span, ...").
     """
 
-    def __init__(self, progress, total, label, unit):
+    def __init__(self, progress, total, label, unit, *, fraction=False):
         if not (progress is None or isinstance(progress, bool) or callable(progress)):
             raise ValueError(f"progress must be None, True, False or a callable "
                              f"progress(done, total); got {progress!r}.")
@@ -33,7 +39,7 @@ class ProgressLine:
             else None
         tty = getattr(sys.stderr, "isatty", lambda: False)()
         self.show = progress is True or (progress is None and tty)
-        self.total, self.label, self.unit = total, label, unit
+        self.total, self.label, self.unit, self.fraction = total, label, unit, fraction
         self.t0 = self.last = time.perf_counter()
         self.shown = False
 
@@ -41,12 +47,14 @@ class ProgressLine:
         if self.show:
             now = time.perf_counter()
             el = now - self.t0
-            if el > 0.5 and (now - self.last > 0.1 or done == self.total):
+            if el > SHOW_AFTER and (now - self.last > 0.1 or done == self.total):
                 self.last = now
-                eta = el * (self.total - done) / max(done, 1)
-                sys.stderr.write(f"\r{self.label}: {done}/{self.total} {self.unit} "
-                                 f"({100 * done / self.total:.0f} %), {el:.1f} s, "
-                                 f"~{eta:.0f} s left ")
+                left = (f"~{el * (self.total - done) / done:.0f} s left" if done > 0
+                        else "time left not yet known")
+                share = f"{100 * done / max(self.total, 1):.0f} %"
+                count = (f"{share} {self.unit}" if self.fraction else
+                         f"{int(done)}/{self.total} {self.unit} ({share})")
+                sys.stderr.write(f"\r{self.label}: {count}, {el:.1f} s, {left} ")
                 sys.stderr.flush()
                 self.shown = True
         if self.callback is not None:

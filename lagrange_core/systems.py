@@ -600,7 +600,7 @@ class System:
         return (qdd, lam) if self.n_constraints else qdd
 
     def simulate(self, q0, qdot0, t_span, params=None, *, method=None, rtol=1e-9, t_eval=None,
-                 **options):
+                 progress=None, **options):
         """Integrate the equations of motion; returns a frozen :class:`Trajectory`.
 
         Parameters
@@ -626,6 +626,16 @@ class System:
             k-th step), ``max_points`` (memory bound on stored rows, default 10⁶),
             ``error_check`` (rerun at rtol/1000 to estimate the error),
             ``chunk_steps``.  See :mod:`lagrange_core.integrate`.
+        progress : None, bool or callable
+            A run of more than one chunk (see below) that takes over half a second shows
+            a line on stderr — the share of ``t_span`` reached and the time left — when
+            stderr is a terminal (None), always (True) or never (False); a callable gets
+            ``progress(share, 1)``.
+
+        The run is integrated in chunks (compiled calls): DOP853's of about a quarter of
+        a second (it goes on exactly across them), the other methods' ``chunk_steps``
+        steps (default 20 000: milliseconds for a pendulum).  Ctrl-C stops at the end of
+        the running chunk.
 
         Raises
         ------
@@ -633,7 +643,9 @@ class System:
             Bad input, an ineligible method, or a singular mass matrix during the
             run (the message names the time and state).
         lagrange_core.integrate.SimulationInterrupted
-            On Ctrl-C, carrying the part computed in ``.trajectory``.
+            On Ctrl-C, carrying the part computed in ``.trajectory`` (status
+            "interrupted"; its message and the trajectory's last time say how far it
+            got).
         """
         from . import integrate
         q0, qdot0, p = self._simulate_arrays(q0, qdot0, params)
@@ -641,7 +653,8 @@ class System:
         checked = integrate.check_options(t_span, rtol=rtol, t_eval=t_eval, **options)
         return integrate.simulate_checked(
             self.kernels, q0, qdot0, p, checked, method=method, events=options.get("events", ()),
-            error_check=options.get("error_check", False), label=self._label())
+            error_check=options.get("error_check", False), label=self._label(),
+            progress=progress)
 
     def _simulate_arrays(self, q0, qdot0, params):
         """(q0, q̇0, p) as float arrays for :meth:`simulate`.  The common call (lists or

@@ -11,9 +11,16 @@ from __future__ import annotations
 import math
 import time
 
+from . import _compile_notice
+
 __all__ = ["warmup"]
 
+# the package's face imports this module: from here on, a first compile of the shared
+# kernels says so on stderr, once per process
+_compile_notice.install()
 
+
+@_compile_notice.activity("lagrange_core.warmup")
 def warmup(verbose: bool = False) -> float:
     """Compile (or load from numba's cache) every integrator driver; returns the seconds taken.
 

@@ -183,8 +183,12 @@ except GridInterrupted as e:
     done = np.flatnonzero(r.status == 0)
     k = int(done[len(done) // 2])
     one = pend.simulate_grid([np.pi - 0.1], [0.0], (0.0, 200.0), dict(P, A=A[k], omega=w))
+    part = r.status_name == "interrupted"
     print(json.dumps({"finished": False, "t": t, "done": int(len(done)),
                       "not_run": int(np.sum(r.status_name == "not_run")),
+                      "part": int(part.sum()),
+                      "part_ok": bool(np.isfinite(r.q[part]).all()
+                                      and np.all((r.t_final[part] > 0) & (r.t_final[part] < 200))),
                       "same": bool(one.q[0] == r.q[k, 0]),
                       "nan_rest": bool(np.isnan(r.q[r.status == 6]).all())}), flush=True)
 '''
@@ -192,10 +196,12 @@ except GridInterrupted as e:
 
 def test_ctrl_c_keeps_the_finished_points(tmp_path):
     """Ctrl-C during a long grid (4000 points × 200 s) stops within a second and raises
-    GridInterrupted carrying every finished point (equal to a run of its own); the
-    rest are marked "not_run" with NaN states."""
+    GridInterrupted carrying every finished point (equal to a run of its own), the points
+    stopped part-way ("interrupted": their state where they stopped, before the end) and
+    the rest marked "not_run" with NaN states."""
     res, sent = interrupt_child(tmp_path, CHILD, 1.5, 60)
     assert res["finished"] is False
     assert res["t"] - sent < 1.0
-    assert res["done"] > 0 and res["not_run"] > 0 and res["done"] + res["not_run"] == 4000
+    assert res["done"] > 0 and res["not_run"] > 0 and res["part_ok"]
+    assert res["done"] + res["part"] + res["not_run"] == 4000
     assert res["same"] and res["nan_rest"]

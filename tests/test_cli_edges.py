@@ -19,6 +19,7 @@ import math
 import os
 import re
 import sys
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -376,3 +377,87 @@ def test_measure_text_equals_its_json(capsys):
     assert m["fall_time"] == "nan" and "fall time nan s" in text
     assert f"stayed up {m['stayed_up']}" in text
     assert f"mean angle {float(m['mean_angle']):.6g} rad" in text
+
+
+# -- sweep --wait, a sweep too large to load, map's own memory, map's write errors ---------------
+
+def _swept_dataset(tmp_path, capsys):
+    """The tiny measure sweep of ``_SWEPT`` run once: (its scene file, its dataset)."""
+    scene = tmp_path / "swept.toml"
+    scene.write_text(_SWEPT)
+    code, out, _ = run(capsys, "sweep", str(scene), "--directory", str(tmp_path / "out"),
+                       "--json")
+    assert code == 0
+    return scene, Path(json.loads(out)["path"])
+
+
+def test_sweep_wait_waits_for_the_lock_then_refuses_or_runs(tmp_path, capsys):
+    """``--wait [SECONDS]`` reaches Scene.sweep(wait=): with another sweep's lock in place
+    (this live process's pid), --wait 0.4 waits that long and refuses in one line naming
+    the lock; --wait alone runs once the lock goes.  (It was not an option.)"""
+    import socket
+    import threading
+    import time
+
+    scene, path = _swept_dataset(tmp_path, capsys)
+    lock = path / "_sweep.lock"
+    lock.write_text(json.dumps({"pid": os.getpid(), "host": socket.gethostname(),
+                                "started": "2026-01-01T00:00:00"}))
+    argv = ["sweep", str(scene), "--directory", str(tmp_path / "out")]
+    t0 = time.monotonic()
+    code, _, err = run(capsys, *argv, "--wait", "0.4")
+    assert code == 2 and time.monotonic() - t0 >= 0.4
+    one_line_error(err, "_sweep.lock", f"pid {os.getpid()}", "--wait")
+    code, _, err = run(capsys, *argv, "--wait", "-1")
+    assert code == 2
+    one_line_error(err, "--wait", "-1")
+    threading.Timer(0.5, lock.unlink).start()
+    t0 = time.monotonic()
+    code, _, _ = run(capsys, *argv, "--wait")
+    assert code == 0 and time.monotonic() - t0 >= 0.4
+
+
+def test_sweep_names_the_columns_of_a_dataset_too_large_to_load(tmp_path, capsys,
+                                                                monkeypatch):
+    """A memory limit below the rows' size: SweepResult.frame is None and the command
+    read the column names with to_dataframe(), which raised (exit 2); the names come from
+    the Parquet schema now."""
+    scene, _ = _swept_dataset(tmp_path, capsys)
+    monkeypatch.setenv("KAPITZA_MEMORY_LIMIT_GIB", "1e-9")         # ~1 byte
+    code, out, _ = run(capsys, "sweep", str(scene), "--directory", str(tmp_path / "out"),
+                       "--json")
+    assert code == 0
+    columns = json.loads(out)["columns"]
+    assert columns[:2] == ["point", "A"] and "stayed_up" in columns
+
+
+def test_map_refuses_outputs_that_would_not_fit_before_any_work(tmp_path, capsys,
+                                                                 monkeypatch):
+    """The table, data file and figure of a map are checked against the memory limit on
+    top of the API's own check: refused in one line naming the grid, nothing written."""
+    called = []
+    monkeypatch.setattr(KapitzaPendulum, "stability_map", lambda *a, **k: called.append(1))
+    monkeypatch.setattr(_commands, "MAP_OUTPUT_BYTES_PER_POINT", 1e12)
+    png = tmp_path / "m.png"
+    code, _, err = run(capsys, "map", "--A", "0:0.5:4", "--omega", "50,400", "--out", str(png))
+    assert code == 2 and not called and not png.exists()
+    one_line_error(err, "--A × --omega", "4 × 2", "kapitza sweep")
+
+
+@pytest.mark.parametrize("data", [None, "m.parquet"])
+def test_an_os_error_writing_the_map_is_one_line_exit_2(data, tmp_path, capsys, monkeypatch):
+    """A full disk while the map's table is written: one line naming the file, exit 2, and
+    no file (or temporary file) left half-written."""
+    import errno
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+    monkeypatch.setattr(pd.DataFrame, "to_csv", full)
+    monkeypatch.setattr(pd.DataFrame, "to_parquet", full)
+    argv = ["map", "--A", "0:0.5:4", "--omega", "50,400", "--out", str(tmp_path / "m.png")]
+    if data:
+        argv += ["--data", str(tmp_path / data)]
+    code, _, err = run(capsys, *argv)
+    assert code == 2
+    one_line_error(err, tmp_path / (data or "m.csv"), "no space left")
+    assert not [p for p in tmp_path.iterdir() if p.suffix in (".csv", ".parquet", ".tmp")]

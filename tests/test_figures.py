@@ -118,3 +118,30 @@ def test_boundary_curves_and_windows_are_told_apart(pend):
             "exact boundary: multiplier −1 (2T)"} <= set(labels)
     solid = [li for li in ax.lines if li.get_label().startswith("exact boundary")]
     np.testing.assert_array_equal(solid[0].get_ydata(), exact.A_min)
+
+
+def _within(fig):
+    """Whether everything drawn (titles, labels, legends) lies within the figure (inches)."""
+    tight, frame = fig.get_tightbbox(), fig.bbox_inches
+    return (tight.x0 >= frame.x0 - 0.01 and tight.x1 <= frame.x1 + 0.01
+            and tight.y0 >= frame.y0 - 0.01 and tight.y1 <= frame.y1 + 0.01)
+
+
+def test_long_titles_are_wrapped_never_cut(pend):
+    """Issue 22.10: a title longer than the figure is wrapped (a short parenthesis such as
+    "(π, π)" and "θ = π" kept whole), by the figure functions themselves and, for any
+    figure, by figures.fit_texts (the report runs it on every figure it saves)."""
+    theta = np.linspace(-np.pi, 2 * np.pi, 300)
+    U = kapitza.pendulum_effective_potential(0.05, 150.0, theta=theta)
+    long = ("Spot checks by direct simulation on the Floquet map of the upright state of a "
+            "chain, q = (π, π), at θ = π")
+    fig = figures.effective_potential_figure(theta, U, title=long)
+    assert _within(fig)
+    title = fig.axes[0].get_title()
+    assert "\n" in title and "(π, π)" in title and "θ = π" in title
+    m = pend.stability_map(np.linspace(0.01, 0.3, 8), np.geomspace(10.0, 100.0, 8))
+    fig = figures.stability_map_figure(m, title=long)
+    fig.canvas.draw()
+    assert not _within(fig)                          # as drawn by the caller's title: cut
+    assert figures.fit_texts(fig) and _within(fig)
+    assert figures.fit_texts(fig) == []              # once fitted, left alone

@@ -371,6 +371,88 @@ def test_undriven_double_pendulum_normal_modes_and_energy():
     assert m.energy_drift.shape == (2,) and np.all(m.energy_drift < 1e-12)
 
 
+# -- what is asked and no more (issue 24, point 1) ------------------------------------------
+
+def test_classification_only_decides_as_the_full_measurement(pendulum, monkeypatch):
+    """observables="classification" simulates without strobe samples (so without the
+    fit) at its own default tolerance, 1e-4 (RKN 12), and decides stayed up, fall time
+    and deviation as the full measurement at 1e-9 does — against the exact window: below
+    A_min it falls, inside the window it stays up."""
+    from lagrange_core import batch
+    calls = []
+    real = batch.simulate_grid
+
+    def spy(*args, **kw):
+        calls.append(kw.get("strobe"))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(batch, "simulate_grid", spy)
+    w = np.array([W60, 2 * math.pi * 100])
+    A = np.array([0.5, 2.0, 4.0])[:, None] * pendulum.window(w).A_min[None, :]
+    lean = pendulum.measure_grid(A, w[None, :], math.pi - 0.05, periods=1000,
+                                 observables="classification")
+    full = pendulum.measure_grid(A, w[None, :], math.pi - 0.05, periods=1000)
+    assert calls[0] is None and calls[1] is not None
+    assert lean.rtol == 1e-4 and full.rtol == 1e-9
+    assert not lean.stayed_up[0].any() and lean.stayed_up[1:].all()
+    np.testing.assert_array_equal(lean.stayed_up, full.stayed_up)
+    np.testing.assert_allclose(lean.fall_time[0], full.fall_time[0], rtol=1e-2)
+    np.testing.assert_allclose(lean.max_deviation[1:], full.max_deviation[1:], rtol=1e-3)
+    for name in ("omega_slow", "omega_slow_error", "refined", "growth_rate", "fit_residual",
+                 "amplitude", "samples"):
+        assert getattr(lean, name) is None, name
+    assert (lean.completed_periods[1:] == 1000).all() and (lean.completed_periods[0] < 1000).all()
+    np.testing.assert_allclose(lean.t_reached[0], lean.fall_time[0])
+    assert "omega_slow" not in lean.to_dataframe().columns
+
+
+def test_each_observable_alone_equals_its_part_of_everything(pendulum):
+    """observables=["amplitude"] gives the amplitude of the full measurement (the same
+    strobe samples) without the fit; "omega_slow" its Ω; an unknown name is refused."""
+    A, w = np.array([0.05, 0.1]), W60
+    full = pendulum.measure_grid(A, w, math.pi - 0.05, periods=400)
+    amp = pendulum.measure_grid(A, w, math.pi - 0.05, periods=400, observables=["amplitude"])
+    om = pendulum.measure_grid(A, w, math.pi - 0.05, periods=400, observables="omega_slow")
+    np.testing.assert_array_equal(amp.amplitude, full.amplitude)
+    assert amp.omega_slow is None and om.amplitude is None
+    np.testing.assert_array_equal(om.omega_slow, full.omega_slow)
+    np.testing.assert_array_equal(om.omega_slow_error, full.omega_slow_error)
+    with pytest.raises(ValueError, match="observables must be .* got 'omega'"):
+        pendulum.measure_grid(A, w, math.pi - 0.05, observables="omega")
+
+
+def test_damped_classification_defaults_to_a_tighter_tolerance():
+    """A damped pendulum runs DOP853, whose step the drive does not cap: classifying only,
+    its default rtol is 1e-6; the verdicts equal the full measurement's."""
+    pend = kapitza.KapitzaPendulum(damping=0.2)
+    A = np.array([0.005, 0.05])
+    lean = pend.measure_grid(A, W60, math.pi - 0.05, periods=300, observables="classification")
+    full = pend.measure_grid(A, W60, math.pi - 0.05, periods=300)
+    assert lean.method == "dop853" and lean.rtol == 1e-6
+    assert lean.stayed_up.tolist() == full.stayed_up.tolist() == [False, True]
+
+
+def test_strobe_samples_that_cannot_fit_are_refused_naming_the_lean_path(pendulum):
+    """10¹⁰ periods of strobe samples (1 TB) are refused before any work, the message
+    naming observables="classification", which keeps none."""
+    with pytest.raises(ValueError, match="observables='classification'"):
+        pendulum.measure(0.05, W60, math.pi - 0.1, periods=10**10)
+
+
+def test_ctrl_c_during_the_fit_keeps_every_run_and_the_fitted_points(pendulum, monkeypatch):
+    """Ctrl-C while Ω is fitted (a grid of more than one chunk of points): the runs are all
+    kept, Ω of the chunks fitted, NaN for the others, which .computed marks False."""
+    from kapitza.simulation import _measurement
+    asked = iter([True])
+    monkeypatch.setattr(_measurement, "interrupt_requested", lambda: next(asked, False))
+    A = np.linspace(0.03, 0.1, _measurement._CHUNK + 40)
+    with pytest.raises(kapitza.ComputationInterrupted, match="while fitting") as stop:
+        pendulum.measure_grid(A, W60, math.pi - 0.05, periods=30)
+    m, done = stop.value.result, stop.value.computed
+    assert done.sum() == _measurement._CHUNK and m.stayed_up.all()
+    assert np.isfinite(m.omega_slow[done]).all() and np.isnan(m.omega_slow[~done]).all()
+
+
 # -- arguments ----------------------------------------------------------------------------------
 
 def test_bad_input_is_explained(pendulum, chain):

@@ -227,3 +227,21 @@ def test_orbit_map_input_and_interruption(horizontal):
     part = info.value
     assert part.computed[:, 0].all() and not part.computed[:, 1:].any()
     assert np.isfinite(part.result.trace[:, 0]).all()
+
+
+def test_adaptive_map_labels_points_without_the_orbit_no_orbit():
+    """The adaptive map about the tilted orbit of the horizontal drive: below the pitchfork
+    there is no tilted orbit, labelled 4 "no orbit" (undecided) as on the uniform map (the
+    adaptive one labelled them 3, "complex", read as an instability)."""
+    pend = KapitzaPendulum(l=L, g=G, drive="horizontal")
+    A = np.linspace(0.02, 0.2, 5)
+    omega = np.array([40.0, 80.0])
+    orbit = pend.floquet(0.2, 80.0, about="tilted")
+    uniform = kapitza.stability_map(pend.system, BASE, orbit, A=A, omega=omega)
+    adaptive = kapitza.adaptive_map(pend.system, BASE, orbit, A=A, omega=omega,
+                                    coarse_step=2)
+    none = uniform.label == 4
+    assert none.any() and (~none).any()
+    assert np.array_equal(adaptive.label, uniform.label)
+    assert np.array_equal(adaptive.stable, uniform.stable)
+    assert set(adaptive.boundary[none]) == {"no orbit"}

@@ -191,32 +191,6 @@ def test_verification_numbers(quick):
     assert str(len(dis)) in report.section("verification").caption
 
 
-def test_double_pendulum_scene_says_why_sections_are_skipped(tmp_path):
-    scene = ROOT / "kapitza" / "scenes" / "double_pendulum.toml"
-    report = build_report(scene, tmp_path, quick=True, progress=False)
-    status = {s.name: s.status for s in report.sections}
-    assert status == {"potential": "skipped", "map": "done", "spots": "done", "slow": "done",
-                      "verification": "done", "bifurcations": "skipped",
-                      "work_precision": "done", "animation": "done"}
-    # the chain's own animation: held up at the scene's drive, as Floquet says (independently)
-    sc = kapitza.Scene.from_toml(scene)
-    assert kapitza.floquet_point(sc.system, sc.params, [np.pi, np.pi]).stable
-    anim = report.section("animation")
-    assert anim.figure.suffix == ".gif" and "stays within π/2" in anim.caption
-    assert "calls the upright stable" in anim.caption
-    page = report.index.read_text(encoding="utf-8")
-    for s in report.sections:
-        if s.status == "skipped":
-            assert len(s.reason) > 30 and html.escape(s.reason) in page
-    # the slow frequencies of both modes: simulation against Floquet
-    slow = pd.read_parquet(report.tables["slow_frequency"][0])
-    for k in (0, 1):
-        assert np.allclose(slow[f"omega_slow_simulation_{k}"], slow[f"omega_slow_floquet_{k}"],
-                           rtol=2e-3)
-    for x in _links(page):
-        assert x.startswith("#") or (tmp_path / x).is_file()
-
-
 def test_cli_horizontal_scene_json(tmp_path, capsys):
     scene = ROOT / "kapitza" / "scenes" / "horizontal_drive.toml"
     rc = main(["report", str(scene), "--out", str(tmp_path / "h"), "--quick", "--json"])

@@ -1,4 +1,4 @@
-"""The report page in a real browser (issue 14, point 3).
+"""The report page in a real browser (issue 14, point 3), for every shipped scene (issue 22.10).
 
 Headless Chromium opens the quick report's ``index.html`` the way a reader does and checks what
 a reader would see: every ``<img>`` decoded (``complete`` and ``naturalWidth > 0``: a missing
@@ -9,6 +9,11 @@ at warning level or above (a failed resource load is one: Chromium logs it as a 
 entry), nothing loaded from outside the folder, no horizontal scrolling at 1280 px; then a
 full-page screenshot, checked to be a real picture (``KAPITZA_SCREENSHOT_DIR`` set: a copy is
 kept there). Negative tests on hand-made pages prove that each check catches what it is for.
+
+Every shipped scene (``kapitza.scenes.example_scenes()``) gets its quick report built once for
+the module and opened: images, console, a page no wider than the window, no "nan"/"inf" or
+Python warning class where a number should stand; the build itself lets no warning reach the
+terminal and cuts no figure's title (each figure's drawn extent within it).
 
 Browser and driver: Debian's ``chromium`` and ``chromium-driver`` (the same source version, so
 they always match; ``.ci/run`` installs both when missing), driven by Selenium with the driver's
@@ -22,9 +27,14 @@ from disk (no JavaScript, no server), so a path that works only under a server (
 favicon request to get wrong.
 """
 import base64
+import contextlib
 import dataclasses
+import io
 import os
+import re
 import shutil
+import time
+import warnings
 from pathlib import Path
 from urllib.parse import urlsplit
 from urllib.request import url2pathname
@@ -66,6 +76,10 @@ class Page:
     client_width: int   # CSS px of the viewport (the window less its frame)
     client_height: int
     overflowing: list   # the outermost elements reaching past the viewport's right edge
+    body_scroll_width: int  # CSS px of the body's content (a wide table that does not
+                            # scroll inside its wrapper widens it)
+    text: str           # what a reader reads (innerText of the body)
+    cells: list         # the text of every table cell
     screenshot: Path
 
 
@@ -92,7 +106,10 @@ return {
     overflowing: Array.from(document.body.querySelectorAll('*'))
         .filter(e => over(e) && !(e.parentElement && over(e.parentElement)))
         .map(e => e.tagName.toLowerCase() + ' ' + Math.round(e.getBoundingClientRect().width)
-             + ' px wide: ' + (e.getAttribute('src') || e.textContent).trim().slice(0, 80))};
+             + ' px wide: ' + (e.getAttribute('src') || e.textContent).trim().slice(0, 80)),
+    body_scroll_width: document.body.scrollWidth,
+    text: document.body.innerText,
+    cells: Array.from(document.querySelectorAll('td')).map(c => c.innerText.trim())};
 """
 
 
@@ -224,14 +241,68 @@ def browser(tmp_path_factory):
     driver.quit()
 
 
-# --- the real report --------------------------------------------------------------------------
+# --- the report of every shipped scene -------------------------------------------------------
+
+#: Every shipped scene (kapitza.scenes.example_scenes()), the default "report" among them.
+SCENES = ("report", "double_pendulum", "elliptic_damped", "horizontal_drive", "kapitza_pendulum",
+          "kapitza_pendulum_map", "period_doubling")
+
+
+@dataclasses.dataclass(frozen=True)
+class Built:
+    """A scene's quick report and what its build let through."""
+    report: object
+    escaped: list       # warnings that reached the caller of build_report (its terminal)
+    stderr: str         # what the build wrote on stderr (progress off: nothing)
+    figures: list       # (name, tight bbox, figure bbox) of every saved figure, in inches
+    seconds: float
+
+
+def _build_scene(name, out):
+    """Build ``name``'s quick report into ``out``, recording the escaped warnings, stderr and
+    every figure's extent (Job.figure wrapped: the figure is measured after it is saved)."""
+    from kapitza.report import build_report
+    from kapitza.report._job import Job
+    from kapitza.scenes import example_scenes
+
+    extents = []
+    save = Job.figure
+
+    def figure(self, fig, fname):
+        rel = save(self, fig, fname)
+        extents.append((fname, fig.get_tightbbox(), fig.bbox_inches))
+        return rel
+    err = io.StringIO()
+    with pytest.MonkeyPatch.context() as mp, warnings.catch_warnings(record=True) as caught, \
+            contextlib.redirect_stderr(err):
+        warnings.simplefilter("always")
+        mp.setattr(Job, "figure", figure)
+        t0 = time.perf_counter()
+        report = build_report(example_scenes()[name], out, quick=True, progress=False)
+        seconds = time.perf_counter() - t0
+    return Built(report, list(caught), err.getvalue(), extents, seconds)
+
 
 @pytest.fixture(scope="module")
-def report(browser, tmp_path_factory):
-    """The quick report, built once (after the browser: no build where the test is skipped)."""
-    from kapitza.report import build_report
+def scene_report(tmp_path_factory):
+    """``scene_report(name)``: the scene's quick report, built once for the module (the
+    file is one xdist group: tests/conftest.py), on the first test that asks for it."""
+    cache = {}
 
-    return build_report(out=tmp_path_factory.mktemp("report"), quick=True)
+    def get(name):
+        if name not in cache:
+            cache[name] = _build_scene(name, tmp_path_factory.mktemp(f"scene-{name}"))
+        return cache[name]
+    return get
+
+
+# --- the default report ----------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def report(browser, scene_report):
+    """The default scene's quick report (after the browser: no build where the test is
+    skipped)."""
+    return scene_report("report").report
 
 
 @pytest.fixture(scope="module")
@@ -292,6 +363,88 @@ def test_full_page_screenshot(report_page):
     assert screenshot_problems(report_page) == []
     # the report is longer than one screen, so the capture beyond the viewport is exercised
     assert report_page.scroll_height > report_page.client_height
+
+
+# --- every shipped scene: built cleanly, and read in the browser -------------------------------
+
+def test_every_shipped_scene_is_listed():
+    from kapitza.scenes import example_scenes
+    assert set(SCENES) == set(example_scenes())
+
+
+#: Words that stand where a number should ("nan", "inf", a Python warning's class).
+_NOT_A_NUMBER = re.compile(r"\b(nan|NaN|inf|-inf|Infinity|RuntimeWarning)\b")
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_scene_report_builds_cleanly(scene_report, name):
+    """No section fails; no warning reaches the terminal (each section's warnings are notes
+    on the page), nothing but the cold-cache compile notice is written on stderr; no numpy
+    floating-point warning (an
+    overflow, an invalid value) among the notes — those are handled where they arise; every
+    figure's drawn extent (titles, legends) lies within the figure: nothing cut."""
+    built = scene_report(name)
+    report = built.report
+    assert report.failed == (), [(s.name, s.reason) for s in report.sections]
+    assert [f"{w.category.__name__}: {w.message}" for w in built.escaped] == []
+    # stderr: at most lagrange_core's one-line notice that it compiles on a cold cache
+    assert [line for line in built.stderr.splitlines()
+            if not line.startswith("lagrange_core: compiling")] == []
+    notes = [n for s in report.sections for n in s.notes]
+    assert not [n for n in notes if "encountered in" in n], notes
+    for fname, tight, frame in built.figures:
+        assert (tight.x0 >= frame.x0 - 0.01 and tight.y0 >= frame.y0 - 0.01
+                and tight.x1 <= frame.x1 + 0.01 and tight.y1 <= frame.y1 + 0.01), \
+            f"{fname}: drawn over {tight}, the figure is {frame}"
+    assert len(built.figures) == sum(s.figure is not None and s.figure.suffix == ".png"
+                                     for s in report.sections)
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_scene_page_in_the_browser(browser, scene_report, name, tmp_path):
+    """The page of each scene as a reader sees it: every image loads, the console is clean,
+    no table makes the page wider than the window (they scroll in their wrappers), and no
+    "nan", "inf" or Python warning class stands where a number should."""
+    report = scene_report(name).report
+    page = open_page(browser, report.index, tmp_path / f"{name}.png")
+    assert broken_images(page) == []
+    assert console_problems(page) == []
+    assert layout_problems(page) == []
+    assert page.body_scroll_width <= page.client_width, page.overflowing
+    assert unresolved_links(page, report.out) == []
+    assert not _NOT_A_NUMBER.findall(page.text), [
+        line for line in page.text.splitlines() if _NOT_A_NUMBER.search(line)]
+    assert not [c for c in page.cells if c in ("∞", "−∞", "nan", "inf")]
+    assert len(page.images) == len(report.figures)
+
+
+def test_double_pendulum_scene_says_why_sections_are_skipped(scene_report):
+    """(Was in test_report.py: the same quick build, shared.)"""
+    import html
+
+    import pandas as pd
+
+    import kapitza
+    report = scene_report("double_pendulum").report
+    status = {s.name: s.status for s in report.sections}
+    assert status == {"potential": "skipped", "map": "done", "spots": "done", "slow": "done",
+                      "verification": "done", "bifurcations": "skipped",
+                      "work_precision": "done", "animation": "done"}
+    # the chain's own animation: held up at the scene's drive, as Floquet says (independently)
+    sc = kapitza.Scene.example("double_pendulum")
+    assert kapitza.floquet_point(sc.system, sc.params, [np.pi, np.pi]).stable
+    anim = report.section("animation")
+    assert anim.figure.suffix == ".gif" and "stays within π/2" in anim.caption
+    assert "calls the upright state stable" in anim.caption
+    page = report.index.read_text(encoding="utf-8")
+    for s in report.sections:
+        if s.status == "skipped":
+            assert len(s.reason) > 30 and html.escape(s.reason) in page
+    # the slow frequencies of both modes: simulation against Floquet
+    slow = pd.read_parquet(report.tables["slow_frequency"][0])
+    for k in (0, 1):
+        assert np.allclose(slow[f"omega_slow_simulation_{k}"], slow[f"omega_slow_floquet_{k}"],
+                           rtol=2e-3)
 
 
 # --- the checks catch what they are for (hand-made pages) -------------------------------------

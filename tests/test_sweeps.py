@@ -383,3 +383,29 @@ def test_a_dask_worker_that_dies_or_a_task_that_fails_mid_tile_is_retried(tmp_pa
     np.testing.assert_array_equal(frame["y"], np.linspace(0.0, 1.0, 12) ** 2)
     assert len(parts(res.path)) == 4
     assert len((res.path / "_parts.jsonl").read_text().splitlines()) == 4
+
+
+@pytest.mark.parametrize("progress", [False, True])
+def test_no_tqdm_warning_in_a_notebook_without_ipywidgets(progress, tmp_path, monkeypatch):
+    """A Jupyter kernel without ipywidgets (faked: ipykernel's shell module present,
+    ipywidgets not importable): the sweep imported ``tqdm.auto`` even with
+    progress=False, whose notebook detection warned TqdmWarning "IProgress not found";
+    now progress=False imports nothing of tqdm, and a bar there is tqdm's plain one."""
+    import types
+    import warnings
+
+    import IPython  # noqa: F401  (tqdm's detection reads sys.modules["IPython"])
+    from tqdm import TqdmWarning
+    for name in ("tqdm.auto", "tqdm.autonotebook", "tqdm.notebook"):
+        monkeypatch.delitem(sys.modules, name, raising=False)
+    monkeypatch.setitem(sys.modules, "ipykernel.zmqshell", types.ModuleType("zmqshell"))
+    monkeypatch.setitem(sys.modules, "ipywidgets", None)        # import fails
+    axes = (Axis("x", tuple(np.linspace(0, 1, 4))),)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = run_sweep(_square, axes, tmp_path / "d", key="k", fingerprint="f",
+                        metadata={}, tile_points=2, progress=progress)
+    assert res.computed == 2
+    assert not [w for w in caught if issubclass(w.category, TqdmWarning)], \
+        [str(w.message) for w in caught]
+    assert "tqdm.autonotebook" not in sys.modules

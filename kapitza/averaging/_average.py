@@ -324,9 +324,16 @@ class AveragedSystem:
         return float(value), G, H
 
     def _check_drive(self, p):
-        w = p[self.system.parameters.index(self.omega.name)]
+        self._check_frequency(float(p[self.system.parameters.index(self.omega.name)]))
+
+    def _check_frequency(self, w: float):
         if not w > 0:
             raise ValueError(f"the drive frequency {self.omega.name} must be > 0 (rad/s), got {w}.")
+        with np.errstate(over="ignore"):    # the slow terms carry ω²: it must be a float
+            square = w * w
+        if not np.isfinite(square):
+            raise ValueError(f"the drive frequency {self.omega.name} = {w!r} rad/s: ω² "
+                             "overflows a float; give ω below 1e150 rad/s.")
 
     def mean_drag(self, params, q) -> np.ndarray:
         """The mean drag force D(q) of a damped two-phase drive (see ``_drag``), in the
@@ -500,6 +507,11 @@ class AveragedSystem:
         K = self.kernels
         F, J = self._slow_force(qa, p)
         H = -J
+        if not (np.all(np.isfinite(F)) and np.all(np.isfinite(H))):
+            named = dict(zip(self.system.parameters, p.tolist(), strict=True))
+            raise ValueError(f"the averaged force or its gradient at q={qa.tolist()} overflows "
+                             f"a float with params={named}"
+                             "; a parameter is far out of range (the drive's A ω beyond ~1e150?).")
         if np.max(np.abs(F)) > 1e-8 * (1 + np.max(np.abs(H))):
             raise ValueError(f"q={qa.tolist()} is not an equilibrium of the averaged motion "
                              f"(∂U_eff/∂q − D = {(-F).tolist()}); find them with "
@@ -580,6 +592,9 @@ class AveragedSystem:
                              "shapes " + ", ".join(f"{k} {v.shape}" for k, v in zip(
                                  names, values, strict=True)) + ".") from None
         shape = arrays[0].shape
+        if self.omega.name in names:        # checked up front, an empty grid's too
+            for w in np.unique(values[names.index(self.omega.name)]):
+                self._check_frequency(float(w))
         n = self.system.n_dof
         arguments.check_grid_memory("params (broadcast)", shape,
                                     arguments.averaging_bytes_per_point(n),

@@ -30,6 +30,7 @@ from lagrange_core.checks import real_number
 from .._arguments import whole_number
 from ..results import Basin, BifurcationDiagram, ComputationInterrupted, PoincareSection
 from ._common import angle_names, drive_frequency, parameters, state, tolerances
+from ._strobe_lanes import lanes_apply, strobe_runs_lanes
 
 __all__ = ["bifurcation_diagram", "poincare_section", "basin"]
 
@@ -39,7 +40,11 @@ def _strobe_runs(system, params, Q0, V0, T, t0, transient, periods, method, rtol
     """Run ``transient`` periods unobserved, then keep ``periods`` strobe samples.
 
     Returns (q, qdot, status, method, interrupted): q, qdot (S + (K, n)), status (S) as
-    names.  On Ctrl-C the finished points' samples are kept (the others NaN)."""
+    names.  On Ctrl-C the finished points' samples are kept (the others NaN).  DOP853 runs
+    on lanes (:mod:`kapitza.chaos._strobe_lanes`) where it applies."""
+    if lanes_apply(system, method):
+        return strobe_runs_lanes(system, params, Q0, V0, T, t0, transient, periods, rtol, atol,
+                                 max_steps, progress)
     kw = dict(method=method, rtol=rtol, atol=atol, max_steps=max_steps, progress=progress)
     interrupted = False
     start = t0

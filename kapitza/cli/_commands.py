@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _arguments as arguments
 from ._catalogue import catalogue_summary
 from ._frontier_commands import FRONTIER_COMMANDS
 from ._output import (
@@ -95,6 +96,12 @@ def _window(args) -> int:
     return EXIT_OK
 
 
+#: Peak memory of the map's outputs per grid point (bytes), beyond the figure's fixed
+#: ~50 MB: the table, its CSV or Parquet buffers and the image's arrays (tracemalloc over
+#: 200 × 100 and 200 × 600 grids: ~110 for CSV, ~210 for Parquet; rounded up).
+MAP_OUTPUT_BYTES_PER_POINT = 220
+
+
 def _map_outputs(args, result, pend, partial=False):
     import matplotlib
     matplotlib.use("Agg")
@@ -132,6 +139,10 @@ def _map(args) -> int:
     omega = parse_frequency(args, grid=True)
     png = writable("--out", args.out)
     data_file(args.data) or writable("--out", png.with_suffix(".csv"))
+    # the API checks its own arrays; the table, the data file and the figure come on top
+    arguments.check_grid_memory("--A × --omega", (A.size, omega.size),
+                                MAP_OUTPUT_BYTES_PER_POINT, where="the table, data file "
+                                "and figure of ")
     try:
         result = pend.stability_map(A, omega, about=args.about, trace=args.trace, tol=args.tol)
     except ComputationInterrupted as stop:
@@ -312,6 +323,8 @@ def _report(args) -> int:
     from ..report import ReportInterrupted, build_report
     writable("--out", args.out, folder=True)
     scene = None if args.scene is None else read_scene(args.scene)
+    from ..warmup import start_background
+    start_background()      # empty cache: the later sections' kernels compile on the other core
     try:
         report = build_report(scene, args.out, quick=args.quick)
     except ReportInterrupted as stop:
@@ -364,24 +377,42 @@ def _sweep(args) -> int:
     from ..results import ComputationInterrupted
     if args.directory is not None:
         writable("--directory", args.directory, folder=True)
+    wait = args.wait
+    if wait is not True and wait is not False and not (math.isfinite(wait) and wait >= 0):
+        raise UsageError(f"--wait: the seconds to wait must be a finite number ≥ 0, got "
+                         f"{wait:g}; or give --wait alone to wait as long as it takes.")
     scene = read_scene(args.scene)
     try:
         result = scene.sweep(args.analysis, directory=args.directory,
-                             tile_points=args.tile_points)
+                             tile_points=args.tile_points, wait=wait)
     except ComputationInterrupted as stop:
         partial = stop.result
         where = getattr(partial, "path", "the sweep's directory")
         say(f"sweep: interrupted; the finished tiles are saved in {where}; run the same "
              "command again to resume.")
         return EXIT_INTERRUPTED
-    frame = result.to_dataframe()
     data = {"scene": scene.spec.source, "path": result.path, "size": result.size,
             "tiles": result.tiles, "computed": result.computed, "skipped": result.skipped,
-            "seconds": result.seconds, "columns": list(frame.columns)}
+            "seconds": result.seconds, "columns": _sweep_columns(result)}
     emit(args, data, f"sweep: {result.size} points in {result.tiles} tiles "
           f"({result.computed} computed, {result.skipped} already on disk), "
           f"{result.seconds:.1f} s\ndataset: {result.path}")
     return EXIT_OK
+
+
+def _sweep_columns(result) -> list:
+    """The dataset's column names, read from its Parquet schema: the rows themselves may
+    not fit in memory (``result.frame`` is None then)."""
+    if result.frame is not None:
+        return list(result.frame.columns)
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    common = Path(result.path) / "_common_metadata"     # a finished sweep's unified schema
+    if common.exists():
+        return list(pq.read_schema(common).names)
+    parts = sorted(p for p in Path(result.path).glob("*.parquet") if p.name[0] not in "._")
+    return list(pa.unify_schemas([pq.read_schema(p) for p in parts],
+                                 promote_options="permissive").names) if parts else []
 
 
 def _warmup(args) -> int:

@@ -88,8 +88,10 @@ def main(argv=None) -> int:
         done = getattr(stop, "computed", None)
         finished = (f" after {int(done.sum())} of {done.size} points" if done is not None
                     and done.size else "")
-        kept = ("tables already written and finished sweep tiles are kept (run it again to "
-                "resume the sweep)" if name == "kapitza run" else "nothing was written")
+        kept = {"kapitza run": "a scene's output is written all or nothing: the "
+                               "previous output (if any) stays until a new one is complete",
+                "kapitza sweep": "the finished tiles are kept (run it again to resume "
+                                 "the sweep)"}.get(name, "nothing was written")
         say(f"\n{name}: interrupted{finished}; {kept}. Compiled kernels stay cached.")
         return EXIT_INTERRUPTED
     except ValueError as e:                     # SceneError, GridTooLargeError: ValueErrors

@@ -279,7 +279,8 @@ _EXAMPLES = {
     "run": ["kapitza run kapitza/scenes/kapitza_pendulum.toml",
             "kapitza run my_scene.toml --json --no-write"],
     "sweep": ["kapitza sweep kapitza/scenes/kapitza_pendulum_map.toml",
-              "kapitza sweep scene.toml --analysis measure --directory out/"],
+              "kapitza sweep scene.toml --analysis measure --directory out/",
+              "kapitza sweep scene.toml --wait 600     # another sweep of it runs: wait"],
     "warmup": ["kapitza warmup"],
     "summary": ["kapitza summary --rtol 1e-8", "kapitza --rtol 1e-6"],
 }
@@ -430,13 +431,17 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = add("run", "run the analyses a scene file (TOML) asks for", plain)
     p.add_argument("scene", metavar="SCENE.toml")
-    p.add_argument("--no-write", action="store_true", help="do not write [output] tables")
+    p.add_argument("--no-write", action="store_true", help="write nothing (no [output] tables, "
+                   "no manifest)")
 
     p = add("sweep", "run a scene's [sweep] over its grid in resumable tiles", plain)
     p.add_argument("scene", metavar="SCENE.toml")
     p.add_argument("--analysis", help="the swept analysis (default: the only one)")
     p.add_argument("--directory", help="where the dataset goes (default: the scene's output)")
     p.add_argument("--tile-points", dest="tile_points", type=int)
+    p.add_argument("--wait", nargs="?", type=float, const=True, default=False,
+                   metavar="SECONDS", help="another sweep writes the same dataset: wait for "
+                   "it to finish (at most SECONDS, if given) instead of refusing")
 
     add("warmup", "compile what every analysis needs, once per installation", plain)
 

@@ -411,6 +411,8 @@ def stability_counts(q, a):
         raise ValueError("q and a must be 1-d arrays (grid axes).")
     if not (np.all(np.isfinite(q)) and np.all(np.isfinite(a))):
         raise ValueError("q and a must be finite.")
+    if q.size == 0 or a.size == 0:      # an empty map: no characteristic value is needed
+        return np.empty((q.size, a.size), dtype=np.bool_), np.empty((q.size, a.size), np.int8)
     if _kmax_needed(q, a) > _KMAX_LIMIT:
         raise ValueError(f"max(a) = {float(np.max(a)):.3g} (with max|q| = "
                          f"{float(np.max(np.abs(q))):.3g}) lies above more than {_KMAX_LIMIT} "

@@ -24,6 +24,7 @@ import warnings
 import numpy as np
 import scipy.linalg
 
+from lagrange_core.checks import real_array
 from lagrange_core.progress import run_in_chunks
 
 from .. import _arguments as arguments
@@ -54,6 +55,32 @@ MAX_CORRECTION = 0.1
 
 
 
+#: Peak memory per point of :func:`pendulum_averaged` (bytes): its inputs, the fields of
+#: four equilibria and their temporaries (measured 315 with tracemalloc at order 1, 274 at
+#: order 2; rounded up).
+AVERAGING_BYTES_PER_POINT = 400
+#: Peak memory per point of :func:`pendulum_effective_potential` (bytes): the broadcast
+#: drive, sin θ, the terms and the result (five arrays of floats, rounded up).
+U_EFF_BYTES_PER_POINT = 64
+
+
+def _check_squares(where, A, omega):
+    """Refuse a drive whose ω² or (A ω)² overflows a float (ω or A ω beyond ~1e154): the
+    averaged slow frequencies and U_eff need them (they came out NaN, with numpy's
+    overflow warnings)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        w_over = ~np.isfinite(omega * omega)
+        aw_over = ~np.isfinite((A * omega) ** 2)
+    if np.any(w_over):
+        raise ValueError(f"{where}: omega = {float(omega[w_over].flat[0])!r} rad/s: ω² "
+                         "overflows a float; give ω below 1e150 rad/s.")
+    if np.any(aw_over):
+        k = np.flatnonzero(aw_over.reshape(-1))[0]
+        raise ValueError(f"{where}: A = {float(np.broadcast_to(A, aw_over.shape).flat[k])!r} m "
+                         f"at omega = {float(np.broadcast_to(omega, aw_over.shape).flat[k])!r} "
+                         "rad/s: (A ω)² overflows a float; give A ω below 1e150 m/s.")
+
+
 @state_was_first("kapitza.pendulum_effective_potential")
 def pendulum_effective_potential(A, omega, *, theta, l=1.0, g=9.81, drive="vertical"):
     """U_eff(θ)/m (J/kg) of the driven pendulum, first-order averaging.
@@ -79,7 +106,15 @@ def pendulum_effective_potential(A, omega, *, theta, l=1.0, g=9.81, drive="verti
     drive = arguments.drive_direction(drive)
     l, g, _ = arguments.pendulum_constants(l, g)
     A, omega = arguments.drive(A, omega)
-    theta = np.asarray(theta, float)
+    theta = real_array(theta, "theta", unit="rad")
+    shape = arguments.grid_shape(A, theta)
+    if shape is None:
+        raise ValueError(f"A, omega (shape {A.shape}) and theta (shape {theta.shape}) must "
+                         "broadcast together; for U_eff over θ at every drive, give theta "
+                         "an axis of its own, e.g. theta[:, None].")
+    arguments.check_grid_memory("A × omega × theta (broadcast)", shape, U_EFF_BYTES_PER_POINT,
+                                where="pendulum_effective_potential: ", fix="use a coarser grid")
+    _check_squares("pendulum_effective_potential", A, omega)
     shake = np.sin(theta) if drive == "vertical" else np.cos(theta)
     return -g * l * np.cos(theta) + (A * omega * shake) ** 2 / 4
 
@@ -170,6 +205,12 @@ def pendulum_averaged(A, omega, *, l=1.0, g=9.81, damping=0.0, drive="vertical",
                          "only; use order=1 for the horizontal drive.")
     l, g, gam = arguments.pendulum_constants(l, g, damping)
     A, omega = arguments.drive(A, omega)
+    arguments.check_grid_memory("A × omega (broadcast)", A.shape, AVERAGING_BYTES_PER_POINT,
+                                where="pendulum_averaged: ",
+                                fix="use a coarser grid, or compute it in tiles written to "
+                                "disk: a scene whose [sweep] runs averaging over these axes, "
+                                "with `kapitza sweep`")
+    _check_squares("pendulum_averaged", A, omega)
     if not (progress is None or isinstance(progress, bool) or callable(progress)):
         raise ValueError(f"progress must be None, True, False or a callable "
                          f"progress(done, total); got {progress!r}.")

@@ -9,6 +9,8 @@ of order 1 or 2 with ``method="averaging"``
 """
 from __future__ import annotations
 
+import numpy as np
+
 from .. import _arguments as arguments
 from .._deprecation import warn_deprecated
 from ..results import StabilityWindow
@@ -91,6 +93,15 @@ def pendulum_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inverted", tol=
     >>> print(second.A_max.round(4), exact.A_max.round(4))
     [0.4606 0.4541] [0.4606 0.4541]
     """
+    # one check of ω for both methods (a grid axis: 1-d, finite, > 0), and ω not so slow
+    # that a = ±4 g/(l ω²) overflows (that surfaced as numpy's or an internal message)
+    w = arguments.grid_axis("omega", omega, "rad/s", positive=True)
+    l_, g_, _ = arguments.pendulum_constants(l, g, damping)
+    with np.errstate(over="ignore", divide="ignore"):
+        too_slow = w[~np.isfinite(4.0 * g_ / (l_ * w * w))]
+    if too_slow.size:
+        raise ValueError(f"pendulum_window: omega = {float(too_slow[0])!r} rad/s is too slow for "
+                         "the Mathieu form: a = ±4 g/(l ω²) overflows. Use ω ≥ 1e-150 rad/s.")
     if method == "averaging":
         if arguments.about_sign(about) > 0:
             raise ValueError(f"pendulum_window: the averaging window is for about='inverted' "

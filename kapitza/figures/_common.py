@@ -11,7 +11,7 @@ import ast
 
 import numpy as np
 
-__all__ = ["legend_below"]
+__all__ = ["legend_below"]   # and fit_texts, fit_title: on the face, not in __all__
 
 #: The fields each figure reads of the result types it draws (what :func:`require` checks).
 STABILITY_MAP = ("A", "omega", "label", "about", "method", "l", "g")
@@ -103,6 +103,72 @@ def about_text(about) -> str:
         parts.append(("0" if quarter == 0 else "π" if quarter == 1 else f"{quarter:g}π")
                      if abs(k - quarter) < 1e-8 else f"{v:.4g}")
     return f"the state q = ({', '.join(parts)})"
+
+
+def fit_title(ax, text, **kwargs):
+    """Set ``ax``'s title, its lines wrapped where they would run past the figure's edge
+    (:func:`fit_texts`); returns the title's Text."""
+    title = ax.set_title(text, **kwargs)
+    fit_texts(ax.figure)
+    return title
+
+
+def _titles(fig):
+    """Every title of ``fig``: the axes' (centre, left, right) and the figure's own."""
+    found = [t for ax in fig.axes for t in (ax.title, ax._left_title, ax._right_title)]
+    if fig._suptitle is not None:
+        found.append(fig._suptitle)
+    return [t for t in found if t.get_visible() and t.get_text()]
+
+
+def fit_texts(fig, margin=4.0):
+    """Wrap every title of ``fig`` whose lines run past the figure's edge, so that no
+    title is cut (the figure keeps its size; constrained layout makes room for the extra
+    lines).
+
+    A title is centred on its axes, so the width it may take is twice the distance from
+    its centre to the nearer edge of the figure, less ``margin`` (px); each of its lines
+    is wrapped at the number of characters that fits, measured on the drawn text (three
+    rounds at most: a wrapped title moves the layout).  Returns the titles changed.
+    """
+    import textwrap
+    changed = []
+    for _ in range(3):
+        fig.canvas.draw()            # the layout, and the titles where they are drawn
+        renderer = fig.canvas.get_renderer()
+        width = fig.bbox.width
+        again = False
+        for title in _titles(fig):
+            box = title.get_window_extent(renderer)
+            if box.x0 >= -0.5 and box.x1 <= width + 0.5:
+                continue
+            centre = 0.5 * (box.x0 + box.x1)
+            room = 2 * min(centre, width - centre) - 2 * margin
+            lines = title.get_text().split("\n")
+            longest = max(len(line) for line in lines)
+            chars = max(12, int(longest * max(room, 1.0) / box.width))
+            title.set_text("\n".join(_unbroken(textwrap.fill(_glued(line), chars))
+                                      for line in lines))
+            changed.append(title)
+            again = True
+        if not again:
+            break
+    return changed
+
+
+_NBSP = "\u00a0"
+
+
+def _glued(line: str) -> str:
+    """``line`` with the spaces a wrap must not break at made non-breaking: inside a short
+    parenthesis ("(π, π)") and around "=" ("θ = π")."""
+    import re
+    line = re.sub(r"\(([^()]{1,24})\)", lambda m: m.group(0).replace(" ", _NBSP), line)
+    return line.replace(" = ", f"{_NBSP}={_NBSP}")
+
+
+def _unbroken(text: str) -> str:
+    return text.replace(_NBSP, " ")
 
 
 def legend_below(ax, handles=None):

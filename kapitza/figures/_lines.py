@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ._common import STABILITY_WINDOW, axes, require, window_label
+from ._common import STABILITY_WINDOW, axes, fit_title, require, window_label
 
 if TYPE_CHECKING:
     from ..results import PendulumAveraging, StabilityWindow
@@ -20,7 +20,8 @@ _LINE_STYLES = ("--", ":", "-.", "-")
 
 
 def effective_potential_figure(theta, potential, *, prediction: PendulumAveraging | None = None,
-                               ax=None, title=None):
+                               ax=None, title=None, xlabel=None, ylabel=None, label=None,
+                               angle=True):
     """The effective potential U_eff(θ)/m with the averaged equilibria marked.
 
     Parameters
@@ -33,6 +34,12 @@ def effective_potential_figure(theta, potential, *, prediction: PendulumAveragin
         are marked on the curve (filled: stable, open: unstable), with their names.
     ax : matplotlib Axes, optional
     title : str, optional
+        Wrapped to the figure's width.
+    xlabel, ylabel, label : str, optional
+        The axes' labels and the curve's legend entry, for a coordinate other than the
+        pendulum's angle or a potential not per unit mass.
+    angle : bool
+        The coordinate is an angle (rad): ticks at multiples of π/2; else plain numbers.
 
     Returns
     -------
@@ -59,7 +66,8 @@ def effective_potential_figure(theta, potential, *, prediction: PendulumAveragin
         require("prediction", prediction, "PendulumAveraging", ("equilibria",),
                 "compute one with kapitza.pendulum_averaged at a scalar A and ω")
     fig, ax = axes(ax, (6.4, 4.2))
-    ax.plot(theta, potential, color="C0", lw=1.5, label="U_eff/m (first-order averaging)")
+    ax.plot(theta, potential, color="C0", lw=1.5,
+            label=label or "U_eff/m (first-order averaging)")
     if prediction is not None:
         lo, hi = theta.min(), theta.max()
         for eq in prediction.equilibria:
@@ -74,21 +82,24 @@ def effective_potential_figure(theta, potential, *, prediction: PendulumAveragin
                             mfc=None if stable else "white")
                     ax.annotate(eq.name, (th, u), textcoords="offset points", xytext=(0, 8),
                                 ha="center", fontsize=8)
-    ticks = np.arange(np.ceil(theta.min() / (np.pi / 2)), np.floor(theta.max() / (np.pi / 2)) + 1)
-    ax.set_xticks(ticks * np.pi / 2,
-                  [{0: "0", 1: "π/2", 2: "π", 3: "3π/2", -1: "−π/2", -2: "−π"}.get(
-                      int(k), f"{k / 2:g}π") for k in ticks])
+    if angle:                     # an angle: ticks at multiples of π/2
+        ticks = np.arange(np.ceil(theta.min() / (np.pi / 2)),
+                          np.floor(theta.max() / (np.pi / 2)) + 1)
+        ax.set_xticks(ticks * np.pi / 2,
+                      [{0: "0", 1: "π/2", 2: "π", 3: "3π/2", -1: "−π/2", -2: "−π"}.get(
+                          int(k), f"{k / 2:g}π") for k in ticks])
     pad = 0.04 * (theta.max() - theta.min())          # room for the marks' names
     ax.set_xlim(theta.min() - pad, theta.max() + pad)
     ax.margins(y=0.14)
-    ax.set_xlabel("θ from the downward vertical (rad)")
-    ax.set_ylabel("U_eff / m (J/kg)")
-    ax.set_title(title or "Effective potential (filled: stable, open: unstable)", fontsize=10)
+    ax.set_xlabel(xlabel or "θ from the downward vertical (rad)")
+    ax.set_ylabel(ylabel or "U_eff / m (J/kg)")
+    fit_title(ax, title or "Effective potential (filled: stable, open: unstable)", fontsize=10)
     ax.legend(loc="lower right", fontsize=8)
     return fig
 
 
-def window_error_figure(exact: StabilityWindow, approximations, *, ax=None, omega0=None):
+def window_error_figure(exact: StabilityWindow, approximations, *, ax=None, omega0=None,
+                        styles=_LINE_STYLES):
     """How far approximate windows' lower edges lie from the exact one, against ω.
 
     Parameters
@@ -100,6 +111,9 @@ def window_error_figure(exact: StabilityWindow, approximations, *, ax=None, omeg
     ax : matplotlib Axes, optional
     omega0 : float, optional
         ω0 = √(g/l): the axis is ω/ω0 when given, else ω (rad/s).
+    styles : sequence of str
+        The line style of each approximation in turn (matplotlib's: "--", ":", ...), e.g.
+        those a map beside it draws them with.
 
     Draws |A_min(approximation)/A_min(exact) − 1| on log-log axes (first-order
     averaging's error falls as (ω0/ω)², the next order's as (ω0/ω)⁴).
@@ -121,7 +135,7 @@ def window_error_figure(exact: StabilityWindow, approximations, *, ax=None, omeg
         with np.errstate(invalid="ignore", divide="ignore"):
             rel = np.abs(approx / lo - 1)
         ok = np.isfinite(rel) & (rel > 0)
-        ax.loglog(x[ok], rel[ok], _LINE_STYLES[k % len(_LINE_STYLES)], color="k", lw=1.3,
+        ax.loglog(x[ok], rel[ok], styles[k % len(styles)], color="k", lw=1.3,
                   label=window_label(window))
     ax.set_xlabel("drive frequency ω/ω0" if omega0 else "drive angular frequency ω (rad/s)")
     ax.set_ylabel("|A_min(averaging) / A_min(exact) − 1|")

@@ -23,7 +23,7 @@ from .. import _arguments as arguments
 from ..results import AdaptiveMap, ComputationInterrupted, StabilityMap
 from ._margins import signed_margin
 from ._old_spellings import axes_as_keywords
-from ._orbit_probe import OrbitProbe, orbit_map
+from ._orbit_probe import NO_ORBIT, OrbitProbe, orbit_map
 from ._orbits import orbit_request
 from ._point import floquet_grid
 from ._probe import fixed_parameters, probe_for
@@ -93,10 +93,10 @@ def stability_map(system, params, about, *, A, omega, amplitude="A", frequency="
     field) are shot on the half-period map, regular at the symmetry-breaking pitchfork where
     the full period map is singular. Stability, labels and margins come from the orbit's
     monodromy as above (``method`` says which map was shot). A point the orbit does not
-    reach is unstable with label 3, NaN ``trace``, and flagged "no periodic orbit"; an orbit
-    whose state is known only to more than √tol (the shooting equations ill-conditioned) is
-    flagged and counted uncertified. ``coarse_tol`` and ``order`` do not apply. ValueError
-    where Newton finds no orbit near ``about`` at any ω.
+    reach is unstable with label 4 ("no orbit", undecided), NaN ``trace``, and flagged "no
+    periodic orbit"; an orbit whose state is known only to more than √tol (the shooting
+    equations ill-conditioned) is flagged and counted uncertified. ``coarse_tol`` and
+    ``order`` do not apply. ValueError where Newton finds no orbit near ``about`` at any ω.
 
     Examples
     --------
@@ -210,7 +210,8 @@ def adaptive_map(system, params, about, *, A, omega, amplitude="A", frequency="o
     Parameters
     ----------
     system, params, about, amplitude, frequency, order, guard_tol
-        As for :func:`stability_map` (about a periodic orbit too); kapitza 0.1's order
+        As for :func:`stability_map` (about a periodic orbit too: a point the orbit does
+        not reach has label 4, "no orbit"); kapitza 0.1's order
         ``adaptive_map(system, A, omega, params, about)`` still works in 0.2, with a
         DeprecationWarning.
     A, omega : 1-d arrays
@@ -248,8 +249,9 @@ def adaptive_map(system, params, about, *, A, omega, amplitude="A", frequency="o
     probe = probe_for(system, params, about, amplitude, frequency, tol, order, guard_tol,
                       probes=_probes(A, w) if A.size and w.size else [],
                       start=float(np.min(A)) if A.size else 0.0, orbit_tol=_orbit_tol(tol))
-    out = refine_map(probe, A, w, coarse_step, guard=guard)
     orbit = isinstance(probe, OrbitProbe)
+    out = refine_map(_with_no_orbit_label(probe) if orbit else probe, A, w, coarse_step,
+                     guard=guard)
     return AdaptiveMap(A=A, omega=w, stable=out["stable"], label=out["label"], trace=None,
                        log_growth=None, error_estimate=tol, about=probe.label,
                        method="adaptive, periodic orbit" if orbit else "adaptive monodromy",
@@ -257,6 +259,20 @@ def adaptive_map(system, params, about, *, A, omega, amplitude="A", frequency="o
                        seconds=time.perf_counter() - t0, samples=int(probe.samples or 0),
                        margin=out["margin"], computed=out["computed"],
                        monodromies=probe.count, levels=out["levels"], coarse_step=coarse_step)
+
+
+def _with_no_orbit_label(probe):
+    """``probe`` about a periodic orbit, its points without an orbit labelled
+    :data:`NO_ORBIT` ("no orbit", undecided) as on :func:`stability_map`'s orbit path.
+    The probe itself labels them 3, which the boundary tracers (:mod:`._edges`,
+    :mod:`._curves`) read as an instability of their own, so the label is changed here
+    only: a point has no orbit where its monodromy is not finite."""
+    def evaluate(A, omega, analyse):
+        data = probe(A, omega, analyse)
+        missing = ~np.all(np.isfinite(data["Mb"]), axis=(1, 2))
+        data["label"] = np.where(missing, NO_ORBIT, data["label"]).astype(np.int8)
+        return data
+    return evaluate
 
 
 # -- the adaptive refinement ------------------------------------------------------------

@@ -228,8 +228,13 @@ def window(system, params, about, *, omega, A_range=None, amplitude="A", frequen
     >>> print(near.status, f"{near.A_min:.4f} {near.A_max:.4f}")
     window 1.9053 1.9136
     """
-    scalar = np.ndim(omega) == 0
     w = arguments.grid_axis(frequency, omega, "rad/s", positive=True)
+    scalar = np.ndim(omega) == 0            # after the check: a ragged list has no ndim
+    with np.errstate(over="ignore"):        # the drive's terms carry ω²: it must be a float
+        fast = w[~np.isfinite(w * w)]
+    if fast.size:
+        raise ValueError(f"window: {frequency} = {float(fast[0])!r} rad/s: ω² overflows a float; "
+                         "give ω below 1e150 rad/s.")
     _check_tol(tol)
     _check_min_width(min_width)
     if A_range is not None:

@@ -5,17 +5,18 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ._job import Job, SectionResult, Skip
+from ._job import Job, SectionResult, Skip, state_name, upright
 
 
 def animation_section(job: Job) -> SectionResult:
     from ..animation import pendulum_animation, system_animation
-    sizes = ({"duration": 1.6, "frames_per_period": 4, "width": 480, "max_frames": 80}
+    # quick: a short small clip (the tests), most of whose cost is writing the GIF
+    sizes = ({"duration": 1.0, "frames_per_period": 4, "width": 360, "max_frames": 40}
              if job.quick else {})
     if not job.vertical:
-        raise Skip("the animation shows the upright state held by a vertical drive; this "
-                    "scene's drive leaves no upright equilibrium.")
-    if job.pend is None:
+        raise Skip("the animation shows the state the report is about under a vertical "
+                   "drive; this scene's drive leaves no equilibrium.")
+    if job.pend is None or job.pend_about != "inverted":
         return _chain_animation(job, system_animation, sizes)
     pend = job.pend
     rel = Path("figures") / "pendulum.gif"
@@ -35,18 +36,29 @@ def animation_section(job: Job) -> SectionResult:
 
 
 def _chain_animation(job: Job, system_animation, sizes) -> SectionResult:
-    """A system other than the single pendulum (e.g. Acheson's chain): the scene itself,
-    released from its [initial] state under its drive, in one panel."""
+    """Any scene but the upright single pendulum (Acheson's chain, the hanging pendulum
+    under a resonant drive, a user's rig): the scene itself, released from its [initial]
+    state under its drive, in one panel, classified against the state the report is about
+    where that state persists and every coordinate is an angle (the band is π/2)."""
     rel = Path("figures") / "animation.gif"
+    about = job.about if job.persists and job.angles.all() else None
     try:
-        result = system_animation(job.out / rel, [job.scene], **sizes)
+        result = system_animation(job.out / rel, [job.scene], about=about, **sizes)
     except ValueError as e:       # not a planar chain of particles: nothing to draw
         raise Skip(f"the animation draws planar chains of particles: {e}") from None
-    stayed, stable = result.stayed_up[0], result.floquet_stable[0]
-    fate = ("it stays within π/2 of the upright for the whole clip" if stayed else
-            f"it leaves the upright at t = {result.fall_time[0]:.3g} s")
+    name = f"{state_name(job)} {upright(job)}"
+    if about is None:
+        fate = (f"the drive moves {name}, so the clip is not classified against it"
+                if not job.persists else "the clip is not classified (a coordinate is not an "
+                "angle, so no band of π/2 applies)")
+        verdict = ""
+    else:
+        stayed, stable = result.stayed_up[0], result.floquet_stable[0]
+        fate = (f"it stays within π/2 of {name} for the whole clip" if stayed else
+                f"it leaves {name} at t = {result.fall_time[0]:.3g} s")
+        verdict = (f"; Floquet analysis calls {state_name(job)} "
+                   f"{'stable' if stable else 'unstable'} at this drive")
     caption = (f"The scene's system released from its initial state with the drive "
-               f"A = {job.A:g} m, ω = {job.omega:g} rad/s: {fate}; Floquet analysis calls the "
-               f"upright {'stable' if stable else 'unstable'} at this drive.")
+               f"A = {job.A:g} m, ω = {job.omega:g} rad/s: {fate}{verdict}.")
     job.table("animation", result.to_dataframe(), "animation")
     return SectionResult(rel, caption, ["animation"])

@@ -13,6 +13,8 @@ import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
+from lagrange_core._compile_notice import activity
+
 from ._html import write_page
 from ._job import Job, Skip, default_scene_path
 from ._sections import BUILDERS, SECTIONS
@@ -131,6 +133,7 @@ class ReportInterrupted(KeyboardInterrupt):
         self.report = report
 
 
+@activity("kapitza report")     # a first compile says how long the whole report compiles
 def build_report(scene=None, out="kapitza-report", *, quick: bool = False,
                  progress=None) -> Report:
     """Run a scene through every analysis and write the report folder ``out``.
@@ -252,7 +255,7 @@ def _run_sections(job, say, ctrl_c, t_start):
             ctrl_c["armed"] = False
         interrupted = interrupted or ctrl_c["hit"]     # held back or caught inside: stop
         dt = time.perf_counter() - t0
-        notes = tuple(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
+        notes = tuple(dict.fromkeys(_note(w) for w in caught))
         section = ReportSection(name, title, status, seconds=dt, reason=reason, notes=notes)
         if result is not None:
             section = ReportSection(name, title, status, seconds=dt, figure=result.figure,
@@ -264,6 +267,15 @@ def _run_sections(job, say, ctrl_c, t_start):
             + f", {dt:.1f} s (elapsed {time.perf_counter() - t_start:.1f} s)")
         write_page(job, done, time.perf_counter() - t_start)
     return done, interrupted
+
+
+def _note(w) -> str:
+    """A warning as the page shows it: its message, prefixed by its category where that is
+    kapitza's own (e.g. "AveragingValidityWarning: ..."), not a Python built-in one."""
+    category = w.category
+    if category.__module__ == "builtins":
+        return str(w.message)
+    return f"{category.__name__}: {w.message}"
 
 
 def _speaker(progress):

@@ -18,9 +18,9 @@ body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;max-width:
 margin:2em auto;padding:0 1em;color:#222;line-height:1.45}
 h1{font-size:1.6em;margin-bottom:.2em}h2{font-size:1.25em;margin-top:2em;
 border-bottom:1px solid #ccc;padding-bottom:.2em}
-/* a table wider than the column scrolls inside itself, not the page */
-table{border-collapse:collapse;font-size:.85em;margin:.6em 0;
-display:block;max-width:100%;overflow-x:auto}
+/* a table wider than the column scrolls inside its wrapper, never the page */
+.tw{max-width:100%;overflow-x:auto;margin:.6em 0}
+table{border-collapse:collapse;font-size:.85em}
 td,th{border:1px solid #ddd;padding:.2em .5em;text-align:right}th{background:#f4f4f4}
 td.l,th.l{text-align:left}
 img{max-width:100%;height:auto;border:1px solid #eee}
@@ -32,13 +32,24 @@ details{margin:.5em 0}
 """
 
 
+#: Significant digits of a number in a table on the page (the data files keep them all).
+DIGITS = 4
+
+
 def _fmt(x) -> str:
+    """A cell as the page shows it: yes/no, a number to :data:`DIGITS` significant digits
+    (an exponent only beyond 1e±5: "3.49e+95"), "—" for a missing value (NaN; the
+    column's caption or the data files say why), "∞"/"−∞" for an infinite one."""
     if isinstance(x, (bool, np.bool_)):
         return "yes" if x else "no"
     if isinstance(x, (float, np.floating)):
         if not np.isfinite(x):
             return "—" if np.isnan(x) else ("∞" if x > 0 else "−∞")
-        return f"{x:.5g}"
+        if x == 0:
+            return "0"
+        if 1e-4 <= abs(x) < 1e5:
+            return f"{x:.{DIGITS}g}"
+        return f"{x:.{DIGITS - 1}e}".replace("e+0", "e+").replace("e-0", "e-")
     return html.escape(str(x))
 
 
@@ -52,7 +63,7 @@ def _html_table(frame, max_rows=40) -> str:
             for c in cols) + "</tr>")
     more = (f"<p class=meta>… {len(frame) - max_rows} more rows in the data files.</p>"
             if len(frame) > max_rows else "")
-    return f"<table><tr>{head}</tr>{''.join(rows)}</table>{more}"
+    return f"<div class=tw><table><tr>{head}</tr>{''.join(rows)}</table></div>{more}"
 
 
 def _versions() -> dict:
@@ -99,8 +110,8 @@ def write_page(job: Job, done: dict, seconds: float) -> None:
     rows = "".join(f"<tr><td class=l><a href='#{n}'>{esc(s.title)}</a></td>"
                    f"<td class=l>{s.status}</td><td>{_fmt(round(s.seconds, 1))}</td></tr>"
                    for n, s in done.items())
-    parts.append(f"<table><tr><th class=l>section</th><th class=l>status</th>"
-                 f"<th>wall time (s)</th></tr>{rows}</table>")
+    parts.append(f"<div class=tw><table><tr><th class=l>section</th><th class=l>status</th>"
+                 f"<th>wall time (s)</th></tr>{rows}</table></div>")
     for name, heading in SECTIONS.items():
         s = done.get(name)
         parts.append(f"<h2 id={name}>{esc(heading)}</h2>")
@@ -125,17 +136,19 @@ def write_page(job: Job, done: dict, seconds: float) -> None:
             parts.append(f"<p class=meta>{esc(caption)}</p>{_html_table(frame)}")
         if s.tables:
             links = ", ".join(f"{esc(t)} (<a href='data/{t}.parquet'>Parquet</a>, "
-                              f"<a href='data/{t}.csv'>CSV</a>)" for t in s.tables)
+                              f"<a href='data/{t}.csv'>CSV</a>, <a href='data/{t}.csv-"
+                              "metadata.json'>metadata</a>)" for t in s.tables)
             parts.append(f"<p class=meta>Data: {links}</p>")
     rows = []
     for name, (rows_n, section) in job.state.get("table_rows", {}).items():
         rows.append(f"<tr><td class=l>{esc(name)}</td><td class=l>{esc(SECTIONS[section])}"
                     f"</td><td>{rows_n}</td><td class=l><a href='data/{name}.parquet'>"
                     f"data/{name}.parquet</a></td><td class=l><a href='data/{name}.csv'>"
-                    f"data/{name}.csv</a></td></tr>")
-    parts.append("<h2 id=data>Data files</h2><table><tr><th class=l>table</th>"
+                    f"data/{name}.csv</a> (<a href='data/{name}.csv-metadata.json'>"
+                    "metadata</a>)</td></tr>")
+    parts.append("<h2 id=data>Data files</h2><div class=tw><table><tr><th class=l>table</th>"
                  "<th class=l>section</th><th>rows</th><th class=l>Parquet</th>"
-                 f"<th class=l>CSV</th></tr>{''.join(rows)}</table>")
+                 f"<th class=l>CSV</th></tr>{''.join(rows)}</table></div>")
     parts.append("</body></html>\n")
     path = job.out / "index.html"
     tmp = path.with_suffix(".html.tmp")

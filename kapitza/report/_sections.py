@@ -6,7 +6,9 @@ from __future__ import annotations
 from ._animation_section import animation_section
 from ._checks import slow_section, verification_section, work_precision_section
 from ._frontier_section import bifurcations_section
-from ._stability import map_section, potential_section, spots_section
+from ._potential import potential_section
+from ._spots import spots_section
+from ._stability import map_section
 
 #: The report's sections, in order: name → heading.
 SECTIONS = {

@@ -63,7 +63,15 @@ from ._schema import (
     UNITS,
     hz_to_rad_s,
 )
-from ._settings import Axis, axis_range, check_analyses, check_axis, in_rad_s, rig_symbols
+from ._settings import (
+    Axis,
+    axis_range,
+    check_analyses,
+    check_axis,
+    hz_fits,
+    in_rad_s,
+    rig_symbols,
+)
 
 __all__ = ["SceneSpec", "Axis", "read_scene", "read_scene_text", "read_scene_data"]
 
@@ -367,7 +375,7 @@ def _check_drive(c, d, values):
                                                      "(Hz) or omega (rad/s), > 0")
     if k is not None:
         v = c.number(d[k], f"{key}.{k}", unit=UNITS[k], minimum=0.0, strict=True)
-        if v is not None:
+        if v is not None and (k != "frequency_hz" or hz_fits(c, v, f"{key}.{k}")):
             values["omega"] = hz_to_rad_s(v) if k == "frequency_hz" else v
     harmonics = ((1, 1.0, 0.0),)
     if "harmonics" in d:

@@ -31,7 +31,8 @@ from ._schema import (
     hz_to_rad_s,
 )
 
-__all__ = ["Axis", "check_analyses", "check_axis", "in_rad_s", "axis_range", "rig_symbols"]
+__all__ = ["Axis", "check_analyses", "check_axis", "in_rad_s", "hz_fits", "axis_range",
+           "rig_symbols"]
 
 
 @dataclass(frozen=True)
@@ -354,6 +355,8 @@ def check_axis(c, v, key, name, *, minimum=None, strict=False, unit=""):
             return None
         vals = [c.number(x, f"{key}[{i}]", unit=unit, minimum=minimum, strict=strict)
                 for i, x in enumerate(v)]
+        if unit == "Hz":
+            vals = [x if hz_fits(c, x, f"{key}[{i}]") else None for i, x in enumerate(vals)]
         return Axis(name, tuple(vals), "list") if None not in vals else None
     if not isinstance(v, dict):
         c.error(key, f"must be a list of values or a range {{start, stop, num, scale}}, got "
@@ -386,9 +389,20 @@ def check_axis(c, v, key, name, *, minimum=None, strict=False, unit=""):
         c.error(key, f"the range from {lo!r} to {hi!r}{unit and f' ({unit})'} is wider than a "
                      "float holds (stop − start overflows to inf): give nearer ends")
         return None
+    if unit == "Hz" and not (hz_fits(c, lo, f"{key}.start") and hz_fits(c, hi, f"{key}.stop")):
+        return None
     import numpy as np
     vals = np.geomspace(lo, hi, num) if log else np.linspace(lo, hi, num)
     return Axis(name, tuple(float(x) for x in vals), scale)
+
+
+def hz_fits(c, f, key) -> bool:
+    """Whether a frequency ``f`` (Hz) is finite in rad/s (2π f); reported if not."""
+    if f is not None and not math.isfinite(hz_to_rad_s(f)):
+        c.error(key, f"{f!r} Hz is {hz_to_rad_s(f)} in rad/s (2π f overflows a float); give "
+                     "a frequency below 2.8e307 Hz")
+        return False
+    return True
 
 
 def in_rad_s(axis):
@@ -438,6 +452,8 @@ def _check_parameter_values(c, name, s, key, rig, params, out):
     for k in ("start", "stop"):
         if k in s:
             v = c.number(s[k], f"{key}.{k}", unit=unit, minimum=minimum, strict=strict)
+            if hz and not hz_fits(c, v, f"{key}.{k}"):
+                v = None
             ends[k] = hz_to_rad_s(v) if hz and v is not None else v
     if "stop" not in s:
         c.error(f"{key}.stop", f"missing; where the branch ends: the other end of the interval "

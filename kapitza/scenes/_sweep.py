@@ -428,8 +428,38 @@ def _plan(directory: Path, work, axes, key, fingerprint, tile_points, tile_secon
     return plan, calibrated
 
 
+class _NoBar:
+    """The bar of ``progress=False``: nothing drawn, and nothing of tqdm imported (its
+    notebook detection warns in a Jupyter kernel without ipywidgets)."""
+
+    def update(self, n=1):
+        pass
+
+    def close(self):
+        pass
+
+
+def _in_notebook_with_widgets() -> bool:
+    """A Jupyter kernel (not a Qt console or Spyder) with ipywidgets installed: where
+    tqdm's notebook bar draws (the test of ``tqdm.autonotebook``, without its warning)."""
+    if "ipykernel.zmqshell" not in sys.modules:
+        return False
+    if any(k == "QT_API" or k.startswith("SPYDER") for k in os.environ):
+        return False
+    try:
+        import ipywidgets  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
 def _bar(progress, total, initial, label):
-    from tqdm.auto import tqdm
+    if progress is False:
+        return _NoBar()
+    if _in_notebook_with_widgets():
+        from tqdm.notebook import tqdm
+    else:
+        from tqdm import tqdm
     disable = None if progress is None else not progress
     # a terminal that reports no size (a pseudo-terminal nobody sized: script(1), CI
     # runners, editors' shells) made tqdm draw nothing at all: 80 × 24 there

@@ -9,6 +9,13 @@ leave, its slow frequencies with error estimates, its slow amplitude, its mean p
 and (for a conserved energy) the energy drift.  :func:`measure` is one point of it, and
 :meth:`kapitza.KapitzaPendulum.measure` / ``measure_grid`` the pendulum's form.
 
+A measurement computes what is asked (``observables``) and no more: the classification
+(stayed, fall time, deviation, mean) comes from observables the batch kernel keeps as it
+steps, at the engine's speed; the strobe samples are recorded only for the slow
+amplitude or Ω, and fitted only for Ω (the fit's loops compiled:
+:mod:`kapitza.simulation._strobe_fit`).  A long run goes in parts of about a quarter of a
+second, exactly as one run, with progress and Ctrl-C between them.
+
 Stroboscopic samples
 --------------------
 With a drive of period T = 2π/ω, the state x_k = [q, q̇](t0 + kT) sampled once per
@@ -90,22 +97,30 @@ samples recorded before the stop.
 """
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import math
-import warnings
 from collections.abc import Mapping
 
 import numpy as np
 
+from lagrange_core._compile_notice import activity
 from lagrange_core.batch import GridInterrupted
 from lagrange_core.checks import real_array, real_number
+from lagrange_core.progress import ProgressLine, defer_ctrl_c, interrupt_requested
 
-from .._arguments import whole_number
+from .._arguments import (
+    SWEEP_FIX,
+    check_grid_memory,
+    grid_shape,
+    measure_bytes_per_point,
+    whole_number,
+)
 from ..results import ComputationInterrupted, Measurement
+from ._strobe_fit import estimate, record_extent
 
 __all__ = ["measure", "measure_grid", "slow_frequencies", "Measurement", "RESIDUAL_FACTOR",
-           "DEFAULT_PERIODS"]
+           "DEFAULT_PERIODS", "CLASSIFICATION_RTOL", "CLASSIFICATION_RTOL_OTHER", "OMEGA_RTOL",
+           "OBSERVABLES"]
 
 #: Drive periods simulated by default: about 30 slow periods at Ω/ω ≈ 1/30 (Kapitza's regime).
 DEFAULT_PERIODS = 1000
@@ -115,126 +130,36 @@ SAFETY = 2.0
 #: A mode that is not refined by its rotation number carries the linear fit's bias,
 #: bounded by this factor times r² Ω (r the relative fit residual); see the module docstring.
 RESIDUAL_FACTOR = 10.0
-#: Points whose strobe samples are analysed together (bounds the temporaries' memory).
-_CHUNK = 256
-#: Turning angles (relative to arg λ) beyond which a mode's rotation number is not used.
-_MAX_TURN = math.pi / 2
-#: Samples whose mode projection is below this fraction of its largest are not used for the
-#: rotation number (a decayed mode's phase is integration noise; an undamped mode's
-#: projection varies only by the harmonic content, far less).
-_FLOOR = 1e-3
+#: Points whose strobe samples are analysed together (bounds the copies' memory).
+_CHUNK = 1024
+#: The relative tolerance of a measurement that only classifies (stayed up, fall time,
+#: deviation; ``observables="classification"``) when ``rtol`` is not given, for RKN 12
+#: (the default method of q̈ = f(q, t)).  Its adaptive step is also held to at most 3/4
+#: of a drive period, so the trajectory is far more accurate than rtol: on the inverted
+#: pendulum's 64 × 64 (A, f) grid of benchmarks/bench_measure.py (500 periods from
+#: 0.1 rad) rtol 1e-4 classifies all 4096 points as a reference at 1e-12 does, with the
+#: final angle within 7e-4 rad (median 1.4e-5) and fall times within 0.4 % of the
+#: reference's; rtol 1e-3 also classified all, with errors 5× larger.  A point within the
+#: integration error of the edge of stability can be classified either way at any
+#: tolerance: tighten rtol to decide it.
+CLASSIFICATION_RTOL = 1e-4
+#: The same for every other method (DOP853: damped or velocity-dependent systems), whose
+#: steps are not capped by the drive: on the same grid DOP853 misclassified 8 points at
+#: rtol 1e-3 and none at 1e-4, 1e-5 or 1e-6; this keeps two decades from the first failure.
+CLASSIFICATION_RTOL_OTHER = 1e-6
+#: The relative tolerance when slow frequencies are measured (the integration error enters
+#: Ω as rtol·|q|/(a Ω T), see above).
+OMEGA_RTOL = 1e-9
+#: After Ctrl-C the samples recorded are fitted for Ω only up to this many in all (about
+#: half a second of the fit), so that the partial result comes back within a second.
+_INTERRUPTED_FIT_SAMPLES = 2_000_000
+#: What a measurement can compute beyond the classification, and the fields each adds.
+OBSERVABLES = {"amplitude": ("amplitude", "samples"),
+               "omega_slow": ("omega_slow", "omega_slow_error", "refined", "growth_rate",
+                              "fit_residual", "samples")}
 
 
 # -- the estimator --------------------------------------------------------------------------
-
-@contextlib.contextmanager
-def _quiet_nan_warnings():
-    """nanmax of an all-NaN row is NaN (a point with no samples); no RuntimeWarning."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        yield
-
-
-def _min_pairs(d):
-    """Fewest sample pairs one fit uses: 4 per unknown of a row of [M b] (d + 1)."""
-    return 4 * (d + 1)
-
-
-def _bump(pos, count):
-    """Birkhoff weights exp(−1/(s(1 − s))) at s = (pos + ½)/count (0 where count ≤ 0)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = (pos + 0.5) / count
-    inside = (count > 0) & (s > 0) & (s < 1)
-    s = np.where(inside, s, 0.5)
-    return np.where(inside, np.exp(-1.0 / (s * (1.0 - s))), 0.0)
-
-
-def _fit_modes(X, used, n, *, distance_only=False):
-    """Fit x_(k+1) ≈ M x_k + b on the pairs ``used`` and return the slow modes.
-
-    X: (P, K, d) samples (finite, zeros where not valid); used: (P, K − 1) bool, the
-    pairs (k, k + 1) to fit, contiguous.  Returns a dict of (P, n) arrays in ascending
-    order of Ω — ``rho`` (turning angle per period in [0, π], the rotation number where
-    refined, else arg λ), ``growth`` (log|λ|), ``refined`` (bool), ``bound`` (the
-    telescoping bound of the weighted mean) — and ``residual`` (P,), the relative fit
-    residual, and ``distance`` (P, K), each sample's distance from the fixed point in the
-    scaled coordinates (only this with ``distance_only``); NaN where a point has too few
-    pairs."""
-    P, K, d = X.shape
-    w = used.astype(float)
-    m = w.sum(axis=1)
-    enough = m >= _min_pairs(d)
-    msafe = np.where(m > 0, m, 1.0)
-    start = X[:, :-1]
-    wk = w[:, :, None]
-    centre = (wk * start).sum(axis=1) / msafe[:, None]
-    scale = np.sqrt((wk * (start - centre[:, None]) ** 2).sum(axis=1) / msafe[:, None])
-    scale = np.where(scale > 0, scale, 1.0)
-    # every sample in the centred, scaled coordinates u = (x − centre) / scale
-    U = (X - centre[:, None]) / scale[:, None]
-    Ua, Ub = U[:, :-1], U[:, 1:]
-    ub = (wk * Ub).sum(axis=1) / msafe[:, None]           # mean of the images (ua's is 0)
-    Wa = np.swapaxes(wk * Ua, 1, 2)
-    C0 = Wa @ Ua
-    C1 = np.swapaxes(Wa @ (Ub - ub[:, None]), 1, 2)
-    C0[~enough] = np.eye(d)
-    C1[~enough] = 0.0
-    M = C1 @ np.linalg.pinv(C0, rcond=1e-13, hermitian=True)
-    res = Ub - ub[:, None] - Ua @ np.swapaxes(M, 1, 2)
-    spread = (wk * (Ub - ub[:, None]) ** 2).sum(axis=(1, 2))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        residual = np.sqrt((wk * res ** 2).sum(axis=(1, 2)) / spread)
-    # the fixed point u* = M u* + ub (pinv: a mode at λ = 1 leaves it undetermined there)
-    ustar = (np.linalg.pinv(np.eye(d) - M, rcond=1e-13) @ ub[:, :, None])[:, :, 0]
-    # how far each sample is from the fixed point (scaled), for the active part of a record
-    distance = np.sqrt(np.sum((U - ustar[:, None]) ** 2, axis=2))
-    if distance_only:
-        return dict(distance=distance)
-    M[~np.isfinite(M).all(axis=(1, 2))] = 0.0
-    lam, V = np.linalg.eig(np.swapaxes(M, 1, 2))                 # vᵀ M = λ vᵀ
-    ang = np.angle(lam)
-    key = np.where(lam.imag > 0, ang, np.inf)
-    order = np.argsort(key, axis=1)[:, :n]
-    take = np.take_along_axis(key, order, axis=1)
-    mode_ok = np.isfinite(take) & enough[:, None]
-    lam_sel = np.take_along_axis(lam, order, axis=1)
-    Vsel = np.take_along_axis(V, order[:, None, :], axis=2)       # (P, d, n)
-    lin = np.where(mode_ok, np.angle(lam_sel), np.nan)
-    with np.errstate(divide="ignore"):
-        growth = np.where(mode_ok, np.log(np.abs(lam_sel)), np.nan)
-    # rotation number: weighted mean of the turning angles of z = vᵀ(u − u*)
-    z = (U - ustar[:, None]) @ Vsel                                 # (P, K, n)
-    za, zb = z[:, :-1], z[:, 1:]
-    size = np.abs(z)
-    big = np.max(np.where(used[:, :, None], np.abs(za), 0.0), axis=1)       # (P, n)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        turn = np.angle(zb / za * np.exp(-1j * np.nan_to_num(lin))[:, None])
-    valid = (used[:, :, None] & (np.abs(za) > _FLOOR * big[:, None])
-             & (size[:, 1:] > _FLOOR * big[:, None]))
-    # the window spans the samples used (a decaying mode's first ones, a growing mode's last)
-    pos = np.cumsum(valid, axis=1) - 1
-    weight = _bump(pos, valid.sum(axis=1)[:, None, :]) * valid
-    clean = np.all(~valid | (np.abs(turn) < _MAX_TURN), axis=1)
-    wsum = weight.sum(axis=1)
-    refined = mode_ok & clean & (wsum > 0) & (valid.sum(axis=1) >= _min_pairs(d))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean_turn = (weight * np.where(valid, turn, 0.0)).sum(axis=1) / wsum
-    # folded into [0, π] (aliasing: e^(iρk) is e^(−iρk) and e^(i(ρ + 2π)k) as well)
-    rho = np.abs(np.angle(np.exp(1j * np.where(refined, lin + mean_turn, lin))))
-    # the phase's departure from uniform turning, g_k = Σ (turn − mean turn): the weighted
-    # mean's error is Σ g_k (w_(k−1) − w_k), at most its half range times Σ |Δw|
-    g = np.cumsum(np.where(valid, turn - np.nan_to_num(mean_turn)[:, None], 0.0), axis=1)
-    g = np.where(valid, g, np.nan)
-    with np.errstate(invalid="ignore", divide="ignore"), _quiet_nan_warnings():
-        half_range = (np.nanmax(g, axis=1) - np.nanmin(g, axis=1)) / 2
-        dw = np.diff(weight / wsum[:, None], axis=1, prepend=0.0, append=0.0)
-    bound = np.abs(dw).sum(axis=1) * half_range
-    # ascending Ω (refinement may reorder close modes); NaN last
-    order = np.argsort(np.where(np.isnan(rho), np.inf, rho), axis=1)
-    fields = {k: np.take_along_axis(v, order, axis=1)
-              for k, v in dict(rho=rho, growth=growth, refined=refined, bound=bound).items()}
-    return dict(fields, residual=np.where(enough, residual, np.nan), distance=distance)
-
 
 def _resonance(Om, period, count, residual):
     """The error added near a resonance ΩT ≈ 2πp/q that the record cannot resolve.
@@ -285,55 +210,36 @@ def _combination(Om, period, count, residual, largest=12):
     return hit
 
 
-def _estimate(q, qdot, period):
-    """The estimator on flat inputs: q, qdot (P, K, n), period (P,); dict of arrays."""
-    P, K, n = q.shape
-    X = np.concatenate([q, qdot * (period[:, None, None] / (2 * np.pi))], axis=2)
-    finite = np.isfinite(X).all(axis=2)
-    valid = np.cumprod(finite, axis=1).astype(bool)              # the finite prefix
-    X = np.where(valid[:, :, None], X, 0.0)
-    pairs = valid[:, 1:]
-    k = np.arange(K - 1)[None, :]
-    # the active part of the record: from the first to the last pair whose samples are
-    # above _FLOOR of the largest distance from the fixed point (a decayed tail is noise)
-    distance = np.where(valid, _fit_modes(X, pairs, n, distance_only=True)["distance"], 0.0)
-    above = pairs & (np.minimum(distance[:, :-1], distance[:, 1:])
-                     >= _FLOOR * distance.max(axis=1, initial=0.0)[:, None])
-    first = np.argmax(above, axis=1)[:, None]
-    last = (K - 2 - np.argmax(above[:, ::-1], axis=1))[:, None]
-    pairs = pairs & (k >= first) & (k <= last) & above.any(axis=1)[:, None]
-    count = pairs.sum(axis=1)
-    half = (first + count[:, None] // 2)
-    quarter = (first + count[:, None] // 4)
-    full = _fit_modes(X, pairs, n)
-    omega = 2 * np.pi / period[:, None]
-    Om = full["rho"] / period[:, None]
-    spread = np.zeros_like(Om)
-    for part in (k < half, k >= half, (k >= quarter) & (k < quarter + count[:, None] // 2)):
-        other = _fit_modes(X, pairs & part, n)["rho"] / period[:, None]
-        with np.errstate(invalid="ignore"):
-            spread = np.maximum(spread, np.where(np.isfinite(other), np.abs(Om - other), np.inf))
-    spread = SAFETY * spread
-    bias = np.where(full["refined"], 0.0, RESIDUAL_FACTOR * full["residual"][:, None] ** 2 * Om)
-    resonant = _combination(Om, period, count, full["residual"])
-    error = spread + bias + _resonance(Om, period, count, full["residual"])
-    error = np.maximum(np.where(resonant, error + full["bound"] / period[:, None], error),
-                       1e-12 * omega)
-    error = np.where(np.isfinite(Om), error, np.nan)
-    qv = np.where(valid[:, :, None], q, np.nan)
-    with np.errstate(invalid="ignore"), _quiet_nan_warnings():
-        amplitude = (np.nanmax(qv, axis=1) - np.nanmin(qv, axis=1)) / 2
-    return dict(omega_slow=Om, omega_slow_error=error, refined=full["refined"],
-                growth_rate=full["growth"] / period[:, None], fit_residual=full["residual"],
-                amplitude=amplitude, samples=valid.sum(axis=1))
-
-
-def _estimate_chunked(q, qdot, period):
-    """:func:`_estimate` over the points in chunks of ``_CHUNK`` (bounded temporaries)."""
+def _estimate_chunked(q, qdot, period, progress=False):
+    """The estimator (:func:`kapitza.simulation._strobe_fit.estimate`, compiled) over the
+    points in chunks of ``_CHUNK`` (bounded copies), with a progress line ("fitting Ω")
+    and Ctrl-C between chunks (:func:`lagrange_core.progress.defer_ctrl_c` active): then
+    the points not reached are NaN.  Returns (fields, points fitted)."""
     P = q.shape[0]
-    parts = [_estimate(q[a:a + _CHUNK], qdot[a:a + _CHUNK], period[a:a + _CHUNK])
-             for a in range(0, max(P, 1), _CHUNK)] if P else [_estimate(q, qdot, period)]
-    return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
+
+    def fit(a, b):
+        return estimate(q[a:b], qdot[a:b], period[a:b], safety=SAFETY,
+                        residual_factor=RESIDUAL_FACTOR, resonance=_resonance,
+                        combination=_combination)
+
+    if P <= _CHUNK:
+        return fit(0, P), P
+    parts = []
+    done, size = 0, _CHUNK
+    bar = ProgressLine(progress, P, "fitting Ω", "points")
+    while done < P:
+        parts.append(fit(done, min(P, done + size)))
+        done = min(P, done + size)
+        bar.update(done)
+        if interrupt_requested():
+            break
+    bar.close()
+    fields = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
+    if done < P:                         # Ctrl-C: the points not fitted are NaN
+        fields = {key: np.concatenate([v, np.full((P - done,) + v.shape[1:], np.nan
+                                                  if v.dtype.kind == "f" else 0, v.dtype)])
+                  for key, v in fields.items()}
+    return fields, done
 
 
 def slow_frequencies(strobe_q, strobe_qdot, period):
@@ -383,7 +289,7 @@ def slow_frequencies(strobe_q, strobe_qdot, period):
     if not np.all(np.isfinite(T) & (T > 0)):
         raise ValueError("period must be a positive, finite drive period T (s).")
     P = int(np.prod(lead, dtype=np.int64))
-    est = _estimate_chunked(q.reshape(P, K, n), qdot.reshape(P, K, n), T.reshape(P))
+    est, _ = _estimate_chunked(q.reshape(P, K, n), qdot.reshape(P, K, n), T.reshape(P))
     return (est["omega_slow"].reshape(lead + (n,)), est["omega_slow_error"].reshape(lead + (n,)))
 
 
@@ -453,9 +359,10 @@ def _strobe_frequency(system, params, frequency):
 
 
 
+@activity("measure")     # a first compile says how long measuring compiles
 def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIODS,
-                 band=math.pi / 2, frequency="omega", t0=0.0, method=None, rtol=1e-9,
-                 atol=None, max_steps=None, progress=None) -> Measurement:
+                 band=math.pi / 2, frequency="omega", t0=0.0, observables="all", method=None,
+                 rtol=None, atol=None, max_steps=None, progress=None) -> Measurement:
     """Simulate a driven system over a broadcast grid and measure every trajectory.
 
     Parameters
@@ -486,8 +393,23 @@ def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIOD
         to sample a system without a drive, whose energy drift is then measured).
     t0 : float
         Start time (s): the drive's phase at the start.
+    observables : "all", "classification", or a collection of "amplitude", "omega_slow"
+        What to measure; a measurement computes what is asked and no more.  Always, as
+        the steps are taken and at no extra cost: ``stayed_up``, ``fall_time``,
+        ``status``, ``max_deviation``, ``mean_angle``, ``energy_drift``, ``t_reached``,
+        ``completed_periods``.  "amplitude" adds the slow amplitude (from the strobe
+        samples: the steps are then the longest that divide the drive period, so they
+        land on every sample); "omega_slow" adds ``omega_slow`` with its error,
+        ``refined``, ``growth_rate`` and ``fit_residual`` (the strobe samples and their
+        fit, the module docstring).  "all" (default) is both; "classification" neither
+        (those fields are None).
     method, rtol, atol, max_steps, progress
-        As for :meth:`lagrange_core.System.simulate_grid`.
+        As for :meth:`lagrange_core.System.simulate_grid`.  ``rtol`` None: 1e-9
+        (:data:`OMEGA_RTOL`) when Ω or the amplitude is measured; to classify only, what
+        a classification needs: 1e-4 with RKN 12 (:data:`CLASSIFICATION_RTOL`, where its
+        accuracy is stated), 1e-6 with another method (DOP853, damped systems).
+        ``progress``: a line on stderr when it is a terminal and the run takes over half
+        a second (a long run shows its share of the span reached and the time left).
 
     Returns
     -------
@@ -500,8 +422,12 @@ def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIOD
     ValueError
         Bad input, or an initial state outside its band.
     kapitza.results.ComputationInterrupted
-        On Ctrl-C: ``.result`` is the measurement of the finished points (the others
-        have status "not_run"), ``.computed`` marks them.
+        On Ctrl-C (within about a quarter of a second: a long run is integrated in
+        parts, and goes on exactly where the last part stopped): ``.result`` is the
+        measurement of everything computed — the finished points, the points stopped
+        part-way (status "interrupted", measured up to ``t_reached``,
+        ``completed_periods``) and the points not started (status "not_run");
+        ``.computed`` marks the finished ones.
 
     Examples
     --------
@@ -519,12 +445,24 @@ def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIOD
     (True, [5.735, 36.595], True)
     """
     periods = whole_number(periods, "periods", 1)
+    wanted = _observables(observables)
+    if rtol is None:
+        rkn = method in ("rkn12", "rkn12-fixed") or (method is None
+                                                      and system.kernels.rkn_form)
+        rtol = (OMEGA_RTOL if wanted else CLASSIFICATION_RTOL if rkn
+                else CLASSIFICATION_RTOL_OTHER)
     omega = _strobe_frequency(system, params, frequency)
     period = 2 * np.pi / omega
     t0 = real_number(t0, "t0", unit="s")
     ref = _coordinate_values(system, about, "about")
     start = _coordinate_values(system, q0, "q0")
     rate = _coordinate_values(system, qdot0, "qdot0")
+    check_grid_memory("params, about, q0, qdot0 (broadcast)", grid_shape(
+        *params.values(), ref[..., 0], start[..., 0], rate[..., 0]),
+        measure_bytes_per_point(system.n_dof, periods if wanted else 0), where="measure_grid: ",
+        fix="use fewer periods (the strobe samples of every period are kept for Ω and the "
+            "amplitude) or observables='classification' (none kept: any number of periods); "
+            "or " + SWEEP_FIX)
     lohi = None
     if band is not None:
         half = _coordinate_values(system, band, "band", missing=np.inf, finite=False)
@@ -532,6 +470,11 @@ def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIOD
             raise ValueError("band must be a positive half-width (inf: unbounded) per "
                              "coordinate.")
         lohi = (ref - half, ref + half)
+        if np.any(lohi[0] == lohi[1]):      # |about| so large the band rounds away
+            raise ValueError(f"about = {ref.reshape(-1)[:3].tolist()} ...: so large that a "
+                             "float cannot resolve the band about it (about ± band round to "
+                             "one value); give the state within a few turns of 0 (angles "
+                             "mod 2π).")
         try:
             outside = ~(np.abs(start - ref) < half)
         except ValueError:
@@ -543,45 +486,115 @@ def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIOD
                 f"{np.broadcast_to(ref, outside.shape)[outside][:3].tolist()}: "
                 "a run must start inside it. Pass the state it starts near as `about`, a wider "
                 "band, or band=None.")
+    # Ctrl-C, from here on, stops the simulation or the fit between compiled calls
+    with defer_ctrl_c():
+        try:
+            grid = system.simulate_grid(start, rate, (t0, t0 + periods * period), params,
+                                        method=method, rtol=rtol, atol=atol,
+                                        strobe=period if wanted else None, reference=ref,
+                                        band=lohi,
+                                        energy=bool(system.kernels.energy_conserved),
+                                        max_steps=max_steps, progress=progress)
+        except GridInterrupted as stop:
+            # what ran is measured; Ω only where its fit is quick (Ctrl-C: "stop now")
+            with np.errstate(invalid="ignore"):
+                ran = np.floor((stop.result.t_final - stop.result.t0) / period)
+            samples = float(np.sum(ran[np.isfinite(ran)]))
+            fitted = wanted if samples <= _INTERRUPTED_FIT_SAMPLES else wanted - {"omega_slow"}
+            partial, _ = _from_grid(system, stop.result, ref, periods, period, fitted, False)
+            raise _interrupted(partial, fitted != wanted) from None
+        result, fitted = _from_grid(system, grid, ref, periods, period, wanted, progress)
+        if fitted is not None:       # Ctrl-C during the fit: Ω of the points fitted
+            stop = ComputationInterrupted(result, np.arange(result.stayed_up.size).reshape(
+                result.shape) < fitted)
+            stop.args = (f"measurement interrupted while fitting Ω: every run finished, Ω "
+                         f"fitted for {fitted} of {result.stayed_up.size} points (NaN for the "
+                         "others, marked False in .computed); the measurement is in the "
+                         "exception's .result",)
+            raise stop
+    return result
+
+
+def _observables(observables):
+    """The groups of :data:`OBSERVABLES` asked for (a frozenset; empty: classification)."""
+    given = (observables,) if isinstance(observables, str) else observables
     try:
-        grid = system.simulate_grid(start, rate, (t0, t0 + periods * period), params,
-                                    method=method, rtol=rtol, atol=atol, strobe=period,
-                                    reference=ref, band=lohi,
-                                    energy=bool(system.kernels.energy_conserved),
-                                    max_steps=max_steps, progress=progress)
-    except GridInterrupted as stop:
-        partial = _from_grid(system, stop.result, ref, periods)
-        raise ComputationInterrupted(partial, stop.result.status_name != "not_run") from None
-    return _from_grid(system, grid, ref, periods)
+        names = {str(x) for x in given} if not isinstance(given, (bytes, Mapping)) else None
+    except TypeError:
+        names = None
+    choices = ("all", "classification", *OBSERVABLES)
+    if names is None or not names <= set(choices) or not names:
+        raise ValueError(f"observables must be 'all', 'classification', or a list of "
+                         f"{sorted(OBSERVABLES)}; got {observables!r}.")
+    if "all" in names:
+        return frozenset(OBSERVABLES)
+    return frozenset(names - {"classification"})
 
 
-def _from_grid(system, grid, ref, periods) -> Measurement:
-    """The measurement of every point of a :class:`lagrange_core.batch.GridTrajectories`."""
+def _interrupted(partial, unfitted):
+    """ComputationInterrupted for a measurement stopped by Ctrl-C, saying how far it got
+    (and, ``unfitted``, that Ω was not fitted)."""
+    status = np.asarray(partial.status)
+    finished = (status != "not_run") & (status != "interrupted")
+    stop = ComputationInterrupted(partial, finished)
+    part = status == "interrupted"
+    if part.any():
+        reached = np.asarray(partial.completed_periods)[part]
+        first = np.asarray(partial.t_reached)[part].reshape(-1)[0]
+        stop.args = (f"measurement interrupted: {int(finished.sum())} of {finished.size} "
+                     f"points finished, {int(part.sum())} stopped part-way (the first at t = "
+                     f"{first:.6g} s, {int(reached.reshape(-1)[0])} of {partial.periods} "
+                     "periods); the partial measurement (status 'interrupted', t_reached, "
+                     "completed_periods) is in the exception's .result"
+                     + (f"; Ω was not fitted (over {_INTERRUPTED_FIT_SAMPLES:.0e} strobe "
+                        "samples: a fit of seconds after Ctrl-C), its fields are None"
+                        if unfitted else ""),)
+    return stop
+
+
+def _from_grid(system, grid, ref, periods, period, wanted, progress):
+    """The measurement of every point of a :class:`lagrange_core.batch.GridTrajectories`
+    (the groups of observables ``wanted``: :func:`_observables`), and None — or, if
+    Ctrl-C stopped the fit of Ω, the number of points fitted (in flat order)."""
     S, n = grid.shape, system.n_dof
     P = int(np.prod(S, dtype=np.int64))
-    K = grid.strobe_q.shape[-2]
-    period = np.broadcast_to(grid.strobe_period, S)
-    est = _estimate_chunked(grid.strobe_q.reshape(P, K, n), grid.strobe_qdot.reshape(P, K, n),
-                            period.reshape(P))
+    period = np.broadcast_to(period, S)
+    fields = dict.fromkeys(OBSERVABLES["amplitude"] + OBSERVABLES["omega_slow"])
+    stopped = None
+    if wanted:
+        # the samples up to the last any run reached (a run stopped early, by a fall or
+        # Ctrl-C, has NaN beyond: no need to copy them)
+        with np.errstate(invalid="ignore"):
+            reached = np.floor((grid.t_final - grid.t0) / period * (1 + 1e-12))
+        K = grid.strobe_q.shape[-2]
+        if np.isfinite(reached).any():
+            K = int(min(K, np.nanmax(reached) + 2))
+        q = grid.strobe_q[..., :K, :].reshape(P, K, n)
+        qdot = grid.strobe_qdot[..., :K, :].reshape(P, K, n)
+        if "omega_slow" in wanted:
+            est, done = _estimate_chunked(q, qdot, period.reshape(P), progress)
+            stopped = done if done < P else None
+        else:
+            est = dict(zip(("amplitude", "samples"), record_extent(q, qdot), strict=True))
+        for name in set().union(*(OBSERVABLES[w] for w in wanted)):
+            shape = S + (n,) if name in ("omega_slow", "omega_slow_error", "refined",
+                                         "growth_rate", "amplitude") else S
+            fields[name] = est[name].reshape(shape)
     status = grid.status_name
     left = status == "left_band"
     with np.errstate(invalid="ignore"):
         fall = np.where(left, grid.exit_time - grid.t0, np.nan) if grid.exit_time is not None \
             else np.full(S, np.nan)
+        done = np.floor((grid.t_final - grid.t0) / period * (1 + 1e-12))
+    completed = np.where(np.isfinite(done), done, 0).astype(np.int64)
     energy = grid.energy_drift if system.kernels.energy_conserved else None
     return Measurement(
         coordinates=tuple(system.coordinates), params=dict(grid.params),
         about=np.broadcast_to(ref, S + (n,)).copy(), period=np.array(period),
         periods=periods, stayed_up=status == "finished", fall_time=fall,
-        omega_slow=est["omega_slow"].reshape(S + (n,)),
-        omega_slow_error=est["omega_slow_error"].reshape(S + (n,)),
-        refined=est["refined"].reshape(S + (n,)),
-        growth_rate=est["growth_rate"].reshape(S + (n,)),
-        fit_residual=est["fit_residual"].reshape(S),
-        amplitude=est["amplitude"].reshape(S + (n,)), mean_angle=grid.q_mean,
-        max_deviation=grid.max_deviation, energy_drift=energy,
-        samples=est["samples"].reshape(S), status=status, method=grid.method,
-        rtol=grid.rtol)
+        mean_angle=grid.q_mean, max_deviation=grid.max_deviation, energy_drift=energy,
+        status=status, method=grid.method, rtol=grid.rtol, t_reached=grid.t_final,
+        completed_periods=np.minimum(completed, periods), **fields), stopped
 
 
 def measure(system, params, about, q0, qdot0=0.0, **options) -> Measurement:
@@ -592,17 +605,36 @@ def measure(system, params, about, q0, qdot0=0.0, **options) -> Measurement:
     :class:`~kapitza.results.Measurement` whose point fields are Python scalars and whose
     per-mode and per-coordinate fields are arrays of n entries (floats for a system of
     one coordinate).  Example: :func:`measure_grid`.
+
+    A long run (``periods`` in the millions) is integrated in parts of about a quarter
+    of a second, each going on exactly where the last stopped: a progress line with the
+    time left shows on a terminal, and Ctrl-C raises
+    :class:`~kapitza.results.ComputationInterrupted` within a second, whose ``.result``
+    is the measurement of the run so far (status "interrupted", ``t_reached``,
+    ``completed_periods``; Ω from the samples up to there).
     """
     if isinstance(params, Mapping):
         for k, v in params.items():
             if np.ndim(v) != 0:
                 raise ValueError(f"measure takes scalar parameters; {k!r} is an array. Use "
                                  "measure_grid for grids.")
-    result = measure_grid(system, params, about, q0, qdot0, **options)
+    try:
+        result = measure_grid(system, params, about, q0, qdot0, **options)
+    except ComputationInterrupted as stop:
+        raise one_point_interrupted(stop) from None
     if result.shape != ():
         raise ValueError(f"measure measures one point; about, q0 and qdot0 give the grid "
                          f"shape {result.shape}. Use measure_grid for grids.")
     return point(result)
+
+
+def one_point_interrupted(stop):
+    """The ComputationInterrupted of a one-point measurement: its ``.result`` as
+    :func:`point` makes it (Python scalars), the message kept."""
+    result = stop.result
+    one = ComputationInterrupted(point(result) if result.shape == () else result, stop.computed)
+    one.args = stop.args
+    return one
 
 
 def point(m: Measurement) -> Measurement:

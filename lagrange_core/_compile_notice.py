@@ -1,0 +1,169 @@
+"""One line on stderr when numba starts compiling the shared kernels, with an estimate.
+
+A fresh installation (or a cleared cache) compiles the integrators, the grid kernels and
+kapitza's Floquet and fitting kernels on first use: tens of seconds in which nothing
+else is printed.  :func:`install` registers a numba compile listener; the first time in
+a process that numba *compiles* (a cache miss, never a cache load) a function of
+``lagrange_core`` or ``kapitza``, it prints once::
+
+    lagrange_core: compiling numba kernels for first use (kapitza report), ~60 s; later
+    runs load them from the cache
+
+(one line on the terminal).
+
+A warm run compiles nothing of these and prints nothing.  A new system's own kernels
+(the generated ``_lc_*`` modules, about a second) do not trigger it: they are expected on
+every new statement.
+
+The estimate comes from :data:`ACTIVITY_SECONDS` (what the outermost running activity
+compiles in all, declared by :func:`activity`) or else :data:`FAMILY_SECONDS` (the
+family of the first function compiled), both measured on the 2-core development machine
+(benchmarks/README.md, "A first use in seconds"), scaled by the load when the machine
+has more runnable processes than cores.  It is a rough figure (±50 %), not a bound.
+
+``LAGRANGE_CORE_COMPILE_NOTICE=0`` turns the line off (e.g. a test suite that compares
+stderr).
+"""
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import functools
+import os
+import sys
+import threading
+
+__all__ = ["install", "activity", "declared", "say", "ACTIVITY_SECONDS", "FAMILY_SECONDS"]
+
+#: Seconds an activity compiles on an empty cache (idle 2-core machine, numba 0.68):
+#: the whole of it, so the notice at its first compile says how long the wait is.
+ACTIVITY_SECONDS = {
+    "kapitza report": 60,
+    "kapitza.warmup": 45,
+    "lagrange_core.warmup": 20,
+    "measure": 25,
+}
+
+#: Seconds a family of shared kernels compiles on an empty cache, by module of the
+#: first function compiled (used when no activity is declared).
+FAMILY_SECONDS = {
+    "lagrange_core._integrator_kernels": 15,
+    "lagrange_core._batch_kernels": 25,
+    "lagrange_core._first_order_lanes": 25,
+    "lagrange_core._variational_kernels": 5,
+    "lagrange_core._core_kernels": 3,
+    "kapitza.floquet": 15,
+    "kapitza.closed_forms": 8,
+    "kapitza.simulation": 12,
+    "kapitza.chaos": 20,
+}
+DEFAULT_SECONDS = 15
+
+_activity: contextvars.ContextVar[str | None] = contextvars.ContextVar(
+    "lagrange_core_compile_activity", default=None)
+_lock = threading.Lock()
+_state = {"installed": False, "said": False}
+
+
+@contextlib.contextmanager
+def declared(name: str):
+    """Context in which ``name`` is the running activity (the outermost one counts), so
+    a notice printed inside it quotes the activity's whole compile time."""
+    token = _activity.set(_activity.get() or name)        # the outermost one counts
+    try:
+        yield
+    finally:
+        _activity.reset(token)
+
+
+def activity(name: str):
+    """Decorator: the function runs as activity ``name`` (see :func:`declared`)."""
+    def wrap(func):
+        @functools.wraps(func)
+        def inner(*args, **kwargs):
+            with declared(name):
+                return func(*args, **kwargs)
+        return inner
+    return wrap
+
+
+#: Modules whose compiles are announced: the installation's shared kernels (generated
+#: system modules, ``_lc_*``, are not among them).
+SHARED_PREFIXES = ("lagrange_core.", "kapitza.")
+
+
+def _shared(module: str) -> bool:
+    return module.startswith(SHARED_PREFIXES)
+
+
+def estimate(module: str) -> int:
+    """The notice's estimate (s) for a first compile in ``module``, load included."""
+    name = _activity.get()
+    if name in ACTIVITY_SECONDS:
+        seconds = ACTIVITY_SECONDS[name]
+    else:
+        seconds = next((s for prefix, s in FAMILY_SECONDS.items() if module.startswith(prefix)),
+                       DEFAULT_SECONDS)
+    try:
+        # a compile is one thread: on a machine with more runnable processes than cores it
+        # gets a share of one (capped: the load average lags)
+        share = os.getloadavg()[0] / (os.cpu_count() or 1)
+    except OSError:
+        share = 1.0
+    seconds *= min(max(share, 1.0), 4.0)
+    return int(round(seconds, -1)) if seconds >= 20 else max(int(round(seconds)), 1)
+
+
+def message(module: str) -> str:
+    """The one line printed."""
+    name = _activity.get()
+    what = f" ({name})" if name else ""
+    return (f"lagrange_core: compiling numba kernels for first use{what}, ~{estimate(module)} s; "
+            "later runs load them from the cache")
+
+
+def _on_compile(module: str) -> None:
+    if not _shared(module):
+        return
+    say(module)
+
+
+def say(module: str) -> None:
+    """Print the notice now, unless this process has printed it (for work that compiles
+    in other processes, which print nothing); ``module`` picks the family's estimate."""
+    if _state["said"]:
+        return
+    if os.environ.get("LAGRANGE_CORE_COMPILE_NOTICE", "1").strip() in ("0", "false", "no"):
+        return
+    with _lock:
+        if _state["said"]:
+            return
+        _state["said"] = True
+    try:
+        print(message(module), file=sys.stderr, flush=True)
+    except (OSError, ValueError):       # a closed stderr: the notice is a courtesy
+        pass
+
+
+def install() -> None:
+    """Register the compile listener (once per process; cheap: numba is imported anyway)."""
+    if _state["installed"]:
+        return
+    from numba.core import event
+
+    class _Listener(event.Listener):
+        def on_start(self, ev):
+            dispatcher = (ev.data or {}).get("dispatcher")
+            func = getattr(dispatcher, "py_func", None)
+            _on_compile(getattr(func, "__module__", None) or "")
+
+        def on_end(self, ev):
+            pass
+
+    event.register("numba:compile", _Listener())
+    _state["installed"] = True
+
+
+def reset_for_tests() -> None:
+    """Forget that the notice was printed (tests only)."""
+    _state["said"] = False

@@ -1,0 +1,111 @@
+"""A first use on an empty cache: the compile notice, and inputs that would compile a
+kernel twice.  Cheap on purpose: no real cold run (that takes a minute and more; the
+benchmark ``benchmarks/bench_cold_start.py --report`` measures it)."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+from numba import njit
+
+from lagrange_core import _compile_notice, problems
+from lagrange_core.batch import _grid_arrays
+
+NOTICE = "compiling numba kernels for first use"
+
+
+@pytest.fixture
+def fresh_notice(monkeypatch):
+    """The notice not yet printed in this process (restored afterwards)."""
+    monkeypatch.delenv("LAGRANGE_CORE_COMPILE_NOTICE", raising=False)
+    said = _compile_notice._state["said"]
+    _compile_notice.reset_for_tests()
+    yield
+    _compile_notice._state["said"] = said
+
+
+def _project_function(module):
+    """A fresh (never compiled) jitted function that numba sees as ``module``'s."""
+    def twice(x):
+        return 2 * x
+    twice.__module__ = module
+    return njit(twice)          # no cache: every call with a new type compiles
+
+
+def test_first_compile_says_so_once_with_an_estimate(fresh_notice, capsys):
+    f = _project_function("lagrange_core._a_kernel_module")
+    with _compile_notice.declared("measure"):
+        f(1)
+        f(1.5)                  # a second compile in the same process: no second line
+        _project_function("kapitza.floquet._kernels")(2)
+    err = capsys.readouterr().err
+    assert err.count(NOTICE) == 1, err
+    assert "(measure)" in err and " s;" in err
+    seconds = int(err.split("~")[1].split(" s")[0])
+    base = _compile_notice.ACTIVITY_SECONDS["measure"]
+    assert base <= seconds <= 4 * base        # scaled by the load, at most 4x
+
+
+def test_a_new_systems_own_kernels_and_foreign_code_are_not_announced(fresh_notice, capsys):
+    _project_function("_lc_0123456789abcdef0123")(1)     # a generated system module
+    _project_function("some_user_module")(1)
+    assert NOTICE not in capsys.readouterr().err
+
+
+def test_the_notice_can_be_turned_off(fresh_notice, capsys, monkeypatch):
+    monkeypatch.setenv("LAGRANGE_CORE_COMPILE_NOTICE", "0")
+    _project_function("lagrange_core._another")(1)
+    assert NOTICE not in capsys.readouterr().err
+
+
+def test_said_on_a_cold_cache_and_never_on_a_warm_one(tmp_path):
+    """Two processes on one numba cache: the first compiles (one line), the second loads
+    the machine code and prints nothing."""
+    (tmp_path / "fake_kernels.py").write_text(textwrap.dedent("""
+        from numba import njit
+
+        @njit(cache=True)
+        def twice(x):
+            return 2 * x
+    """))
+    # the notice module alone (what importing lagrange_core installs), not the package:
+    # the two processes then take a second each
+    code = textwrap.dedent(f"""
+        import importlib.util, sys
+        spec = importlib.util.spec_from_file_location("notice", {_compile_notice.__file__!r})
+        notice = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(notice)
+        notice.install()
+        notice.SHARED_PREFIXES = ("fake_kernels",)      # announced as a shared kernel
+        sys.path.insert(0, {str(tmp_path)!r})
+        import fake_kernels
+        fake_kernels.twice(1)
+        fake_kernels.twice(2.5)
+    """)
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
+    env.pop("LAGRANGE_CORE_COMPILE_NOTICE", None)
+    runs = [subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                           text=True, timeout=120, check=False) for _ in range(2)]
+    assert [r.returncode for r in runs] == [0, 0], runs[0].stderr[-2000:]
+    assert runs[0].stderr.count(NOTICE) == 1, runs[0].stderr
+    assert NOTICE not in runs[1].stderr, runs[1].stderr
+
+
+def test_grid_inputs_are_writable_whatever_the_caller_gave():
+    """numba compiles a grid kernel once more (≈ 30 s cold) for every mix of read-only and
+    writable arrays; a broadcast view given by the caller must not reach it read-only."""
+    system = problems.driven_pendulum()
+    ro = np.broadcast_to(np.linspace(0.1, 0.3, 4)[:, None], (4, 1))   # a read-only view
+    assert not ro.flags.writeable
+    params = {p: 1.0 for p in system.parameters}
+    params["A"] = ro[:, 0]
+    g = _grid_arrays(system, ro, 0 * ro, (0.0, ro[:, 0] + 1.0), params, None, ro[:, 0], ro,
+                     (ro - 1.0, ro + 1.0))
+    arrays = {k: v for k, v in g.items() if isinstance(v, np.ndarray) and k != "params"}
+    assert {"Y0", "P", "TS", "TSTR", "REF", "LO", "HI"} <= set(arrays)
+    assert all(a.flags.writeable and a.flags.c_contiguous for a in arrays.values()), \
+        {k: (a.flags.writeable, a.flags.c_contiguous) for k, a in arrays.items()}

@@ -1,0 +1,246 @@
+"""Long single runs (issue 22, point 3): in parts, with progress, stopped by Ctrl-C.
+
+A trajectory of millions of drive periods is integrated in compiled calls of about a
+quarter of a second; between them Python shows progress and sees Ctrl-C.  Checked here:
+
+* the parts do not change the numbers: a run cut into hundreds of pauses (the held step,
+  its block of error ratios, the compensated sums and the drive's rotations saved and
+  restored) equals the unbroken run bit for bit, for every method of ``simulate_grid``;
+  ``System.simulate`` with DOP853 (sized by time) likewise;
+* Ctrl-C sent to a child process stops ``KapitzaPendulum.measure(periods=3e7)``,
+  ``kapitza measure --periods 30000000`` and a long ``System.simulate`` within a second,
+  with the part computed: a measurement with status "interrupted", ``t_reached`` and
+  ``completed_periods`` (and Ω from the samples so far, equal to a run of that length);
+  the command prints it and exits 130, no traceback;
+* a progress line with the share done and the time left.
+"""
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from lagrange_core import batch, problems
+
+from helpers import interrupt_child, sigint_default
+
+PEND = dict(m=1.0, l=1.0, g=9.81)
+W60 = 2 * math.pi * 60
+T60 = 2 * math.pi / W60
+
+
+@pytest.fixture(scope="module")
+def pend():
+    return problems.driven_pendulum("vertical")
+
+
+FIELDS = ("q", "qdot", "strobe_q", "strobe_qdot", "q_mean", "max_deviation", "exit_time",
+          "t_final", "n_steps", "n_rejected", "n_evaluations", "error_estimate", "status")
+
+
+@pytest.mark.parametrize("method, kw", [
+    ("rkn12", {}),                              # on lanes, the held step
+    ("rkn12-fixed", {}),                        # lanes, the step from a pilot
+    ("rkn12", {"lanes": False}),                # the per-point driver
+    ("dop853", {}),
+    ("yoshida6", {"h": T60 / 20}),
+])
+def test_paused_runs_equal_unbroken_runs_bit_for_bit(pend, monkeypatch, method, kw):
+    """Four points of 600 periods (three stay up, one falls), every observable on, with
+    the calls cut to 64-step budgets (≈ 40 pauses a point): every output equals the
+    unbroken run's exactly."""
+    lanes = kw.pop("lanes", True)
+    monkeypatch.setattr(batch, "_USE_LANES", lanes)
+    A = np.array([0.03, 0.05, 0.1, 0.011])
+
+    def run():
+        return pend.simulate_grid([np.pi - 0.1], [0.0], (0.0, 600 * T60),
+                                  dict(PEND, A=A, omega=W60), method=method, strobe=T60,
+                                  reference=[np.pi], band=([np.pi / 2], [3 * np.pi / 2]),
+                                  progress=False, **kw)
+
+    whole = run()
+    calls = []
+    real = batch._run_paused
+
+    def spy(call, *args):
+        def counted(*a):
+            calls.append(len(a[0]))
+            return call(*a)
+        return real(counted, *args)
+
+    monkeypatch.setattr(batch, "_TARGET", 1e-9)        # every budget shrinks to 64 steps
+    monkeypatch.setattr(batch, "_FIRST_BUDGET", 64)
+    monkeypatch.setattr(batch, "_run_paused", spy)
+    parts = run()
+    assert len(calls) > 30, "the run was not cut into parts"
+    assert list(whole.status_name) == ["finished"] * 3 + ["left_band"]
+    for name in FIELDS:
+        np.testing.assert_array_equal(getattr(parts, name), getattr(whole, name), err_msg=name)
+
+
+def test_dop853_simulate_in_chunks_equals_one_chunk():
+    """System.simulate sizes DOP853's chunks by their time: its whole state is in the
+    driver's arrays, so 997-step chunks give the numbers of a single chunk."""
+    damped = problems.driven_pendulum("vertical", damping=True)
+    P = dict(PEND, A=0.05, omega=W60, gamma=0.2)
+    t_eval = np.arange(0, 3001, 100) * T60
+    one = damped.simulate([np.pi - 0.1], [0.0], (0, 3000 * T60), P, t_eval=t_eval,
+                          chunk_steps=10**9)
+    many = damped.simulate([np.pi - 0.1], [0.0], (0, 3000 * T60), P, t_eval=t_eval,
+                           chunk_steps=997)
+    assert one.method == "dop853" and one.n_steps > 5 * 997
+    np.testing.assert_array_equal(many.q, one.q)
+    np.testing.assert_array_equal(many.qdot, one.qdot)
+
+
+MEASURE_CHILD = r'''
+import json, math, time
+from kapitza import KapitzaPendulum
+from kapitza.results import ComputationInterrupted
+pend = KapitzaPendulum()
+pend.measure(0.05, 2 * math.pi * 60, math.pi - 0.01, periods=20)        # compile
+print("ready", flush=True)
+try:
+    pend.measure(0.05, 2 * math.pi * 60, math.pi - 0.01, periods=30_000_000)
+    print(json.dumps({"finished": True}), flush=True)
+except ComputationInterrupted as stop:
+    t = time.time()
+    m = stop.result
+    k = int(m.completed_periods)
+    same = pend.measure(0.05, 2 * math.pi * 60, math.pi - 0.01, periods=k)
+    print(json.dumps({"finished": False, "t": t, "status": m.status, "t_reached": m.t_reached,
+                      "periods": k, "omega": m.omega_slow, "error": m.omega_slow_error,
+                      "omega_same": same.omega_slow, "message": str(stop)}), flush=True)
+'''
+
+
+def test_ctrl_c_stops_a_long_measure_within_a_second(tmp_path):
+    """measure(periods=3e7) — an hour's run — stops within a second of Ctrl-C; the partial
+    measurement says how far it got and its Ω is that of a run of its completed periods
+    (the samples after the last whole period are the same run's)."""
+    res, sent = interrupt_child(tmp_path, MEASURE_CHILD, 1.5, 120)
+    assert res["finished"] is False
+    assert res["t"] - sent < 1.0
+    assert res["status"] == "interrupted" and res["periods"] > 1000
+    assert res["t_reached"] >= res["periods"] * T60
+    assert abs(res["omega"] - 12.98) < 0.01 and res["error"] < 1e-6
+    assert abs(res["omega"] - res["omega_same"]) <= 2 * res["error"]
+    assert "interrupted" in res["message"] and "30000000 periods" in res["message"]
+
+
+COMMAND = r'''
+import contextlib, io, sys
+from kapitza.cli import main
+with contextlib.redirect_stdout(io.StringIO()):   # compiled (or loaded) before the signal
+    main(["measure", "--A", "0.05", "--omega", "377", "--theta0", "3.13", "--periods", "5"])
+print("ready", flush=True)
+sys.exit(main(["measure", "--A", "0.05", "--omega", "377", "--theta0", "3.13",
+               "--periods", "30000000"]))
+'''
+
+
+def test_ctrl_c_stops_the_measure_command_with_its_partial_result():
+    """``kapitza measure --periods 30000000`` (its ``main``, once imported): exit 130,
+    the warning within a second of Ctrl-C, the run so far printed (status interrupted),
+    no traceback."""
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    proc = subprocess.Popen([sys.executable, "-c", COMMAND], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=env,
+                            preexec_fn=sigint_default)
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        time.sleep(1.0)
+        assert proc.poll() is None, proc.communicate()
+        sent = time.time()
+        proc.send_signal(signal.SIGINT)
+        lines = []
+        while not any("interrupted" in line for line in lines):
+            lines.append(proc.stderr.readline())      # the warning, as soon as it is said
+            assert lines[-1], "stderr closed without saying it was interrupted"
+        took = time.time() - sent
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    err = "".join(lines) + err
+    assert proc.returncode == 130, (out, err)
+    assert took < 1.0
+    assert "Traceback" not in err and "measure: interrupted at t =" in err
+    assert "status interrupted" in out and "stayed up" in out
+
+
+SIMULATE_CHILD = r'''
+import json, math, signal, time
+import numpy as np
+from lagrange_core import problems
+from lagrange_core.integrate import SimulationInterrupted
+damped = problems.driven_pendulum("vertical", damping=True)
+P = dict(m=1.0, l=1.0, g=9.81, A=0.05, omega=2 * math.pi * 60, gamma=0.1)
+damped.simulate([math.pi - 0.1], [0.0], (0, 0.1), P)             # compile
+print("ready", flush=True)
+try:
+    damped.simulate([math.pi - 0.1], [0.0], (0, 1e6), P, stride=1000, progress=False)
+    print(json.dumps({"finished": True}), flush=True)
+except SimulationInterrupted as stop:
+    t = time.time()
+    tr = stop.trajectory
+    again = damped.simulate([math.pi - 0.1], [0.0], (0, tr.t[-1]), P, t_eval=tr.t[-3:-1])
+    print(json.dumps({"finished": False, "t": t, "status": tr.status, "t_last": tr.t[-1],
+                      "rows": len(tr.t), "message": tr.message,
+                      "same": bool(np.allclose(again.q, tr.q[-3:-1], rtol=0, atol=1e-9))}),
+          flush=True)
+'''
+
+
+def test_ctrl_c_stops_a_long_simulate_keeping_the_trajectory(tmp_path):
+    """System.simulate over 10⁶ s (DOP853: a damped pendulum) stops within a second of
+    Ctrl-C with the trajectory so far, status "interrupted", its message saying where;
+    its last rows are those of a run to that time."""
+    res, sent = interrupt_child(tmp_path, SIMULATE_CHILD, 1.0, 60)
+    assert res["finished"] is False
+    assert res["t"] - sent < 1.0
+    assert res["status"] == "interrupted" and res["rows"] > 10 and res["t_last"] > 1.0
+    assert "% of t_span" in res["message"] and res["same"]
+
+
+def test_a_long_run_shows_progress_with_the_time_left(capfd, monkeypatch):
+    """progress=True: a one-point run in several parts writes a line on stderr with the
+    share of the run done and the time left (shown at once here: the half second a line
+    waits for is set to 0); a callable gets the share as it grows."""
+    from kapitza import KapitzaPendulum
+    from lagrange_core import progress
+    monkeypatch.setattr(progress, "SHOW_AFTER", 0.0)
+    monkeypatch.setattr(batch, "_FIRST_BUDGET", 64)       # several parts, however fast
+    pend = KapitzaPendulum()
+    pend.measure(0.05, W60, math.pi - 0.1, periods=3000, observables="classification",
+                 progress=True)
+    err = capfd.readouterr().err
+    assert "simulate_grid: " in err and "% of the run" in err and "s left" in err, err
+    shares = []
+    pend.measure(0.05, W60, math.pi - 0.1, periods=3000, observables="classification",
+                 progress=lambda done, total: shares.append(done / total))
+    assert len(shares) > 2 and shares[-1] == 1.0 and shares == sorted(shares)
+    assert 0 < shares[0] < 1
+
+
+def test_a_simulate_of_several_chunks_shows_progress(capfd, monkeypatch):
+    """System.simulate(progress=True) in several chunks writes the share of t_span reached
+    and the time left; a run of one chunk writes nothing."""
+    from lagrange_core import progress
+    monkeypatch.setattr(progress, "SHOW_AFTER", 0.0)
+    damped = problems.driven_pendulum("vertical", damping=True)
+    P = dict(PEND, A=0.05, omega=W60, gamma=0.2)
+    damped.simulate([np.pi - 0.1], [0.0], (0, 300 * T60), P, chunk_steps=500, progress=True)
+    err = capfd.readouterr().err
+    assert "simulate: " in err and "% of t_span" in err and "s left" in err, err
+    damped.simulate([np.pi - 0.1], [0.0], (0, T60), P, progress=True)
+    assert capfd.readouterr().err == ""
+
+
+def test_interrupted_status_is_named():
+    assert batch.STATUS_NAMES[7] == "interrupted"
