@@ -94,6 +94,9 @@ def other_systems():
 
 def compare_others(args, clock_name):
     """The default against heyoka on :func:`other_systems`; prints the ratios per level."""
+    if not have_heyoka():
+        print("  --others compares with heyoka, which is not installed: skipped")
+        return
     for name, system, q0, v0, span, params in other_systems():
         res = work_precision(system, q0, v0, span, params, methods=("rkn12", "dop853"),
                              rtols=[10.0**-k for k in range(4, 12)], reference="heyoka",

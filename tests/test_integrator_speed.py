@@ -11,7 +11,7 @@ loop now works on views that own nothing (``_integrator_kernels.unowned``).
 
 Both are timed in this process, interleaved, by CPU time, best of several runs, so the
 machine's load moves both alike; the bound (1.45 × the floor) sits between the old
-(1.8–1.9 ×, measured at load 9–11 on 2 cores) and the new (1.15–1.25 ×) cost.
+(1.73–1.85 ×, measured at load 7–11 on 2 cores) and the new (1.14–1.25 ×) cost.
 Speed against heyoka is measured in benchmarks/bench_work_precision.py, not here.
 """
 from __future__ import annotations
