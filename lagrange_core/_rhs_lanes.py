@@ -408,6 +408,11 @@ def load_rhs_lanes(kernels) -> tuple[bool, str]:
     table = kernels.addresses()
     if table[RHS_LANES] and table[RHS_JVP_LANES]:
         return True, ""
+    # the cheap refusals first: no derivation, no module
+    if kernels.n_constraints:
+        return False, "it has constraints"
+    if kernels.n_dof > MAX_DOF:
+        return False, f"it has {kernels.n_dof} coordinates (lanes: at most {MAX_DOF})"
     key = content_key(_generator_fingerprint(), kernels.statement_key)
     module = load_generated("_lclanes", key,
                             lambda: _generated_source(kernels.equations(), kernels.label))

@@ -24,8 +24,10 @@ os.environ.setdefault("KAPITZA_BACKGROUND_COMPILE", "0")
 # same ones every run (derandomized: a failure reproduces, and the kernels of the random
 # systems stay in the disk cache), no example database, no per-example deadline (the
 # machine is shared; each test bounds its own inputs).  "thorough", by hand
-# (``pytest tests/test_properties_*.py --hypothesis-profile=thorough``): 20 times as many,
-# freshly random, the failures kept in ./.hypothesis.  A test asks for a multiple of
+# (``pytest -n 0 tests/test_properties_*.py --hypothesis-profile=thorough``): 20 times as many,
+# freshly random, the failures kept in ./.hypothesis; add --timeout=0, as a thorough test
+# runs longer than pytest-timeout's 600 s (tests/test_properties_equations.py ~20 min,
+# compiling kernels for hundreds of statements).  A test asks for a multiple of
 # ``max_examples``, so both profiles scale it.
 _PROPERTY_CHECKS = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow],
                         print_blob=True)

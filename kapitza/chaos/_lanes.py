@@ -91,9 +91,11 @@ def grid_largest_lanes(ka, mode, idx, Y0, P, T, T0, stops, v0, rtol, atol, max_s
     """Every point ``idx[m]`` on lanes, with the arguments and results of
     :func:`kapitza.chaos._kernels.grid_largest` (``mode`` JVP or DIFFERENCE instead of
     ``exact``); ``ka`` must hold the slots ``rhs``, ``rhs_lanes`` and ``rhs_jvp_lanes``.
-    The points are cut into two blocks per thread (a block of more than LANES points
-    refills a lane when its point ends)."""
-    block = max(8, -(-idx.shape[0] // (2 * numba.get_num_threads())))
+    The points are cut into a block per thread, whose lanes take the block's next point
+    when theirs ends (a chunk of :func:`run_in_lane_chunks`: 128 points on 64 lanes; the
+    lanes of a block then wait less for its slowest point than with two blocks of 64 —
+    0.89 of the lane-steps used against 0.86 on the benchmark's map)."""
+    block = max(8, -(-idx.shape[0] // numba.get_num_threads()))
     _grid(ka, mode, idx, block, Y0, P, T, T0, stops, v0, rtol, atol, max_steps, A, B, C, E3,
           E5, LOGS, YF, TF, COUNTS, STATUS)
 

@@ -400,12 +400,9 @@ def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200,
     exact = tangent == "jacobian"
 
     mode = _lk.JVP if exact else _lk.DIFFERENCE
-    # on lanes, points of similar drive periods side by side: a block's lanes then take
-    # similar numbers of steps and none waits long for the slowest
-    order = np.argsort(T, kind="stable") if lanes else np.arange(N, dtype=np.int64)
 
     def work(a, b):
-        idx = order[a:b]
+        idx = np.arange(a, b, dtype=np.int64)
         if lanes:
             _lk.grid_largest_lanes(ka, mode, idx, Y0, P, T, T0, stops, v0, rtol, atol, budget,
                                    *tables, LOGS, YF, TF, COUNTS, STATUS)

@@ -1,7 +1,10 @@
 """Brute force over many trajectories: bifurcation diagrams, Poincaré sections and basins.
 
 All three run :meth:`lagrange_core.System.simulate_grid` (compiled, parallel, in chunks
-with progress and Ctrl-C) and keep only what they need:
+with progress and Ctrl-C) and keep only what they need — the strobe runs of the first
+two go to DOP853 on lanes instead where it applies (:mod:`kapitza.chaos._strobe_lanes`:
+a damped or otherwise velocity-dependent system; the same method and steps as
+``simulate_grid``'s "dop853", 64 trajectories per thread vectorised, ~6× faster):
 
 * :func:`bifurcation_diagram` — a parameter's values × initial states; ``transient``
   drive periods are run first with nothing observed, then ``periods`` strobe samples
