@@ -63,7 +63,7 @@ from lagrange_core.batch import STATUS_NAMES
 from lagrange_core.checks import real_number
 from lagrange_core.progress import defer_ctrl_c, run_in_chunks
 
-from .._arguments import whole_number
+from .._arguments import check_grid_memory, whole_number
 from ..results import ComputationInterrupted, LyapunovGrid, LyapunovSpectrum
 from . import _kernels as _k
 from ._common import (
@@ -346,8 +346,11 @@ def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200,
         raise ValueError(f"{where}: the parameters and initial states do not broadcast "
                          f"together (shapes {shapes}); give each axis its own dimension, e.g. "
                          "A[:, None] and omega[None, :].") from None
-    N = int(np.prod(S, dtype=np.int64))
     n = system.n_dof
+    check_grid_memory("params, q0, qdot0 (broadcast)", S, 8.0 * (24 * n + blocks + 40),
+                      where=f"{where}: ", fix="use a coarser grid, or compute it in parts "
+                      "(a few rows of A at a time) and join them")
+    N = int(np.prod(S, dtype=np.int64))
     d = 2 * n
     ka = _addresses(system, tangent, where)
     names = system.parameters
