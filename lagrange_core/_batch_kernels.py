@@ -515,6 +515,11 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
             savei[SAVED] = 1
             return GRID_INTERRUPTED, t, -1, drift, err_sum, 0
         hmin = 16.0 * _EPS * max(abs(t), abs(t1))
+        if adaptive and not h >= hmin:
+            # the step it needs is below the rounding of t (a starting step of 0 where
+            # the derivative's norm overflows, say): no step would move t
+            status = GRID_UNDERFLOW
+            break
         t_target = _next_stop(t1, T, k_next, t0, flags)
         for k in range(nd):
             cs0[2 * k] = np.cos(rates[k] * t)
@@ -799,6 +804,8 @@ def _lanes_load(ka, l, i, phase, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, a
         h[l] = min(h[l], hmax[l])
     if phase == _ADAPTIVE:
         h[l] = _strobe_step(h[l], Tl[l])
+    if phase != _FIXED and not h[l] >= 16.0 * _EPS * max(abs(t0), abs(t1l[l])):
+        return GRID_UNDERFLOW       # no step would move t (as point_second_order)
     return 0
 
 
@@ -1392,7 +1399,9 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                                                  rejected[l], hmax[l])
                             h[l] = _strobe_step(h[l], Tl[l])
                             rejected[l] = False
-                        if observe and nst[l] >= lim[l]:
+                            if not h[l] >= 16.0 * _EPS * max(abs(t[l]), abs(t1l[l])):
+                                st = GRID_UNDERFLOW
+                        if st < 0 and observe and nst[l] >= lim[l]:
                             st = GRID_INTERRUPTED   # pause: saved below, resumed next call
             if st < 0:
                 continue
@@ -1569,6 +1578,9 @@ def point_dop853(ka, m, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, flags, rtol
             savei[SAVED] = 1
             return GRID_INTERRUPTED, t, -1, drift, err_sum, 0
         hmin = 16.0 * _EPS * max(abs(t), abs(t1))
+        if adaptive and not h >= hmin:      # as point_second_order
+            status = GRID_UNDERFLOW
+            break
         t_target = _next_stop(t1, T, k_next, t0, flags)
         while True:
             clipped = False

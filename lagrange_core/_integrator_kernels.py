@@ -316,6 +316,10 @@ def starting_step(ka, t, y, f, p, rtol, atol, W, y1, f1, exponent):
         h0 = 1e-6
     else:
         h0 = 0.01 * d0 / d1
+    if not h0 > 0.0:
+        # the derivative's norm overflowed (a drive of 1e300 m): no representable step;
+        # 0 makes the integrators report an underflow at once
+        return 0.0
     for i in range(n2):
         y1[i] = y[i] + h0 * f[i]
     call_rhs(ka[RHS], t + h0, y1, p, f1, W)
@@ -380,6 +384,11 @@ def dop853_chunk(ka, m, y, f, tv, stats, p, rtol, atol, A, B, C, E3, E5, D, adap
         if status >= 0:
             return status
         hmin = 16.0 * 2.220446049250313e-16 * max(abs(t), abs(t_end))
+        if adaptive and not h >= hmin:
+            # the step it needs is below the rounding of t (a starting step of 0 where the
+            # derivative's norm overflows, say): accepted, it would never move t
+            tv[TV_T] = t
+            return STATUS_UNDERFLOW
         while True:
             last = False
             hs = h
@@ -1070,6 +1079,9 @@ def _rkn_chunk_loop(ka, y, f, tv, stats, p, c, A, b, bp, adaptive, rtol, atol, m
         if status >= 0:
             return status
         hmin = 16.0 * 2.220446049250313e-16 * max(abs(t), abs(t_end))
+        if adaptive and not h >= hmin:      # as dop853_chunk
+            tv[TV_T] = t
+            return STATUS_UNDERFLOW
         t_target = next_stop(t_end, t_eval, stats)
         # the drive at t: from the cos/sin (every DRIVE_RESYNC steps, after a shortened
         # step or an event), else the rotation by the last step computed for its FSAL stage

@@ -869,10 +869,11 @@ def _run_compiled(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, s
                     raise _singular_error(label, m, float(tv[_kern.TV_T]), y)
                 if code == _kern.STATUS_UNDERFLOW:
                     raise FloatingPointError(
-                        f"integration of {label} failed at t = {tv[_kern.TV_T]!r} s: the step "
-                        f"size fell below the resolution of t (state q = {y[:n].tolist()}, "
-                        f"q̇ = {y[n:].tolist()}). The solution may blow up or become "
-                        "non-finite there; check parameters and initial conditions.")
+                        f"integration of {label} failed at t = {float(tv[_kern.TV_T])!r} s: "
+                        "the step size fell below the resolution of t (state q = "
+                        f"{y[:n].tolist()}, q̇ = {y[n:].tolist()}). The solution may blow "
+                        "up or become non-finite there; check parameters and initial "
+                        "conditions.")
                 if bar is None:         # more than one chunk: Ctrl-C waits for the chunk's
                     stack.enter_context(defer_ctrl_c())      # end, and a progress line
                     bar = ProgressLine(progress, 1, "simulate", "of t_span", fraction=True)

@@ -85,8 +85,15 @@ def barrier(A, omega):
     avg = PEND.averaged(A, omega, warn=False)
     tilted = next(e for e in avg.equilibria if e.name == "tilted+")
     phi_s = math.pi - np.asarray(tilted.theta, dtype=float)
-    dU = (PEND.effective_potential(A, omega, theta=math.pi - phi_s)
-          - PEND.effective_potential(A, omega, theta=math.pi))
+    # U_eff refuses a NaN angle (it would read as a result): evaluate where the tilted
+    # maxima exist and leave NaN, with its reason above, elsewhere
+    A_, omega_, phi_s = np.broadcast_arrays(np.asarray(A, dtype=float),
+                                            np.asarray(omega, dtype=float), phi_s)
+    dU = np.full(phi_s.shape, np.nan)
+    ok = np.isfinite(phi_s)
+    if ok.any():
+        dU[ok] = (PEND.effective_potential(A_[ok], omega_[ok], theta=math.pi - phi_s[ok])
+                  - PEND.effective_potential(A_[ok], omega_[ok], theta=math.pi))
     return phi_s, dU
 
 

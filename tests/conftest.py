@@ -62,6 +62,9 @@ def _rank(item) -> int:
     return _FIRST.index(name) if name in _FIRST else len(_FIRST)
 
 
+# first: xdist's own hook (registered after this file, so called before it otherwise) reads
+# the xdist_group marks to name each test's group; marks added after it are never seen
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
     for item in items:
         item.add_marker(pytest.mark.xdist_group(_group(item)))

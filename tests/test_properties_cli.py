@@ -76,9 +76,15 @@ class _Compiles(numba_event.Listener):
     def during(self, start, end) -> bool:
         return any(a < end and b > start for a, b in self.spans)
 
+    def active(self) -> bool:
+        return bool(self.spans) and self.spans[-1][1] == math.inf
+
 
 COMPILES = _Compiles()
 numba_event.register("numba:compile", COMPILES)
+#: numba's compiler at work (its lock held: compiling, or loading from the cache)
+IN_NUMBA = _Compiles()
+numba_event.register("numba:compiler_lock", IN_NUMBA)
 
 PARSER = build_parser()
 COMMANDS = sorted(PARSER.commands)
@@ -248,14 +254,22 @@ def run(argv):
     :data:`DEADLINE` s."""
     state = {"running": True, "fired": None}
     lock = threading.Lock()
+    finished = threading.Event()
 
     def ctrl_c():
+        if finished.wait(DEADLINE):
+            return
+        # not inside numba's compiler: a KeyboardInterrupt there leaves numba broken for
+        # the rest of this process (a worker of the suite died so), which a user's
+        # process, ended by the Ctrl-C, never is; the Ctrl-C waits for the compilation
+        while IN_NUMBA.active() and not finished.wait(0.05):
+            pass
         with lock:
             if state["running"]:
                 state["fired"] = time.perf_counter()
                 _thread.interrupt_main()            # SIGINT's Python handler, as Ctrl-C
 
-    timer = threading.Timer(DEADLINE, ctrl_c)
+    timer = threading.Thread(target=ctrl_c, daemon=True)
     out, err = io.StringIO(), io.StringIO()
     timer.start()
     try:
@@ -265,8 +279,9 @@ def run(argv):
         finally:
             with lock:
                 state["running"] = False
-            timer.cancel()
+            finished.set()
         returned = time.perf_counter()
+        timer.join()
         time.sleep(0.01)        # a Ctrl-C fired just as main returned arrives here
     except KeyboardInterrupt as stop:
         if state["fired"] is None:

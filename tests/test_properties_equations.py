@@ -1,9 +1,10 @@
 """Property: the derived and compiled equations equal sympy's LagrangesMethod, numerically.
 
 Two families of random statements, each compared with
-``sympy.physics.mechanics.LagrangesMethod`` on a Lagrangian written out independently
-(the kinematics by sympy's own vectors and points, the non-conservative forces as point
-forces, never the engine's Jacobians or its Rayleigh function):
+``sympy.physics.mechanics.LagrangesMethod``, which differentiates the whole Lagrangian
+T − V written out independently (never the engine's Jacobians, nor its Rayleigh
+function: a chain's kinematics by sympy's own points and frame, its damping and drag as
+forces on the bobs):
 
 * **chains** built by :func:`lagrange_core.effects.build` — 1–4 links, random masses and
   lengths, with a random choice of the effects a scene may name (gravity; a pivot drive
@@ -17,12 +18,13 @@ forces, never the engine's Jacobians or its Rayleigh function):
 The mass matrix M(q, t) and the forcing F(q, q̇, t) of the compiled kernels
 (``System.kernels.mass_forcing``) must equal the reference's at random states, times and
 parameter values to a relative 1e-10 of their size (1e-12 of the natural scale
-‖M‖ (1 + ‖q̇‖²) where F nearly vanishes); so must the sympy view that users read
-(``System.equations``).
+‖M‖ (1 + ‖q̇‖²) where F nearly vanishes); so must the derived equations themselves
+(``System.equations``, its entries as derived: the sympy view ``mass_matrix`` is them
+after sympy's ``trigsimp``, which took 25 s for some of these statements).
 
 Inputs tried (``--hypothesis-show-statistics``, 2026-11-26): profile "ci" 20 chains and
 6 particle systems, 3 states each, all passing — 27 s with the kernels cached (load
-average 3 on 2 cores; LagrangesMethod's derivation is most of it), COLD with an empty
+average 3 on 2 cores; LagrangesMethod's derivation is most of it), 46 s with an empty
 kernel cache (each statement compiles its kernels once; they stay cached, and "ci" draws
 the same statements every run).  Profile "thorough" (by hand, with ``--timeout=0``; it
 compiles into a temporary cache, so random statements do not fill the user's): 207

@@ -311,16 +311,22 @@ def test_simulate_grid_refuses_a_huge_grid_up_front():
                              {**PARAMS, "A": HUGE_COLUMN, "omega": HUGE_ROW})
 
 
-@pytest.mark.xfail(strict=True, raises=SystemError, reason="a drive of A = 1e300 m makes "
-                   "the compiled RKN lanes of lagrange_core divide by zero: numba's "
-                   "ZeroDivisionError surfaces as SystemError('CPUDispatcher(grid_rkn_lanes) "
-                   "returned a result with an exception set'), not a status of the point nor "
-                   "an error naming A (found by test_simulate_grid, thorough profile; reported "
-                   "to the lead: lagrange_core/_batch_kernels.py)")
-def test_simulate_grid_with_an_overflowing_drive():
-    grid = SYSTEM.simulate_grid({"theta": 1.0}, [0.0], (0.0, 0.05),
-                                {**PARAMS, "A": [1e300], "omega": 50.0})
-    assert grid.shape == (1,)
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("method", [None, "dop853"])
+def test_an_overflowing_drive_ends_its_point_as_underflow(method):
+    """A drive of A = 1e300 m (found by test_simulate_grid, thorough profile): the norm of
+    the starting step's derivative overflows, the step came out 0 and was accepted again
+    and again — the point never ended (a hang, or numba's ZeroDivisionError as
+    SystemError before).  Now the step it would need is below the rounding of t: the point
+    ends at once with status "underflow", and so does ``simulate``."""
+    params = {**PARAMS, "A": [1e300, 0.1], "omega": 50.0}
+    grid = SYSTEM.simulate_grid({"theta": 1.0}, [0.0], (0.0, 0.05), params, method=method)
+    frame = grid.to_dataframe()
+    assert list(frame["status"]) == ["underflow", "finished"]
+    assert frame["t_final"].iloc[0] == 0.0 and frame["t_final"].iloc[1] == 0.05
+    with pytest.raises(FloatingPointError, match="step size fell below"):
+        SYSTEM.simulate({"theta": 1.0}, [0.0], (0.0, 0.05), {**PARAMS, "A": 1e300,
+                                                             "omega": 50.0}, method=method)
 
 
 # -- averaging over grids ------------------------------------------------------------------------
