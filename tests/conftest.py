@@ -19,6 +19,11 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 # switches the notice back on where it is the subject).
 os.environ.setdefault("LAGRANGE_CORE_COMPILE_NOTICE", "0")
 os.environ.setdefault("KAPITZA_BACKGROUND_COMPILE", "0")
+# Two workers share the machine: a grid that passes the memory check (by default half the
+# machine's memory, for one process) could take 12 GiB in each, and the kernel's OOM killer
+# then ends a worker (xdist may wait for its tests for ever).  The property tests draw
+# such grids (a scene axis of 10⁸ values): in the suite a grid may take 4 GiB.
+os.environ.setdefault("KAPITZA_MEMORY_LIMIT_GIB", "4")
 
 # Property-based tests (tests/test_properties_*.py).  "ci", the default: few examples, the
 # same ones every run (derandomized: a failure reproduces, and the kernels of the random

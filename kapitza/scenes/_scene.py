@@ -23,6 +23,7 @@ Examples
 from __future__ import annotations
 
 import functools
+import hashlib
 import json
 import threading
 import time
@@ -192,7 +193,7 @@ class Scene:
         s = self.spec.sweep
         if not s:
             return None
-        return {"axes": [[a.name, a.kind, list(a.values)] for a in s["axes"]],
+        return {"axes": [_plain(a) for a in s["axes"]],
                 "targets": s["targets"], "tile_points": s["tile_points"]}
 
     def __repr__(self):
@@ -501,9 +502,14 @@ def _tables_with_metadata(scene, results, methods) -> dict:
 
 
 def _plain(x):
-    """``x`` in JSON's terms (axes as {name, kind, values}, tuples as lists)."""
+    """``x`` in JSON's terms for the key (axes as {name, kind, number of values and the
+    SHA-256 of their float64 bytes}, tuples as lists)."""
     if isinstance(x, Axis):
-        return {"name": x.name, "kind": x.kind, "values": list(x.values)}
+        # a digest, not the values as JSON text: an axis of 10⁸ values (allowed by the
+        # memory check of its reading) took ~20 bytes a value of text and minutes
+        values = np.asarray(x.values, dtype=float)
+        return {"name": x.name, "kind": x.kind, "num": int(values.size),
+                "values_sha256": hashlib.sha256(values.tobytes()).hexdigest()}
     if isinstance(x, dict):
         return {str(k): _plain(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
