@@ -308,6 +308,95 @@ def test_failing_lyapunov_points_stay_in_their_lane(pendulum):
     np.testing.assert_array_equal(g.steps[[0, 2, 4]], clean.steps)
 
 
+def test_paused_and_resumed_lyapunov_lanes_equal_an_unbroken_run(pendulum):
+    """The pausing protocol on the Lyapunov lanes (so lyapunov_grid can stop on Ctrl-C in a
+    long run): calls of 25 accepted steps give bit for bit the exponents' logs, states,
+    times, counts and statuses of one call, and a point failing mid-way keeps its status."""
+    from kapitza.chaos import _lanes as lk
+    from kapitza.chaos._common import record_stops
+    from lagrange_core.integrate import METHODS
+    load_rhs_lanes(pendulum.kernels)
+    ka = pendulum.kernels.addresses("rhs")
+    tab = METHODS["dop853"].table
+    tables = (tab["A"], tab["B"], tab["C"], tab["E3"], tab["E5"])
+    N = 70
+    Y0, P, _, T = _grid_arrays(pendulum, N, 1)
+    T0 = np.zeros(N)
+    stops = record_stops(3, 12, 3)
+    v0 = np.array([0.6, 0.8])
+
+    def run(budget, max_steps=1 << 40):
+        LOGS, YF, TF = np.zeros((N, stops.size)), np.full((N, 2), np.nan), np.full(N, np.nan)
+        COUNTS = np.zeros((N, 3), dtype=np.int64)
+        STATUS = np.full(N, 6, dtype=np.int64)
+        save = np.zeros((N, lk.save_width(1)))
+        savei = np.zeros((N, 1), dtype=np.int64)
+        idx = np.arange(N, dtype=np.int64)
+        calls = 0
+        while idx.size:
+            lk.grid_largest_lanes(ka, lk.JVP, idx, Y0, P, T, T0, stops, v0, 1e-8, 1e-8, max_steps,
+                                  *tables, LOGS, YF, TF, COUNTS, STATUS, budget, idx, save,
+                                  savei)
+            idx = idx[STATUS[idx] == lk.INTERRUPTED]
+            calls += 1
+        return dict(LOGS=LOGS, YF=YF, TF=TF, COUNTS=COUNTS, STATUS=STATUS), calls
+
+    free, _ = run(1 << 40)
+    # max_steps (kept across the pauses) at the median count: half the points run out
+    limit = int(np.median(free["COUNTS"][:, 0]))
+    whole, one = run(1 << 40, limit)
+    paused, many = run(25, limit)
+    assert one == 1 and many > 4
+    for name, value in whole.items():
+        np.testing.assert_array_equal(paused[name], value, err_msg=name)
+    assert set(whole["STATUS"]) == {0, 5}
+    finished = whole["STATUS"] == 0
+    np.testing.assert_array_equal(whole["LOGS"][finished], free["LOGS"][finished])
+
+
+def _first_progress_stops(call):
+    """Run ``call(progress)`` stopped (Ctrl-C) at its first progress report; returns the
+    points done at that report and the ComputationInterrupted raised."""
+    from kapitza.results import ComputationInterrupted
+    seen = []
+
+    def progress(done, total):
+        seen.append(done)
+        raise KeyboardInterrupt
+
+    with pytest.raises(ComputationInterrupted) as info:
+        call(progress)
+    return seen[0], info.value
+
+
+def test_a_long_lyapunov_map_on_lanes_stops_part_way(pendulum):
+    """Four points of 3000 periods (~22 000 steps each): the lanes pause them after a step
+    budget, so the first progress report (where Ctrl-C is seen) comes part-way through
+    their runs (before: after the whole runs, done = 4); the paused points are returned
+    as never run (NaN, status "not_run"), nothing half-written."""
+    P = _pend(np.array([0.2, 0.4, 0.6, 0.8]), 2 * W0)
+    done, stop = _first_progress_stops(lambda progress: lyapunov_grid(
+        pendulum, P, 0.3, periods=3000, transient=0, progress=progress))
+    assert 0 < done < 1
+    part = stop.result
+    assert part.tangent == "jacobian"             # the lanes ran
+    assert not stop.computed.any() and set(part.status) == {"not_run"}
+    assert np.all(np.isnan(part.exponent)) and np.all(np.isnan(part.q))
+
+
+def test_a_long_damped_diagram_on_lanes_stops_part_way(pendulum):
+    """The strobe runs on lanes pause as simulate_grid's do: stopped at the first progress
+    report part-way through 3000 periods of four starts, the samples taken so far are
+    kept (the first finite, the last NaN), each run's status "interrupted"."""
+    done, stop = _first_progress_stops(lambda progress: bifurcation_diagram(
+        pendulum, _pend(0.0, 2 * W0), parameter="A", values=[0.5], q0=[0.1, 0.2, 0.3, 0.4],
+        periods=3000, transient=0, angles="theta", progress=progress))
+    assert 0 < done < 1
+    part = stop.result
+    assert set(part.status.ravel()) == {"interrupted"}
+    assert np.all(np.isfinite(part.q[..., 0, 0])) and np.all(np.isnan(part.q[..., -1, 0]))
+
+
 # -- the argument check of the kernel calls ----------------------------------------------------
 
 def test_kernel_call_arguments_are_checked_in_full():

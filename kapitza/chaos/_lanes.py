@@ -51,7 +51,10 @@ from lagrange_core._kernel_calls import (
 #: tangent modes
 DIFFERENCE, JVP = 0, 1
 # statuses and counts as kapitza.chaos._kernels
-_FINISHED, _UNDERFLOW, _NON_FINITE, _SINGULAR, _MAX_STEPS = 0, 2, 3, 4, 5
+# (and INTERRUPTED: paused after the call's step budget, its state saved to resume)
+_FINISHED, _UNDERFLOW, _NON_FINITE, _SINGULAR, _MAX_STEPS, INTERRUPTED = 0, 2, 3, 4, 5, 7
+#: SAVEI[·, _SAVED] = 1: the row holds a paused point's state
+_SAVED = 0
 _STEPS, _REJECTED, _EVALS = 0, 1, 2
 _EPS = 2.220446049250313e-16
 _SQRT_EPS = 1.4901161193847656e-08
@@ -59,56 +62,42 @@ _SQRT_EPS = 1.4901161193847656e-08
 _BIG = 1e150
 
 
-def run_in_lane_chunks(work, total, *, progress=None, label=""):
-    """:func:`lagrange_core.progress.run_in_chunks` for the lanes drivers: ``work(a, b)`` over
-    consecutive chunks of range(total) of whole groups of 2 × threads × LANES points.
-
-    Why groups: a chunk's points fill the threads' lanes, and a lane costs little more
-    than a fifth of a lone trajectory's step only when the vector is full.  Sized by time
-    per point as run_in_chunks does, a chunk of a few long points would run on a few lanes,
-    take longer per point, and the next chunk would be smaller still.  A group of long
-    runs (a Lyapunov map's 2000 periods) takes about half a second on two cores, so Ctrl-C
-    still stops within a second.  Progress is reported in points.  Returns (points
-    finished, interrupted)."""
-    from lagrange_core.progress import ProgressLine, run_in_chunks
-    group = 2 * numba.get_num_threads() * LANES
-    groups = -(-total // group)
-    bar = ProgressLine(progress, total, label, "points")
-
-    def chunk(a, b):
-        work(a * group, min(b * group, total))
-
-    def report(done, _):
-        bar.update(min(done * group, total))
-
-    done, interrupted = run_in_chunks(chunk, groups, progress=report, label=label, first=1)
-    bar.close()
-    return min(done * group, total), interrupted
+def save_width(n):
+    """Floats of a paused point's saved state (``SAVE`` rows): y, v, f(y) and J v (2n
+    each), t, its compensation, h, the running product of norms, the next interval's
+    index and the rejected flag."""
+    return 8 * n + 6
 
 
 def grid_largest_lanes(ka, mode, idx, Y0, P, T, T0, stops, v0, rtol, atol, max_steps, A, B, C,
-                       E3, E5, LOGS, YF, TF, COUNTS, STATUS):
+                       E3, E5, LOGS, YF, TF, COUNTS, STATUS, budget, slot, SAVE, SAVEI):
     """Every point ``idx[m]`` on lanes, with the arguments and results of
     :func:`kapitza.chaos._kernels.grid_largest` (``mode`` JVP or DIFFERENCE instead of
     ``exact``); ``ka`` must hold the slots ``rhs``, ``rhs_lanes`` and ``rhs_jvp_lanes``.
-    The points are cut into a block per thread, whose lanes take the block's next point
-    when theirs ends (a chunk of :func:`run_in_lane_chunks`: 128 points on 64 lanes; the
-    lanes of a block then wait less for its slowest point than with two blocks of 64 —
-    0.89 of the lane-steps used against 0.86 on the benchmark's map)."""
-    block = max(8, -(-idx.shape[0] // numba.get_num_threads()))
+
+    A point pauses after ``budget`` accepted steps in this call — status 7 (as
+    ``lagrange_core``'s GRID_INTERRUPTED), its integrator state in ``SAVE[slot[m]]``
+    (:func:`save_width` floats), ``SAVEI[slot[m], 0]`` = 1, its counts, LOGS of the
+    intervals it finished, YF and TF so far written — and a later call given that row
+    resumes it exactly where it stopped (the same steps as an unbroken run), so that
+    ``lagrange_core.batch._run_paused`` can size the calls for Ctrl-C as it does for
+    ``simulate_grid``.  The points are cut into two blocks per thread, whose lanes take
+    the block's next point when theirs ends."""
+    block = max(8, -(-idx.shape[0] // (2 * numba.get_num_threads())))
     _grid(ka, mode, idx, block, Y0, P, T, T0, stops, v0, rtol, atol, max_steps, A, B, C, E3,
-          E5, LOGS, YF, TF, COUNTS, STATUS)
+          E5, LOGS, YF, TF, COUNTS, STATUS, budget, slot, SAVE, SAVEI)
 
 
 @njit(cache=True, parallel=True)
 def _grid(ka, mode, idx, block, Y0, P, T, T0, stops, v0, rtol, atol, max_steps, A, B, C, E3,
-          E5, LOGS, YF, TF, COUNTS, STATUS):
+          E5, LOGS, YF, TF, COUNTS, STATUS, budget, slot, SAVE, SAVEI):
     N = idx.shape[0]
     nblocks = (N + block - 1) // block
     for blk in prange(nblocks):
         lo_b = blk * block
         _block(ka, mode, idx, lo_b, min(N, lo_b + block), Y0, P, T, T0, stops, v0, rtol, atol,
-               max_steps, A, B, C, E3, E5, LOGS, YF, TF, COUNTS, STATUS)
+               max_steps, A, B, C, E3, E5, LOGS, YF, TF, COUNTS, STATUS, budget, slot, SAVE,
+               SAVEI)
 
 
 @njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
@@ -144,14 +133,35 @@ def _tangent(ka, mode, ts, ys, Vs, Pl, f, jv, yd, fd, sc, work, L):
 
 
 @njit(cache=True, error_model="numpy")
-def _load(ka, mode, l, i, Y0, P, T, T0, v0, rtol, atol, y, V, K, KV, Pl, t, tc, h, Tl, T0l,
-          jl, prod, rejected, base, COUNTS, one, W, f0, sa, sb):
-    """Start point i in lane l: its state, parameters, tangent vector, f and J v at the start
-    (K[0], KV[0], by the lanes kernels on one lane: ``one`` holds their arrays) and its first
-    step.  Returns 0, or the point's status when it cannot start (singular, or values that
-    are not finite)."""
+def _load(ka, mode, l, i, sv, svi, Y0, P, T, T0, v0, rtol, atol, y, V, K, KV, Pl, t, tc, h,
+          Tl, T0l, jl, prod, rejected, base, COUNTS, one, W, f0, sa, sb):
+    """Start point i in lane l — or resume it from its saved row ``sv``/``svi`` (paused by an
+    earlier call: ``svi[0]`` = 1; layout of :func:`save_width`) — its state, parameters,
+    tangent vector, f and J v at the start (K[0], KV[0], by the lanes kernels on one lane:
+    ``one`` holds their arrays) and its first step.  Returns 0, or the point's status when
+    it cannot start (singular, or values that are not finite)."""
     d = y.shape[0]
     p = P[i]
+    for k in range(p.shape[0]):
+        Pl[k, l] = p[k]
+    Tl[l] = T[i]
+    T0l[l] = T0[i]
+    base[l] = COUNTS[i, _STEPS]
+    if svi[_SAVED] == 1:
+        for j in range(d):
+            y[j, l] = sv[j]
+            V[j, l] = sv[d + j]
+            K[0, j, l] = sv[2 * d + j]
+            KV[0, j, l] = sv[3 * d + j]
+        o = 4 * d
+        t[l] = sv[o]
+        tc[l] = sv[o + 1]
+        h[l] = sv[o + 2]
+        prod[l] = sv[o + 3]
+        jl[l] = int(sv[o + 4])
+        rejected[l] = sv[o + 5] != 0.0
+        svi[_SAVED] = 0
+        return 0
     ts, ys, Vs, Pv, f, jv, yd, fd, sc, work = one
     ts[0] = T0[i]
     for j in range(d):
@@ -159,7 +169,6 @@ def _load(ka, mode, l, i, Y0, P, T, T0, v0, rtol, atol, y, V, K, KV, Pl, t, tc, 
         Vs[j, 0] = v0[j]
     for k in range(p.shape[0]):
         Pv[k, 0] = p[k]
-        Pl[k, l] = p[k]
     if _tangent(ka, mode, ts, ys, Vs, Pv, f, jv, yd, fd, sc, work, 1) > 0:
         return _SINGULAR
     COUNTS[i, _EVALS] += 1 if mode == JVP else 2
@@ -174,12 +183,9 @@ def _load(ka, mode, l, i, Y0, P, T, T0, v0, rtol, atol, y, V, K, KV, Pl, t, tc, 
         f0[j] = f[j, 0]
     t[l] = T0[i]
     tc[l] = 0.0
-    Tl[l] = T[i]
-    T0l[l] = T0[i]
     jl[l] = 0
     prod[l] = 1.0
     rejected[l] = False
-    base[l] = COUNTS[i, _STEPS]
     h[l] = min(first_step(ka, T0[i], Y0[i], f0, p, rtol, atol, W, sa, sb), 0.5 * T[i])
     COUNTS[i, _EVALS] += 2
     return _NON_FINITE if h[l] < 0.0 else 0
@@ -187,7 +193,7 @@ def _load(ka, mode, l, i, Y0, P, T, T0, v0, rtol, atol, y, V, K, KV, Pl, t, tc, 
 
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def _block(ka, mode, idx, lo_b, hi_b, Y0, P, T, T0, stops, v0, rtol, atol, max_steps, A, B, C,
-           E3, E5, LOGS, YF, TF, COUNTS, STATUS):
+           E3, E5, LOGS, YF, TF, COUNTS, STATUS, budget, slot, SAVE, SAVEI):
     """The points idx[lo_b:hi_b] on one thread's lanes."""
     d = Y0.shape[1]
     n = d // 2
@@ -197,6 +203,7 @@ def _block(ka, mode, idx, lo_b, hi_b, Y0, P, T, T0, stops, v0, rtol, atol, max_s
     sidx, scoef, spairs = sparse_tables(A, B, E5, E3)
     evals = 12 if mode == JVP else 24
     pt = np.full(L, -1, dtype=np.int64)
+    pk = np.zeros(L, dtype=np.int64)
     y = np.zeros((d, L))
     ys = np.zeros((d, L))
     ynew = np.zeros((d, L))
@@ -249,17 +256,20 @@ def _block(ka, mode, idx, lo_b, hi_b, Y0, P, T, T0, stops, v0, rtol, atol, max_s
     for l in range(L):
         while nxt < hi_b and pt[l] < 0:
             i = idx[nxt]
-            nxt += 1
-            st = _load(ka, mode, l, i, Y0, P, T, T0, v0, rtol, atol, y, V, K, KV, Pl, t, tc, h,
-                       Tl, T0l, jl, prod, rejected, base, COUNTS, one, W, f0, sa, sb)
+            sl = slot[nxt]
+            st = _load(ka, mode, l, i, SAVE[sl], SAVEI[sl], Y0, P, T, T0, v0, rtol, atol, y,
+                       V, K, KV, Pl, t, tc, h, Tl, T0l, jl, prod, rejected, base, COUNTS, one,
+                       W, f0, sa, sb)
             if st != 0:
                 STATUS[i] = st
                 TF[i] = T0[i]
                 YF[i] = Y0[i]
             else:
                 pt[l] = i
+                pk[l] = nxt
                 live[l] = True
                 active += 1
+            nxt += 1
     while active > 0:
         for l in range(L):          # the step: landing on the interval's end
             tt = t[l]
@@ -326,7 +336,8 @@ def _block(ka, mode, idx, lo_b, hi_b, Y0, P, T, T0, stops, v0, rtol, atol, max_s
             far = ~((pr > 1.0 / _BIG) & (pr < _BIG))
             special[l] = lv & (sing[l] | (rej & (hr < hmin))
                                | (ok & (clip[l] | bad_norm | far
-                                        | (base[l] + nst[l] >= max_steps))))
+                                        | (base[l] + nst[l] >= max_steps)
+                                        | (nst[l] >= budget))))
         for i in range(d):
             for l in range(L):
                 u = good[l]
@@ -363,9 +374,27 @@ def _block(ka, mode, idx, lo_b, hi_b, Y0, P, T, T0, stops, v0, rtol, atol, max_s
                     st = _FINISHED
                 elif base[l] + nst[l] >= max_steps:
                     st = _MAX_STEPS
+                elif nst[l] >= budget:      # pause: the state saved, resumed next call
+                    st = INTERRUPTED
+                    sv = SAVE[slot[pk[l]]]
+                    for j in range(d):
+                        sv[j] = y[j, l]
+                        sv[d + j] = V[j, l]
+                        sv[2 * d + j] = K[0, j, l]
+                        sv[3 * d + j] = KV[0, j, l]
+                    o = 4 * d
+                    sv[o] = t[l]
+                    sv[o + 1] = tc[l]
+                    sv[o + 2] = h[l]
+                    sv[o + 3] = prod[l]
+                    sv[o + 4] = float(jl[l])
+                    sv[o + 5] = 1.0 if rejected[l] else 0.0
+                    SAVEI[slot[pk[l]], _SAVED] = 1
             if st < 0:
                 continue
-            if jl[l] < nj and prod[l] != 1.0:
+            # a paused point keeps its running product in SAVE (the log taken when
+            # its interval ends, as in an unbroken run)
+            if st != INTERRUPTED and jl[l] < nj and prod[l] != 1.0:
                 LOGS[i, jl[l]] += math.log(prod[l])
             STATUS[i] = st
             TF[i] = t[l]
@@ -382,17 +411,20 @@ def _block(ka, mode, idx, lo_b, hi_b, Y0, P, T, T0, stops, v0, rtol, atol, max_s
             nev[l] = 0
             while nxt < hi_b and pt[l] < 0:
                 i2 = idx[nxt]
-                nxt += 1
-                st2 = _load(ka, mode, l, i2, Y0, P, T, T0, v0, rtol, atol, y, V, K, KV, Pl, t,
-                            tc, h, Tl, T0l, jl, prod, rejected, base, COUNTS, one, W, f0, sa, sb)
+                sl = slot[nxt]
+                st2 = _load(ka, mode, l, i2, SAVE[sl], SAVEI[sl], Y0, P, T, T0, v0, rtol,
+                            atol, y, V, K, KV, Pl, t, tc, h, Tl, T0l, jl, prod, rejected, base,
+                            COUNTS, one, W, f0, sa, sb)
                 if st2 != 0:
                     STATUS[i2] = st2
                     TF[i2] = T0[i2]
                     YF[i2] = Y0[i2]
                 else:
                     pt[l] = i2
+                    pk[l] = nxt
                     live[l] = True
                     active += 1
+                nxt += 1
             if pt[l] < 0:           # idle: a finite state that no longer moves
                 for j in range(d):
                     if not (math.isfinite(y[j, l]) and math.isfinite(V[j, l])):

@@ -67,7 +67,7 @@ import warnings
 
 import numpy as np
 
-from lagrange_core.batch import STATUS_NAMES
+from lagrange_core.batch import STATUS_NAMES, _run_paused
 from lagrange_core.checks import real_number
 from lagrange_core.progress import defer_ctrl_c, run_in_chunks
 
@@ -402,18 +402,30 @@ def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200,
     mode = _lk.JVP if exact else _lk.DIFFERENCE
 
     def work(a, b):
-        idx = np.arange(a, b, dtype=np.int64)
-        if lanes:
-            _lk.grid_largest_lanes(ka, mode, idx, Y0, P, T, T0, stops, v0, rtol, atol, budget,
-                                   *tables, LOGS, YF, TF, COUNTS, STATUS)
-        else:
-            _k.grid_largest(ka, exact, idx, Y0, P, T, T0, stops, v0, rtol, atol, budget,
-                            *tables, LOGS, YF, TF, COUNTS, STATUS)
+        _k.grid_largest(ka, exact, np.arange(a, b, dtype=np.int64), Y0, P, T, T0, stops, v0,
+                        rtol, atol, budget, *tables, LOGS, YF, TF, COUNTS, STATUS)
+
+    def call(idx, steps, slot, save, savei):
+        _lk.grid_largest_lanes(ka, mode, idx, Y0, P, T, T0, stops, v0, rtol, atol, budget,
+                               *tables, LOGS, YF, TF, COUNTS, STATUS, steps, slot, save, savei)
 
     import numba
     with defer_ctrl_c(), numba.parallel_chunksize(1):
         if lanes:
-            done, interrupted = _lk.run_in_lane_chunks(work, N, progress=progress, label=where)
+            # as simulate_grid: calls of ~0.25 s, a long run paused after a step budget and
+            # resumed, so Ctrl-C stops within a second whatever the periods; the first call
+            # a whole lane group (fewer points would leave lanes empty)
+            TS = np.column_stack([T0, T0 + stops[-1] * T])
+            done, interrupted = _run_paused(call, N, TS, TF, STATUS, _lk.save_width(n),
+                                            progress, 2 * numba.get_num_threads() * _lk.LANES,
+                                            label=where)
+            if interrupted:             # a paused point is not finished: as never run
+                paused = STATUS == _lk.INTERRUPTED
+                STATUS[paused] = _k.NOT_RUN
+                LOGS[paused] = 0.0
+                YF[paused] = np.nan
+                TF[paused] = np.nan
+                COUNTS[paused] = 0
         else:
             done, interrupted = run_in_chunks(work, N, progress=progress, label=where,
                                               first=4 * numba.get_num_threads())

@@ -21,8 +21,6 @@ from lagrange_core import _first_order_lanes as _fl
 from lagrange_core.batch import STATUS_NAMES
 from lagrange_core.progress import defer_ctrl_c
 
-from ._lanes import run_in_lane_chunks
-
 __all__ = ["lanes_apply", "strobe_runs_lanes"]
 
 _NOT_RUN, _FINISHED = 6, 0
@@ -45,10 +43,17 @@ def _dop853():
     return tab["A"], tab["B"], tab["C"], tab["E3"], tab["E5"]
 
 
-def _run(ka, Y0, P, t_start, t_end, T, K, rtol, atol, max_steps, only, progress, tables):
-    """One lanes run of the points ``only`` from Y0 over [t_start, t_end], with K strobe
-    samples of period T (K = 0: none).  Returns (final states, samples, status, done,
-    interrupted)."""
+def _run(ka, Y0, P, t_start, t_end, T, K, rtol, atol, max_steps, progress, tables):
+    """One lanes run of every row of Y0 over [t_start, t_end], with K strobe samples of
+    period T (K = 0: none).  Returns (final states, samples, status, interrupted).
+
+    Called as ``simulate_grid`` calls its kernels (``lagrange_core.batch._run_paused``):
+    calls of about a quarter of a second, a point that has taken the call's step budget
+    pauses (its integrator state saved, status "interrupted") and goes on in the next
+    call, so Ctrl-C stops a run of any length within a second and keeps every sample
+    taken so far.  The first call takes a whole lane group (2 × threads × LANES points):
+    fewer would leave lanes empty."""
+    from lagrange_core.batch import _run_paused
     N, d = Y0.shape
     n = d // 2
     TS = np.ascontiguousarray(np.column_stack([t_start, t_end]))
@@ -64,20 +69,24 @@ def _run(ka, Y0, P, t_start, t_end, T, K, rtol, atol, max_steps, only, progress,
     COUNTS = np.zeros((N, 3), dtype=np.int64)
     ERR = np.zeros(N)
     STATUS = np.full(N, _NOT_RUN, dtype=np.int64)
-    SAVE = np.zeros((N, 4 * n + 8))
-    SAVEI = np.zeros((N, 1), dtype=np.int64)
     flags = 1 if K else 0
 
-    def work(a, b):
-        idx = only[a:b]
+    def call(idx, budget, slot, save, savei):
         _fl.grid_dop853_lanes(ka, 0, True, idx, Y0, P, TS, H, T, REF, REF, REF, flags, rtol,
                               atol, max_steps, *tables, YF, TF, SQ, QM, DEV, nan, EXITC, nan,
-                              COUNTS, ERR, STATUS, _NEVER, idx, SAVE, SAVEI)
+                              COUNTS, ERR, STATUS, budget, slot, save, savei)
 
     with defer_ctrl_c(), numba.parallel_chunksize(1):
-        _, interrupted = run_in_lane_chunks(work, only.size, progress=progress,
-                                            label="simulate_grid")
+        _, interrupted = _run_paused(call, N, TS, TF, STATUS, _save_width(n), progress,
+                                     2 * numba.get_num_threads() * _fl.LANES)
     return YF, SQ, STATUS, interrupted
+
+
+def _save_width(n):
+    """Floats of a paused point's saved state in grid_dop853_lanes (point_dop853's layout:
+    y, f(y), t, its compensation, h, the error sum, two unused, the next sample's index,
+    the rejected flag)."""
+    return 4 * n + 8
 
 
 def strobe_runs_lanes(system, params, Q0, V0, T, t0, transient, periods, rtol, atol,
@@ -101,32 +110,34 @@ def strobe_runs_lanes(system, params, Q0, V0, T, t0, transient, periods, rtol, a
     Tf = flat(T)
     ka = system.kernels.addresses("rhs")
     tables = _dop853()
-    budget = _NEVER if max_steps is None else int(max_steps)
+    max_steps = _NEVER if max_steps is None else int(max_steps)
     t_begin = np.full(N, float(t0))
-    everyone = np.arange(N, dtype=np.int64)
     q = np.full((N, periods, n), np.nan)
     qdot = np.full((N, periods, n), np.nan)
     status = np.full(N, _NOT_RUN, dtype=np.int64)
     start = t_begin
-    pending = everyone
+    pending = np.arange(N, dtype=np.int64)
     if transient:
         start = t_begin + transient * Tf
-        Y, _, status, interrupted = _run(ka, Y, P, t_begin, start, Tf, 0, rtol, atol, budget,
-                                         everyone, progress, tables)
+        Y, _, status, interrupted = _run(ka, Y, P, t_begin, start, Tf, 0, rtol, atol,
+                                         max_steps, progress, tables)
         if interrupted:
+            # no sample taken yet: nothing to keep (as _strobe_runs)
             names_ = np.full(S, "not_run", dtype=object)
             return (q.reshape(S + (periods, n)), qdot.reshape(S + (periods, n)), names_,
                     "dop853", True)
-        pending = everyone[status == _FINISHED]
-        Y = np.ascontiguousarray(np.nan_to_num(Y))
+        pending = pending[status == _FINISHED]
     # a span of (periods − 1) T gives samples k = 0 … periods − 1; a single sample needs a
-    # span: run a tenth of a period past it (as _strobe_runs)
+    # span: run a tenth of a period past it (as _strobe_runs).  Only the points that
+    # finished their transient run on (the others keep its status and NaN samples).
     span = (periods - 1) * Tf if periods > 1 else 0.1 * Tf
-    _, SQ, st2, interrupted = _run(ka, Y, P, start, start + span, Tf, periods, rtol, atol,
-                                   budget, pending, progress, tables)
-    status[pending] = st2[pending]
-    q[pending] = SQ[pending, :periods, :n]
-    qdot[pending] = SQ[pending, :periods, n:]
+    _, SQ, st2, interrupted = _run(ka, np.ascontiguousarray(Y[pending]),
+                                   np.ascontiguousarray(P[pending]), start[pending],
+                                   (start + span)[pending], Tf[pending], periods, rtol, atol,
+                                   max_steps, progress, tables)
+    status[pending] = st2
+    q[pending] = SQ[:, :periods, :n]
+    qdot[pending] = SQ[:, :periods, n:]
     names_ = np.asarray(STATUS_NAMES, dtype=object)[status].reshape(S)
     return (q.reshape(S + (periods, n)), qdot.reshape(S + (periods, n)), names_, "dop853",
             interrupted)
