@@ -413,12 +413,10 @@ def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200,
     with defer_ctrl_c(), numba.parallel_chunksize(1):
         if lanes:
             # as simulate_grid: calls of ~0.25 s, a long run paused after a step budget and
-            # resumed, so Ctrl-C stops within a second whatever the periods; the first call
-            # a whole lane group (fewer points would leave lanes empty)
+            # resumed, so Ctrl-C stops within a second whatever the periods
             TS = np.column_stack([T0, T0 + stops[-1] * T])
             done, interrupted = _run_paused(call, N, TS, TF, STATUS, _lk.save_width(n),
-                                            progress, 2 * numba.get_num_threads() * _lk.LANES,
-                                            label=where)
+                                            progress, _lk.call_points(), label=where)
             if interrupted:             # a paused point is not finished: as never run
                 paused = STATUS == _lk.INTERRUPTED
                 STATUS[paused] = _k.NOT_RUN

@@ -21,6 +21,9 @@ from lagrange_core import _first_order_lanes as _fl
 from lagrange_core.batch import STATUS_NAMES
 from lagrange_core.progress import defer_ctrl_c
 
+from .._arguments import whole_number
+from ._lanes import call_points
+
 __all__ = ["lanes_apply", "strobe_runs_lanes"]
 
 _NOT_RUN, _FINISHED = 6, 0
@@ -51,8 +54,7 @@ def _run(ka, Y0, P, t_start, t_end, T, K, rtol, atol, max_steps, progress, table
     calls of about a quarter of a second, a point that has taken the call's step budget
     pauses (its integrator state saved, status "interrupted") and goes on in the next
     call, so Ctrl-C stops a run of any length within a second and keeps every sample
-    taken so far.  The first call takes a whole lane group (2 × threads × LANES points):
-    fewer would leave lanes empty."""
+    taken so far.  A call takes :func:`kapitza.chaos._lanes.call_points` points at least."""
     from lagrange_core.batch import _run_paused
     N, d = Y0.shape
     n = d // 2
@@ -78,7 +80,7 @@ def _run(ka, Y0, P, t_start, t_end, T, K, rtol, atol, max_steps, progress, table
 
     with defer_ctrl_c(), numba.parallel_chunksize(1):
         _, interrupted = _run_paused(call, N, TS, TF, STATUS, _save_width(n), progress,
-                                     2 * numba.get_num_threads() * _fl.LANES)
+                                     call_points())
     return YF, SQ, STATUS, interrupted
 
 
@@ -110,7 +112,8 @@ def strobe_runs_lanes(system, params, Q0, V0, T, t0, transient, periods, rtol, a
     Tf = flat(T)
     ka = system.kernels.addresses("rhs")
     tables = _dop853()
-    max_steps = _NEVER if max_steps is None else int(max_steps)
+    # checked as simulate_grid checks it (the scalar path's)
+    max_steps = _NEVER if max_steps is None else whole_number(max_steps, "max_steps", 1)
     t_begin = np.full(N, float(t0))
     q = np.full((N, periods, n), np.nan)
     qdot = np.full((N, periods, n), np.nan)
