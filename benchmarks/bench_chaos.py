@@ -111,8 +111,13 @@ def lyapunov_map(n, periods, transient, sub, rounds, full, peers_too=True):
                  exponents="largest", tangent=tangent, progress=False)
     chaos_map = None
     if full:
+        # the progress reports' times: Ctrl-C is seen between calls, so the longest gap
+        # between reports is how long Ctrl-C may wait
+        stamps = []
         chaos_map, dt, cpu, load = _timed(lambda: lyapunov_grid(
-            s, P, 0.3, periods=periods, transient=transient, progress=False))
+            s, P, 0.3, periods=periods, transient=transient,
+            progress=lambda done, total: stamps.append(time.perf_counter())))
+        gaps = np.diff(stamps) if len(stamps) > 1 else np.array([dt])
         total = n * n * per_point_periods
         print(f"\n1a. Lyapunov map, lyapunov_grid as called by default (tangent "
               f"{chaos_map.tangent!r}): {n} × {n} points × {per_point_periods} periods "
@@ -120,7 +125,9 @@ def lyapunov_map(n, periods, transient, sub, rounds, full, peers_too=True):
               f"{cpu:.1f} s CPU, load {load:.1f} ({dt / total * 1e6:.2f} µs wall and "
               f"{cpu / total * 1e6:.2f} µs CPU per point-period, "
               f"{chaos_map.steps.mean() / per_point_periods:.2f} steps per period), "
-              f"{int(chaos_map.chaotic.sum())} points chaotic", flush=True)
+              f"{int(chaos_map.chaotic.sum())} points chaotic; {len(stamps)} progress "
+              f"reports, at most {gaps.max():.2f} s apart (Ctrl-C waits at most that)",
+              flush=True)
     if not peers_too:
         return chaos_map
     # the peers on the same regular sub-grid (every `every`-th value of each axis), in
