@@ -13,7 +13,9 @@ Each fast path against something independent:
   run paused and resumed equals an unbroken one;
 * ``lyapunov_grid`` on lanes against the per-point kernel (kapitza.chaos._kernels):
   regular points to 1e-7, chaotic ones within the stated errors; failures stay in
-  their lane;
+  their lane; paused and resumed runs equal unbroken ones;
+* long runs of both through the public calls stop part-way on Ctrl-C (the first progress
+  report comes before any run has ended) keeping what they should;
 * the argument check of the kernel calls (lagrange_core._kernel_calls).
 """
 import math

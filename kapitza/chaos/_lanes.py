@@ -24,6 +24,11 @@ Rounding differs from the scalar kernel as :mod:`lagrange_core._first_order_lane
 chaotic trajectories part after a while and agree in their exponents within the stated
 errors; regular ones agree to the integration's tolerance
 (tests/test_first_order_lanes.py).
+
+Long runs pause: a point that has taken a call's step budget saves its state
+(:func:`save_width`) and the next call resumes it, the same steps as an unbroken run, so
+``lyapunov_grid`` sizes its calls to ~0.25 s (``lagrange_core.batch._run_paused``, as
+``simulate_grid``) and stops on Ctrl-C within about a second whatever the periods.
 """
 import math
 import sys
