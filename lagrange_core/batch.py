@@ -415,7 +415,7 @@ _TARGET = 0.25
 _FIRST_BUDGET = 2048
 
 
-def _run_paused(call, N, TS, TF, STATUS, width, progress, first):
+def _run_paused(call, N, TS, TF, STATUS, width, progress, first, label="simulate_grid"):
     """Integrate every point through ``call(idx, budget, slot, SAVE, SAVEI)`` in calls of
     about :data:`_TARGET` seconds; returns (points ended, interrupted).
 
@@ -428,7 +428,7 @@ def _run_paused(call, N, TS, TF, STATUS, width, progress, first):
     span it has reached.  On Ctrl-C (between calls) the paused points keep status
     GRID_INTERRUPTED with their observables so far, the points never started "not_run".
     """
-    bar = ProgressLine(progress, N, "simulate_grid", "points" if N != 1 else "of the run",
+    bar = ProgressLine(progress, N, label, "points" if N != 1 else "of the run",
                        fraction=N == 1)
     span = TS[:, 1] - TS[:, 0]
     nxt = ended = 0

@@ -227,7 +227,9 @@ def test_ctrl_c_keeps_the_record_so_far(ddp):
 
 
 def test_grid_ctrl_c_keeps_the_finished_points(ddp):
-    F = np.linspace(1.0, 1.5, 40)
+    # more points than the first call of the lanes takes (they fill the lanes)
+    from kapitza.chaos._lanes import call_points
+    F = np.linspace(1.0, 1.5, call_points() + 88)
     with pytest.raises(ComputationInterrupted) as info:
         lyapunov_grid(ddp, dict(Q=2.0, F=F, omega=2 / 3), 0.2, periods=40, transient=0,
                       progress=_stop_after(1))

@@ -44,12 +44,20 @@ Speed
 -----
 :func:`lyapunov_grid` runs one compiled parallel call per chunk of points (numba
 ``prange``; parameters, states and results as arrays; no Python per step or point);
-``benchmarks/bench_chaos.py`` measures it against a loop of :func:`lyapunov`.  The
-exact Jacobian (forward-mode derivatives of the statement's entries and a solve, its
-scratch allocated on every call) costs about ten evaluations of the equations, so
-:func:`lyapunov_grid` takes J v by a directional difference (``tangent="difference"``,
-one evaluation per stage; relative error ~1e-8) unless told otherwise; :func:`lyapunov`
-uses the exact Jacobian by default (the identities of the tests hold to 1e-10).
+``benchmarks/bench_chaos.py`` measures it against a loop of :func:`lyapunov`.  For an
+unconstrained system of up to six coordinates it runs on *lanes*
+(:mod:`kapitza.chaos._lanes`): 64 points per thread advanced together, every loop over
+them vectorised, the equations and J v evaluated for all of them by one call of the
+system's generated lanes kernel (:mod:`lagrange_core._rhs_lanes`: sin and cos as
+branch-free polynomials, J v by forward mode on the same formulas in the same pass —
+exact, at about 1.6 times the cost of the equations alone).  There the exact J v is the
+fastest tangent, and the default.  Elsewhere the points run one per thread
+(:mod:`kapitza.chaos._kernels`), where the exact Jacobian (forward-mode derivatives of
+the statement's entries and a solve, its scratch allocated on every call) costs about
+ten evaluations of the equations: the default there is J v by a directional difference
+(one evaluation per stage; relative error ~1e-8).  :func:`lyapunov` (one trajectory, k
+vectors) runs per point and uses the exact Jacobian by default (the identities of the
+tests hold to 1e-10).
 """
 from __future__ import annotations
 
@@ -59,13 +67,14 @@ import warnings
 
 import numpy as np
 
-from lagrange_core.batch import STATUS_NAMES
+from lagrange_core.batch import STATUS_NAMES, _run_paused
 from lagrange_core.checks import real_number
 from lagrange_core.progress import defer_ctrl_c, run_in_chunks
 
 from .._arguments import check_grid_memory, whole_number
 from ..results import ComputationInterrupted, LyapunovGrid, LyapunovSpectrum
 from . import _kernels as _k
+from . import _lanes as _lk
 from ._common import (
     block_error,
     drive_frequency,
@@ -88,10 +97,18 @@ def _dop853():
     return tab["A"], tab["B"], tab["C"], tab["E3"], tab["E5"]
 
 
-def _addresses(system, tangent, where):
+def _lanes(system):
+    """Whether the system has lanes kernels (:mod:`lagrange_core._rhs_lanes`: unconstrained,
+    small enough); their slots are then in ``system.kernels``' address table."""
+    from lagrange_core._rhs_lanes import load_rhs_lanes
+    return not system.n_constraints and load_rhs_lanes(system.kernels)[0]
+
+
+def _addresses(system, tangent, where, lanes=False):
     if tangent not in _TANGENTS:
-        raise ValueError(f"{where}: tangent must be one of {list(_TANGENTS)}, got {tangent!r}.")
-    slots = ("rhs", "jacobian") if tangent == "jacobian" else ("rhs",)
+        allowed = list(_TANGENTS) + ([None] if where == "lyapunov_grid" else [])
+        raise ValueError(f"{where}: tangent must be one of {allowed}, got {tangent!r}.")
+    slots = ("rhs", "jacobian") if tangent == "jacobian" and not lanes else ("rhs",)
     return system.kernels.addresses(*slots)
 
 
@@ -283,7 +300,7 @@ def _spectrum(system, pv, y_start, y, t0, t_final, T, logs, lengths, transient, 
 
 
 def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200, blocks=8,
-                  frequency="omega", t0=0.0, tangent="difference", rtol=1e-6, atol=None,
+                  frequency="omega", t0=0.0, tangent=None, rtol=1e-6, atol=None,
                   max_steps=None, progress=None) -> LyapunovGrid:
     """The largest Lyapunov exponent over a broadcast grid of parameters and initial states:
     a chaos map, in compiled parallel code.
@@ -305,11 +322,13 @@ def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200,
         As :func:`lyapunov` (``max_steps`` per point); rtol defaults to 1e-6 here (the
         exponent of a chaotic point is a statistical quantity: its error over 2000 periods
         is far above the integration's).
-    tangent : {"difference", "jacobian"}
-        As :func:`lyapunov`, but "difference" by default here: J v by a directional
-        difference (relative error ~1e-8, far below a map's statistical error) costs one
-        evaluation of the equations per stage, the exact Jacobian about ten (7× the time
-        for the driven pendulum).
+    tangent : {None, "jacobian", "difference"}
+        J v exactly ("jacobian") or by a directional difference of the equations
+        ("difference"; relative error ~1e-8, far below a map's statistical error).  None
+        (default): the fastest — exact on lanes (the module docstring: systems of up to six
+        coordinates without constraints), the difference per point elsewhere (where the
+        exact Jacobian costs three to four times as much).  The result's ``tangent`` says
+        which ran.
 
     Returns
     -------
@@ -323,6 +342,20 @@ def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200,
         Bad input.
     kapitza.results.ComputationInterrupted
         On Ctrl-C: ``.result`` holds the finished points, ``.computed`` marks them.
+
+    Notes
+    -----
+    Where it runs: a system without constraints, of at most six coordinates, whose
+    equations have lanes kernels (:mod:`lagrange_core._rhs_lanes`: at most 1500
+    operations) runs on lanes (:mod:`kapitza.chaos._lanes`, 64 points per thread
+    vectorised; on the damped pendulum's 100 × 100 map ~5× less CPU time than per point,
+    benchmarks/README.md; a grid of fewer points than a few hundred leaves lanes empty and
+    gains less); its calls last ~0.25 s, a long run paused after a step budget
+    and resumed in the next call (the same steps as unbroken), so Ctrl-C stops within
+    about a second whatever ``periods``.  Any other system runs one point per thread
+    (:mod:`kapitza.chaos._kernels`) in chunks sized to ~0.25 s, where a point's run is
+    not cut: Ctrl-C waits for the points running.  :func:`lyapunov` (one trajectory)
+    always runs per point: lanes pay only across many trajectories.
     """
     where = "lyapunov_grid"
     start_clock = time.perf_counter()
@@ -346,13 +379,18 @@ def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200,
         raise ValueError(f"{where}: the parameters and initial states do not broadcast "
                          f"together (shapes {shapes}); give each axis its own dimension, e.g. "
                          "A[:, None] and omega[None, :].") from None
+    N = int(np.prod(S, dtype=np.int64))
     n = system.n_dof
+    d = 2 * n
+    # refused before any work where its arrays cannot fit: per point the state, tangent,
+    # logs and results (measured 353 bytes with tracemalloc for n = 1, blocks = 8)
     check_grid_memory("params, q0, qdot0 (broadcast)", S, 8.0 * (24 * n + blocks + 40),
                       where=f"{where}: ", fix="use a coarser grid, or compute it in parts "
                       "(a few rows of A at a time) and join them")
-    N = int(np.prod(S, dtype=np.int64))
-    d = 2 * n
-    ka = _addresses(system, tangent, where)
+    lanes = _lanes(system)
+    if tangent is None:
+        tangent = "jacobian" if lanes else "difference"
+    ka = _addresses(system, tangent, where, lanes)
     names = system.parameters
 
     def flat(a, tail=()):
@@ -375,14 +413,34 @@ def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200,
     tables = _dop853()
     exact = tangent == "jacobian"
 
+    mode = _lk.JVP if exact else _lk.DIFFERENCE
+
     def work(a, b):
         _k.grid_largest(ka, exact, np.arange(a, b, dtype=np.int64), Y0, P, T, T0, stops, v0,
                         rtol, atol, budget, *tables, LOGS, YF, TF, COUNTS, STATUS)
 
+    def call(idx, steps, slot, save, savei):
+        _lk.grid_largest_lanes(ka, mode, idx, Y0, P, T, T0, stops, v0, rtol, atol, budget,
+                               *tables, LOGS, YF, TF, COUNTS, STATUS, steps, slot, save, savei)
+
     import numba
     with defer_ctrl_c(), numba.parallel_chunksize(1):
-        done, interrupted = run_in_chunks(work, N, progress=progress, label=where,
-                                          first=4 * numba.get_num_threads())
+        if lanes:
+            # as simulate_grid: calls of ~0.25 s, a long run paused after a step budget and
+            # resumed, so Ctrl-C stops within a second whatever the periods
+            TS = np.column_stack([T0, T0 + stops[-1] * T])
+            done, interrupted = _run_paused(call, N, TS, TF, STATUS, _lk.save_width(n),
+                                            progress, _lk.call_points(), label=where)
+            if interrupted:             # a paused point is not finished: as never run
+                paused = STATUS == _lk.INTERRUPTED
+                STATUS[paused] = _k.NOT_RUN
+                LOGS[paused] = 0.0
+                YF[paused] = np.nan
+                TF[paused] = np.nan
+                COUNTS[paused] = 0
+        else:
+            done, interrupted = run_in_chunks(work, N, progress=progress, label=where,
+                                              first=4 * numba.get_num_threads())
     ok = STATUS == _k.FINISHED
     lengths = np.diff(np.concatenate([[0.0], stops]))[first:]          # periods per block
     per_block = LOGS[:, first:] / (lengths[None, :] * T[:, None])

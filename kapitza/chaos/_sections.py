@@ -1,7 +1,10 @@
 """Brute force over many trajectories: bifurcation diagrams, Poincaré sections and basins.
 
 All three run :meth:`lagrange_core.System.simulate_grid` (compiled, parallel, in chunks
-with progress and Ctrl-C) and keep only what they need:
+with progress and Ctrl-C) and keep only what they need — the strobe runs of the first
+two go to DOP853 on lanes instead where it applies (:mod:`kapitza.chaos._strobe_lanes`:
+a damped or otherwise velocity-dependent system; the same method and steps as
+``simulate_grid``'s "dop853", 64 trajectories per thread vectorised, ~6× faster):
 
 * :func:`bifurcation_diagram` — a parameter's values × initial states; ``transient``
   drive periods are run first with nothing observed, then ``periods`` strobe samples
@@ -30,6 +33,7 @@ from lagrange_core.checks import real_number
 from .._arguments import whole_number
 from ..results import Basin, BifurcationDiagram, ComputationInterrupted, PoincareSection
 from ._common import angle_names, drive_frequency, parameters, state, tolerances
+from ._strobe_lanes import lanes_apply, strobe_runs_lanes
 
 __all__ = ["bifurcation_diagram", "poincare_section", "basin"]
 
@@ -39,7 +43,11 @@ def _strobe_runs(system, params, Q0, V0, T, t0, transient, periods, method, rtol
     """Run ``transient`` periods unobserved, then keep ``periods`` strobe samples.
 
     Returns (q, qdot, status, method, interrupted): q, qdot (S + (K, n)), status (S) as
-    names.  On Ctrl-C the finished points' samples are kept (the others NaN)."""
+    names.  On Ctrl-C the finished points' samples are kept (the others NaN).  DOP853 runs
+    on lanes (:mod:`kapitza.chaos._strobe_lanes`) where it applies."""
+    if lanes_apply(system, method):
+        return strobe_runs_lanes(system, params, Q0, V0, T, t0, transient, periods, rtol, atol,
+                                 max_steps, progress)
     kw = dict(method=method, rtol=rtol, atol=atol, max_steps=max_steps, progress=progress)
     interrupted = False
     start = t0
@@ -136,6 +144,19 @@ def bifurcation_diagram(system, params, about=None, *, parameter, values, q0=Non
         Bad input.
     kapitza.results.ComputationInterrupted
         On Ctrl-C, with the finished points' samples.
+
+    Notes
+    -----
+    Which integrator runs (``method=None``): a system of the form q̈ = f(q, t)
+    (undamped, no velocity-dependent force) runs RKN 12 on ``simulate_grid``'s lanes; any
+    other unconstrained system of at most six coordinates whose equations have lanes
+    kernels (:mod:`lagrange_core._rhs_lanes`: at most 1500 operations) runs DOP853 on
+    lanes (:mod:`kapitza.chaos._strobe_lanes`: the same method, step control and
+    statuses as ``simulate_grid``'s "dop853", 64 trajectories per thread vectorised,
+    ~7× faster on the damped pendulum; also with ``method="dop853"``).  Everything else
+    — constraints, more coordinates, larger equations, other methods — runs
+    ``simulate_grid``'s per-point kernels.  All pause long runs after a step budget, so
+    Ctrl-C stops within about a second and keeps the samples taken so far.
     """
     where = "bifurcation_diagram"
     clock = time.perf_counter()
@@ -211,7 +232,7 @@ def poincare_section(system, params, q0, qdot0=0.0, *, periods=1000, transient=0
     periods, transient : int
         Samples kept, and drive periods run before the first (discarded).
     frequency, angles, t0, method, rtol, atol, max_steps, progress
-        As :func:`bifurcation_diagram`.
+        As :func:`bifurcation_diagram` (its Notes say which integrator runs).
 
     Returns
     -------

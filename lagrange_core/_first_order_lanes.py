@@ -1,0 +1,569 @@
+"""DOP853 on *lanes*: many trajectories of a first-order system per thread, vectorised.
+
+What it is
+----------
+:func:`grid_dop853_lanes` is :func:`lagrange_core._batch_kernels.grid_dop853` (the
+per-point DOP853 of ``simulate_grid`` for systems that are not of the form q̈ = f(q, t):
+damped, velocity-dependent) for unconstrained systems, written the way the RKN path's
+:func:`~lagrange_core._batch_kernels.grid_rkn_lanes` is: a thread advances :data:`LANES`
+points together, every array has the lane as its last axis, and every loop over lanes
+is innermost and free of calls, so LLVM vectorises it:
+
+* the right-hand side of all lanes is one call per stage of the system's generated
+  ``rhs_lanes`` (:mod:`lagrange_core._rhs_lanes`: sin/cos by the branch-free polynomials
+  of :mod:`lagrange_core._lane_math`, a lane that fails computed again by a scalar copy);
+* the stage sums, the error norm, the acceptance, the step-size control (err^(−1/8) as
+  three square roots: no call), the compensated time, the time mean and the deviation
+  are loops over lanes;
+* what is particular to a lane — a strobe sample, a failure, the end of its run and the
+  next point of the block in its place — runs for that lane alone.
+
+Same algorithm, statuses, counts and observables as ``point_dop853`` (final state,
+strobe samples, time mean of q, max deviation from a reference, sum of the local error
+estimates), to rounding: sin/cos are within 2 ulp of libm, the step factor's root
+differs from ``pow`` by an ulp, multiply-adds are fused, and a one-coordinate system's
+q̈ = F/M is simplified symbolically.  Not here (the caller runs ``grid_dop853``):
+constraints (projection), band exits, energy drift, the fixed-step "rk8".
+
+Why: the scalar path makes ~12 calls of ``rhs`` per step, each bound by libm's sin/cos
+and unable to overlap the next; benchmarks/README.md ("The chaos room against issue
+21.6's targets") measured 56–63 ns per call inside the kernel.  The shared stage helpers
+below are also used by the chaos room's Lyapunov driver (kapitza.chaos._lanes), which
+integrates a tangent vector beside each trajectory.
+
+A lane's result does not depend on its neighbours: nothing is shared between lanes but
+the loop, and a failed lane gets its status alone (tests/test_first_order_lanes.py).
+"""
+import math
+import sys
+
+import numba
+import numpy as np
+from numba import njit, prange
+
+from ._integrator_kernels import FAST_MATH, starting_step
+from ._kernel_calls import RHS, RHS_LANES, call_rhs, call_rhs_lanes
+
+__all__ = ["LANES", "grid_dop853_lanes", "sparse_tables", "stage_sum", "error_sums",
+           "step_factor", "first_step"]
+
+#: trajectories a thread advances together (a multiple of the SIMD width; 13 stages × 2n
+#: rows × 64 lanes of a pendulum stay in the first-level cache)
+LANES = 64
+# statuses as lagrange_core._batch_kernels (GRID_*): finished, underflow, non-finite,
+# singular, step budget, not run
+_FINISHED, _UNDERFLOW, _NON_FINITE, _SINGULAR, _MAX_STEPS, _INTERRUPTED = 0, 2, 3, 4, 5, 7
+#: SAVEI[·, _SAVED] = 1: the row holds a paused point's state (as _batch_kernels.SAVED)
+_SAVED = 0
+# columns of COUNTS, bits of flags (as _batch_kernels)
+_STEPS, _REJECTED, _EVALS = 0, 1, 2
+_OBS_STROBE, _OBS_REF = 1, 2
+_EPS = 2.220446049250313e-16
+
+
+@njit(cache=True)
+def sparse_tables(A, B, E5, E3):
+    """DOP853's coefficients as short lists of their nonzero terms, padded to pairs.
+
+    Returns (idx, coef, pairs): row s = 1 … 11 of ``idx``/``coef`` lists the stages m < s
+    with A[s, m] ≠ 0 and their coefficients, row 12 those of B (the 8th-order solution),
+    row 0 those of E5 (coef) and E3 (``coef[13]``) — one list for both error estimates;
+    a pair's padding is stage 0 with coefficient 0 (K[0] is always finite, so it adds an
+    exact zero).  ``pairs[s]`` is the number of pairs.  Summing the nonzero terms in
+    registers, pair by pair, is ~3× cheaper than an accumulator in memory over every m."""
+    idx = np.zeros((13, 12), dtype=np.int64)
+    coef = np.zeros((14, 12))
+    pairs = np.zeros(13, dtype=np.int64)
+    for s in range(13):
+        c = 0
+        for m in range(13 if s == 0 else s):
+            a = (E5[m] if s == 0 else (B[m] if s == 12 else A[s, m]))
+            a3 = E3[m] if s == 0 else 0.0
+            if a != 0.0 or a3 != 0.0:
+                idx[s, c] = m
+                coef[s, c] = a
+                if s == 0:
+                    coef[13, c] = a3
+                c += 1
+        pairs[s] = (c + 1) // 2
+    return idx, coef, pairs
+
+
+@njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
+def stage_sum(idx, coef, pairs, K, y, hs, out, L):
+    """out = y + hs Σ coef[k] K[idx[k]] for every row and lane: a stage's state (``idx``,
+    ``coef``, ``pairs`` a row of :func:`sparse_tables`), the sum in registers over the
+    nonzero terms in their order (up to 12)."""
+    d = y.shape[0]
+    m0, m1, m2, m3, m4, m5 = idx[0], idx[1], idx[2], idx[3], idx[4], idx[5]
+    m6, m7, m8, m9, m10, m11 = idx[6], idx[7], idx[8], idx[9], idx[10], idx[11]
+    c0, c1, c2, c3, c4, c5 = coef[0], coef[1], coef[2], coef[3], coef[4], coef[5]
+    c6, c7, c8, c9, c10, c11 = coef[6], coef[7], coef[8], coef[9], coef[10], coef[11]
+    for i in range(d):
+        if pairs == 1:
+            for l in range(L):
+                x = c0 * K[m0, i, l] + c1 * K[m1, i, l]
+                out[i, l] = y[i, l] + hs[l] * x
+        elif pairs == 2:
+            for l in range(L):
+                x = c0 * K[m0, i, l] + c1 * K[m1, i, l]
+                x += c2 * K[m2, i, l]
+                x += c3 * K[m3, i, l]
+                out[i, l] = y[i, l] + hs[l] * x
+        elif pairs == 3:
+            for l in range(L):
+                x = c0 * K[m0, i, l] + c1 * K[m1, i, l]
+                x += c2 * K[m2, i, l]
+                x += c3 * K[m3, i, l]
+                x += c4 * K[m4, i, l]
+                x += c5 * K[m5, i, l]
+                out[i, l] = y[i, l] + hs[l] * x
+        elif pairs == 4:
+            for l in range(L):
+                x = c0 * K[m0, i, l] + c1 * K[m1, i, l]
+                x += c2 * K[m2, i, l]
+                x += c3 * K[m3, i, l]
+                x += c4 * K[m4, i, l]
+                x += c5 * K[m5, i, l]
+                x += c6 * K[m6, i, l]
+                x += c7 * K[m7, i, l]
+                out[i, l] = y[i, l] + hs[l] * x
+        elif pairs == 5:
+            for l in range(L):
+                x = c0 * K[m0, i, l] + c1 * K[m1, i, l]
+                x += c2 * K[m2, i, l]
+                x += c3 * K[m3, i, l]
+                x += c4 * K[m4, i, l]
+                x += c5 * K[m5, i, l]
+                x += c6 * K[m6, i, l]
+                x += c7 * K[m7, i, l]
+                x += c8 * K[m8, i, l]
+                x += c9 * K[m9, i, l]
+                out[i, l] = y[i, l] + hs[l] * x
+        else:
+            for l in range(L):
+                x = c0 * K[m0, i, l] + c1 * K[m1, i, l]
+                x += c2 * K[m2, i, l]
+                x += c3 * K[m3, i, l]
+                x += c4 * K[m4, i, l]
+                x += c5 * K[m5, i, l]
+                x += c6 * K[m6, i, l]
+                x += c7 * K[m7, i, l]
+                x += c8 * K[m8, i, l]
+                x += c9 * K[m9, i, l]
+                x += c10 * K[m10, i, l]
+                x += c11 * K[m11, i, l]
+                out[i, l] = y[i, l] + hs[l] * x
+
+
+@njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
+def error_sums(idx, coef, K, y, ynew, hs, rtol, atol, e5, e3, est, fin, L):
+    """Add the rows of ``y``'s error to DOP853's norms: e5 += Σ (hs E5·K / sc)², e3 likewise,
+    sc = atol + rtol max(|y|, |ynew|); ``est`` gets the largest local error estimate
+    (as ``point_dop853``: a5²/√(a5² + a3²/100)); ``fin`` &= ynew finite.  ``idx``, ``coef``
+    are row 0 of :func:`sparse_tables` (``coef`` rows 0 and 13: E5 and E3; 8 terms)."""
+    d = y.shape[0]
+    m0, m1, m2, m3, m4, m5, m6, m7 = (idx[0], idx[1], idx[2], idx[3], idx[4], idx[5], idx[6],
+                                      idx[7])
+    a0, a1, a2, a3, a4, a5, a6, a7 = (coef[0, 0], coef[0, 1], coef[0, 2], coef[0, 3],
+                                      coef[0, 4], coef[0, 5], coef[0, 6], coef[0, 7])
+    b0, b1, b2, b3, b4, b5, b6, b7 = (coef[13, 0], coef[13, 1], coef[13, 2], coef[13, 3],
+                                      coef[13, 4], coef[13, 5], coef[13, 6], coef[13, 7])
+    for i in range(d):
+        for l in range(L):
+            k0 = K[m0, i, l]
+            k1 = K[m1, i, l]
+            k2 = K[m2, i, l]
+            k3 = K[m3, i, l]
+            k4 = K[m4, i, l]
+            k5 = K[m5, i, l]
+            k6 = K[m6, i, l]
+            k7 = K[m7, i, l]
+            x5 = a0 * k0 + a1 * k1
+            x5 += a2 * k2
+            x5 += a3 * k3
+            x5 += a4 * k4
+            x5 += a5 * k5
+            x5 += a6 * k6
+            x5 += a7 * k7
+            x3 = b0 * k0 + b1 * k1
+            x3 += b2 * k2
+            x3 += b3 * k3
+            x3 += b4 * k4
+            x3 += b5 * k5
+            x3 += b6 * k6
+            x3 += b7 * k7
+            x5 *= hs[l]
+            x3 *= hs[l]
+            sc = atol + rtol * max(abs(y[i, l]), abs(ynew[i, l]))
+            e5[l] += (x5 / sc) ** 2
+            e3[l] += (x3 / sc) ** 2
+            den = x5 * x5 + 0.01 * x3 * x3
+            est[l] = max(est[l], x5 * x5 / math.sqrt(den)) if den > 0.0 else est[l]
+            fin[l] = fin[l] & math.isfinite(ynew[i, l])
+
+
+@njit(cache=True)
+def first_step(ka, t0, y0, f, p, rtol, atol, W, y1, f1):
+    """Hairer's starting step (:func:`~lagrange_core._integrator_kernels.starting_step`, as
+    the per-point drivers), or −1.0 when there is none: a state or derivative so large that
+    its scaled norm overflows (starting_step would divide by zero), or a step that is not
+    positive and finite (a derivative that is not finite a little way on; a zero step
+    would never advance)."""
+    d0 = 0.0
+    d1 = 0.0
+    for i in range(y0.shape[0]):
+        sc = atol + abs(y0[i]) * rtol
+        d0 += (y0[i] / sc) ** 2
+        d1 += (f[i] / sc) ** 2
+    if not (math.isfinite(d0) and math.isfinite(d1)):
+        return -1.0
+    h = starting_step(ka, t0, y0, f, p, rtol, atol, W, y1, f1, 1.0 / 8.0)
+    return h if (h > 0.0 and math.isfinite(h)) else -1.0
+
+
+@njit(cache=True, inline="always", fastmath=FAST_MATH, error_model="numpy")
+def step_factor(err):
+    """0.9 err^(−1/8), the DOP853 controller's factor before its limits, by three square
+    roots (vectorised; ``pow`` is a libm call): inf for err = 0, 0 for err = inf."""
+    return 0.9 / math.sqrt(math.sqrt(math.sqrt(err)))
+
+
+@njit(cache=True, error_model="numpy")
+def _load(ka, l, i, sv, svi, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, y, K, Pl, t, tc, h,
+          t0l, t1l, Tl, kn, QMl, DEVl, REFl, errsum, rejected, base, YF, SQ, QM, DEV, COUNTS,
+          f, W, y1, f1):
+    """Start point i in lane l — or resume it from its saved row ``sv``/``svi`` (a point
+    paused by an earlier call: ``svi[0]`` = 1, the layout of ``point_dop853``'s) — its
+    state, parameters, observables, f at the start (K[0], by the scalar ``rhs``, as
+    ``point_dop853``) and its first step.  Returns 0, or the point's status when it
+    cannot start (singular, or a derivative that is not finite)."""
+    d = y.shape[0]
+    n = d // 2
+    p = P[i]
+    for k in range(p.shape[0]):
+        Pl[k, l] = p[k]
+    t0 = TS[i, 0]
+    t0l[l] = t0
+    t1l[l] = TS[i, 1]
+    Tl[l] = TSTR[i] if flags & _OBS_STROBE else 0.0
+    base[l] = COUNTS[i, _STEPS]
+    for j in range(n):
+        REFl[j, l] = REF[i, j] if flags & _OBS_REF else 0.0
+    if svi[_SAVED] == 1:
+        for j in range(d):
+            y[j, l] = sv[j]
+            K[0, j, l] = sv[d + j]
+        o = 2 * d
+        t[l] = sv[o]
+        tc[l] = sv[o + 1]
+        h[l] = sv[o + 2]
+        errsum[l] = sv[o + 3]
+        kn[l] = sv[o + 6]
+        rejected[l] = sv[o + 7] != 0.0
+        for j in range(n):
+            QMl[j, l] = QM[i, j]
+            DEVl[j, l] = DEV[i, j]
+        svi[_SAVED] = 0
+        return 0
+    if call_rhs(ka[RHS], t0, Y0[i], p, f, W) != 0:
+        return _SINGULAR
+    COUNTS[i, _EVALS] += 1
+    for j in range(d):
+        if not math.isfinite(f[j]):
+            return _NON_FINITE
+    for j in range(d):
+        y[j, l] = Y0[i, j]
+        YF[i, j] = Y0[i, j]
+        K[0, j, l] = f[j]
+        if flags & _OBS_STROBE:
+            SQ[i, 0, j] = Y0[i, j]
+    for j in range(n):
+        QMl[j, l] = 0.0
+        DEVl[j, l] = abs(Y0[i, j] - REF[i, j]) if flags & _OBS_REF else 0.0
+    t[l] = t0
+    tc[l] = 0.0
+    kn[l] = 1.0
+    errsum[l] = 0.0
+    rejected[l] = False
+    if H[i] > 0.0:
+        h[l] = H[i]
+    else:
+        h[l] = first_step(ka, t0, Y0[i], f, p, rtol, atol, W, y1, f1)
+        COUNTS[i, _EVALS] += 2
+        if h[l] < 0.0:
+            return _NON_FINITE
+    return 0
+
+
+def grid_dop853_lanes(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol,
+                      max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT,
+                      COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
+    """Adaptive DOP853 over the points ``idx`` on lanes, with the arguments and results of
+    :func:`lagrange_core._batch_kernels.grid_dop853` (so ``simulate_grid`` can call either):
+    ``m`` must be 0 and ``adaptive`` true, and ``flags`` must not ask for a band or the
+    energy (``LO``, ``HI``, ``EXIT``, ``EXITC``, ``EDRIFT`` are not touched); ``ka`` must
+    hold the slots ``rhs`` and ``rhs_lanes``.  A point pauses after ``budget`` accepted
+    steps in this call (status GRID_INTERRUPTED = 7, its integrator state in
+    ``SAVE[slot[k]]``, ``SAVEI[slot[k], 0]`` = 1, in ``point_dop853``'s layout: 4n + 8
+    floats) and a later call resumes it.
+
+    The points are cut into two blocks per thread; a thread advances up to :data:`LANES`
+    points of a block together, refilling a lane from its block when its point ends."""
+    if m != 0 or not adaptive or flags & ~(_OBS_STROBE | _OBS_REF):
+        raise ValueError("grid_dop853_lanes runs adaptive DOP853 on unconstrained systems "
+                         "observing strobe samples and deviations only; use grid_dop853.")
+    block = max(8, -(-idx.shape[0] // (2 * numba.get_num_threads())))
+    _grid(ka, idx, block, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_steps, A, B, C, E3,
+          E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI)
+
+
+@njit(cache=True, parallel=True)
+def _grid(ka, idx, block, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_steps, A, B, C, E3,
+          E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
+    """The parallel loop over blocks of :func:`grid_dop853_lanes`."""
+    N = idx.shape[0]
+    nblocks = (N + block - 1) // block
+    for blk in prange(nblocks):
+        lo_b = blk * block
+        _block(ka, idx, lo_b, min(N, lo_b + block), Y0, P, TS, H, TSTR, REF, flags, rtol,
+               atol, max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS,
+               budget, slot, SAVE, SAVEI)
+
+
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_steps, A, B,
+           C, E3, E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
+    """The points idx[lo_b:hi_b] of :func:`grid_dop853_lanes` on one thread's lanes (a
+    function of its own, so that numba's parallel pass sees a small loop body)."""
+    d = Y0.shape[1]
+    n = d // 2
+    npar = P.shape[1]
+    L = min(LANES, hi_b - lo_b)
+    ref = (flags & _OBS_REF) != 0
+    sidx, scoef, spairs = sparse_tables(A, B, E5, E3)
+    pt = np.full(L, -1, dtype=np.int64)
+    pk = np.zeros(L, dtype=np.int64)
+    y = np.zeros((d, L))
+    ys = np.zeros((d, L))
+    ynew = np.zeros((d, L))
+    K = np.zeros((13, d, L))
+    Pl = np.ones((max(npar, 1), L))
+    work = np.zeros((1 + 2 * n * (n + 1), L))
+    QMl = np.zeros((n, L))
+    DEVl = np.zeros((n, L))
+    REFl = np.zeros((n, L))
+    t = np.zeros(L)
+    tc = np.zeros(L)
+    h = np.zeros(L)
+    hs = np.zeros(L)
+    ts = np.zeros(L)
+    tar = np.zeros(L)
+    tnew = np.zeros(L)
+    tcn = np.zeros(L)
+    t0l = np.zeros(L)
+    t1l = np.zeros(L)
+    Tl = np.zeros(L)
+    kn = np.zeros(L)
+    e5 = np.zeros(L)
+    e3 = np.zeros(L)
+    est = np.zeros(L)
+    errsum = np.zeros(L)
+    clip = np.zeros(L, dtype=np.bool_)
+    fin = np.zeros(L, dtype=np.bool_)
+    sing = np.zeros(L, dtype=np.bool_)
+    good = np.zeros(L, dtype=np.bool_)
+    special = np.zeros(L, dtype=np.bool_)
+    rejected = np.zeros(L, dtype=np.bool_)
+    live = np.zeros(L, dtype=np.bool_)
+    base = np.zeros(L, dtype=np.int64)
+    nst = np.zeros(L, dtype=np.int64)
+    nrej = np.zeros(L, dtype=np.int64)
+    nev = np.zeros(L, dtype=np.int64)
+    f = np.empty(d)
+    W = np.zeros((n, n + 1))
+    y1 = np.empty(d)
+    f1 = np.empty(d)
+    nxt = lo_b
+    active = 0
+    for l in range(L):
+        while nxt < hi_b and pt[l] < 0:
+            i = idx[nxt]
+            sl = slot[nxt]
+            st = _load(ka, l, i, SAVE[sl], SAVEI[sl], Y0, P, TS, H, TSTR, REF, flags, rtol,
+                       atol, y, K, Pl, t, tc, h, t0l, t1l, Tl, kn, QMl, DEVl, REFl, errsum,
+                       rejected, base, YF, SQ, QM, DEV, COUNTS, f, W, y1, f1)
+            if st != 0:
+                STATUS[i] = st
+                TF[i] = TS[i, 0]
+            else:
+                pt[l] = i
+                pk[l] = nxt
+                live[l] = True
+                active += 1
+            nxt += 1
+    while active > 0:
+        # each lane's step: shortened to land on its end or its next strobe time
+        for l in range(L):
+            tt = t[l]
+            tg = t1l[l]
+            tsk = t0l[l] + kn[l] * Tl[l]
+            tg = tsk if (Tl[l] > 0.0 and tsk < tg) else tg
+            tar[l] = tg
+            cl = tt + h[l] >= tg
+            hh = tg - tt if cl else h[l]
+            clip[l] = cl
+            hs[l] = hh if live[l] else 0.0
+            sing[l] = False
+        for s in range(1, 12):
+            stage_sum(sidx[s], scoef[s], spairs[s], K, y, hs, ys, L)
+            for l in range(L):
+                ts[l] = t[l] + C[s] * hs[l]
+            if call_rhs_lanes(ka[RHS_LANES], ts, ys, Pl, K[s], work, L) > 0:
+                for l in range(L):
+                    sing[l] |= work[0, l] != 0.0
+        stage_sum(sidx[12], scoef[12], spairs[12], K, y, hs, ynew, L)
+        for l in range(L):
+            ts[l] = t[l] + hs[l]
+        if call_rhs_lanes(ka[RHS_LANES], ts, ynew, Pl, K[12], work, L) > 0:
+            for l in range(L):
+                sing[l] |= work[0, l] != 0.0
+        for l in range(L):
+            e5[l] = 0.0
+            e3[l] = 0.0
+            est[l] = 0.0
+            fin[l] = True
+        error_sums(sidx[0], scoef, K, y, ynew, hs, rtol, atol, e5, e3, est, fin, L)
+        # accept or reject, every lane at once; the controller of point_dop853
+        for l in range(L):
+            z = (e5[l] == 0.0) & (e3[l] == 0.0)
+            err = 0.0 if z else e5[l] / math.sqrt((e5[l] + 0.01 * e3[l]) * d)
+            fe = math.isfinite(err)
+            fin[l] = fin[l] & fe
+            lv = live[l]
+            ok = lv & (not sing[l]) & fin[l] & (err < 1.0)
+            rej = lv & (not sing[l]) & (not ok)
+            good[l] = ok
+            hh = hs[l]
+            fac = step_factor(err)
+            hr = hh * max(0.2, fac) if fe else 0.2 * hh
+            fa = min(10.0, fac)
+            fa = min(1.0, fa) if rejected[l] else fa
+            ha = max(h[l], hh * fa) if clip[l] else hh * fa
+            h[l] = ha if ok else (hr if rej else h[l])
+            rejected[l] = False if ok else (True if rej else rejected[l])
+            yk = hh - tc[l]
+            tk = t[l] + yk
+            tnew[l] = tar[l] if clip[l] else tk
+            tcn[l] = 0.0 if clip[l] else (tk - t[l]) - yk
+            nrej[l] += 1 if rej else 0
+            nst[l] += 1 if ok else 0
+            nev[l] += 12 if lv else 0
+            errsum[l] += est[l] if ok else 0.0
+            hmin = 16.0 * _EPS * max(abs(t[l]), abs(t1l[l]))
+            special[l] = lv & (sing[l] | (rej & (hr < hmin))
+                               | (ok & (clip[l] | (tnew[l] >= t1l[l]) | (nst[l] >= budget)
+                                        | (base[l] + nst[l] >= max_steps))))
+        for j in range(n):          # the time mean and the deviation of accepted steps
+            for l in range(L):
+                hh = hs[l]
+                mean = (0.5 * hh * (y[j, l] + ynew[j, l])
+                        + hh * hh * (y[n + j, l] - ynew[n + j, l]) / 12.0)
+                QMl[j, l] += mean if good[l] else 0.0
+            if ref:
+                for l in range(L):
+                    dv = abs(ynew[j, l] - REFl[j, l])
+                    DEVl[j, l] = dv if (good[l] & (dv > DEVl[j, l])) else DEVl[j, l]
+        for j in range(d):
+            for l in range(L):
+                u = good[l]
+                y[j, l] = ynew[j, l] if u else y[j, l]
+                K[0, j, l] = K[12, j, l] if u else K[0, j, l]
+        for l in range(L):
+            u = good[l]
+            t[l] = tnew[l] if u else t[l]
+            tc[l] = tcn[l] if u else tc[l]
+        # the rest, lane by lane: strobe samples, failures, ends (and the next point)
+        for l in range(L):
+            if not special[l]:
+                continue
+            i = pt[l]
+            st = -1
+            if sing[l]:
+                st = _SINGULAR
+            elif not good[l]:       # rejected with a step below the resolution of t
+                st = _UNDERFLOW if fin[l] else _NON_FINITE
+            else:
+                if clip[l] and Tl[l] > 0.0 and t[l] == t0l[l] + kn[l] * Tl[l]:
+                    k_ = int(kn[l])
+                    if k_ < SQ.shape[1]:
+                        for j in range(d):
+                            SQ[i, k_, j] = y[j, l]
+                    kn[l] += 1.0
+                if t[l] >= t1l[l]:
+                    st = _FINISHED
+                elif base[l] + nst[l] >= max_steps:
+                    st = _MAX_STEPS
+                elif nst[l] >= budget:          # pause: the state saved, resumed next call
+                    st = _INTERRUPTED
+                    sv = SAVE[slot[pk[l]]]
+                    for j in range(d):
+                        sv[j] = y[j, l]
+                        sv[d + j] = K[0, j, l]
+                    o = 2 * d
+                    sv[o] = t[l]
+                    sv[o + 1] = tc[l]
+                    sv[o + 2] = h[l]
+                    sv[o + 3] = errsum[l]
+                    sv[o + 4] = 0.0
+                    sv[o + 5] = 0.0
+                    sv[o + 6] = kn[l]
+                    sv[o + 7] = 1.0 if rejected[l] else 0.0
+                    SAVEI[slot[pk[l]], _SAVED] = 1
+            if st < 0:
+                continue
+            STATUS[i] = st
+            TF[i] = t[l]
+            ERR[i] = errsum[l]
+            COUNTS[i, _STEPS] += nst[l]
+            COUNTS[i, _REJECTED] += nrej[l]
+            COUNTS[i, _EVALS] += nev[l]
+            for j in range(d):
+                YF[i, j] = y[j, l]
+            for j in range(n):
+                QM[i, j] = QMl[j, l]
+                DEV[i, j] = DEVl[j, l]
+            pt[l] = -1
+            live[l] = False
+            active -= 1
+            nst[l] = 0
+            nrej[l] = 0
+            nev[l] = 0
+            while nxt < hi_b and pt[l] < 0:
+                i2 = idx[nxt]
+                sl = slot[nxt]
+                st2 = _load(ka, l, i2, SAVE[sl], SAVEI[sl], Y0, P, TS, H, TSTR, REF, flags,
+                            rtol, atol, y, K, Pl, t, tc, h, t0l, t1l, Tl, kn, QMl, DEVl, REFl,
+                            errsum, rejected, base, YF, SQ, QM, DEV, COUNTS, f, W, y1, f1)
+                if st2 != 0:
+                    STATUS[i2] = st2
+                    TF[i2] = TS[i2, 0]
+                else:
+                    pt[l] = i2
+                    pk[l] = nxt
+                    live[l] = True
+                    active += 1
+                nxt += 1
+            if pt[l] < 0:           # idle: a finite state that no longer moves
+                for j in range(d):
+                    if not math.isfinite(y[j, l]):
+                        y[j, l] = 0.0
+                    for m in range(13):
+                        K[m, j, l] = 0.0
+
+
+# numba's cache does not notice changes to the kernels these call
+from . import _integrator_kernels, _kernel_calls  # noqa: E402
+from .module_store import guard_numba_cache  # noqa: E402
+
+guard_numba_cache(sys.modules[__name__], _integrator_kernels, _kernel_calls)
