@@ -25,6 +25,41 @@ os.environ.setdefault("KAPITZA_BACKGROUND_COMPILE", "0")
 # such grids (a scene axis of 10⁸ values): in the suite a grid may take 4 GiB.
 os.environ.setdefault("KAPITZA_MEMORY_LIMIT_GIB", "4")
 
+# A guard for the suite's processes: a test whose process grows past
+# KAPITZA_TEST_RSS_LIMIT_GIB (default 8: two workers on a 24 GiB machine) fails with a
+# MemoryError raised in it, where it allocates, instead of the kernel's OOM killer ending
+# the worker (after which xdist's group scheduling waits for ever, and the run shows
+# neither the test nor the place).  Checked every 0.1 s from a daemon thread.
+_RSS_LIMIT = float(os.environ.get("KAPITZA_TEST_RSS_LIMIT_GIB", "8")) * 2**30
+
+
+def _rss_guard():
+    import ctypes
+    import threading
+    import time
+
+    main = threading.main_thread().ident
+    page = os.sysconf("SC_PAGE_SIZE")
+
+    def watch():
+        while True:
+            time.sleep(0.1)
+            try:
+                with open("/proc/self/statm") as f:
+                    rss = int(f.read().split()[1]) * page
+            except OSError:
+                return
+            if rss > _RSS_LIMIT:
+                ctypes.pythonapi.PyThreadState_SetAsyncExc(
+                    ctypes.c_ulong(main), ctypes.py_object(MemoryError))
+                time.sleep(2.0)     # let it unwind and free before looking again
+
+    if os.path.exists("/proc/self/statm") and _RSS_LIMIT > 0:
+        threading.Thread(target=watch, name="rss-guard", daemon=True).start()
+
+
+_rss_guard()
+
 # Property-based tests (tests/test_properties_*.py).  "ci", the default: few examples, the
 # same ones every run (derandomized: a failure reproduces, and the kernels of the random
 # systems stay in the disk cache), no example database, no per-example deadline (the

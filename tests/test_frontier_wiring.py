@@ -89,7 +89,8 @@ def test_plain_pendulum_window_methods():
     pend = exact.pendulum
     np.testing.assert_array_equal(res["window"].A_min, pend.window([100.0, 300.0],
                                                                    about="inverted").A_min)
-    assert res.methods["window"] == "floquet: Mathieu characteristic values"
+    # the scene is damped (γ = 0.5 1/s): the Mathieu equation's monodromy traces
+    assert res.methods["window"] == "floquet: Mathieu monodromy traces (damped)"
     second = Scene.from_text(text + '[analyses]\nwindow = { omega = [100.0, 300.0], '
                                     'method = "averaging", order = 2 }\n').run(write=False)
     ref = pend.window([100.0, 300.0], method="averaging", order=2)

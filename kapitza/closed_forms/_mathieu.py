@@ -32,10 +32,11 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 
 import numpy as np
 from numba import njit, prange
-from scipy.optimize import brentq
+from scipy.optimize import brentq, minimize_scalar
 
 from lagrange_core.progress import run_in_chunks
 
@@ -292,6 +293,47 @@ def _first_root(f, hi, tol, n=400):
     return np.inf, np.nan
 
 
+#: |margin| at or below this (relative to the threshold 1 + e^(−γT)) cannot be told from 0:
+#: the monodromy trace is computed to ≤ 1e-12 relative, the margin's exponential keeps it
+_MARGIN_RESOLUTION = 1e-9
+
+
+def _resolved_scan(margin, qs, vals, tol):
+    """The damped margin's scan with its dips towards 0 resolved.
+
+    Between scan points the margin can cross 0 twice, unseen: a stable sliver (or an
+    unstable tongue) narrower than the scan's spacing (~5.5 % of q for the inverted
+    pendulum), as at the onset frequency of the window.  At each interior scan point where
+    |margin| has a local minimum and the margin keeps its sign on both sides, the extremum
+    of the margin between the two neighbours (bounded Brent, to ``tol`` relative in q) is
+    added to the scan.
+
+    Returns (qs, vals, undecided): the scan with the added points, in order, and whether
+    some dip came within :data:`_MARGIN_RESOLUTION` of 0 without crossing it (a sliver
+    narrower than the margin resolves cannot be ruled out there).
+    """
+    extra_q, extra_v, undecided = [], [], False
+    for k in range(1, qs.size - 1):
+        sg = np.sign(vals[k])
+        if not (sg != 0 and np.sign(vals[k - 1]) == sg == np.sign(vals[k + 1])
+                and abs(vals[k]) <= abs(vals[k - 1]) and abs(vals[k]) <= abs(vals[k + 1])):
+            continue
+        res = minimize_scalar(lambda q, sg=sg: sg * margin(q), bounds=(qs[k - 1], qs[k + 1]),
+                              method="bounded", options={"xatol": max(tol * qs[k], 1e-300)})
+        v = margin(float(res.x))
+        if np.sign(v) != sg:
+            extra_q.append(float(res.x))
+            extra_v.append(v)
+        elif abs(v) <= _MARGIN_RESOLUTION * 2.0:
+            undecided = True
+    if extra_q:
+        qs = np.concatenate([qs, extra_q])
+        vals = np.concatenate([vals, extra_v])
+        order = np.argsort(qs, kind="stable")
+        qs, vals = qs[order], vals[order]
+    return qs, vals, undecided
+
+
 def exact_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inverted",
                  tol=1e-10) -> StabilityWindow:
     """The exact window of :func:`kapitza.closed_forms.pendulum_window` (``method="floquet"``).
@@ -304,7 +346,13 @@ def exact_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inverted",
       is where the first tongue a_r(q) = a or b_(r+1)(q) = a is reached
       (r² < a < (r+1)²);
     * damped: |tr M_y(q)| = 1 + e^(−γT), with tr M from
-      :func:`mathieu_monodromy_trace` at tolerance tol/100.
+      :func:`mathieu_monodromy_trace` at tolerance tol/100, scanned in q (241
+      log-spaced points, inverted; 401 linear, hanging) and every dip of the margin
+      towards 0 between scan points resolved (:func:`_resolved_scan`): a stable interval
+      (or an unstable tongue) narrower than the scan's spacing is found, down to the
+      width the trace resolves.  ``status`` says per ω "window", "none", or
+      "undecided" (a dip of the margin within 1e-9 of 0 without a crossing: a sliver
+      could not be ruled out; warned, A_min and A_max NaN there).
 
     Each root is certified: the Floquet condition changes sign across
     A·(1 ± accuracy), ``accuracy`` ≤ ``tol`` (reported per ω).
@@ -329,6 +377,7 @@ def exact_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inverted",
     Amin = np.full(w.size, np.nan)
     Amax = np.full(w.size, np.nan)
     acc = np.full(w.size, np.nan)
+    status = np.full(w.size, "none", dtype=object) if damping != 0.0 else None
     for i, om in enumerate(w):
         a, _, c = mathieu_parameters(0.0, om, l, g, damping, about)
         a, c = float(a), float(c)
@@ -366,7 +415,10 @@ def exact_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inverted",
             qs = np.concatenate([[0.0], np.geomspace(1e-4, 40.0, 240)]) if sign < 0 else \
                 np.linspace(0.0, 4 * abs(a) + 20, 400)
             vals = np.array([margin(q) for q in qs])
+            qs, vals, undecided = _resolved_scan(margin, qs, vals, tol)
             st = vals < 0
+            if undecided:
+                status[i] = "undecided"
             if sign < 0:
                 k = np.nonzero(st)[0]
                 if k.size == 0 or k[0] == 0:
@@ -378,6 +430,7 @@ def exact_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inverted",
                 q0, e0 = _bracket_root(margin, qs[j0 - 1], qs[j0], tol)
                 q1, e1 = _bracket_root(margin, qs[j1 - 1], qs[j1], tol)
                 Amin[i], Amax[i], acc[i] = q0, q1, max(e0, e1)
+                status[i] = "window"
             else:
                 if not st[0]:
                     continue
@@ -386,12 +439,27 @@ def exact_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inverted",
                     continue
                 q1, e1 = _bracket_root(margin, qs[j1 - 1], qs[j1], tol)
                 Amin[i], Amax[i], acc[i] = 0.0, q1, e1
+                status[i] = "window"
+    if status is not None:
+        odd = status == "undecided"
+        Amin[odd] = Amax[odd] = acc[odd] = np.nan
+        if odd.any():
+            warnings.warn(
+                f"exact_window: at ω = {', '.join(f'{x:.6g}' for x in w[odd][:5])} rad/s"
+                f"{' …' if odd.sum() > 5 else ''} the damped margin comes within 1e-9 of 0 "
+                "without crossing it: a stable sliver narrower than the trace resolves "
+                "cannot be ruled out (status 'undecided', A_min and A_max NaN there); "
+                "a slightly different ω decides.", RuntimeWarning, stacklevel=2)
     # the roots above are in q (A_min of the hanging pendulum is 0 in either unit)
     A_min, A_max = amplitude_from_q(Amin, l), amplitude_from_q(Amax, l)
     if np.ndim(omega) == 0:           # a scalar call gives scalars
         w, A_min, A_max, acc = float(w[0]), float(A_min[0]), float(A_max[0]), float(acc[0])
+        if status is not None:
+            status = str(status[0])
+    elif status is not None:
+        status = status.astype(str)
     return StabilityWindow(omega=w, A_min=A_min, A_max=A_max, method="floquet", about=about,
-                           accuracy=acc, tol=tol, l=l, g=g, damping=damping)
+                           accuracy=acc, tol=tol, l=l, g=g, damping=damping, status=status)
 
 
 #: the exact window's name before kapitza 0.2 (same arguments, same numbers)

@@ -255,8 +255,11 @@ def method_of(name, scene, settings, result=None) -> str:
         if getattr(result, "method", settings.get("method", "floquet")) == "averaging":
             closed = ", closed form" if getattr(result, "l", None) is not None else ""
             return f"averaging: order {getattr(result, 'order', 1)}{closed}"
-        if getattr(result, "status", None) is None:
-            return "floquet: Mathieu characteristic values"
+        # the single pendulum's closed form (its result carries l; a sweep's tile has none)
+        if getattr(result, "l", None) is not None or (result is None and pend is not None):
+            damping = getattr(result, "damping", None) if result is not None else pend.damping
+            return ("floquet: Mathieu monodromy traces (damped)" if damping else
+                    "floquet: Mathieu characteristic values")
         return "floquet: certified monodromy edges (kapitza.window)"
     if name == "measure":
         return "simulation: strobe samples of the full equations measured"
