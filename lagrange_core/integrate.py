@@ -814,10 +814,17 @@ def _run_compiled(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, s
         stats[_kern.ST_EVENTS] = 0
         if o.t_eval is None:
             k = int(stats[_kern.ST_STORED])
-            if k:
-                pieces_t.append(tout[:k].copy())
-                pieces_y.append(yout[:k].copy())
-                stored += k
+            first = 0
+            if k and pieces_t and pieces_t[-1].size:
+                # a Ctrl-C (a KeyboardInterrupt at any line) may have come after the rows
+                # were kept and before the count was reset: the handler's drain then skips
+                # what is kept already (rows not past the last kept time), never twice
+                ahead = (tout[:k] - pieces_t[-1][-1]) * (1.0 if o.t1 >= o.t0 else -1.0)
+                first = int(np.argmax(ahead > 0)) if np.any(ahead > 0) else k
+            if k > first:
+                pieces_t.append(tout[first:k].copy())
+                pieces_y.append(yout[first:k].copy())
+                stored += k - first
             stats[_kern.ST_STORED] = 0
             if stored > o.max_points:
                 # memory bound: keep every other stored row (and the last), store half as often

@@ -394,8 +394,17 @@ _HZ_OVERFLOW = ({"schema": 1, "system": {"name": "pendulum"}, "parameters": {"l"
                 "replace", "effects.drive.frequency_hz")
 
 
+#: A chain of 10¹² links: building its coordinates' names filled the memory (a suite worker
+#: was OOM-killed; found by this property).  At most 64 links are read.
+_HUGE_CHAIN = ({"schema": 1, "system": {"name": "chain", "links": 10**12},
+                "parameters": {"l1": 1.0, "m1": 1.0}, "effects": {"gravity": True},
+                "analyses": {"averaging": True}},
+               "replace", "system.links")
+
+
 @settings(max_examples=15 * UNIT)
 @given(base=scenes(), data=st.data())
+@example(base=_HUGE_CHAIN[0], data=_HUGE_CHAIN[1:])
 @example(base=_HUGE_AXIS[0], data=_HUGE_AXIS[1:])
 @example(base=_OVERFLOWING_AXIS[0], data=_OVERFLOWING_AXIS[1:])
 @example(base=_MOTIONLESS_DRIVE[0], data=_MOTIONLESS_DRIVE[1:])

@@ -146,6 +146,12 @@ class SceneSpec:
         return {"rig": {"units": d.units, "states": {k: list(v) for k, v in d.states.items()}}}
 
 
+#: The most links a scene's chain may have: its equations are derived symbolically (the
+#: 8-link chain derives and compiles in seconds; 10¹² links filled the memory building the
+#: coordinates' names, found by tests/test_properties_scenes.py)
+MAX_CHAIN_LINKS = 64
+
+
 def read_scene(path) -> SceneSpec:
     """Read and check the scene file at ``path`` (see the module docstring).
 
@@ -244,6 +250,11 @@ def _check_system(c, system):
             c.error("system.links", "missing; a chain needs its number of links, e.g. links = 3")
             return name, None, None
         n = c.number(links, "system.links", integer=True, minimum=1)
+        if n is not None and n > MAX_CHAIN_LINKS:
+            c.error("system.links", f"a chain of {n} links is more than the {MAX_CHAIN_LINKS} "
+                    "a scene builds (its equations are derived symbolically: their size "
+                    "grows as links³); give fewer links")
+            return name, None, None
         return (name, fx.n_link_rig(n), None) if n is not None else (name, None, None)
     if links is not None:
         c.error("system.links", f"only for name = \"chain\" (system.name is {name!r})")
