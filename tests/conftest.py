@@ -111,6 +111,27 @@ def pytest_collection_modifyitems(config, items):
     items.sort(key=_rank)          # stable: within a rank the collection order is kept
 
 
+def pytest_configure(config):
+    """On a cold numba cache (a fresh clone), compile the kernels the whole suite shares
+    once, in two processes, before the workers start: each worker would otherwise compile
+    the same ones at the same time (grid_rkn_lanes alone ~90 s).  In the controller of a
+    ``-n`` run only; ``KAPITZA_TEST_WARMUP=0`` skips it."""
+    if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
+        return
+    if os.environ.get("KAPITZA_TEST_WARMUP", "1") == "0":
+        return
+    import time
+
+    from kapitza.warmup import GROUPS, cold
+    from kapitza.warmup import _parallel as compile_in_processes
+    if not cold():
+        return
+    start = time.perf_counter()
+    compile_in_processes(list(GROUPS), 2, False, start)
+    print(f"\nconftest: numba's cache was cold: the shared kernels compiled in "
+          f"{time.perf_counter() - start:.0f} s (two processes) before the workers start")
+
+
 @pytest.fixture(scope="session")
 def rng():
     return np.random.default_rng(20261122)
