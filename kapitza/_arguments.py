@@ -29,10 +29,16 @@ DRIVES = ("vertical", "horizontal")
 
 
 def _show(value) -> str:
+    """``value`` as a message shows it: plain numbers (``-1.0``, not ``array(-1.)`` or
+    ``np.float64(-1.0)``), arrays shortened, anything else as its repr."""
     try:
-        return np.array2string(np.asarray(value), threshold=8) if np.ndim(value) else repr(value)
+        if np.ndim(value):
+            return np.array2string(np.asarray(value), threshold=8)
+        if isinstance(value, np.ndarray | np.generic):
+            return repr(value.item())
     except (TypeError, ValueError):
-        return repr(value)
+        pass
+    return repr(value)
 
 
 def pendulum_constants(l, g, damping=0.0, *, where: str = "",
@@ -49,7 +55,7 @@ def pendulum_constants(l, g, damping=0.0, *, where: str = "",
             out.append(real_number(v, name, unit=unit, minimum=0.0, strict=strict))
         except ValueError:
             raise ValueError(f"{where}{name} must be a finite number {'>' if strict else '≥'} 0 "
-                             f"({unit}), got {v!r}.") from None
+                             f"({unit}), got {_show(v)}.") from None
     return tuple(out)
 
 
@@ -149,7 +155,7 @@ def whole_number(value, name: str, minimum: int, *, integral_floats: bool = Fals
         integral_floats and isinstance(value, (float, np.floating)) and math.isfinite(value)
         and int(value) == value)
     if isinstance(value, bool) or not whole or value < minimum:
-        raise ValueError(f"{name} must be a whole number ≥ {minimum}, got {value!r}.")
+        raise ValueError(f"{name} must be a whole number ≥ {minimum}, got {_show(value)}.")
     return int(value)
 
 

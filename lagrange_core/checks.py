@@ -15,6 +15,17 @@ import numpy as np
 __all__ = ["real_number", "real_array"]
 
 
+def _plain(value) -> str:
+    """``value`` as a message shows it: a numpy scalar or 0-d array as the plain number
+    (``0.0``, not ``np.float64(0.0)`` or ``array(0.)``), anything else as its repr."""
+    if isinstance(value, np.ndarray | np.generic) and np.ndim(value) == 0:
+        try:
+            return repr(value.item())
+        except (TypeError, ValueError):
+            pass
+    return repr(value)
+
+
 def _refused(value) -> str | None:
     """Why ``value`` is not a real number, or None."""
     if isinstance(value, (str, bytes, np.str_, np.bytes_)):
@@ -62,7 +73,7 @@ def real_number(value, name: str, *, unit: str = "", minimum: float | None = Non
             if number is None:
                 what = f"a {type(value).__name__}"
     if what is not None:
-        raise ValueError(f"{name} must be a real number{unit_text}, got {value!r} ({what}); "
+        raise ValueError(f"{name} must be a real number{unit_text}, got {_plain(value)} ({what}); "
                          f"pass a number, e.g. {example or name + '=1.0'}.")
     if not math.isfinite(number):
         raise ValueError(f"{name} must be finite{unit_text}, got {number}.")
@@ -88,7 +99,8 @@ def real_array(value, name: str, *, unit: str = "") -> np.ndarray:
         except (TypeError, ValueError):
             what = f"a {type(value).__name__} that is not numbers"
     if what is not None:
-        raise ValueError(f"{name} must be real numbers{unit_text}, got {value!r} ({what}).")
+        raise ValueError(f"{name} must be real numbers{unit_text}, got {_plain(value)} "
+                         f"({what}).")
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be finite{unit_text}, got {arr}.")
     return arr

@@ -95,3 +95,17 @@ def test_empty_axes_give_empty_maps():
         assert m.stable.shape == shape and len(m.to_dataframe()) == 0
     assert KapitzaPendulum(l=1.0, damping=0.2).stability_map([], [50.0]).stable.shape == (0, 1)
     assert np.size(pend.averaged(A=[], omega=100.0).inverted.stable) == 0
+
+
+@pytest.mark.parametrize("call, shown", [
+    (lambda: kapitza.KapitzaPendulum().measure(np.float64(-1.0), 100.0, 3.0), "got -1.0."),
+    (lambda: kapitza.pendulum_window(np.float64(0.0)), "got 0.0."),
+    (lambda: kapitza.KapitzaPendulum(l=np.array(-2.0)), "got -2.0."),
+])
+def test_api_messages_show_plain_numbers(call, shown):
+    """Issue 22.8 in the API (the CLI cleans its own messages): a numpy scalar or 0-d array
+    is shown as the number, never ``array(-1.)`` or ``np.float64(0.0)``."""
+    with pytest.raises(ValueError) as info:
+        call()
+    message = str(info.value)
+    assert shown in message and "array(" not in message and "np.float" not in message
