@@ -45,6 +45,19 @@ def test_every_gridded_result_roundtrips_through_netcdf(name, tmp_path):
         assert isinstance(value, (str, int, float)) and not isinstance(value, bool), key
 
 
+@pytest.mark.parametrize("name", GRIDDED)
+def test_gridded_results_roundtrip_through_zarr(name, tmp_path):
+    """The other format the issue names: ``ds.to_zarr`` → ``xr.open_zarr`` gives the same
+    values, coordinates and attributes (the test extra installs zarr).  Zarr format 2, as
+    the docstrings advise: format 3 has no specification yet for the text variables
+    (labels, statuses) and zarr warns that it may change."""
+    pytest.importorskip("zarr")
+    ds = result(name).to_xarray()
+    ds.to_zarr(tmp_path / f"{name}.zarr", zarr_format=2, consolidated=False)
+    back = xr.open_zarr(tmp_path / f"{name}.zarr", zarr_format=2, consolidated=False).load()
+    xr.testing.assert_identical(back, ds)
+
+
 def test_a_map_is_its_own_numbers_with_dimensionless_axes():
     m = result("stability_map")
     ds = m.to_xarray()

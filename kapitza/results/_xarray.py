@@ -22,8 +22,9 @@ figure needs no xarray.  One builder, so that every Dataset of kapitza reads ali
   ``method``, the tolerances, ``parameters`` (the parameters held fixed, a JSON object
   name → value in SI) with ``parameter_units`` (name → unit, where kapitza knows it),
   ``versions`` (JSON: Python, kapitza, numpy, scipy, xarray) — only text and numbers, so
-  that ``ds.to_netcdf(path, engine="h5netcdf")`` and ``ds.to_zarr(path)`` (with ``zarr``
-  installed) write them as they are.
+  that ``ds.to_netcdf(path, engine="h5netcdf")`` and ``ds.to_zarr(path, zarr_format=2)``
+  (with ``zarr`` installed; Zarr format 3 has no specification yet for the text variables,
+  labels and statuses, and zarr warns so) write them as they are.
 
 Units are known for the drive and the shipped rigs (:data:`PARAMETER_UNITS`; coordinates
 named ``theta…`` or ``phi…`` are angles in rad); a user's own parameters and coordinates
