@@ -120,10 +120,9 @@ def pytest_configure(config):
         return
     if os.environ.get("KAPITZA_TEST_WARMUP", "1") == "0":
         return
-    import time
-
     import subprocess
     import sys
+    import time
 
     from kapitza.warmup import GROUPS, cold
     from kapitza.warmup import _parallel as compile_in_processes
