@@ -250,7 +250,9 @@ class StabilityWindow:
         :func:`kapitza.window` (any system): per ω "window" (found, edges certified),
         "none" (proved: no stable interval at least ``min_width`` wide in the amplitudes
         scanned) or "undecided" (a stable sliver narrower than ``min_width`` could not be
-        ruled out, or an edge failed its check; warned).  None elsewhere.
+        ruled out, or an edge failed its check; warned).  The damped closed form of the
+        single pendulum (``pendulum_window(..., damping=γ)``) says the same three per ω.
+        None elsewhere.
     min_width : float or ndarray or None
         :func:`kapitza.window`: the resolution (m) to which ``status`` holds, per ω.
     """
