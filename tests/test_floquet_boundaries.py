@@ -278,6 +278,25 @@ def test_margins_have_simple_roots_at_the_edges(triple):
         assert g[0] * g[1] < 0 and np.all(bound < 0.1 * np.abs(g))
 
 
+def test_a_ctrl_c_in_the_paired_pass_stops_the_probe(triple, monkeypatch):
+    """The paired margin integrates twice; a Ctrl-C caught in the second pass (its chunk
+    loop returns ``stopped``) raises as in the first — it was ignored, and the report's
+    map section ran on for 23 s after Ctrl-C in a CI run."""
+    import kapitza.floquet._probe as probe_module
+    calls = []
+    original = probe_module._integrate
+
+    def second_pass_interrupted(*args, **kwargs):
+        out = original(*args, **kwargs)
+        calls.append(1)
+        return out if len(calls) == 1 else out[:-1] + (True,)
+    monkeypatch.setattr(probe_module, "_integrate", second_pass_interrupted)
+    probe = _Probe(triple, TP, [math.pi] * 3, "A", "omega", 1e-15, 16, 1e-8, paired=True)
+    with pytest.raises(KeyboardInterrupt):
+        probe(np.array([0.01]), np.array([100.0]))
+    assert len(calls) == 2
+
+
 # -- 3. boundary curves -------------------------------------------------------------------
 
 def _both_sides(system, params, about, curves, side=1e-6):

@@ -113,7 +113,10 @@ class _Probe:
             # the entries' error, for the margins: against a second monodromy at 100× the
             # tolerance (what the coarser one gets wrong bounds the finer one's error);
             # the Taylor estimate runs 100–1000× above the actual error
-            M2, ls2, *_ = _integrate(prep, idx, min(1e-6, 1e2 * self.tol), self.order)
+            M2, ls2, _, _, _, fin2, stopped = _integrate(prep, idx, min(1e-6, 1e2 * self.tol),
+                                                         self.order)
+            if stopped or not fin2.all():     # Ctrl-C in the second pass stops as in the first
+                raise KeyboardInterrupt
             with np.errstate(invalid="ignore"):
                 gap = np.max(np.abs(Mb - self._balanced(M2, prep)), axis=(1, 2))
                 size = np.maximum(1.0, np.max(np.abs(Mb), axis=(1, 2)))
