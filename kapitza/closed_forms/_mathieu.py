@@ -298,7 +298,28 @@ def _first_root(f, hi, tol, n=400):
 _MARGIN_RESOLUTION = 1e-9
 
 
-def _resolved_scan(margin, qs, vals, tol):
+#: The scan's traces are computed to this tolerance (relative to max(1, |tr|)); a scan point
+#: only needs the margin's sign, and where its estimated error could flip it the margin is
+#: computed again at the full tolerance.  The roots and dips are found at the full one.
+_SCAN_TOL = 1e-8
+
+
+def _scanned_margin(margin, ap, c, thr, qs):
+    """The damped margin |tr M_y| − thr at every scan point ``qs``: one parallel compiled
+    call at :data:`_SCAN_TOL` (≈ 10× fewer RK4 steps than the full tolerance, on every
+    core), then ``margin`` (full tolerance) where |value| ≤ 10 × its error estimate."""
+    out = np.empty((qs.size, 1, 5))
+    _trace_grid(np.array([ap], float), np.asarray(qs, float), _SCAN_TOL, 1 << 22, out)
+    log_abs = out[:, 0, 2] - math.pi * c / 2
+    vals = np.exp(np.minimum(log_abs, 700.0)) - thr
+    err = out[:, 0, 3] * np.exp(np.minimum(np.maximum(out[:, 0, 2], 0.0), 700.0) -
+                                math.pi * c / 2)
+    for k in np.flatnonzero(~(np.abs(vals) > 10.0 * err)):
+        vals[k] = margin(float(qs[k]))
+    return vals
+
+
+def _resolved_scan(margin, qs, vals, tol, coarse=None):
     """The damped margin's scan with its dips towards 0 resolved.
 
     Between scan points the margin can cross 0 twice, unseen: a stable sliver (or an
@@ -306,7 +327,10 @@ def _resolved_scan(margin, qs, vals, tol):
     pendulum), as at the onset frequency of the window.  At each interior scan point where
     |margin| has a local minimum and the margin keeps its sign on both sides, the extremum
     of the margin between the two neighbours (bounded Brent, to ``tol`` relative in q) is
-    added to the scan.
+    added to the scan.  With ``coarse`` (q → (margin, error bound) at a looser, cheaper
+    tolerance) the extremum is searched on it first, and again on ``margin`` only where
+    the extremum comes within max(100 × its error, 1e-6) of 0: farther away, its sign
+    (all the scan keeps of it; the roots are bracketed on ``margin``) is decided.
 
     Returns (qs, vals, undecided): the scan with the added points, in order, and whether
     some dip came within :data:`_MARGIN_RESOLUTION` of 0 without crossing it (a sliver
@@ -318,8 +342,19 @@ def _resolved_scan(margin, qs, vals, tol):
         if not (sg != 0 and np.sign(vals[k - 1]) == sg == np.sign(vals[k + 1])
                 and abs(vals[k]) <= abs(vals[k - 1]) and abs(vals[k]) <= abs(vals[k + 1])):
             continue
+        options = {"xatol": max(tol * qs[k], 1e-300)}
+        if coarse is not None:
+            res = minimize_scalar(lambda q, sg=sg: sg * coarse(q)[0],
+                                  bounds=(qs[k - 1], qs[k + 1]), method="bounded",
+                                  options=options)
+            v, e = coarse(float(res.x))
+            if abs(v) > max(100.0 * e, 1e-6):       # its sign decided at the coarse tolerance
+                if np.sign(v) != sg:                # a crossing: the roots are found later,
+                    extra_q.append(float(res.x))    # at the full one, from the sign alone
+                    extra_v.append(v)
+                continue
         res = minimize_scalar(lambda q, sg=sg: sg * margin(q), bounds=(qs[k - 1], qs[k + 1]),
-                              method="bounded", options={"xatol": max(tol * qs[k], 1e-300)})
+                              method="bounded", options=options)
         v = margin(float(res.x))
         if np.sign(v) != sg:
             extra_q.append(float(res.x))
@@ -414,8 +449,14 @@ def exact_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inverted",
 
             qs = np.concatenate([[0.0], np.geomspace(1e-4, 40.0, 240)]) if sign < 0 else \
                 np.linspace(0.0, 4 * abs(a) + 20, 400)
-            vals = np.array([margin(q) for q in qs])
-            qs, vals, undecided = _resolved_scan(margin, qs, vals, tol)
+            def coarse(q, ap=ap, c=c, thr=thr):          # (margin, its error bound)
+                tr, la, err = mathieu_monodromy_trace(ap, q, 0.0, tol=_SCAN_TOL)
+                scale = math.exp(min(max(float(la), 0.0), 700.0) - math.pi * c / 2)
+                return (math.exp(min(float(la) - math.pi * c / 2, 700.0)) - thr,
+                        float(err) * scale)
+
+            vals = _scanned_margin(margin, ap, c, thr, qs)
+            qs, vals, undecided = _resolved_scan(margin, qs, vals, tol, coarse)
             st = vals < 0
             if undecided:
                 status[i] = "undecided"
