@@ -111,6 +111,15 @@ def pytest_collection_modifyitems(config, items):
     items.sort(key=_rank)          # stable: within a rank the collection order is kept
 
 
+def _pytest_drops_xdist_groups() -> bool:
+    """Whether this pytest ignores the ``item._nodeid`` that pytest-xdist's loadgroup sets
+    (pytest 9.2: ``nodeid`` is a property of the structured id)."""
+    import inspect
+
+    from _pytest import nodes
+    return "return self._nodeid" not in inspect.getsource(nodes.Node.nodeid.fget)
+
+
 def pytest_configure(config):
     """On a cold numba cache (a fresh clone), compile the kernels the whole suite shares
     once, in two processes, before the workers start: each worker would otherwise compile
@@ -118,6 +127,12 @@ def pytest_configure(config):
     ``-n`` run only; ``KAPITZA_TEST_WARMUP=0`` skips it."""
     if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
         return
+    if config.getvalue("dist") == "loadgroup" and _pytest_drops_xdist_groups():
+        raise pytest.UsageError(
+            f"pytest {pytest.__version__} drops pytest-xdist's groups (a test's nodeid is "
+            "derived from its structured id, so the '@group' suffix never takes): every "
+            "shared fixture would be built once per worker.  Install the pinned one: "
+            "pip install -e '.[test]'.")
     if os.environ.get("KAPITZA_TEST_WARMUP", "1") == "0":
         return
     import subprocess
