@@ -91,6 +91,29 @@ def test_the_drawn_angles_are_an_independent_simulation(anim):
     np.testing.assert_array_equal(frame["stable_theta"], anim.theta[0])
 
 
+def test_blitted_frames_equal_full_redraws(anim, monkeypatch, tmp_path):
+    """render() draws the static figure once and only the moving artists per frame; each
+    frame equals a full redraw of the figure pixel for pixel (before the GIF's palette)."""
+    from matplotlib.animation import PillowWriter
+
+    import kapitza.animation._drawing as drawing
+    stage_args = dict(l=L, g=G, damping=0.0, omega=OMEGA, window=anim.window,
+                      stayed=anim.stayed_up, fall=anim.fall_time, floquet=anim.floquet_stable,
+                      tilt0=0.1, slow=anim.slow_motion, frames_per_period=4, width=300)
+    frames = []         # the RGBA frames render() hands the writer, kept instead of written
+    monkeypatch.setattr(drawing, "_gif_writer", lambda fps, exact=(): PillowWriter(fps=fps))
+    monkeypatch.setattr(PillowWriter, "finish", lambda self: frames.extend(self._frames))
+    drawing.render("", pendulum_stage(anim.t, anim.theta, anim.pivot, anim.A, **stage_args),
+                   tmp_path / "unused.gif", 20, False, "test")
+    full = pendulum_stage(anim.t, anim.theta, anim.pivot, anim.A, **stage_args)
+    assert len(frames) == anim.frames
+    for k in (0, 7, anim.frames - 1):
+        full.draw(k)
+        full.fig.canvas.draw()
+        np.testing.assert_array_equal(np.asarray(frames[k]),
+                                      np.asarray(full.fig.canvas.buffer_rgba()))
+
+
 def test_driven_stays_up_the_other_falls_as_measure_and_floquet_say(anim):
     pend = KapitzaPendulum(l=L, g=G)
     assert anim.stayed_up == (True, False)
