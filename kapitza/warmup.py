@@ -182,15 +182,17 @@ def start_background(names=("grids (dop853)", "report integrators")):
         return None
     if not cold():
         return None
-    proc = subprocess.Popen(_command(list(names)), stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
+    procs = [subprocess.Popen(_command([name]), stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL) for name in names]
 
     def end():
-        if proc.poll() is None:
-            proc.terminate()        # numba writes its cache files atomically
+        for proc in procs:
+            if proc.poll() is None:
+                proc.terminate()        # numba writes its cache files atomically
+        for proc in procs:
             try:
                 proc.wait(timeout=5)
             except subprocess.TimeoutExpired:
                 proc.kill()
     atexit.register(end)
-    return proc
+    return procs

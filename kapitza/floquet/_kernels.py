@@ -239,20 +239,50 @@ def _period_map(C, S, K, omega, T, tol, order, X, work, coef, half):
     return _taylor_period(C, S, K, omega, T, tol, order, X, work, coef, False)
 
 
-@njit(cache=True, parallel=True)
-def _monodromy_grid(C, S, K, omega, T, tol, order, half, M, logscale, error, steps):
-    """Monodromy to tolerance for every grid point (Taylor method, see _taylor_period)."""
-    npts = C.shape[0]
+@njit(cache=True, nogil=True)
+def _monodromy_rows(C, S, K, omega, T, tol, order, half, M, logscale, error, steps, lo, hi):
+    """Monodromy to tolerance for the grid points lo … hi − 1 (Taylor method, see
+    _taylor_period), on the calling thread, without the GIL."""
     d = M.shape[1]
-    for i in prange(npts):
-        work = np.empty((order + 1, d, d))
-        coef = np.empty((K + 1, order + 1, 2))
-        X = np.empty((d, d))
+    work = np.empty((order + 1, d, d))
+    coef = np.empty((K + 1, order + 1, 2))
+    X = np.empty((d, d))
+    for i in range(lo, hi):
         ls, err, ns = _period_map(C[i], S[i], K, omega[i], T[i], tol, order, X, work, coef, half)
         M[i] = X
         logscale[i] = ls
         error[i] = err
         steps[i] = ns
+
+
+def _monodromy_grid(C, S, K, omega, T, tol, order, half, M, logscale, error, steps):
+    """Monodromy to tolerance for every grid point, on numba's thread count: the points in
+    blocks, each block one GIL-free call of :func:`_monodromy_rows` on a thread of a pool.
+    (A ``prange`` loop did the same; numba's parallel lowering of it cost 11 s of the
+    cold compile, the rows kernel's own 0.1 s.)"""
+    npts = C.shape[0]
+    threads = min(numba.get_num_threads(), npts)
+    args = (C, S, K, omega, T, tol, order, half, M, logscale, error, steps)
+    if threads <= 1:
+        _monodromy_rows(*args, 0, npts)
+        return
+    # 4 blocks per thread: the points' costs differ (steps per period), the pool balances
+    edges = np.linspace(0, npts, 4 * threads + 1).astype(np.int64)
+    blocks = [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:], strict=True)
+              if b > a]
+    for future in [_pool(threads).submit(_monodromy_rows, *args, a, b) for a, b in blocks]:
+        future.result()
+
+
+_POOLS = {}
+
+
+def _pool(threads):
+    """A thread pool of ``threads`` workers, made once per size and kept."""
+    if threads not in _POOLS:
+        from concurrent.futures import ThreadPoolExecutor
+        _POOLS[threads] = ThreadPoolExecutor(threads, thread_name_prefix="kapitza-floquet")
+    return _POOLS[threads]
 
 
 # numba's cache does not notice a change of the kernel slots the sampler calls
