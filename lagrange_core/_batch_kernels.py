@@ -5,8 +5,9 @@ observable and band-exit helpers below, and numba caches per source file; split,
 file would compile its own copy of the helpers and a change to one would not recompile
 the drivers that inline it.
 
-One parallel call (numba ``prange``, dynamic scheduling: trajectories end at different
-times) integrates every grid point named in ``idx`` from its own initial state and
+One call (its points in blocks on numba's thread count, each block a GIL-free compiled call
+on a thread of :mod:`lagrange_core._thread_blocks`, dynamic scheduling: trajectories end
+at different times) integrates every grid point named in ``idx`` from its own initial state and
 parameters, and records only what :func:`lagrange_core.batch.simulate_grid` asked for,
 computed as the steps are taken — never the trajectory itself:
 
@@ -74,7 +75,7 @@ import math
 import sys
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from ._integrator_kernels import (
     DRIVE_STEP,
@@ -109,6 +110,7 @@ from ._kernel_calls import (
     call_rhs,
 )
 from ._lane_math import lane_sincos_rows
+from ._thread_blocks import run_blocks, thread_count
 
 #: per-point status (``GridTrajectories.status``)
 GRID_FINISHED, GRID_LEFT_BAND, GRID_UNDERFLOW, GRID_NON_FINITE, GRID_SINGULAR, \
@@ -674,16 +676,39 @@ def pilot_step(ka, y0, p, t0, t1, T, rtol, atol, c, A, b, bp, bh, bph, counts):
     return period / math.ceil(period / h)
 
 
-@njit(cache=True, parallel=True)
-def grid_second_order(ka, family, adaptive, pilot, hold_block, idx, Y0, P, TS, H, TSTR, REF, LO,
-                      HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, w, YF, TF, SQ, QM,
-                      DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
+def grid_second_order(ka, family, adaptive, pilot, hold_block, idx, Y0, P, TS, H, TSTR, REF,
+                      LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, w, YF, TF,
+                      SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, slot,
+                      SAVE, SAVEI):
     """Every point ``idx[k]`` with :func:`point_second_order` (``pilot``: the fixed step of
     each point from :func:`pilot_step`; ``hold_block``: steps per block of the adaptive
     held step); a point pauses after ``budget`` steps of this call, its state in row
-    ``slot[k]`` of ``SAVE``/``SAVEI``, and resumes from it when that row is marked saved."""
+    ``slot[k]`` of ``SAVE``/``SAVEI``, and resumes from it when that row is marked saved.
+
+    The points go in blocks to the threads of :func:`lagrange_core._thread_blocks.run_blocks`
+    (16 per thread: points end at different times), each block one GIL-free call.
+    """
+    N = idx.shape[0]
+    step = max(1, N // (16 * thread_count()))
+
+    def work(blk):
+        lo = blk * step
+        _second_order_rows(ka, family, adaptive, pilot, hold_block, idx, Y0, P, TS, H, TSTR,
+                           REF, LO, HI, flags, rtol, atol, max_steps, c, A, b, bp,
+                           bh, bph, w, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT,
+                           COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI, lo,
+                           min(N, lo + step))
+    run_blocks(work, -(-N // step))
+
+
+@njit(cache=True, nogil=True)
+def _second_order_rows(ka, family, adaptive, pilot, hold_block, idx, Y0, P, TS, H, TSTR,
+                       REF, LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, w,
+                       YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS,
+                       budget, slot, SAVE, SAVEI, lo, hi):
+    """The points idx[lo:hi] of :func:`grid_second_order`, on the calling thread."""
     nb = np.zeros(0)
-    for k in prange(idx.shape[0]):
+    for k in range(lo, hi):
         i = idx[k]
         s = slot[k]
         block = np.empty(hold_block if adaptive else 0)
@@ -989,13 +1014,12 @@ def _stage_positions(s, A, c, K, q, v, hs, qs, acc, L):
                 qs[j, l] = q[j, l] + cs_ * hh * v[j, l] + hh * hh * acc[0, l]
 
 
-@njit(cache=True, parallel=True, error_model="numpy", fastmath=FAST_MATH)
 def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
                    rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT, EXITC,
                    EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
     """RKN 12(10) over the points ``idx`` on *lanes*: each thread takes blocks of ``block``
-    points and advances :data:`LANES` of them together, refilling a lane from its block
-    when its trajectory ends.
+    points (:func:`lagrange_core._thread_blocks.run_blocks`) and advances :data:`LANES` of
+    them together, refilling a lane from its block when its trajectory ends.
 
     ``mode``: LANES_ADAPTIVE ("rkn12": the step control of :func:`point_second_order`,
     held in blocks of ``hold_block`` steps), LANES_FIXED (the step ``H``), LANES_PILOT (the
@@ -1019,16 +1043,17 @@ def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO
     marked saved resumes from it.
     """
     N = idx.shape[0]
-    nblocks = (N + block - 1) // block
-    for blk in prange(nblocks):
+
+    def work(blk):
         lo_b = blk * block
         _lanes_block(ka, mode, hold_block, idx, lo_b, min(N, lo_b + block), Y0, P, TS, H, TSTR,
                      REF, LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF,
                      SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE,
                      SAVEI)
+    run_blocks(work, (N + block - 1) // block)
 
 
-@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+@njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST_MATH)
 def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
                  rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT, EXITC,
                  EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
@@ -1690,13 +1715,32 @@ def point_dop853(ka, m, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, flags, rtol
     return status, t, jx, drift, err_sum, 0
 
 
-@njit(cache=True, parallel=True)
 def grid_dop853(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol,
-                max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR,
-                STATUS, budget, slot, SAVE, SAVEI):
+                max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT,
+                COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
     """Every point ``idx[k]`` with :func:`point_dop853` (pausing as
-    :func:`grid_second_order`)."""
-    for k in prange(idx.shape[0]):
+    :func:`grid_second_order`).
+
+    The points go in blocks to the threads, as :func:`grid_second_order`'s.
+    """
+    N = idx.shape[0]
+    step = max(1, N // (16 * thread_count()))
+
+    def work(blk):
+        lo = blk * step
+        _dop853_rows(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol,
+                     atol, max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT,
+                     EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI,
+                     lo, min(N, lo + step))
+    run_blocks(work, -(-N // step))
+
+
+@njit(cache=True, nogil=True)
+def _dop853_rows(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol,
+                 max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT,
+                 COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI, lo, hi):
+    """The points idx[lo:hi] of :func:`grid_dop853`, on the calling thread."""
+    for k in range(lo, hi):
         i = idx[k]
         s = slot[k]
         st, t, jx, drift, err, nh = point_dop853(

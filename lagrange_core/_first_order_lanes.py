@@ -39,10 +39,11 @@ import sys
 
 import numba
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from ._integrator_kernels import FAST_MATH, starting_step
 from ._kernel_calls import RHS, RHS_LANES, call_rhs, call_rhs_lanes
+from ._thread_blocks import run_blocks
 
 __all__ = ["LANES", "grid_dop853_lanes", "sparse_tables", "stage_sum", "error_sums",
            "step_factor", "first_step"]
@@ -318,24 +319,24 @@ def grid_dop853_lanes(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, fla
           E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI)
 
 
-@njit(cache=True, parallel=True)
 def _grid(ka, idx, block, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_steps, A, B, C, E3,
           E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
-    """The parallel loop over blocks of :func:`grid_dop853_lanes`."""
+    """The blocks of :func:`grid_dop853_lanes` on the threads of
+    :func:`lagrange_core._thread_blocks.run_blocks`."""
     N = idx.shape[0]
-    nblocks = (N + block - 1) // block
-    for blk in prange(nblocks):
+
+    def work(blk):
         lo_b = blk * block
         _block(ka, idx, lo_b, min(N, lo_b + block), Y0, P, TS, H, TSTR, REF, flags, rtol,
                atol, max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS,
                budget, slot, SAVE, SAVEI)
+    run_blocks(work, (N + block - 1) // block)
 
 
-@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+@njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST_MATH)
 def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_steps, A, B,
            C, E3, E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
-    """The points idx[lo_b:hi_b] of :func:`grid_dop853_lanes` on one thread's lanes (a
-    function of its own, so that numba's parallel pass sees a small loop body)."""
+    """The points idx[lo_b:hi_b] of :func:`grid_dop853_lanes` on one thread's lanes."""
     d = Y0.shape[1]
     n = d // 2
     npar = P.shape[1]

@@ -35,7 +35,7 @@ import sys
 
 import numba
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from lagrange_core._first_order_lanes import (
     LANES,
@@ -52,6 +52,7 @@ from lagrange_core._kernel_calls import (
     call_rhs_jvp_lanes,
     call_rhs_lanes,
 )
+from lagrange_core._thread_blocks import run_blocks
 
 #: tangent modes
 DIFFERENCE, JVP = 0, 1
@@ -103,16 +104,18 @@ def grid_largest_lanes(ka, mode, idx, Y0, P, T, T0, stops, v0, rtol, atol, max_s
           E5, LOGS, YF, TF, COUNTS, STATUS, budget, slot, SAVE, SAVEI)
 
 
-@njit(cache=True, parallel=True)
 def _grid(ka, mode, idx, block, Y0, P, T, T0, stops, v0, rtol, atol, max_steps, A, B, C, E3,
           E5, LOGS, YF, TF, COUNTS, STATUS, budget, slot, SAVE, SAVEI):
+    """The blocks of :func:`grid_largest_lanes` on the threads of
+    :func:`lagrange_core._thread_blocks.run_blocks`."""
     N = idx.shape[0]
-    nblocks = (N + block - 1) // block
-    for blk in prange(nblocks):
+
+    def work(blk):
         lo_b = blk * block
         _block(ka, mode, idx, lo_b, min(N, lo_b + block), Y0, P, T, T0, stops, v0, rtol, atol,
                max_steps, A, B, C, E3, E5, LOGS, YF, TF, COUNTS, STATUS, budget, slot, SAVE,
                SAVEI)
+    run_blocks(work, (N + block - 1) // block)
 
 
 @njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
@@ -206,7 +209,7 @@ def _load(ka, mode, l, i, sv, svi, Y0, P, T, T0, v0, rtol, atol, y, V, K, KV, Pl
     return _NON_FINITE if h[l] < 0.0 else 0
 
 
-@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+@njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST_MATH)
 def _block(ka, mode, idx, lo_b, hi_b, Y0, P, T, T0, stops, v0, rtol, atol, max_steps, A, B, C,
            E3, E5, LOGS, YF, TF, COUNTS, STATUS, budget, slot, SAVE, SAVEI):
     """The points idx[lo_b:hi_b] on one thread's lanes."""

@@ -36,6 +36,7 @@ from numba import njit, prange
 
 from lagrange_core import _kernel_calls
 from lagrange_core._kernel_calls import JACOBIAN, call_jacobian
+from lagrange_core._thread_blocks import run_blocks, thread_count
 from lagrange_core.module_store import guard_numba_cache
 
 __all__ = ["SERIAL_BELOW", "floquet_sample_jacobian"]
@@ -257,32 +258,18 @@ def _monodromy_rows(C, S, K, omega, T, tol, order, half, M, logscale, error, ste
 
 def _monodromy_grid(C, S, K, omega, T, tol, order, half, M, logscale, error, steps):
     """Monodromy to tolerance for every grid point, on numba's thread count: the points in
-    blocks, each block one GIL-free call of :func:`_monodromy_rows` on a thread of a pool.
-    (A ``prange`` loop did the same; numba's parallel lowering of it cost 11 s of the
-    cold compile, the rows kernel's own 0.1 s.)"""
+    blocks, each block one GIL-free call of :func:`_monodromy_rows` on a thread
+    (:func:`lagrange_core._thread_blocks.run_blocks`; a ``prange`` loop here cost 11 s
+    of the cold compile in numba's parallel lowering)."""
     npts = C.shape[0]
-    threads = min(numba.get_num_threads(), npts)
-    args = (C, S, K, omega, T, tol, order, half, M, logscale, error, steps)
-    if threads <= 1:
-        _monodromy_rows(*args, 0, npts)
-        return
     # 4 blocks per thread: the points' costs differ (steps per period), the pool balances
-    edges = np.linspace(0, npts, 4 * threads + 1).astype(np.int64)
-    blocks = [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:], strict=True)
-              if b > a]
-    for future in [_pool(threads).submit(_monodromy_rows, *args, a, b) for a, b in blocks]:
-        future.result()
+    step = max(1, -(-npts // (4 * thread_count())))
 
-
-_POOLS = {}
-
-
-def _pool(threads):
-    """A thread pool of ``threads`` workers, made once per size and kept."""
-    if threads not in _POOLS:
-        from concurrent.futures import ThreadPoolExecutor
-        _POOLS[threads] = ThreadPoolExecutor(threads, thread_name_prefix="kapitza-floquet")
-    return _POOLS[threads]
+    def work(blk):
+        lo = blk * step
+        _monodromy_rows(C, S, K, omega, T, tol, order, half, M, logscale, error, steps, lo,
+                        min(npts, lo + step))
+    run_blocks(work, -(-npts // step))
 
 
 # numba's cache does not notice a change of the kernel slots the sampler calls

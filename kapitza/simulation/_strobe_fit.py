@@ -24,7 +24,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from lagrange_core._thread_blocks import run_blocks, thread_count
 
 __all__ = ["estimate", "record_extent"]
 
@@ -48,14 +50,23 @@ def min_pairs(d):
     return 4 * (d + 1)
 
 
+def _over_points(kernel, *args):
+    """``kernel(*args, lo, hi)`` over the points (the first axis of ``args[0]``) in blocks
+    on numba's thread count (:func:`lagrange_core._thread_blocks.run_blocks`: GIL-free
+    calls, no ``prange`` — whose parallel lowering cost most of these kernels' compile)."""
+    P = args[0].shape[0]
+    step = max(1, -(-P // (4 * thread_count())))
+    run_blocks(lambda b: kernel(*args, b * step, min(P, (b + 1) * step)), -(-P // step))
+
+
 # -- compiled: the loops over samples ---------------------------------------------------------
 
-@njit(cache=True, parallel=True)
-def _valid_lengths(q, qdot, scale, X, Kv, amplitude):
+@njit(cache=True, nogil=True)
+def _valid_lengths(q, qdot, scale, X, Kv, amplitude, lo, hi):
     """X = [q, q̇·T/(2π)] per point, the length of each record's finite prefix, and half the
     range of q over it (the slow amplitude)."""
     P, K, n = q.shape
-    for p in prange(P):
+    for p in range(lo, hi):
         k_end = K
         for k in range(K):
             ok = True
@@ -78,8 +89,8 @@ def _valid_lengths(q, qdot, scale, X, Kv, amplitude):
             amplitude[p, i] = (hi - lo) / 2 if k_end > 0 else np.nan
 
 
-@njit(cache=True, parallel=True)
-def _moments(X, ranges, centre, scale, ub, C0, C1, spread):
+@njit(cache=True, nogil=True)
+def _moments(X, ranges, centre, scale, ub, C0, C1, spread, lo, hi):
     """Per point and fit (pairs k = a … b − 1 of ``ranges``): the centre c and scale s of
     the starting samples x_k, and in the scaled coordinates u = (x − c)/s the mean image
     ub, C0 = Σ u_k u_kᵀ, C1 = Σ (u_(k+1) − ub) u_kᵀ and Σ |u_(k+1) − ub|².
@@ -89,7 +100,7 @@ def _moments(X, ranges, centre, scale, ub, C0, C1, spread):
     before they are multiplied)."""
     P, F = ranges.shape[:2]
     d = X.shape[2]
-    for p in prange(P):
+    for p in range(lo, hi):
         cn = np.empty(d)
         dk = np.empty(d)
         dn = np.empty(d)
@@ -186,15 +197,14 @@ def _moments_2(X, a, b, c0, c1, A0, A1, Ek, En, Sn):
     Sn[1] = s1
 
 
-@njit(cache=True, parallel=True)
-def _residuals(X, Kv, ranges, centre, scale, ub, M, ustar, residual, distance):
+@njit(cache=True, nogil=True)
+def _residuals(X, Kv, ranges, centre, scale, ub, M, ustar, residual, distance, lo, hi):
     """The relative residual of fit 0, sqrt(Σ |u_(k+1) − ub − M u_k|² / Σ |u_(k+1) −
     ub|²) over its pairs (where ``residual`` has a column), and every valid sample's
     distance |u_k − u*| from fit 0's fixed point (where ``distance`` has a column per
     sample; 0 beyond the record)."""
-    P = ranges.shape[0]
     d = X.shape[2]
-    for p in prange(P):
+    for p in range(lo, hi):
         ua = np.empty(d)
         if residual.shape[1] > 0:
             a = ranges[p, 0, 0]
@@ -235,9 +245,9 @@ def _bump(pos, count):
     return math.exp(-1.0 / (s * (1.0 - s)))
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, nogil=True)
 def _rotation(X, ranges, centre, scale, ustar, V, lin, floor, max_turn, least, mean_turn,
-              clean, bound):
+              clean, bound, lo, hi):
     """The rotation number of each selected mode j of each fit, from the projections
     z_k = vⱼᵀ(u_k − u*): the Birkhoff-weighted mean turning angle relative to
     ``lin`` (arg λ), where a pair's projections are above ``floor`` of their largest;
@@ -248,7 +258,7 @@ def _rotation(X, ranges, centre, scale, ustar, V, lin, floor, max_turn, least, m
     K, d = X.shape[1], X.shape[2]
     n = V.shape[3]
     floor2 = floor * floor
-    for p in prange(P):
+    for p in range(lo, hi):
         u = np.empty(d)
         z = np.empty(K, dtype=np.complex128)
         size = np.empty(K)
@@ -382,7 +392,8 @@ def record_extent(q, qdot):
     X = np.empty((P, K, 2 * n))
     Kv = np.empty(P, dtype=np.int64)
     amplitude = np.empty((P, n))
-    _valid_lengths(q, np.ascontiguousarray(qdot, dtype=float), np.ones(P), X, Kv, amplitude)
+    _over_points(_valid_lengths, q, np.ascontiguousarray(qdot, dtype=float), np.ones(P), X, Kv,
+                 amplitude)
     return amplitude, Kv
 
 
@@ -398,7 +409,7 @@ def _fits(X, ranges, Kv, n, *, modes=True):
     centre, scale, ub = (np.empty((P, F, d)) for _ in range(3))
     C0, C1 = np.empty((P, F, d, d)), np.empty((P, F, d, d))
     spread = np.empty((P, F))
-    _moments(X, ranges, centre, scale, ub, C0, C1, spread)
+    _over_points(_moments, X, ranges, centre, scale, ub, C0, C1, spread)
     m = ranges[..., 1] - ranges[..., 0]
     enough = m >= min_pairs(d)
     C0[~enough] = np.eye(d)
@@ -418,8 +429,8 @@ def _fits(X, ranges, Kv, n, *, modes=True):
         ustar[todo] = (np.linalg.pinv(np.eye(d) - Mt, rcond=RCOND) @ ub[todo][..., None])[..., 0]
     residual = np.full((P, 1 if modes else 0), np.nan)          # fit 0's only
     distance = np.empty((P, K if not modes else 0))
-    _residuals(X, Kv, ranges, centre, scale, ub, np.ascontiguousarray(M),
-               np.ascontiguousarray(ustar), residual, distance)
+    _over_points(_residuals, X, Kv, ranges, centre, scale, ub, np.ascontiguousarray(M),
+                 np.ascontiguousarray(ustar), residual, distance)
     if not modes:
         return dict(distance=distance)
     M[~np.isfinite(M).all(axis=(-2, -1))] = 0.0
@@ -437,8 +448,8 @@ def _fits(X, ranges, Kv, n, *, modes=True):
         growth = np.where(mode_ok, np.log(np.abs(lam_sel)), np.nan)
     mean_turn, bound = np.empty((P, F, n)), np.empty((P, F, n))
     clean = np.empty((P, F, n), dtype=np.bool_)
-    _rotation(X, ranges, centre, scale, np.ascontiguousarray(ustar), Vsel, lin, FLOOR,
-              MAX_TURN, min_pairs(d), mean_turn, clean, bound)
+    _over_points(_rotation, X, ranges, centre, scale, np.ascontiguousarray(ustar), Vsel, lin,
+                 FLOOR, MAX_TURN, min_pairs(d), mean_turn, clean, bound)
     refined = mode_ok & clean
     # folded into [0, π] (aliasing: e^(iρk) is e^(−iρk) and e^(i(ρ + 2π)k) as well)
     rho = np.abs(np.angle(np.exp(1j * np.where(refined, lin + mean_turn, lin))))
@@ -462,7 +473,8 @@ def estimate(q, qdot, period, *, safety, residual_factor, resonance, combination
     X = np.empty((P, K, d))
     Kv = np.empty(P, dtype=np.int64)
     amplitude = np.empty((P, n))
-    _valid_lengths(q, qdot, np.ascontiguousarray(period / (2 * np.pi)), X, Kv, amplitude)
+    _over_points(_valid_lengths, q, qdot, np.ascontiguousarray(period / (2 * np.pi)), X, Kv,
+                 amplitude)
     # the active part of the record: from the first to the last pair whose samples are
     # above FLOOR of the largest distance from the fixed point (a decayed tail is noise)
     pairs_end = np.maximum(Kv - 1, 0)

@@ -1,0 +1,63 @@
+"""Blocks of a compiled kernel on numba's thread count, by a pool of Python threads.
+
+The grid kernels (:mod:`lagrange_core._batch_kernels`, :mod:`lagrange_core._first_order_lanes`,
+``kapitza.chaos._lanes``, ``kapitza.floquet._kernels``) split their points into blocks and
+run each block with one call of a GIL-free (``nogil=True``) compiled function; the blocks
+go to the threads of a pool here, each taking the next block when it finishes (dynamic
+scheduling, as numba's ``prange`` with ``parallel_chunksize(1)``).
+
+Why not ``prange``: numba's parallel lowering compiles the loop's body as a gufunc with
+every kernel it calls linked into one LLVM module and optimised again — on an empty cache
+that cost more than the kernels themselves (measured 2026-11-26, exclusive compile time:
+``grid_rkn_lanes``'s wrapper 19 s, ``_monodromy_grid``'s 11 s, against 0.1–2 s for a
+serial wrapper).  Run time is the same: the blocks are seconds-long compiled calls, a
+pool's hand-off costs microseconds.
+
+A Ctrl-C while the blocks run waits for the running blocks (each is sized to a fraction
+of a second by its caller's step budget) before it is raised: the caller then reads
+results no thread is still writing — as numba's parallel region did, which Python's
+signal handler could only run after.
+"""
+from __future__ import annotations
+
+import concurrent.futures
+from collections.abc import Callable
+
+import numba
+
+__all__ = ["run_blocks", "thread_count"]
+
+_POOLS: dict[int, concurrent.futures.ThreadPoolExecutor] = {}
+
+
+def thread_count() -> int:
+    """The threads the grid kernels use: numba's (``NUMBA_NUM_THREADS``,
+    ``numba.set_num_threads``)."""
+    return int(numba.get_num_threads())
+
+
+def _pool(threads: int) -> concurrent.futures.ThreadPoolExecutor:
+    if threads not in _POOLS:
+        _POOLS[threads] = concurrent.futures.ThreadPoolExecutor(
+            threads, thread_name_prefix="lagrange-core-grid")
+    return _POOLS[threads]
+
+
+def run_blocks(work: Callable[[int], None], nblocks: int) -> None:
+    """``work(b)`` for every block b in range(nblocks), on :func:`thread_count` threads
+    (on the calling thread alone when that is 1 or there is one block).  ``work`` must
+    call a ``nogil`` kernel: with the GIL held the threads would run one at a time."""
+    threads = min(thread_count(), nblocks)
+    if threads <= 1:
+        for b in range(nblocks):
+            work(b)
+        return
+    futures = [_pool(threads).submit(work, b) for b in range(nblocks)]
+    try:
+        for future in futures:
+            future.result()
+    except BaseException:
+        for future in futures:          # (a Ctrl-C): let the running blocks finish
+            future.cancel()
+        concurrent.futures.wait(futures)
+        raise
