@@ -260,3 +260,45 @@ def test_ctrl_c_keeps_the_finished_sections(tmp_path, quick):
         assert SECTIONS[name] in res["page"].split("Incomplete")[1].split("</p>")[0]
     for x in _links(res["page"]):
         assert x.startswith("#") or (out / x).is_file()
+
+
+_SWALLOWING_CHILD = """
+import json, sys, time
+sys.path.insert(0, {root!r})
+from kapitza.report import ReportInterrupted, build_report
+from kapitza.report import _sections
+
+
+def swallowing(job):        # the Ctrl-C lost inside the section (as in a weakref callback)
+    print("ready", flush=True)
+    try:
+        time.sleep(30)
+    except KeyboardInterrupt:
+        pass
+    time.sleep(30)          # then a long computation that would see the next one
+    raise AssertionError("never stopped")
+
+
+_sections.BUILDERS["potential"] = swallowing
+try:
+    build_report(out={out!r}, quick=True, progress=False)
+    print(json.dumps({{"finished": True}}), flush=True)
+except ReportInterrupted as stop:
+    print(json.dumps({{"stopped": time.time(), "missing": list(stop.report.missing)}}),
+          flush=True)
+"""
+
+
+def test_a_ctrl_c_lost_inside_a_section_is_raised_again(tmp_path):
+    """A KeyboardInterrupt can vanish (Python only reports one raised in a weakref callback
+    or ``__del__``; a computation may catch it and go on): the report raises it again
+    into the section until it stops — here a section that swallows the first one stops
+    within REPEAT_AFTER (1 s) of the Ctrl-C, plus the child's own latency (without the
+    repeat: when its 60 s were up)."""
+    out = tmp_path / "r"
+    res, sent = interrupt_child(tmp_path, _SWALLOWING_CHILD.format(root=str(ROOT),
+                                                                   out=str(out)),
+                                delay=0.3, timeout=60)
+    assert "finished" not in res
+    assert res["stopped"] - sent < 2.0
+    assert "potential" in res["missing"]

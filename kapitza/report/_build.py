@@ -206,7 +206,8 @@ def _ctrl_c():
     """Ctrl-C while the report runs: raised at once inside a section ("armed"), only noted
     between sections (the page is never cut in the middle), and always noted in
     ``state["hit"]`` — a computation that catches the KeyboardInterrupt to return its
-    finished part (e.g. work_precision) still stops the report after its section.  Our
+    finished part (e.g. work_precision) still stops the report after its section, and a
+    section still running :data:`REPEAT_AFTER` s later gets it again (:func:`_repeat`).  Our
     own handler also keeps lagrange_core's ``defer_ctrl_c`` from holding the interrupt
     back where no chunk loop would see it."""
     state = {"armed": False, "hit": False}
@@ -215,6 +216,8 @@ def _ctrl_c():
         return
 
     def handler(signum, frame):
+        if state["armed"] and not state["hit"]:
+            threading.Thread(target=_repeat, args=(state,), daemon=True).start()
         state["hit"] = True
         if state["armed"]:
             raise KeyboardInterrupt
@@ -224,6 +227,36 @@ def _ctrl_c():
         yield state
     finally:
         signal.signal(signal.SIGINT, old)
+
+
+#: s after a Ctrl-C within which the running section must have ended before it is raised
+#: again into it
+REPEAT_AFTER = 1.0
+
+
+def _repeat(state):
+    """Raise the Ctrl-C again every :data:`REPEAT_AFTER` s while the section it hit still
+    runs.  A KeyboardInterrupt can be lost: raised while a weakref callback or a
+    ``__del__`` runs, Python reports it as "Exception ignored" and goes on (seen in the
+    suite: a WeakSet's callback), and a computation may catch it to return its finished
+    part and then keep going.  Never while numba compiles (an exception there leaves its
+    compiler broken for the process): then after it."""
+    from numba.core.compiler_lock import global_compiler_lock
+
+    def compiling():            # held by another thread (is_locked() asks for this one)
+        if global_compiler_lock._lock.acquire(blocking=False):
+            global_compiler_lock._lock.release()
+            return False
+        return True
+    while True:
+        time.sleep(REPEAT_AFTER)
+        while state["armed"] and compiling():
+            time.sleep(0.05)
+        if not state["armed"]:
+            return
+        # a real signal, to the main thread: it also ends a blocking wait there (EINTR),
+        # which _thread.interrupt_main's simulated one does not
+        signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
 
 
 def _run_sections(job, say, ctrl_c, t_start):
