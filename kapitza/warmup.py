@@ -119,7 +119,7 @@ def cold() -> bool:
     """Whether numba's cache lacks the shared kernels (a probe of a few of them)."""
     from lagrange_core import _batch_kernels, _integrator_kernels
     probes = [_integrator_kernels.fast_rkn_chunk, _integrator_kernels.dop853_chunk,
-              _batch_kernels.grid_dop853, _batch_kernels.grid_rkn_lanes]
+              _batch_kernels._dop853_rows, _batch_kernels._lanes_block]
     for dispatcher in probes:
         try:
             # an index with no entry: importing the module writes an empty one (the
