@@ -381,7 +381,8 @@ def exact_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inverted",
       is where the first tongue a_r(q) = a or b_(r+1)(q) = a is reached
       (r² < a < (r+1)²);
     * damped: |tr M_y(q)| = 1 + e^(−γT), with tr M from
-      :func:`mathieu_monodromy_trace` at tolerance tol/100, scanned in q (241
+      :func:`mathieu_monodromy_trace` at tolerance tol/100 (the scan's signs at 1e-8,
+      recomputed at tol/100 where the error could flip one), scanned in q (241
       log-spaced points, inverted; 401 linear, hanging) and every dip of the margin
       towards 0 between scan points resolved (:func:`_resolved_scan`): a stable interval
       (or an unstable tongue) narrower than the scan's spacing is found, down to the
