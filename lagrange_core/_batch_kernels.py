@@ -110,7 +110,7 @@ from ._kernel_calls import (
     call_rhs,
 )
 from ._lane_math import lane_sincos_rows
-from ._thread_blocks import run_blocks, thread_count
+from ._thread_blocks import run_blocks, run_rows
 
 #: per-point status (``GridTrajectories.status``)
 GRID_FINISHED, GRID_LEFT_BAND, GRID_UNDERFLOW, GRID_NON_FINITE, GRID_SINGULAR, \
@@ -685,20 +685,13 @@ def grid_second_order(ka, family, adaptive, pilot, hold_block, idx, Y0, P, TS, H
     held step); a point pauses after ``budget`` steps of this call, its state in row
     ``slot[k]`` of ``SAVE``/``SAVEI``, and resumes from it when that row is marked saved.
 
-    The points go in blocks to the threads of :func:`lagrange_core._thread_blocks.run_blocks`
-    (16 per thread: points end at different times), each block one GIL-free call.
+    The points go in blocks to the threads (:func:`lagrange_core._thread_blocks.run_rows`,
+    16 per thread: points end at different times), each block one GIL-free call.
     """
-    N = idx.shape[0]
-    step = max(1, N // (16 * thread_count()))
-
-    def work(blk):
-        lo = blk * step
-        _second_order_rows(ka, family, adaptive, pilot, hold_block, idx, Y0, P, TS, H, TSTR,
-                           REF, LO, HI, flags, rtol, atol, max_steps, c, A, b, bp,
-                           bh, bph, w, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT,
-                           COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI, lo,
-                           min(N, lo + step))
-    run_blocks(work, -(-N // step))
+    run_rows(_second_order_rows, idx.shape[0], ka, family, adaptive, pilot, hold_block, idx,
+             Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh,
+             bph, w, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget,
+             slot, SAVE, SAVEI, per_thread=16)
 
 
 @njit(cache=True, nogil=True)
@@ -1723,16 +1716,9 @@ def grid_dop853(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rt
 
     The points go in blocks to the threads, as :func:`grid_second_order`'s.
     """
-    N = idx.shape[0]
-    step = max(1, N // (16 * thread_count()))
-
-    def work(blk):
-        lo = blk * step
-        _dop853_rows(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol,
-                     atol, max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT,
-                     EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI,
-                     lo, min(N, lo + step))
-    run_blocks(work, -(-N // step))
+    run_rows(_dop853_rows, idx.shape[0], ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO,
+             HI, flags, rtol, atol, max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT,
+             EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI, per_thread=16)
 
 
 @njit(cache=True, nogil=True)

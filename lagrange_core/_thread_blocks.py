@@ -25,7 +25,7 @@ from collections.abc import Callable
 
 import numba
 
-__all__ = ["run_blocks", "thread_count"]
+__all__ = ["run_blocks", "run_rows", "thread_count"]
 
 _POOLS: dict[int, concurrent.futures.ThreadPoolExecutor] = {}
 
@@ -61,3 +61,13 @@ def run_blocks(work: Callable[[int], None], nblocks: int) -> None:
             future.cancel()
         concurrent.futures.wait(futures)
         raise
+
+
+def run_rows(kernel, npoints: int, *args, per_thread: int = 4) -> None:
+    """``kernel(*args, lo, hi)`` over the points 0 … npoints − 1 in about ``per_thread``
+    contiguous blocks per thread (more when the points' costs differ, so that the pool
+    balances them), by :func:`run_blocks`.  ``kernel`` is a ``nogil`` kernel taking the
+    block's bounds as its last two arguments."""
+    step = max(1, -(-npoints // (per_thread * thread_count())))
+    run_blocks(lambda b: kernel(*args, b * step, min(npoints, (b + 1) * step)),
+               -(-npoints // step))

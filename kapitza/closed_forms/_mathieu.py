@@ -304,16 +304,22 @@ _MARGIN_RESOLUTION = 1e-9
 _SCAN_TOL = 1e-8
 
 
+def _margin_and_error(log_abs_u, error, c, thr):
+    """The damped margin |tr M_y| − thr = e^(log|tr M_u| − πc/2) − thr and its error, from
+    :func:`mathieu_monodromy_trace`'s log|tr M_u| and error (relative to max(1, |tr M_u|));
+    arrays or scalars."""
+    value = np.exp(np.minimum(log_abs_u - math.pi * c / 2, 700.0)) - thr
+    return value, error * np.exp(np.minimum(np.maximum(log_abs_u, 0.0), 700.0) -
+                                 math.pi * c / 2)
+
+
 def _scanned_margin(margin, ap, c, thr, qs):
     """The damped margin |tr M_y| − thr at every scan point ``qs``: one parallel compiled
     call at :data:`_SCAN_TOL` (≈ 10× fewer RK4 steps than the full tolerance, on every
     core), then ``margin`` (full tolerance) where |value| ≤ 10 × its error estimate."""
     out = np.empty((qs.size, 1, 5))
     _trace_grid(np.array([ap], float), np.asarray(qs, float), _SCAN_TOL, 1 << 22, out)
-    log_abs = out[:, 0, 2] - math.pi * c / 2
-    vals = np.exp(np.minimum(log_abs, 700.0)) - thr
-    err = out[:, 0, 3] * np.exp(np.minimum(np.maximum(out[:, 0, 2], 0.0), 700.0) -
-                                math.pi * c / 2)
+    vals, err = _margin_and_error(out[:, 0, 2], out[:, 0, 3], c, thr)
     for k in np.flatnonzero(~(np.abs(vals) > 10.0 * err)):
         vals[k] = margin(float(qs[k]))
     return vals
@@ -451,10 +457,9 @@ def exact_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inverted",
             qs = np.concatenate([[0.0], np.geomspace(1e-4, 40.0, 240)]) if sign < 0 else \
                 np.linspace(0.0, 4 * abs(a) + 20, 400)
             def coarse(q, ap=ap, c=c, thr=thr):          # (margin, its error bound)
-                tr, la, err = mathieu_monodromy_trace(ap, q, 0.0, tol=_SCAN_TOL)
-                scale = math.exp(min(max(float(la), 0.0), 700.0) - math.pi * c / 2)
-                return (math.exp(min(float(la) - math.pi * c / 2, 700.0)) - thr,
-                        float(err) * scale)
+                _, la, err = mathieu_monodromy_trace(ap, q, 0.0, tol=_SCAN_TOL)
+                value, bound = _margin_and_error(float(la), float(err), c, thr)
+                return float(value), float(bound)
 
             vals = _scanned_margin(margin, ap, c, thr, qs)
             qs, vals, undecided = _resolved_scan(margin, qs, vals, tol, coarse)

@@ -36,7 +36,7 @@ from numba import njit, prange
 
 from lagrange_core import _kernel_calls
 from lagrange_core._kernel_calls import JACOBIAN, call_jacobian
-from lagrange_core._thread_blocks import run_blocks, thread_count
+from lagrange_core._thread_blocks import run_rows
 from lagrange_core.module_store import guard_numba_cache
 
 __all__ = ["SERIAL_BELOW", "floquet_sample_jacobian"]
@@ -259,17 +259,11 @@ def _monodromy_rows(C, S, K, omega, T, tol, order, half, M, logscale, error, ste
 def _monodromy_grid(C, S, K, omega, T, tol, order, half, M, logscale, error, steps):
     """Monodromy to tolerance for every grid point, on numba's thread count: the points in
     blocks, each block one GIL-free call of :func:`_monodromy_rows` on a thread
-    (:func:`lagrange_core._thread_blocks.run_blocks`; a ``prange`` loop here cost 11 s
+    (:func:`lagrange_core._thread_blocks.run_rows`; a ``prange`` loop here cost 11 s
     of the cold compile in numba's parallel lowering)."""
-    npts = C.shape[0]
     # 4 blocks per thread: the points' costs differ (steps per period), the pool balances
-    step = max(1, -(-npts // (4 * thread_count())))
-
-    def work(blk):
-        lo = blk * step
-        _monodromy_rows(C, S, K, omega, T, tol, order, half, M, logscale, error, steps, lo,
-                        min(npts, lo + step))
-    run_blocks(work, -(-npts // step))
+    run_rows(_monodromy_rows, C.shape[0], C, S, K, omega, T, tol, order, half, M, logscale,
+             error, steps)
 
 
 # numba's cache does not notice a change of the kernel slots the sampler calls

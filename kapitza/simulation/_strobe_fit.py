@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
-from lagrange_core._thread_blocks import run_blocks, thread_count
+from lagrange_core._thread_blocks import run_rows
 
 __all__ = ["estimate", "record_extent"]
 
@@ -48,15 +48,6 @@ FLOOR = 1e-3
 def min_pairs(d):
     """Fewest sample pairs one fit uses: 4 per unknown of a row of [M b] (d + 1)."""
     return 4 * (d + 1)
-
-
-def _over_points(kernel, *args):
-    """``kernel(*args, lo, hi)`` over the points (the first axis of ``args[0]``) in blocks
-    on numba's thread count (:func:`lagrange_core._thread_blocks.run_blocks`: GIL-free
-    calls, no ``prange`` — whose parallel lowering cost most of these kernels' compile)."""
-    P = args[0].shape[0]
-    step = max(1, -(-P // (4 * thread_count())))
-    run_blocks(lambda b: kernel(*args, b * step, min(P, (b + 1) * step)), -(-P // step))
 
 
 # -- compiled: the loops over samples ---------------------------------------------------------
@@ -392,8 +383,8 @@ def record_extent(q, qdot):
     X = np.empty((P, K, 2 * n))
     Kv = np.empty(P, dtype=np.int64)
     amplitude = np.empty((P, n))
-    _over_points(_valid_lengths, q, np.ascontiguousarray(qdot, dtype=float), np.ones(P), X, Kv,
-                 amplitude)
+    run_rows(_valid_lengths, P, q, np.ascontiguousarray(qdot, dtype=float), np.ones(P), X, Kv,
+             amplitude)
     return amplitude, Kv
 
 
@@ -409,7 +400,7 @@ def _fits(X, ranges, Kv, n, *, modes=True):
     centre, scale, ub = (np.empty((P, F, d)) for _ in range(3))
     C0, C1 = np.empty((P, F, d, d)), np.empty((P, F, d, d))
     spread = np.empty((P, F))
-    _over_points(_moments, X, ranges, centre, scale, ub, C0, C1, spread)
+    run_rows(_moments, P, X, ranges, centre, scale, ub, C0, C1, spread)
     m = ranges[..., 1] - ranges[..., 0]
     enough = m >= min_pairs(d)
     C0[~enough] = np.eye(d)
@@ -429,8 +420,8 @@ def _fits(X, ranges, Kv, n, *, modes=True):
         ustar[todo] = (np.linalg.pinv(np.eye(d) - Mt, rcond=RCOND) @ ub[todo][..., None])[..., 0]
     residual = np.full((P, 1 if modes else 0), np.nan)          # fit 0's only
     distance = np.empty((P, K if not modes else 0))
-    _over_points(_residuals, X, Kv, ranges, centre, scale, ub, np.ascontiguousarray(M),
-                 np.ascontiguousarray(ustar), residual, distance)
+    run_rows(_residuals, P, X, Kv, ranges, centre, scale, ub, np.ascontiguousarray(M),
+             np.ascontiguousarray(ustar), residual, distance)
     if not modes:
         return dict(distance=distance)
     M[~np.isfinite(M).all(axis=(-2, -1))] = 0.0
@@ -448,8 +439,8 @@ def _fits(X, ranges, Kv, n, *, modes=True):
         growth = np.where(mode_ok, np.log(np.abs(lam_sel)), np.nan)
     mean_turn, bound = np.empty((P, F, n)), np.empty((P, F, n))
     clean = np.empty((P, F, n), dtype=np.bool_)
-    _over_points(_rotation, X, ranges, centre, scale, np.ascontiguousarray(ustar), Vsel, lin,
-                 FLOOR, MAX_TURN, min_pairs(d), mean_turn, clean, bound)
+    run_rows(_rotation, P, X, ranges, centre, scale, np.ascontiguousarray(ustar), Vsel, lin,
+             FLOOR, MAX_TURN, min_pairs(d), mean_turn, clean, bound)
     refined = mode_ok & clean
     # folded into [0, π] (aliasing: e^(iρk) is e^(−iρk) and e^(i(ρ + 2π)k) as well)
     rho = np.abs(np.angle(np.exp(1j * np.where(refined, lin + mean_turn, lin))))
@@ -473,8 +464,8 @@ def estimate(q, qdot, period, *, safety, residual_factor, resonance, combination
     X = np.empty((P, K, d))
     Kv = np.empty(P, dtype=np.int64)
     amplitude = np.empty((P, n))
-    _over_points(_valid_lengths, q, qdot, np.ascontiguousarray(period / (2 * np.pi)), X, Kv,
-                 amplitude)
+    run_rows(_valid_lengths, P, q, qdot, np.ascontiguousarray(period / (2 * np.pi)), X, Kv,
+             amplitude)
     # the active part of the record: from the first to the last pair whose samples are
     # above FLOOR of the largest distance from the fixed point (a decayed tail is noise)
     pairs_end = np.maximum(Kv - 1, 0)
