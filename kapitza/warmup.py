@@ -173,6 +173,28 @@ def warmup(verbose: bool = False, *, processes: int | None = None) -> float:
     return time.perf_counter() - start
 
 
+#: this process's background compiles (:func:`start_background`), by group
+_BACKGROUND: dict = {}
+
+
+def wait_for(names) -> float:
+    """Wait until the background processes compiling the groups ``names`` have ended
+    (:func:`start_background`; at once when none runs), so that the kernels they compile
+    are loaded from the cache rather than compiled a second time on the same cores: in a
+    cold ``kapitza report`` the work–precision section compiled RKN 12's driver itself
+    (14 s) while the background process was compiling it.  Ctrl-C ends the wait
+    (KeyboardInterrupt).  Returns the seconds waited."""
+    start = time.perf_counter()
+    for name in names:
+        proc = _BACKGROUND.get(name)
+        while proc is not None and proc.poll() is None:
+            try:
+                proc.wait(timeout=0.1)
+            except subprocess.TimeoutExpired:
+                pass
+    return time.perf_counter() - start
+
+
 def start_background(names=("grids (dop853)", "report integrators")):
     """Compile the groups ``names`` on an empty cache, each in a background process of its
     own (the list of processes; None if the cache is warm); they are ended when this
@@ -188,6 +210,7 @@ def start_background(names=("grids (dop853)", "report integrators")):
         return None
     procs = [subprocess.Popen(_command([name]), stdout=subprocess.DEVNULL,
                               stderr=subprocess.DEVNULL) for name in names]
+    _BACKGROUND.update(zip(names, procs, strict=True))
 
     def end():
         for proc in procs:

@@ -37,7 +37,7 @@ KAPITZA_ROOMS = {
                   "pendulum", "scenes"},
     "report": {"", "results", "figures", "averaging", "floquet", "closed_forms",
                "simulation", "verification", "pendulum", "scenes", "animation", "chaos",
-               "continuation"},
+               "continuation", "warmup"},     # warmup: waits for its background compiles
     "cli": {"", "results", "figures", "averaging", "floquet", "closed_forms", "simulation",
             "verification", "pendulum", "scenes", "animation", "report", "chaos",
             "continuation", "warmup"},

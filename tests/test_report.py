@@ -302,3 +302,25 @@ def test_a_ctrl_c_lost_inside_a_section_is_raised_again(tmp_path):
     assert "finished" not in res
     assert res["stopped"] - sent < 2.0
     assert "potential" in res["missing"]
+
+
+def test_a_section_waits_for_the_background_compile_of_its_kernels(monkeypatch):
+    """On an empty cache the report's sections wait for the background process compiling
+    their kernels (kapitza.warmup.wait_for) instead of compiling them a second time beside
+    it: the wait lasts until the process ends, is immediate for a group that has none, and
+    every section that runs compiled kernels names an existing group."""
+    import importlib
+    import subprocess
+    import sys
+    import time
+
+    from kapitza.report._sections import COMPILED_IN
+    warm = importlib.import_module("kapitza.warmup")    # (kapitza.warmup is the function)
+    assert set(COMPILED_IN) <= set(SECTIONS)
+    assert {g for groups in COMPILED_IN.values() for g in groups} <= set(warm.GROUPS)
+    proc = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(1.0)"])
+    monkeypatch.setitem(warm._BACKGROUND, "report integrators", proc)
+    assert warm.wait_for(("grids (dop853)",)) < 0.05            # none running
+    start = time.perf_counter()
+    waited = warm.wait_for(COMPILED_IN["work_precision"])
+    assert proc.poll() is not None and 0.5 < waited <= time.perf_counter() - start + 1e-9

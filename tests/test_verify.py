@@ -238,3 +238,38 @@ def test_modes_adds_the_axis_of_one_coordinate(pendulum):
     x = pendulum.modes("omega_slow_averaging_2")
     assert x.shape == pendulum.shape + (1,)
     np.testing.assert_array_equal(x[..., 0], pendulum.omega_slow_averaging_2)
+
+
+@pytest.mark.parametrize("damping,about", [(0.0, "inverted"), (0.4, "inverted"),
+                                           (0.3, "hanging")])
+def test_the_pendulums_floquet_from_mathieu_equals_the_general_monodromys(damping, about):
+    """KapitzaPendulum.verify takes Floquet's numbers from the Mathieu equation's trace
+    (closed_forms._floquet); they equal floquet_grid's (the general monodromy of the
+    system's Jacobian) — verdict, boundary label, Ω within the sum of both stated errors,
+    multipliers to 1e-9 — over a grid that crosses both edges of the window and, hanging,
+    the parametric resonance near 2ω0; the trace equals scipy's monodromy's."""
+    from kapitza.closed_forms import pendulum_floquet
+    from kapitza.verification._verify import _floquet_fields
+
+    from helpers import pendulum_monodromy
+    pend = KapitzaPendulum(l=L, g=G, damping=damping)
+    A = np.array([0.005, 0.02, 0.05, 0.1, 0.2, 0.4, 0.6])[:, None]
+    omega = np.array([1.9 * W0, 2.05 * W0, 40.0, 90.0])[None, :]
+    A, omega = np.broadcast_arrays(A, omega)
+    ours = pendulum_floquet(A, omega, l=L, g=G, damping=damping, about=about)
+    grid = kapitza.floquet_grid(pend.system, pend.params(A, omega),
+                                [math.pi if about == "inverted" else 0.0])
+    stable, slow, slow_tol, _ = _floquet_fields(grid)
+    assert (ours.stable == stable).all() and ours.stable.any() and (~ours.stable).any()
+    assert (ours.label == np.asarray(grid.label)).all()
+    both = ours.stable
+    assert np.all(np.abs(ours.omega_slow[both] - slow[..., 0][both])
+                  <= ours.omega_slow_error[both] + slow_tol[..., 0][both])
+    # small but for the √δ turn at the edges, where sin ΩT → 0
+    assert np.median(ours.omega_slow_error[both] / ours.omega_slow[both]) < 1e-8
+    assert np.allclose(np.sort_complex(ours.multipliers),
+                       np.sort_complex(np.asarray(grid.multipliers)), rtol=1e-9, atol=1e-12)
+    sign = -1 if about == "inverted" else 1
+    for i, j in [(2, 2), (5, 3), (0, 1), (3, 0)]:
+        reference = np.trace(pendulum_monodromy(A[i, j], omega[i, j], sign, gamma=damping))
+        assert ours.trace[i, j] == pytest.approx(reference, rel=1e-8, abs=1e-10)

@@ -254,7 +254,11 @@ def pendulum_animation(path, *, A: float, omega: float, l: float = 1.0, g: float
                          f"pendulum upright at omega = {omega:.6g} rad/s "
                          f"(ω/ω0 = {omega / pend.omega0:.4g}): A_min = {A_min:.6g} m, "
                          f"A_max = {A_max:.6g} m (exact, Floquet); {fix}.")
-    stable = (bool(pend.floquet(A, omega).stable), bool(pend.floquet(A_fall, omega).stable))
+    # Floquet's verdicts from Mathieu's trace (= pend.floquet's, tests/test_verify.py),
+    # without compiling the general Floquet kernels for a first animation
+    from ..closed_forms import pendulum_floquet
+    stable = tuple(bool(s) for s in pendulum_floquet(np.array([A, A_fall]), omega, l=l, g=g,
+                                                     damping=damping).stable)
     if stable[1]:
         raise ValueError(f"{where}A_fall = {A_fall:.6g} m lies inside the window A_min = "
                          f"{A_min:.6g} m < A < A_max = {A_max:.6g} m, so the right-hand "

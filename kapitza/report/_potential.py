@@ -100,11 +100,15 @@ def _pendulum_potential(job: Job) -> SectionResult:
 
 
 def _vertical_caption(job, first, pred, order) -> str:
+    from ..closed_forms import pendulum_floquet_point
     pend, A, w = job.pend, job.A, job.omega
     which = job.pend_about
     name = f"{state_name(job)} {upright(job)}"
     eq1, eq = first[which], pred[which]
-    exact = pend.floquet(A, w, about=which)
+    # Floquet's numbers from Mathieu's trace: those of pend.floquet (tests/test_verify.py),
+    # without compiling the general Floquet kernels (~20 s of a cold first report)
+    exact = pendulum_floquet_point(A, w, l=pend.l, g=pend.g, damping=pend.damping,
+                                   about=which)
     depth = _well_depth(lambda th: pend.effective_potential(A, w, theta=th),
                         math.pi if which == "inverted" else 0.0)
     text = (f"At A = {A:g} m and ω = {w:g} rad/s (A/l = {A / pend.l:.3g}, ω/ω0 = "

@@ -19,7 +19,8 @@ averaging (next order)
     fields are None, and ``notes`` says so.
 Floquet
     :func:`kapitza.floquet_grid` about the equilibrium: the exact linear stability, and
-    Ω = arg λ / T from the multipliers.
+    Ω = arg λ / T from the multipliers (the vertically driven pendulum: the same from its
+    Mathieu equation's monodromy trace, :mod:`kapitza.closed_forms._floquet`).
 simulation
     :func:`kapitza.measure_grid` (the pendulum: :meth:`kapitza.KapitzaPendulum.measure_grid`)
     released at rest a small offset from the equilibrium: stable = stayed within the
@@ -121,7 +122,7 @@ from lagrange_core.checks import real_array
 
 from .. import _arguments as arguments
 from ..averaging import average
-from ..closed_forms import mathieu_parameters, pendulum_averaged, pendulum_window
+from ..closed_forms import mathieu_parameters, pendulum_averaged, pendulum_floquet, pendulum_window
 from ..floquet import floquet_grid
 from ..results import OrderFit, Verification
 from ..simulation import DEFAULT_PERIODS, measure_grid
@@ -523,16 +524,22 @@ def pendulum_verification(A, omega, measured, *, system, params, l, g, damping, 
     about θ = π, ``system`` and ``params(A, omega)`` the pendulum's system and its
     parameter dict, ``l``, ``g``, ``damping`` its constants; ``tol``, ``rtol``, ``line``
     and ``progress`` as for :func:`verify` (the default line: A ω = 2√(g l), ε = ω0/ω).
-    Averaging in closed form at first and next order, Floquet through
-    :func:`kapitza.floquet_grid`, boundary distances to the exact window's edges.
+    Averaging in closed form at first and next order, Floquet from the Mathieu equation's
+    monodromy trace (:mod:`kapitza.closed_forms._floquet`: the numbers of
+    :func:`kapitza.floquet_grid` for this system), boundary distances to the exact window's
+    edges.
     """
     line = line_argument(line)
     S = measured.shape
     A, omega = (np.array(np.broadcast_to(x, S), dtype=float) for x in (A, omega))
     w0 = math.sqrt(g / l)
     constants = dict(l=l, g=g, damping=damping)
-    stable_fl, omega_fl, tol_fl, margin = _floquet_fields(
-        floquet_grid(system, params(A, omega), [math.pi], tol=tol, progress=progress))
+    # the general monodromy's numbers from Mathieu's trace (closed_forms._floquet: equal to
+    # floquet_grid's within their error bounds, tests/test_verification.py), without
+    # compiling the general Floquet kernels (~20 s of a first report on an empty cache)
+    exact = pendulum_floquet(A, omega, l=l, g=g, damping=damping, about="inverted", tol=tol)
+    stable_fl, omega_fl, tol_fl, margin = (exact.stable, exact.omega_slow[..., None],
+                                           exact.omega_slow_error[..., None], exact.margin)
     avg = _pendulum_averaging(A, omega, **constants)
     sim = _simulation_fields(measured, [math.pi], rtol)
     stable_sim, omega_sim, tol_sim, amp = sim[:4]
@@ -601,8 +608,10 @@ def _pendulum_line(system, params, w0, tol, line, constants):
     else:
         velocity, w_line = line
     a_line = velocity / w_line
-    stable_fl, omega_fl, tol_fl, _ = _floquet_fields(
-        floquet_grid(system, params(a_line, w_line), [math.pi], tol=tol, progress=False))
+    exact = pendulum_floquet(a_line, w_line, l=l, g=g, damping=constants["damping"],
+                             about="inverted", tol=tol)
+    stable_fl, omega_fl, tol_fl = (exact.stable, exact.omega_slow[:, None],
+                                   exact.omega_slow_error[:, None])
     omega_fl = np.where(stable_fl[:, None], omega_fl, np.nan)
     avg = _pendulum_averaging(a_line, w_line, **constants)
     kappa = velocity / math.sqrt(g * l)
