@@ -31,7 +31,7 @@ BUILDERS = {"potential": potential_section, "map": map_section, "spots": spots_s
 #: Section name → the groups of :mod:`kapitza.warmup` whose kernels it runs: on an empty
 #: cache ``kapitza report`` compiles them in background processes
 #: (:func:`kapitza.warmup.start_background`), and a section waits for its groups' process
-#: instead of compiling the same kernels beside it (cold report 43.5 → … s, 2026-11-26).
+#: instead of compiling the same kernels beside it (the cold report 43.5 → 42.0 s, 2026-11-26).
 COMPILED_IN = {"spots": ("grids (dop853)",), "slow": ("grids (dop853)",),
                "verification": ("grids (dop853)",),
                "work_precision": ("report integrators",), "animation": ("report integrators",)}
