@@ -644,12 +644,14 @@ class KapitzaPendulum:
             Drive periods simulated, the integration's tolerance and method
             (:meth:`measure_grid`; stayed up: |θ − π| < π/2 throughout).
         tol : float
-            Floquet's tolerance, and the exact window's.
+            Floquet's tolerance (the trace of the Mathieu equation's monodromy, relative to
+            max(1, |tr|): the numbers of :func:`kapitza.floquet_grid` for this system),
+            and the exact window's.
         line : None, False or (velocity, omega)
             Where the order of averaging is fitted (None: A ω = 2√(g l), ε = ω0/ω from
             0.1 to 1/300; False: no fit); see :mod:`kapitza.verification`.
         progress
-            As for :meth:`measure_grid` (the simulations and the Floquet grid).
+            As for :meth:`measure_grid` (the simulations).
 
         Returns
         -------
@@ -682,7 +684,5 @@ class KapitzaPendulum:
         measured = self.measure_grid(A, omega, theta0, theta_dot0, periods=periods,
                                      about="inverted", method=method, rtol=rtol,
                                      progress=progress, observables=("omega_slow", "amplitude"))
-        return pendulum_verification(A, omega, measured, system=self.system,
-                                     params=self.params, l=self.l, g=self.g,
-                                     damping=self.damping, tol=tol, rtol=rtol, line=line,
-                                     progress=progress)
+        return pendulum_verification(A, omega, measured, l=self.l, g=self.g,
+                                     damping=self.damping, tol=tol, rtol=rtol, line=line)

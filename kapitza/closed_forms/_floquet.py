@@ -26,7 +26,7 @@ import numpy as np
 
 from ._mathieu import mathieu_monodromy_trace, mathieu_parameters
 
-__all__ = ["pendulum_floquet"]
+__all__ = ["pendulum_floquet", "pendulum_floquet_point"]
 
 #: boundary labels, as kapitza.floquet's: 0 stable, 1 beyond +1 ("T"), 2 beyond −1 ("2T")
 BOUNDARIES = ("stable", "T", "2T")
@@ -105,4 +105,3 @@ def pendulum_floquet_point(A, omega, *, l, g, damping=0.0, about="inverted", tol
                            omega_slow=float(r.omega_slow),
                            omega_slow_error=float(r.omega_slow_error),
                            margin=float(r.margin), period=float(r.period))
-

@@ -514,16 +514,15 @@ def _general_line(avg, system, fixed, about, amplitude, frequency, A, omega, sta
 
 # -- the pendulum ----------------------------------------------------------------------------
 
-def pendulum_verification(A, omega, measured, *, system, params, l, g, damping, tol=1e-10,
-                          rtol=1e-9, line=None, progress=None) -> Verification:
+def pendulum_verification(A, omega, measured, *, l, g, damping, tol=1e-10, rtol=1e-9,
+                          line=None) -> Verification:
     """The upright pendulum's verification from its simulations (the vertical drive).
 
     The work behind :meth:`kapitza.KapitzaPendulum.verify`, which simulates and calls
     this: ``A``, ``omega`` (broadcast to ``measured``'s shape), ``measured`` the
     :class:`~kapitza.results.Measurement` of :meth:`~kapitza.KapitzaPendulum.measure_grid`
-    about θ = π, ``system`` and ``params(A, omega)`` the pendulum's system and its
-    parameter dict, ``l``, ``g``, ``damping`` its constants; ``tol``, ``rtol``, ``line``
-    and ``progress`` as for :func:`verify` (the default line: A ω = 2√(g l), ε = ω0/ω).
+    about θ = π, ``l``, ``g``, ``damping`` the pendulum's constants; ``tol`` (Floquet's),
+    ``rtol`` and ``line`` as for :func:`verify` (the default line: A ω = 2√(g l), ε = ω0/ω).
     Averaging in closed form at first and next order, Floquet from the Mathieu equation's
     monodromy trace (:mod:`kapitza.closed_forms._floquet`: the numbers of
     :func:`kapitza.floquet_grid` for this system), boundary distances to the exact window's
@@ -535,7 +534,7 @@ def pendulum_verification(A, omega, measured, *, system, params, l, g, damping, 
     w0 = math.sqrt(g / l)
     constants = dict(l=l, g=g, damping=damping)
     # the general monodromy's numbers from Mathieu's trace (closed_forms._floquet: equal to
-    # floquet_grid's within their error bounds, tests/test_verification.py), without
+    # floquet_grid's within their error bounds, tests/test_verify.py), without
     # compiling the general Floquet kernels (~20 s of a first report on an empty cache)
     exact = pendulum_floquet(A, omega, l=l, g=g, damping=damping, about="inverted", tol=tol)
     stable_fl, omega_fl, tol_fl, margin = (exact.stable, exact.omega_slow[..., None],
@@ -563,7 +562,7 @@ def pendulum_verification(A, omega, measured, *, system, params, l, g, damping, 
              "window)"]
     fits = ()
     if line is not False:
-        fits = _pendulum_line(system, params, w0, tol, line, constants)
+        fits = _pendulum_line(w0, tol, line, constants)
     return Verification(
         A=A, omega=omega, about="inverted", length=l, omega0=w0,
         stable_averaging=avg[0], stable_averaging_2=avg[1], stable_floquet=stable_fl,
@@ -600,7 +599,7 @@ def _pendulum_averaging(A, omega, *, l, g, damping):
     return stable1, stable2, omega1, omega2, tol1, tol2, valid1, valid2
 
 
-def _pendulum_line(system, params, w0, tol, line, constants):
+def _pendulum_line(w0, tol, line, constants):
     """The order of first- and next-order averaging along A ω = const: (OrderFit, OrderFit)."""
     g, l = constants["g"], constants["l"]
     if line is None:
