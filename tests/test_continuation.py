@@ -527,3 +527,65 @@ def test_neimark_sacker_of_coupled_pendulums_against_scipy_and_simulation():
         size = np.hypot(np.abs(run.q).max(axis=1), T * np.abs(run.qdot).max(axis=1))
         growth.append(size[-100:].max() / size[:100].max())     # over ~700 periods
     assert growth[0] < 0.3 and growth[1] > 3.0, growth
+
+
+def test_rotating_orbits_continued_through_their_fold():
+    """The damped pendulum on a vertically shaken pivot (studies/period_doubling.py's,
+    ω = 2ω0, γ = 0.1 ω) whirls once per drive period at A = 0.35762 m
+    (tests/test_orbit_shooting.py).  Continued with ``winding=1`` down in A, the rotating
+    branch turns at a fold — where whirling is born — and comes back unstable; up in A it
+    period-doubles.  Checked independently: every point is ``periodic_orbit(winding=1)``'s
+    orbit at its A (to 1e-9); the fold's A is where the stable and unstable rotating orbits
+    of ``periodic_orbit`` meet (their distance² is linear in A − A_fold: extrapolated to
+    1e-6 relative); the period doubling lies where periodic_orbit's multiplier crosses −1;
+    direct simulation whirls at 1.02 A_fold and stops whirling at 0.98 A_fold."""
+    g, l = 9.81, 1.0
+    omega = 2 * math.sqrt(g / l)
+    T = 2 * math.pi / omega
+    system = problems.driven_pendulum("vertical", damping=True)
+
+    def params(A):
+        return dict(m=1.0, l=l, g=g, omega=omega, gamma=0.1 * omega, A=float(A))
+    start = kapitza.periodic_orbit(system, params(0.35762), [2.61955, 5.34930], winding=1)
+    assert start.stable and "rotating" in start.method
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")          # nothing to warn about on this branch
+        down = continuation(system, params(0.35762), start.state, parameter="A", stop=0.1,
+                            winding=1, progress=False)
+        up = continuation(system, params(0.35762), start.state, parameter="A", stop=0.5,
+                          winding=1, progress=False)
+    assert [b.kind for b in down.bifurcations] == ["fold"]
+    assert [b.kind for b in up.bifurcations][:1] == ["period_doubling"]
+    fold, doubling = down.bifurcations[0], up.bifurcations[0]
+    pts = down.points
+    assert pts.stable[0] and not pts.stable[-1]          # stable, then unstable past the fold
+    # every point: periodic_orbit's rotating orbit at its A
+    for i in range(0, len(pts.parameter), 7):
+        orbit = kapitza.periodic_orbit(system, params(pts.parameter[i]), pts.state[i],
+                                       winding=1)
+        assert np.max(np.abs(orbit.state - pts.state[i])) < 1e-9
+    # the fold: the two rotating orbits of periodic_orbit meet there, d² ∝ A − A_fold
+    stable_side = np.flatnonzero(pts.stable)
+    unstable_side = np.flatnonzero(~pts.stable)
+    d2, amps = [], fold.parameter * (1 + np.array([2e-4, 4e-4, 6e-4]))
+    for a in amps:
+        near_s = stable_side[np.argmin(np.abs(pts.parameter[stable_side] - a))]
+        near_u = unstable_side[np.argmin(np.abs(pts.parameter[unstable_side] - a))]
+        s_orbit = kapitza.periodic_orbit(system, params(a), pts.state[near_s], winding=1)
+        u_orbit = kapitza.periodic_orbit(system, params(a), pts.state[near_u], winding=1)
+        assert s_orbit.stable and not u_orbit.stable
+        d2.append(np.sum((s_orbit.state - u_orbit.state) ** 2))
+    slope, intercept = np.polyfit(amps, d2, 1)
+    assert -intercept / slope == pytest.approx(fold.parameter, rel=1e-6)
+    # the period doubling: periodic_orbit's multiplier crosses −1 there
+    for side, factor in ((1, 0.999), (-1, 1.001)):
+        orbit = kapitza.periodic_orbit(system, params(factor * doubling.parameter),
+                                       doubling.state, winding=1)
+        assert side * (np.min(orbit.multipliers.real) + 1.0) > 0
+    # direct simulation: whirling just above the fold, none just below
+    for factor, whirls in ((1.02, True), (0.98, False)):
+        run = system.simulate(fold.state[:1], fold.state[1:], (0.0, 300 * T),
+                              params(factor * fold.parameter), rtol=1e-10,
+                              t_eval=np.arange(280, 301) * T)
+        turns = np.diff(run.q[:, 0]) / (2 * math.pi)
+        assert np.allclose(turns, 1.0, atol=1e-3) == whirls

@@ -147,7 +147,10 @@ def _locate(engine, pm, cur, new, f, *, fold=False):
         s = np.array([h.sigma for h in history[-3:]])
         p = np.array([h.p for h in history[-3:]])
         if len(set(s.tolist())) == 3:
-            curv = abs(np.polyfit(s, p, 2)[0])
+            # the parabola through the three: its leading coefficient, the second divided
+            # difference (np.polyfit warned "poorly conditioned" on points this close)
+            curv = abs(((p[2] - p[1]) / (s[2] - s[1]) - (p[1] - p[0]) / (s[1] - s[0]))
+                       / (s[2] - s[0]))
             acc += curv * (a.sigma - b.sigma) ** 2
     acc = max(acc, 4 * np.finfo(float).eps * abs(best.p))
     return best, acc

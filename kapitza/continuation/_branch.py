@@ -214,12 +214,13 @@ class Engine:
         return branch
 
     # -- starting ----------------------------------------------------------------------
-    def start(self, x0, p0, stop, *, periods, step, max_step, max_points):
-        """The branch through the orbit nearest x0 at p0, followed towards ``stop``."""
+    def start(self, x0, p0, stop, *, periods, step, max_step, max_points, winding=None):
+        """The branch through the orbit nearest x0 at p0 (rotating ``winding`` turns per
+        coordinate over ``periods``, or None), followed towards ``stop``."""
         self.options = dict(step=step, max_step=max_step, max_points=max_points)
         p_scale = abs(stop - p0)
         pm = PeriodMap(self.system, self.params, self.parameter, self.frequency, periods,
-                       self.tol, p0, p_scale)
+                       self.tol, p0, p_scale, winding=winding)
         v0 = pm.scaled(x0, p0)
         ev = pm.evaluate(v0)
         if ev is None:

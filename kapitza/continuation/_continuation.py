@@ -5,7 +5,9 @@ Method
 ------
 *Shooting.*  A T-periodic orbit (nT with ``periods=n``) is a root x of
 F(x, p) = φ_nT(x; p) − x, x the state [q, q̇] at the drive's phase zero; an equilibrium
-that persists under the drive is one too (F ≡ 0 there).  φ and its Jacobian M (the
+that persists under the drive is one too (F ≡ 0 there).  A rotating orbit, q(t + nT) =
+q(t) + 2π k (``winding=k``: a pendulum whirling in step with the drive), is a root of
+F − (2π k, 0); its branch's doubled orbits turn 2k times over 2n periods.  φ and its Jacobian M (the
 monodromy, whose eigenvalues are the Floquet multipliers) come from the variational
 equations on the system's exact compiled Jacobian (:func:`lagrange_core.variational.flow`);
 ∂F/∂p is a forward difference at the same step count (:mod:`._shooting`).
@@ -63,6 +65,21 @@ def _number(name, value, *, positive=False):
     return float(value)
 
 
+def _winding(n, winding):
+    """The turns per coordinate over the orbit (floats holding whole numbers), or None."""
+    try:
+        k = np.asarray(winding, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        k = np.array([math.nan])
+    if isinstance(winding, bool) or k.size not in (1, n) or not np.all(np.isfinite(k)) \
+            or np.any(k != np.round(k)):
+        raise ValueError(f"continuation: winding must be a whole number of turns (or one per "
+                         f"coordinate, {n} numbers): q(t + periods·T) = q(t) + 2π·winding; "
+                         f"got {winding!r}.")
+    k = np.broadcast_to(k, (n,)).copy()
+    return k if k.any() else None
+
+
 def _about(system, about):
     n = system.n_dof
     if isinstance(about, Mapping):
@@ -84,7 +101,7 @@ def _about(system, about):
     return x
 
 
-def continuation(system, params, about, *, parameter="A", stop, periods=1,
+def continuation(system, params, about, *, parameter="A", stop, periods=1, winding=0,
                  frequency="omega", step=None, max_step=None, max_points=500, tol=1e-10,
                  progress=None) -> Branch:
     """Follow a branch of T- (or nT-) periodic orbits of a driven system in one parameter.
@@ -111,6 +128,11 @@ def continuation(system, params, about, *, parameter="A", stop, periods=1,
         Follow the branch while the parameter stays between its start and ``stop``.
     periods : int
         Orbits of ``periods`` drive periods.
+    winding : int or sequence of int
+        Rotating orbits: q(t + periods·T) = q(t) + 2π·winding (one whole number per
+        coordinate, or one for all; 0, the default: orbits that return to themselves).
+        Their ``mean`` and ``amplitude`` in ``points`` are those of q(t) − 2π·winding·t /
+        (periods·T), the uniform rotation removed (as :func:`kapitza.periodic_orbit`'s).
     frequency : str
         The drive's angular-frequency parameter (rad/s).
     step : float, optional
@@ -196,6 +218,7 @@ def continuation(system, params, about, *, parameter="A", stop, periods=1,
         raise ValueError(f"continuation: max_step = {max_step!r} is smaller than step = "
                          f"{step!r}.")
     x0 = _about(system, about)
+    turns = _winding(system.n_dof, winding)
     engine = Engine(system, params, parameter, frequency, float(tol), progress)
     return engine.start(x0, p0, stop, periods=int(periods), step=step, max_step=max_step,
-                        max_points=int(max_points))
+                        max_points=int(max_points), winding=turns)

@@ -93,18 +93,22 @@ def orbit_statistics(pm, x, p):
     """(q_mean, amplitude) of the orbit from x at parameter p: the mean of q and half its
     peak-to-peak range over the orbit's period, from 64 samples per drive period (the
     trapezoid rule over whole periods: exact for a band-limited orbit) of a DOP853 run at
-    rtol 1e-10; a rest state that persists under the drive is its own mean, amplitude 0."""
+    rtol 1e-10; a rest state that persists under the drive is its own mean, amplitude 0.
+    A rotating orbit's are those of q(t) − 2π·winding·t/(periods·T), the uniform rotation
+    removed (as :func:`kapitza.periodic_orbit`'s)."""
     system, n = pm.system, pm.n
     P = pm.parameters(p)
     T = pm.period(p)
-    if _persists(system, P, x, T):
+    rotation = pm.shift[:n]
+    if not rotation.any() and _persists(system, P, x, T):
         return x[:n].copy(), np.zeros(n)
     params = dict(zip(system.parameters, P.tolist(), strict=True))
     m = 64 * pm.periods
+    times = np.linspace(0.0, T, m + 1)
     try:
-        tr = system.simulate(x[:n], x[n:], (0.0, T), params, t_eval=np.linspace(0.0, T, m + 1),
-                             rtol=1e-10, method="dop853")
-        qs = np.asarray(tr.q)[:-1]
+        tr = system.simulate(x[:n], x[n:], (0.0, T), params, t_eval=times, rtol=1e-10,
+                             method="dop853")
+        qs = np.asarray(tr.q)[:-1] - rotation * (times[:-1, None] / T)
     except (ValueError, FloatingPointError, ArithmeticError):
         return np.full(n, math.nan), np.full(n, math.nan)
     return qs.mean(axis=0), 0.5 * (qs.max(axis=0) - qs.min(axis=0))

@@ -12,9 +12,10 @@ measured in this norm; tolerances and results are in the original units.
 
 The map
 -------
-G(v) = D (φ_T(x; p) − x), with φ_T the flow over ``periods`` drive periods T = 2π/ω
-(ω the frequency parameter, which may itself be the continued one).  The flow and its
-Jacobian M = ∂φ_T/∂x (the monodromy at a periodic orbit) come from the variational
+G(v) = D (φ_T(x; p) − x − σ), with φ_T the flow over ``periods`` drive periods T = 2π/ω
+(ω the frequency parameter, which may itself be the continued one) and σ = (2π k, 0) the
+shift of a rotating orbit that turns k times over them (``winding``; σ = 0 otherwise).
+The flow and its Jacobian M = ∂φ_T/∂x (the monodromy at a periodic orbit) come from the variational
 equations (:func:`lagrange_core.variational.flow`: 8th-order steps on the exact compiled
 Jacobian, step count doubled until two counts agree to ``tol``/100, at least 1e-13).
 ∂G/∂p is a forward difference of the flow at the same fixed step count (the discrete
@@ -61,7 +62,8 @@ class CorrectorFailed(Exception):
 @dataclass(frozen=True, eq=False)
 class Evaluation:
     """The period map at one point v = (z, s): x, p, φ_T(x), the monodromy M (unscaled),
-    the flow's error estimate and step count, and the scaled residual G."""
+    the flow's error estimate and step count, the scaled residual G and the shift σ of a
+    rotating orbit (zero otherwise)."""
 
     v: np.ndarray
     x: np.ndarray
@@ -71,11 +73,12 @@ class Evaluation:
     error: float
     steps: int
     G: np.ndarray
+    shift: np.ndarray
 
     @property
     def residual(self) -> float:
-        """|φ_T(x) − x|∞ in the original units (rad, rad/s)."""
-        return float(np.max(np.abs(self.y1 - self.x)))
+        """|φ_T(x) − x − σ|∞ in the original units (rad, rad/s)."""
+        return float(np.max(np.abs(self.y1 - self.x - self.shift)))
 
 
 class PeriodMap:
@@ -83,10 +86,13 @@ class PeriodMap:
     fixed at its value in ``params``; scaled variables as in the module docstring."""
 
     def __init__(self, system, params, parameter, frequency, periods, tol, p0, p_scale,
-                 omega_ref=None):
+                 omega_ref=None, winding=None):
         self.system = system
         self.n = system.n_dof
         self.d = 2 * self.n
+        # a rotating orbit: q(t + periods·T) = q(t) + 2π·winding
+        turns = np.zeros(self.n) if winding is None else np.asarray(winding, dtype=float)
+        self.shift = np.r_[2 * math.pi * turns, np.zeros(self.n)]
         names = list(system.parameters)
         self.row = system.parameter_array(params)
         self.column = names.index(parameter)
@@ -116,6 +122,7 @@ class PeriodMap:
         other = PeriodMap.__new__(PeriodMap)
         other.__dict__.update(self.__dict__)
         other.periods = int(periods)
+        other.shift = self.shift * (other.periods / self.periods)   # turns ∝ periods
         other._half = None
         other.steps = self.steps * periods // self.periods or 32
         return other
@@ -172,7 +179,7 @@ class PeriodMap:
         self.steps = fl.steps
         return Evaluation(v=np.array(v, float), x=x, p=p, y1=fl.y1, M=fl.jacobian,
                           error=float(fl.error_estimate), steps=fl.steps,
-                          G=self.D * (fl.y1 - x))
+                          G=self.D * (fl.y1 - x - self.shift), shift=self.shift)
 
     def jacobian_z(self, ev) -> np.ndarray:
         """∂G/∂z = D (M − I) D⁻¹."""
