@@ -537,7 +537,8 @@ def test_rotating_orbits_continued_through_their_fold():
     period-doubles.  Checked independently: every point is ``periodic_orbit(winding=1)``'s
     orbit at its A (to 1e-9); the fold's A is where the stable and unstable rotating orbits
     of ``periodic_orbit`` meet (their distance² is linear in A − A_fold: extrapolated to
-    1e-6 relative); the period doubling lies where periodic_orbit's multiplier crosses −1;
+    1e-6 relative); the period doubling lies where periodic_orbit's multiplier crosses −1
+    and the branch born there whirls twice per two periods, unevenly;
     direct simulation whirls at 1.02 A_fold and stops whirling at 0.98 A_fold."""
     g, l = 9.81, 1.0
     omega = 2 * math.sqrt(g / l)
@@ -582,6 +583,17 @@ def test_rotating_orbits_continued_through_their_fold():
         orbit = kapitza.periodic_orbit(system, params(factor * doubling.parameter),
                                        doubling.state, winding=1)
         assert side * (np.min(orbit.multipliers.real) + 1.0) > 0
+    # the branch born at the period doubling whirls twice in two periods, unevenly
+    two = up.switch(doubling)
+    assert two.periods == 2 and two.status == "completed"
+    k = len(two.points.parameter) // 2
+    a, y = two.points.parameter[k], two.points.state[k]
+    run = system.simulate(y[:1], y[1:], (0.0, 4 * T), params(a), rtol=1e-11,
+                          t_eval=np.arange(5) * T)
+    turns = np.diff(run.q[:, 0]) / (2 * math.pi)
+    assert np.allclose(turns[0::2] + turns[1::2], 2.0, atol=1e-6)      # 2 turns per 2T
+    assert np.allclose(turns[:2], turns[2:], atol=1e-6)                # period 2T ...
+    assert abs(turns[0] - turns[1]) > 1e-3                             # ... not T
     # direct simulation: whirling just above the fold, none just below
     for factor, whirls in ((1.02, True), (0.98, False)):
         run = system.simulate(fold.state[:1], fold.state[1:], (0.0, 300 * T),
