@@ -7,10 +7,11 @@ Method
 F(x, p) = φ_nT(x; p) − x, x the state [q, q̇] at the drive's phase zero; an equilibrium
 that persists under the drive is one too (F ≡ 0 there).  A rotating orbit, q(t + nT) =
 q(t) + 2π k (``winding=k``: a pendulum whirling in step with the drive), is a root of
-F − (2π k, 0); its branch's doubled orbits turn 2k times over 2n periods.  φ and its Jacobian M (the
-monodromy, whose eigenvalues are the Floquet multipliers) come from the variational
-equations on the system's exact compiled Jacobian (:func:`lagrange_core.variational.flow`);
-∂F/∂p is a forward difference at the same step count (:mod:`._shooting`).
+F − (2π k, 0); its branch's doubled orbits turn 2k times over 2n periods.  φ and its
+Jacobian M (the monodromy, whose eigenvalues are the Floquet multipliers) come from the
+variational equations on the system's exact compiled Jacobian
+(:func:`lagrange_core.variational.flow`); ∂F/∂p is a forward difference at the same step
+count (:mod:`._shooting`).
 
 *Pseudo-arclength continuation.*  From a point u_k = (x_k, p_k) with unit tangent t_k
 the predictor is u_k + h t_k; the corrector is Newton's method on

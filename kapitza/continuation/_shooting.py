@@ -15,8 +15,8 @@ The map
 G(v) = D (φ_T(x; p) − x − σ), with φ_T the flow over ``periods`` drive periods T = 2π/ω
 (ω the frequency parameter, which may itself be the continued one) and σ = (2π k, 0) the
 shift of a rotating orbit that turns k times over them (``winding``; σ = 0 otherwise).
-The flow and its Jacobian M = ∂φ_T/∂x (the monodromy at a periodic orbit) come from the variational
-equations (:func:`lagrange_core.variational.flow`: 8th-order steps on the exact compiled
+The flow and its Jacobian M = ∂φ_T/∂x (the monodromy at a periodic orbit) come from the
+variational equations (:func:`lagrange_core.variational.flow`: 8th-order steps on the exact compiled
 Jacobian, step count doubled until two counts agree to ``tol``/100, at least 1e-13).
 ∂G/∂p is a forward difference of the flow at the same fixed step count (the discrete
 flow is then smooth in p: the difference is accurate to ~1e-8 relative, and only the
