@@ -558,6 +558,7 @@ def test_rotating_orbits_continued_through_their_fold():
     assert [b.kind for b in down.bifurcations] == ["fold"]
     assert [b.kind for b in up.bifurcations][:1] == ["period_doubling"]
     fold, doubling = down.bifurcations[0], up.bifurcations[0]
+    assert down.winding == up.winding == (1,) and "winding=(1,)" in repr(down)
     pts = down.points
     assert pts.stable[0] and not pts.stable[-1]          # stable, then unstable past the fold
     # every point: periodic_orbit's rotating orbit at its A
@@ -585,7 +586,7 @@ def test_rotating_orbits_continued_through_their_fold():
         assert side * (np.min(orbit.multipliers.real) + 1.0) > 0
     # the branch born at the period doubling whirls twice in two periods, unevenly
     two = up.switch(doubling)
-    assert two.periods == 2 and two.status == "completed"
+    assert two.periods == 2 and two.status == "completed" and two.winding == (2,)
     k = len(two.points.parameter) // 2
     a, y = two.points.parameter[k], two.points.state[k]
     run = system.simulate(y[:1], y[1:], (0.0, 4 * T), params(a), rtol=1e-11,

@@ -210,7 +210,7 @@ class Engine:
                         params=params, frequency=self.frequency, periods=pm.periods,
                         points=table, bifurcations=bifs, domain=tuple(float(d) for d in domain),
                         status=status, message=message, tol=self.tol, flows=int(flows),
-                        origin=origin, _engine=_Handle(self, pm))
+                        origin=origin, winding=pm.winding(), _engine=_Handle(self, pm))
         return branch
 
     # -- starting ----------------------------------------------------------------------

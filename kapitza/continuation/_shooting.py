@@ -127,6 +127,11 @@ class PeriodMap:
         other.steps = self.steps * periods // self.periods or 32
         return other
 
+    def winding(self) -> tuple:
+        """The turns of each coordinate over the orbit (``Branch.winding``; () if none)."""
+        turns = self.shift[:self.n] / (2 * math.pi)
+        return tuple(int(round(k)) for k in turns) if turns.any() else ()
+
     # -- conversions -----------------------------------------------------------------
     def scaled(self, x, p) -> np.ndarray:
         return np.r_[self.D * np.asarray(x, float), (float(p) - self.p0) / self.p_scale]

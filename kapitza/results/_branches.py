@@ -192,6 +192,10 @@ class Branch:
     origin : str
         "" for a branch started by :func:`kapitza.continuation`; for one started by
         :meth:`switch`, the bifurcation it emanates from.
+    winding : tuple of int
+        A branch of rotating orbits: the turns of each coordinate over ``periods`` drive
+        periods, q(t + periods·T) = q(t) + 2π·winding (``continuation(winding=...)``);
+        () for orbits that return to themselves.
     """
 
     coordinates: tuple
@@ -207,6 +211,7 @@ class Branch:
     tol: float
     flows: int
     origin: str = ""
+    winding: tuple = ()
     _engine: Any = field(default=None, repr=False, compare=False)
 
     def __repr__(self) -> str:
@@ -214,8 +219,10 @@ class Branch:
         bif = "; ".join(str(b) for b in self.bifurcations) or "none"
         span = f"{p[0]:.6g} → {p[-1]:.6g}" if p.size else "empty"
         origin = f", from {self.origin}" if self.origin else ""
+        turns = f", winding={self.winding}" if self.winding else ""
         return (f"Branch({self.parameter}: {span}, {len(self.points)} points, "
-                f"periods={self.periods}{origin}, status={self.status!r}; bifurcations: {bif})")
+                f"periods={self.periods}{turns}{origin}, status={self.status!r}; "
+                f"bifurcations: {bif})")
 
     def _label(self) -> str:
         """The legend's name: "T orbits", "2T orbits from the period doubling",
