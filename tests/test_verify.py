@@ -262,6 +262,7 @@ def test_the_pendulums_floquet_from_mathieu_equals_the_general_monodromys(dampin
     stable, slow, slow_tol, _ = _floquet_fields(grid)
     assert (ours.stable == stable).all() and ours.stable.any() and (~ours.stable).any()
     assert (ours.label == np.asarray(grid.label)).all()
+    assert (ours.boundary == np.asarray(grid.boundary)).all()
     both = ours.stable
     assert np.all(np.abs(ours.omega_slow[both] - slow[..., 0][both])
                   <= ours.omega_slow_error[both] + slow_tol[..., 0][both])

@@ -8,13 +8,12 @@ window and stability map), ``_pendulum`` (averaging in closed form), ``_window``
 (:func:`pendulum_window`, exact or by averaging, and its names before 0.2), ``_floquet``
 (the vertically driven pendulum's Floquet numbers from Mathieu's trace).
 
-For sibling rooms (not in ``__all__``): ``pendulum_floquet`` and ``pendulum_floquet_point``,
-what :func:`kapitza.floquet_grid` gives about the pendulum's equilibria, without compiling
-the general Floquet kernels (the report, ``KapitzaPendulum.verify``, the animation).
+For sibling rooms (not in ``__all__``): ``pendulum_floquet``, what
+:func:`kapitza.floquet_grid` gives about the pendulum's equilibria, without compiling the
+general Floquet kernels (the report, ``KapitzaPendulum.verify``, the animation).
 """
 from ._characteristic import characteristic_value, ince_strutt_chart
 from ._floquet import pendulum_floquet as pendulum_floquet
-from ._floquet import pendulum_floquet_point as pendulum_floquet_point
 from ._mathieu import mathieu_monodromy_trace, mathieu_parameters, pendulum_stability_map
 from ._pendulum import multiple_pendulum_upright, pendulum_averaged, pendulum_effective_potential
 from ._window import averaging_window, pendulum_stability_window, pendulum_window

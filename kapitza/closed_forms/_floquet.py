@@ -24,12 +24,10 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ..results import BOUNDARIES
 from ._mathieu import mathieu_monodromy_trace, mathieu_parameters
 
-__all__ = ["pendulum_floquet", "pendulum_floquet_point"]
-
-#: boundary labels, as kapitza.floquet's: 0 stable, 1 beyond +1 ("T"), 2 beyond −1 ("2T")
-BOUNDARIES = ("stable", "T", "2T")
+__all__ = ["pendulum_floquet"]
 
 
 def pendulum_floquet(A, omega, *, l, g, damping=0.0, about="inverted", tol=1e-10):
@@ -50,12 +48,13 @@ def pendulum_floquet(A, omega, *, l, g, damping=0.0, about="inverted", tol=1e-10
     -------
     types.SimpleNamespace
         Arrays over the broadcast shape: ``trace`` (tr M_y), ``stable``, ``label`` (0, 1,
-        2: :data:`BOUNDARIES`), ``multipliers`` (shape + (2,), complex), ``omega_slow``
-        (rad/s, NaN where unstable), ``omega_slow_error`` (a bound on its error from the
-        trace's: δ/(T max(|sin ΩT|, √δ)) with δ that of tr M_u / 2, as
-        :mod:`kapitza.verification` bounds the general monodromy's), ``margin`` (the
-        distance of |tr M_u| from the stability limit in units of twice its error bound:
-        below 1 the verdict is not certain).
+        2) and ``boundary`` (its name in :data:`kapitza.results.BOUNDARIES`: "stable",
+        "T", "2T"), ``multipliers`` (shape + (2,), complex), ``omega_slow`` (rad/s, NaN
+        where unstable), ``omega_slow_error`` (a bound on its error from the trace's:
+        δ/(T max(|sin ΩT|, √δ)) with δ that of tr M_u / 2, as :mod:`kapitza.verification`
+        bounds the general monodromy's), ``margin`` (the distance of |tr M_u| from the
+        stability limit in units of twice its error bound: below 1 the verdict is not
+        certain).
     """
     A, omega = np.broadcast_arrays(np.asarray(A, dtype=float), np.asarray(omega, dtype=float))
     a, q, c = mathieu_parameters(A, omega, l, g, damping, about=about)
@@ -79,29 +78,7 @@ def pendulum_floquet(A, omega, *, l, g, damping=0.0, about="inverted", tol=1e-10
     det = np.exp(-damping * T)                          # Liouville
     root = np.sqrt((trace_y * trace_y - 4.0 * det).astype(complex))
     multipliers = np.stack([(trace_y + root) / 2, (trace_y - root) / 2], axis=-1)
-    return SimpleNamespace(trace=trace_y, stable=stable, label=label, multipliers=multipliers,
+    return SimpleNamespace(trace=trace_y, stable=stable, label=label,
+                           boundary=np.asarray(BOUNDARIES)[label], multipliers=multipliers,
                            omega_slow=omega_slow, omega_slow_error=omega_slow_error,
-                           margin=margin, period=T)
-
-
-def boundary_name(label) -> str:
-    """"stable", "T" or "2T" for a label of :func:`pendulum_floquet`."""
-    return BOUNDARIES[int(label)]
-
-
-def _check_scalar(x, name):
-    if np.ndim(x):
-        raise ValueError(f"{name} must be a scalar here, got shape {np.shape(x)}.")
-    return float(x)
-
-
-def pendulum_floquet_point(A, omega, *, l, g, damping=0.0, about="inverted", tol=1e-10):
-    """:func:`pendulum_floquet` at one point, its fields as Python scalars (``boundary``
-    the label's name, ``multipliers`` an array of two)."""
-    r = pendulum_floquet(_check_scalar(A, "A"), _check_scalar(omega, "omega"), l=l, g=g,
-                         damping=damping, about=about, tol=tol)
-    return SimpleNamespace(trace=float(r.trace), stable=bool(r.stable),
-                           boundary=boundary_name(r.label), multipliers=r.multipliers,
-                           omega_slow=float(r.omega_slow),
-                           omega_slow_error=float(r.omega_slow_error),
-                           margin=float(r.margin), period=float(r.period))
+                           margin=margin)

@@ -100,15 +100,14 @@ def _pendulum_potential(job: Job) -> SectionResult:
 
 
 def _vertical_caption(job, first, pred, order) -> str:
-    from ..closed_forms import pendulum_floquet_point
+    from ..closed_forms import pendulum_floquet
     pend, A, w = job.pend, job.A, job.omega
     which = job.pend_about
     name = f"{state_name(job)} {upright(job)}"
     eq1, eq = first[which], pred[which]
     # Floquet's numbers from Mathieu's trace: those of pend.floquet (tests/test_verify.py),
     # without compiling the general Floquet kernels (~20 s of a cold first report)
-    exact = pendulum_floquet_point(A, w, l=pend.l, g=pend.g, damping=pend.damping,
-                                   about=which)
+    exact = pendulum_floquet(A, w, l=pend.l, g=pend.g, damping=pend.damping, about=which)
     depth = _well_depth(lambda th: pend.effective_potential(A, w, theta=th),
                         math.pi if which == "inverted" else 0.0)
     text = (f"At A = {A:g} m and ω = {w:g} rad/s (A/l = {A / pend.l:.3g}, ω/ω0 = "
@@ -137,7 +136,7 @@ def _vertical_caption(job, first, pred, order) -> str:
         return text + "."
     kind = {"T": "a real multiplier beyond +1 (a period-T instability)",
             "2T": "a real multiplier beyond −1 (a period-2T instability: parametric "
-                  "resonance)"}.get(exact.boundary, "complex multipliers off the unit circle")
+                  "resonance)"}.get(str(exact.boundary), "complex multipliers off the unit circle")
     largest = float(np.max(np.abs(exact.multipliers)))
     text += (f". Floquet analysis (exact, linear): unstable, {kind}, the largest |multiplier| "
              f"{largest:.4g} per drive period")
