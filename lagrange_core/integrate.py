@@ -832,8 +832,7 @@ def _run_compiled(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, s
             stats[_kern.ST_STORED] = 0
             if stored > o.max_points:
                 # memory bound: keep every other stored row (and the last), store half as often
-                T_ = np.concatenate([t_ for t_, _ in pieces])
-                Y_ = np.concatenate([y_ for _, y_ in pieces])
+                T_, Y_ = _joined(pieces, tout, yout)
                 keep = np.r_[np.arange(0, len(T_) - 1, 2), len(T_) - 1]
                 pieces[:] = [(T_[keep], Y_[keep])]
                 stored = len(keep)
@@ -900,11 +899,8 @@ def _run_compiled(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, s
     if o.t_eval is not None:
         k = int(stats[_kern.ST_STORED])
         T, Y = tout[:k], yout[:k]
-    elif len(pieces) == 1:
-        T, Y = pieces[0]
     else:
-        T = np.concatenate([t_ for t_, _ in pieces]) if pieces else tout[:0]
-        Y = np.concatenate([y_ for _, y_ in pieces]) if pieces else yout[:0]
+        T, Y = _joined(pieces, tout, yout)
     err = tv[_kern.TV_ERROR] if meth.family != "symplectic" else math.nan
     kind = "sum of local error estimates" if math.isfinite(err) else "none"
     counts = (stats[_kern.ST_STEPS], stats[_kern.ST_REJECTED], stats[_kern.ST_RHS])
@@ -913,6 +909,17 @@ def _run_compiled(kernels, label, meth, q0, qd0, p, o, events, ev_int, ev_val, s
     if interrupted:
         raise SimulationInterrupted(traj)
     return traj
+
+
+def _joined(pieces, tout, yout):
+    """The (t, y) pairs a run kept, as two arrays (none kept — a Ctrl-C before the first
+    chunk ended: empty ones shaped like the output buffers)."""
+    if len(pieces) == 1:
+        return pieces[0]
+    if not pieces:
+        return tout[:0], yout[:0]
+    return (np.concatenate([t_ for t_, _ in pieces]),
+            np.concatenate([y_ for _, y_ in pieces]))
 
 
 def _event_value_py(kernels, row, val, t, y, p):
