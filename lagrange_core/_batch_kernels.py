@@ -110,7 +110,7 @@ from ._kernel_calls import (
     call_rhs,
 )
 from ._lane_math import lane_sincos_rows
-from ._thread_blocks import run_blocks, run_rows
+from ._thread_blocks import run_rows, run_spans
 
 #: per-point status (``GridTrajectories.status``)
 GRID_FINISHED, GRID_LEFT_BAND, GRID_UNDERFLOW, GRID_NON_FINITE, GRID_SINGULAR, \
@@ -1011,7 +1011,7 @@ def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO
                    rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT, EXITC,
                    EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
     """RKN 12(10) over the points ``idx`` on *lanes*: each thread takes blocks of ``block``
-    points (:func:`lagrange_core._thread_blocks.run_blocks`) and advances :data:`LANES` of
+    points (:func:`lagrange_core._thread_blocks.run_spans`) and advances :data:`LANES` of
     them together, refilling a lane from its block when its trajectory ends.
 
     ``mode``: LANES_ADAPTIVE ("rkn12": the step control of :func:`point_second_order`,
@@ -1035,15 +1035,11 @@ def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO
     written and its state in row ``slot[k]`` of ``SAVE``/``SAVEI``; a point whose row is
     marked saved resumes from it.
     """
-    N = idx.shape[0]
-
-    def work(blk):
-        lo_b = blk * block
-        _lanes_block(ka, mode, hold_block, idx, lo_b, min(N, lo_b + block), Y0, P, TS, H, TSTR,
-                     REF, LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF,
-                     SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE,
-                     SAVEI)
-    run_blocks(work, (N + block - 1) // block)
+    run_spans(lambda lo, hi: _lanes_block(ka, mode, hold_block, idx, lo, hi, Y0, P, TS, H,
+                                          TSTR, REF, LO, HI, flags, rtol, atol, max_steps, c,
+                                          A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT, EXITC,
+                                          EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE,
+                                          SAVEI), idx.shape[0], block)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST_MATH)

@@ -43,7 +43,7 @@ from numba import njit
 
 from ._integrator_kernels import FAST_MATH, starting_step
 from ._kernel_calls import RHS, RHS_LANES, call_rhs, call_rhs_lanes
-from ._thread_blocks import run_blocks
+from ._thread_blocks import run_spans
 
 __all__ = ["LANES", "grid_dop853_lanes", "sparse_tables", "stage_sum", "error_sums",
            "step_factor", "first_step"]
@@ -322,15 +322,11 @@ def grid_dop853_lanes(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, fla
 def _grid(ka, idx, block, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_steps, A, B, C, E3,
           E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
     """The blocks of :func:`grid_dop853_lanes` on the threads of
-    :func:`lagrange_core._thread_blocks.run_blocks`."""
-    N = idx.shape[0]
-
-    def work(blk):
-        lo_b = blk * block
-        _block(ka, idx, lo_b, min(N, lo_b + block), Y0, P, TS, H, TSTR, REF, flags, rtol,
-               atol, max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS,
-               budget, slot, SAVE, SAVEI)
-    run_blocks(work, (N + block - 1) // block)
+    :func:`lagrange_core._thread_blocks.run_spans`."""
+    run_spans(lambda lo, hi: _block(ka, idx, lo, hi, Y0, P, TS, H, TSTR, REF, flags, rtol,
+                                    atol, max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV,
+                                    COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI),
+              idx.shape[0], block)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST_MATH)

@@ -25,7 +25,7 @@ from collections.abc import Callable
 
 import numba
 
-__all__ = ["run_blocks", "run_rows", "thread_count"]
+__all__ = ["run_blocks", "run_spans", "run_rows", "thread_count"]
 
 _POOLS: dict[int, concurrent.futures.ThreadPoolExecutor] = {}
 
@@ -63,11 +63,16 @@ def run_blocks(work: Callable[[int], None], nblocks: int) -> None:
         raise
 
 
+def run_spans(work: Callable[[int, int], None], npoints: int, block: int) -> None:
+    """``work(lo, hi)`` for the consecutive spans [lo, hi) of ``block`` points (the last
+    one shorter) that cover 0 … npoints − 1, by :func:`run_blocks`."""
+    run_blocks(lambda b: work(b * block, min(npoints, (b + 1) * block)), -(-npoints // block))
+
+
 def run_rows(kernel, npoints: int, *args, per_thread: int = 4) -> None:
     """``kernel(*args, lo, hi)`` over the points 0 … npoints − 1 in about ``per_thread``
     contiguous blocks per thread (more when the points' costs differ, so that the pool
-    balances them), by :func:`run_blocks`.  ``kernel`` is a ``nogil`` kernel taking the
+    balances them), by :func:`run_spans`.  ``kernel`` is a ``nogil`` kernel taking the
     block's bounds as its last two arguments."""
     step = max(1, -(-npoints // (per_thread * thread_count())))
-    run_blocks(lambda b: kernel(*args, b * step, min(npoints, (b + 1) * step)),
-               -(-npoints // step))
+    run_spans(lambda lo, hi: kernel(*args, lo, hi), npoints, step)

@@ -52,7 +52,7 @@ from lagrange_core._kernel_calls import (
     call_rhs_jvp_lanes,
     call_rhs_lanes,
 )
-from lagrange_core._thread_blocks import run_blocks
+from lagrange_core._thread_blocks import run_spans
 
 #: tangent modes
 DIFFERENCE, JVP = 0, 1
@@ -107,15 +107,10 @@ def grid_largest_lanes(ka, mode, idx, Y0, P, T, T0, stops, v0, rtol, atol, max_s
 def _grid(ka, mode, idx, block, Y0, P, T, T0, stops, v0, rtol, atol, max_steps, A, B, C, E3,
           E5, LOGS, YF, TF, COUNTS, STATUS, budget, slot, SAVE, SAVEI):
     """The blocks of :func:`grid_largest_lanes` on the threads of
-    :func:`lagrange_core._thread_blocks.run_blocks`."""
-    N = idx.shape[0]
-
-    def work(blk):
-        lo_b = blk * block
-        _block(ka, mode, idx, lo_b, min(N, lo_b + block), Y0, P, T, T0, stops, v0, rtol, atol,
-               max_steps, A, B, C, E3, E5, LOGS, YF, TF, COUNTS, STATUS, budget, slot, SAVE,
-               SAVEI)
-    run_blocks(work, (N + block - 1) // block)
+    :func:`lagrange_core._thread_blocks.run_spans`."""
+    run_spans(lambda lo, hi: _block(ka, mode, idx, lo, hi, Y0, P, T, T0, stops, v0, rtol, atol,
+                                    max_steps, A, B, C, E3, E5, LOGS, YF, TF, COUNTS, STATUS,
+                                    budget, slot, SAVE, SAVEI), idx.shape[0], block)
 
 
 @njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
