@@ -433,7 +433,11 @@ def test_neimark_sacker_test_function_on_monodromies():
 @pytest.mark.parametrize("options,named", [(dict(periods="a"), "periods"),
                                            (dict(periods=None), "periods"),
                                            (dict(periods=1.5), "periods"),
-                                           (dict(max_points="x"), "max_points")])
+                                           (dict(max_points="x"), "max_points"),
+                                           (dict(winding=0.5), "winding"),
+                                           (dict(winding="x"), "winding"),
+                                           (dict(winding=[1, 1]), "winding"),
+                                           (dict(winding=True), "winding")])
 def test_counts_that_are_not_whole_numbers_are_named(options, named):
     """A count given as a string, None or 1.5 is refused naming the argument (it raised
     int()'s own message before)."""
