@@ -6,8 +6,9 @@ Public: :func:`average`, :class:`AveragedSystem`, :class:`AveragingValidityWarni
 ``MAX_AMPLITUDE_RATIO``.
 
 Modules: ``_average`` (the method and :class:`AveragedSystem`), ``_fourier`` (the
-harmonic split), ``_codegen`` (the compiled U_eff kernels), ``_window`` (the averaging
-window per ω), ``_validity`` (the thresholds), ``_legacy`` (the old ``(q, params)`` order).
+harmonic split), ``_codegen`` (each system's compiled terms), ``_kernels`` (U_eff and its
+derivatives from the terms, shared by every system), ``_window`` (the averaging window per
+ω), ``_validity`` (the thresholds), ``_legacy`` (the old ``(q, params)`` order).
 """
 from ._average import AveragedSystem, average
 from ._fourier import fourier_split

@@ -121,7 +121,7 @@ from ..results import (
     SlowModeSweep,
     StabilityWindow,
 )
-from ._codegen import load_kernels, terms
+from ._codegen import effective, load_kernels, terms
 from ._fourier import fourier_split
 from ._legacy import params_first
 from ._validity import AveragingValidityWarning, reasons
@@ -294,7 +294,8 @@ class AveragedSystem:
     @functools.cached_property
     def kernels(self):
         """The compiled module (:mod:`kapitza.averaging._codegen`): ``effective(q, p, G, H)
-        -> U_eff`` (fills gradient G and Hessian H), ``mass_terms``, ``fast_terms``,
+        -> U_eff`` (fills gradient G and Hessian H; the kernel every system shares),
+        ``slow_terms``, ``mass_terms``, ``fast_terms``,
         ``damping(q, p, C)``, ...; loaded from the store when a process made it before."""
         return load_kernels(self)
 
@@ -320,7 +321,7 @@ class AveragedSystem:
         self._check_drive(p)
         n = self.system.n_dof
         G, H = np.empty(n), np.empty((n, n))
-        value = self.kernels.effective(qa, p, G, H)
+        value = effective(self.kernels, qa, p, G, H)
         return float(value), G, H
 
     def _check_drive(self, p):
@@ -394,7 +395,7 @@ class AveragedSystem:
         differences (D is itself a first-order correction)."""
         n = self.system.n_dof
         G, H = np.empty(n), np.empty((n, n))
-        self.kernels.effective(q, p, G, H)
+        effective(self.kernels, q, p, G, H)
         F, J = -G, -H
         if self._drag_pairs:
             F = F + self._drag(q, p)
@@ -418,12 +419,12 @@ class AveragedSystem:
         G, H = np.empty(n), np.empty((n, n))
         M0, M1 = np.empty((n, n)), np.empty((n, n))
         Mg, Mh = np.zeros((n, n, n)), np.zeros((n, n, n, n))
-        v0 = K.effective(q0, p, G, H)
+        v0 = effective(K, q0, p, G, H)
         K.mass_terms(q0, p, M0, Mg, Mh)
         for j in range(n):
             q1 = q0.copy()
             q1[j] += 2 * math.pi
-            v1 = K.effective(q1, p, G, H)
+            v1 = effective(K, q1, p, G, H)
             K.mass_terms(q1, p, M1, Mg, Mh)
             out[j] = abs(v1 - v0) <= 1e-10 * (1 + abs(v0)) and np.allclose(M0, M1, rtol=1e-10)
         return out

@@ -16,8 +16,10 @@ The generated module (arrays of floats; ``q`` the coordinates, ``p`` the paramet
 * ``fast_terms(q, p, w, f, fg, fh)``: per fast force k, the weight 1/(4 k² ω²), f_k and its
   first and second derivatives;
 * ``damping(q, p, C)``, ``damping_gradient(q, p, Cg)``: C(q) and ∂C/∂q;
-* ``effective(q, p, G, H) -> U_eff``: U_eff, filling its gradient G and Hessian H
-  (the fixed part below: M⁻¹ f solved numerically, never symbolically).
+
+:func:`effective` evaluates U_eff with its gradient and Hessian from these terms by the
+one kernel every system shares (:mod:`kapitza.averaging._kernels`), so that a new system
+compiles only its own terms.
 """
 from __future__ import annotations
 
@@ -29,23 +31,29 @@ import textwrap
 import numpy as np
 import symengine as se
 
-from lagrange_core import _linalg, module_store
+from lagrange_core import module_store
 
-__all__ = ["kernel_source", "load_kernels", "terms"]
+from ._kernels import effective_from_terms
+
+__all__ = ["effective", "kernel_source", "load_kernels", "terms"]
 
 
 def load_kernels(avg):
     """The compiled module of the averaged system ``avg`` (from the store when it is there)."""
     key = module_store.content_key(avg.system.statement_key(), "omega=" + avg.omega.name,
                                    _generator_fingerprint())
-    return module_store.load_generated("_lc_avg", key, functools.partial(kernel_source, avg))
+    module = module_store.load_generated("_lc_avg", key, functools.partial(kernel_source, avg))
+    # ``effective(q, p, G, H)`` stays the module's entry point, as it was when it was
+    # compiled into each module (:func:`effective`, the shared kernel, now does the work)
+    module.effective = functools.partial(effective, module)
+    return module
 
 
 @functools.cache
 def _generator_fingerprint() -> str:
-    """Hash of this module's code (the generator and the fixed source) and of the code
-    the generated module calls (solve_dense)."""
-    return module_store.source_fingerprint(sys.modules[__name__], _linalg)
+    """Hash of this module's code (the generator; the generated module calls nothing
+    else)."""
+    return module_store.source_fingerprint(sys.modules[__name__])
 
 
 def terms(K, q, p, n):
@@ -58,6 +66,23 @@ def terms(K, q, p, n):
     f, fg, fh = np.zeros((nf, n)), np.zeros((nf, n, n)), np.zeros((nf, n, n, n))
     K.fast_terms(q, p, w, f, fg, fh)
     return M, Mg, f, fg, w
+
+
+def effective(K, q, p, G, H) -> float:
+    """U_eff (J) at the coordinates ``q`` for the parameters ``p`` (arrays of floats),
+    filling its gradient ``G`` (n) and Hessian ``H`` (n × n): the terms of the system's
+    compiled module ``K`` (:func:`load_kernels`), then the shared kernel."""
+    n = K.N_DOF
+    U, Ug, Uh = np.empty(1), np.empty(n), np.empty((n, n))
+    K.slow_terms(q, p, U, Ug, Uh)
+    M = np.empty((n, n))
+    Mg, Mh = np.zeros((n, n, n)), np.zeros((n, n, n, n))
+    K.mass_terms(q, p, M, Mg, Mh)
+    nf = K.N_FAST
+    w = np.zeros(nf)
+    f, fg, fh = np.zeros((nf, n)), np.zeros((nf, n, n)), np.zeros((nf, n, n, n))
+    K.fast_terms(q, p, w, f, fg, fh)
+    return effective_from_terms(U[0], Ug, Uh, M, Mg, Mh, w, f, fg, fh, G, H)
 
 
 def kernel_source(avg) -> str:
@@ -113,8 +138,7 @@ def kernel_source(avg) -> str:
            "import numpy as np\nfrom numba import njit\n"
            "from math import (sin, cos, tan, exp, log, sqrt, asin, acos, atan, atan2,\n"
            "                  sinh, cosh, tanh, asinh, acosh, atanh, pi, e as E)\n"
-           "from numpy import sign\n"
-           "from lagrange_core._linalg import solve_dense\n",
+           "from numpy import sign\n",
            f"N_DOF = {n}\nN_FAST = {K}\nPARAMETERS = {system.parameters!r}\n"]
     src.append(_function("slow_terms", ["q", "p", "U", "Ug", "Uh"],
                          pr.body(slow_out, ["q", "p"])))
@@ -126,7 +150,6 @@ def kernel_source(avg) -> str:
                          ["C[:, :] = 0.0"] + (pr.body(C, ["q", "p"]) if C else [])))
     src.append(_function("damping_gradient", ["q", "p", "Cg"],
                          ["Cg[:, :, :] = 0.0"] + (pr.body(Cg, ["q", "p"]) if Cg else [])))
-    src.append(_FIXED_SOURCE)
     return "".join(src)
 
 
@@ -168,74 +191,3 @@ class _Printer:
 def _function(name, args, lines):
     return "\n\n@njit(cache=True)\ndef {}({}):\n{}\n".format(
         name, ", ".join(args), textwrap.indent("\n".join(lines or ["pass"]), "    "))
-
-
-# The fixed part of the generated module: U_eff, gradient and Hessian from the terms.
-# With x = M⁻¹f and y_a = ∂f/∂q_a − (∂M/∂q_a) x:
-#   ∂(fᵀM⁻¹f)/∂q_a = 2 f_aᵀx − xᵀM_a x,
-#   ∂²(fᵀM⁻¹f)/∂q_a∂q_b = 2 f_abᵀx + 2 y_aᵀ M⁻¹ y_b − xᵀ M_ab x.
-_FIXED_SOURCE = '''
-
-@njit(cache=True)
-def _solve(M, B):
-    # X = M⁻¹ B (a few unknowns): Gaussian elimination on the augmented copy [M | B]
-    n = M.shape[0]
-    W = np.empty((n, n + B.shape[1]))
-    for i in range(n):
-        for j in range(n):
-            W[i, j] = M[i, j]
-        for j in range(B.shape[1]):
-            W[i, n + j] = B[i, j]
-    solve_dense(W, n)
-    return W[:, n:].copy()
-
-
-@njit(cache=True)
-def effective(q, p, G, H):
-    n = N_DOF
-    U = np.empty(1)
-    Ug = np.empty(n)
-    Uh = np.empty((n, n))
-    slow_terms(q, p, U, Ug, Uh)
-    M = np.empty((n, n))
-    Mg = np.zeros((n, n, n))
-    Mh = np.zeros((n, n, n, n))
-    mass_terms(q, p, M, Mg, Mh)
-    w = np.zeros(N_FAST)
-    f = np.zeros((N_FAST, n))
-    fg = np.zeros((N_FAST, n, n))
-    fh = np.zeros((N_FAST, n, n, n))
-    fast_terms(q, p, w, f, fg, fh)
-    value = U[0]
-    for a in range(n):
-        G[a] = Ug[a]
-        for b in range(n):
-            H[a, b] = Uh[a, b]
-    for k in range(N_FAST):
-        x = _solve(M, f[k].reshape(n, 1))[:, 0]
-        fx = 0.0
-        for i in range(n):
-            fx += f[k, i] * x[i]
-        value += w[k] * fx
-        Y = np.empty((n, n))
-        for a in range(n):
-            # y_a = f_a − M_a x;  gradient term 2 f_a·x − x·M_a x
-            g = 0.0
-            for i in range(n):
-                Mx = 0.0
-                for j in range(n):
-                    Mx += Mg[a, i, j] * x[j]
-                g += 2.0 * fg[k, i, a] * x[i] - x[i] * Mx
-                Y[i, a] = fg[k, i, a] - Mx
-            G[a] += w[k] * g
-        Z = _solve(M, Y)
-        for a in range(n):
-            for b in range(n):
-                s = 0.0
-                for i in range(n):
-                    s += 2.0 * fh[k, i, a, b] * x[i] + 2.0 * Y[i, a] * Z[i, b]
-                    for j in range(n):
-                        s -= x[i] * Mh[a, b, i, j] * x[j]
-                H[a, b] += w[k] * s
-    return value
-'''

@@ -38,7 +38,7 @@ import scipy.optimize
 import sympy as sp
 
 from ..results import StabilityWindow
-from ._codegen import terms
+from ._codegen import effective, terms
 from ._validity import MAX_AMPLITUDE_RATIO, MIN_FREQUENCY_RATIO
 
 __all__ = ["averaged_system_window", "amplitude_range"]
@@ -95,7 +95,7 @@ def averaged_system_window(avg, params, about, omega, *, amplitude: str = "A",
     def stiffness(a, w):
         p[ia], p[iw] = a, w
         G, H = np.empty(n), np.empty((n, n))
-        K.effective(qa, p, G, H)
+        effective(K, qa, p, G, H)
         if np.max(np.abs(G)) > 1e-8 * (1 + np.max(np.abs(H))):
             raise ValueError(
                 f"{where}: q={qa.tolist()} is not an equilibrium of the averaged motion at "
