@@ -110,6 +110,7 @@ from ._kernel_calls import (
     call_rhs,
 )
 from ._lane_math import lane_sincos_rows
+from ._selection import kth_smallest
 from ._thread_blocks import run_rows, run_spans
 
 #: per-point status (``GridTrajectories.status``)
@@ -670,8 +671,7 @@ def pilot_step(ka, y0, p, t0, t1, T, rtol, atol, c, A, b, bp, bh, bph, counts):
     m = out[5]
     if m == 0:
         return span
-    steps = np.sort(hbuf[:m])
-    h = steps[int(0.2 * (m - 1))]
+    h = kth_smallest(hbuf[:m], int(0.2 * (m - 1)))
     period = T if T > 0.0 else span
     return period / math.ceil(period / h)
 
@@ -1424,9 +1424,9 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                 span = TS[i, 1] - TS[i, 0]
                 hf = span
                 if m_ > 0:
-                    steps = np.sort(hbuf[l, :m_])
                     period = TSTR[i] if TSTR[i] > 0.0 else span
-                    hf = period / math.ceil(period / steps[int(0.2 * (m_ - 1))])
+                    hf = period / math.ceil(period / kth_smallest(hbuf[l, :m_],
+                                                                  int(0.2 * (m_ - 1))))
                 h[l] = hf
                 st = _lanes_load(ka, l, i, _FIXED, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
                                  rtol, atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l,
@@ -1738,7 +1738,8 @@ def _dop853_rows(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags, r
 
 
 # numba's cache does not notice changes to the kernels these call
-from . import _integrator_kernels, _kernel_calls, _lane_math, _linalg  # noqa: E402
+from . import _integrator_kernels, _kernel_calls, _lane_math, _linalg, _selection  # noqa: E402
 from .module_store import guard_numba_cache  # noqa: E402
 
-guard_numba_cache(sys.modules[__name__], _integrator_kernels, _kernel_calls, _lane_math, _linalg)
+guard_numba_cache(sys.modules[__name__], _integrator_kernels, _kernel_calls, _lane_math, _linalg,
+                  _selection)

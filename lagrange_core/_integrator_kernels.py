@@ -72,6 +72,7 @@ from ._kernel_calls import (
     call_rhs,
 )
 from ._linalg import solve_augmented
+from ._selection import kth_smallest
 
 # -- named constants (module globals are compile-time constants for numba) --------------
 
@@ -856,7 +857,7 @@ def held_step_record(tv, stats, block, err, hs, h_max):
     if stats[ST_BLOCK] < nb:
         return 0.0
     k = int((1.0 - HOLD_QUANTILE) * (nb - 1) + 0.5)
-    r = np.partition(block[:nb], k)[k]
+    r = kth_smallest(block[:nb], k)
     hold = HOLD_GROWTH * href if r == 0.0 else 0.9 * href * r ** (-1.0 / 11.0)
     stats[ST_BLOCK] = 0
     if not hold > 0.0:          # r overflowed: steps far below h_ref; start the block anew
@@ -1342,7 +1343,7 @@ def fast_start(ka, y, f, t, p):
 
 
 # numba's cache does not notice changes to the slots and solvers these drivers call
-from . import _kernel_calls, _linalg  # noqa: E402
+from . import _kernel_calls, _linalg, _selection  # noqa: E402
 from .module_store import guard_numba_cache  # noqa: E402
 
-guard_numba_cache(sys.modules[__name__], _kernel_calls, _linalg)
+guard_numba_cache(sys.modules[__name__], _kernel_calls, _linalg, _selection)

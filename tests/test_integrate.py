@@ -120,6 +120,24 @@ def test_rkn12_table_satisfies_its_order_conditions():
     assert sum(abs(b - bh) for b, bh in zip(tab["b"], tab["bh"], strict=True)) > 0
 
 
+def test_the_controllers_quantile_equals_numpys_sort():
+    """The k-th smallest step (the pilot's and the held step's quantile, in the kernels)
+    equals ``np.sort(x)[k]``: random, tied, sorted and reversed values, every k of small
+    arrays and a full pilot buffer (4096); the input is left as it was."""
+    from lagrange_core._selection import kth_smallest
+    rng = np.random.default_rng(7)
+    for trial in range(400):
+        n = int(rng.integers(1, 40))
+        x = [rng.standard_normal(n), rng.integers(0, 4, n).astype(float),
+             np.sort(rng.uniform(1e-4, 1e-2, n)), np.sort(rng.standard_normal(n))[::-1].copy()
+             ][trial % 4]
+        kept = x.copy()
+        assert [kth_smallest(x, k) for k in range(n)] == np.sort(x).tolist()
+        assert np.array_equal(x, kept)
+    x = rng.lognormal(-5.0, 1.0, 4096)
+    assert all(kth_smallest(x, k) == np.sort(x)[k] for k in (0, 819, 2048, 4095))
+
+
 # -- methods against the closed forms -------------------------------------------------------
 
 ADAPTIVE = ["dop853", "rkn12", "scipy:DOP853", "scipy:Radau", "scipy:LSODA"]
