@@ -1189,7 +1189,7 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
             hs[l] = hh
             # a step shortened by rounding only keeps its rotations (as point_second_order)
             rr[l] = abs(hh - hrot[l]) > 4.0 * _EPS * max(abs(tt), abs(tg))
-        nr = 0
+        nr = np.int64(0)    # (not a literal 0: lane_sincos_rows would compile twice)
         for l in range(L):
             if rr[l]:
                 ridx[nr] = l
@@ -1428,10 +1428,13 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                     hf = period / math.ceil(period / kth_smallest(hbuf[l, :m_],
                                                                   int(0.2 * (m_ - 1))))
                 h[l] = hf
-                st = _lanes_load(ka, l, i, _FIXED, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
-                                 rtol, atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l,
-                                 t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum,
-                                 rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh, sth)
+                # (np.int64: a bare constant is typed Literal[int] and compiles a second
+                # _lanes_load, ~2 s cold)
+                st = _lanes_load(ka, l, i, np.int64(_FIXED), Y0, P, TS, H, TSTR, REF, LO,
+                                 HI, flags, rtol, atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h,
+                                 hrot, t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift,
+                                 errsum, rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh,
+                                 sth)
                 lim[l] = min(nst[l] + budget, mx[l])
                 if st == 0 and nst[l] < mx[l]:
                     continue

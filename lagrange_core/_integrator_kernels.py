@@ -286,7 +286,7 @@ def dop853_locate(ka, kind, idx, val, t0, h, y0, Fd, ga, gb, p, W, dydt, yt):
     b = 1.0
     fa = ga
     fb = gb
-    side = 0
+    side = np.int64(0)      # (np.int64: a literal 0 would compile illinois_update twice)
     tol = 4.0 * 2.220446049250313e-16 * max(abs(t0), abs(t0 + h), 1e-300) / abs(h)
     for _it in range(200):
         if b - a <= tol:
@@ -744,7 +744,7 @@ def second_order_locate(ka, family, e, ev_int, ev_val, t, q, v, a0, h, ga, gb, p
     bb = 1.0
     fa = ga
     fb = gb
-    side = 0
+    side = np.int64(0)      # (np.int64: a literal 0 would compile illinois_update twice)
     tol = 4.0 * 2.220446049250313e-16 * max(abs(t), abs(t + h), 1e-300) / abs(h)
     for _it in range(100):
         if bb - a <= tol:

@@ -348,8 +348,8 @@ def _classify_grid(q, a, kmax, stable, label, chunk):
     amax = -1e300
     for j in range(na):
         amax = max(amax, a[j])
-    ascending = True
-    descending = True
+    ascending = np.bool_(True)     # (not a literal: _fill_row would compile twice)
+    descending = np.bool_(True)
     for j in range(1, na):
         if a[j] < a[j - 1]:
             ascending = False

@@ -290,7 +290,7 @@ def _rotation(X, ranges, centre, scale, ustar, V, lin, floor, max_turn, least, m
                     big = max(big, size[k])
                 # the turning angle of every pair whose projections count (NaN: not):
                 # arg(z_(k+1)/z_k · e^(−i arg λ)), the division's |z_k|² left out
-                count = 0
+                count = np.int64(0)     # (not a literal: _bump would compile twice)
                 for k in range(a, b):
                     if size[k] > floor2 * big and size[k + 1] > floor2 * big:
                         c = z[k + 1] * z[k].conjugate() * rot
@@ -299,7 +299,7 @@ def _rotation(X, ranges, centre, scale, ustar, V, lin, floor, max_turn, least, m
                     else:
                         turn[k] = np.nan
                 # the weighted mean turning angle
-                pos = 0
+                pos = np.int64(0)
                 wsum = 0.0
                 acc = 0.0
                 ok = True
