@@ -45,8 +45,10 @@ from kapitza.cli._parsing import build_parser
 from kapitza.scenes import example_scenes
 
 UNIT = settings().max_examples          # the profile's unit: 10 in "ci"
-#: Seconds a command may run before it gets a Ctrl-C.
-DEADLINE = 3.0
+#: Seconds a command may run before it gets a Ctrl-C (1.5 s: most good command lines finish
+#: within it, and the longer ones are what exercises the Ctrl-C path; at 3 s the test took
+#: 23-35 s of a worker, a third of its examples waiting out the deadline).
+DEADLINE = 1.5
 #: Seconds within which an interrupted command must be back.  The house rule is 1 s on a
 #: quiet machine; here loading the cached kernels a command needs, on a machine shared by
 #: two workers and other jobs, took up to 12 s (load average 12 on 2 cores) before the
