@@ -38,10 +38,12 @@ __all__ = ["install", "activity", "declared", "say", "ACTIVITY_SECONDS", "FAMILY
 #: Seconds an activity compiles on an empty cache (idle 2-core machine, numba 0.68):
 #: the whole of it, so the notice at its first compile says how long the wait is.
 ACTIVITY_SECONDS = {
-    "kapitza report": 40,           # 42 s in all, 2026-11-26 (compiling most of it)
-    "kapitza.warmup": 45,
+    "kapitza report": 40,           # 38–41 s in all, 2026-11-26 (compiling most of it)
+    "kapitza.warmup": 55,           # 57 s, 2026-11-26 (two processes)
     "lagrange_core.warmup": 20,
-    "measure": 55,                  # a first measure without warmup: 53–62 s, 2026-11-26
+    # a first measure without warmup, 2026-11-26: 36–43 s undamped (RKN 12's lanes), 13 s
+    # damped (DOP853): the notice quotes the longer
+    "measure": 40,
 }
 
 #: Seconds a family of shared kernels compiles on an empty cache, by module of the

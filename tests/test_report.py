@@ -304,6 +304,64 @@ def test_a_ctrl_c_lost_inside_a_section_is_raised_again(tmp_path):
     assert "potential" in res["missing"]
 
 
+_CALLBACK_CHILD = """
+import io, json, sys, time, weakref
+sys.path.insert(0, {root!r})
+from kapitza.report import ReportInterrupted, build_report
+from kapitza.report import _sections
+
+err = sys.stderr = io.StringIO()      # what the user's terminal would show
+
+
+class Thing:
+    pass
+
+
+calls = []
+
+
+def callback(ref):          # the Ctrl-C arrives while this weakref callback runs
+    calls.append(1)
+    if len(calls) == 1:
+        time.sleep(1.0)
+
+
+def losing(job):
+    print("ready", flush=True)
+    deadline = time.time() + 30
+    while time.time() < deadline:
+        thing = Thing()
+        ref = weakref.ref(thing, callback)
+        del thing           # runs the callback
+        time.sleep(0.01)
+    raise AssertionError("never stopped")
+
+
+_sections.BUILDERS["potential"] = losing
+try:
+    build_report(out={out!r}, quick=True, progress=False)
+    print(json.dumps({{"finished": True}}), flush=True)
+except ReportInterrupted as stop:
+    print(json.dumps({{"stopped": time.time(), "missing": list(stop.report.missing),
+                      "stderr": err.getvalue()}}), flush=True)
+"""
+
+
+def test_a_ctrl_c_lost_in_a_weakref_callback_shows_no_traceback(tmp_path):
+    """A Ctrl-C that lands in a weakref callback is dropped by Python, which prints
+    "Exception ignored in: <function ...>" and a traceback on stderr (seen in the CLI's
+    property test): the report keeps that off the terminal and raises the Ctrl-C again,
+    so the section stops within REPEAT_AFTER (1 s) plus the child's latency."""
+    out = tmp_path / "r"
+    res, sent = interrupt_child(tmp_path, _CALLBACK_CHILD.format(root=str(ROOT), out=str(out)),
+                                delay=0.3, timeout=60)
+    assert "finished" not in res
+    assert res["stopped"] - sent < 2.0
+    assert "potential" in res["missing"]
+    assert "Traceback" not in res["stderr"] and "Exception ignored" not in res["stderr"], \
+        res["stderr"]
+
+
 def test_a_section_waits_for_the_background_compile_of_its_kernels(monkeypatch):
     """On an empty cache the report's sections wait for the background process compiling
     their kernels (kapitza.warmup.wait_for) instead of compiling them a second time beside

@@ -210,7 +210,9 @@ def _ctrl_c():
     finished part (e.g. work_precision) still stops the report after its section, and a
     section still running :data:`REPEAT_AFTER` s later gets it again (:func:`_repeat`).  Our
     own handler also keeps lagrange_core's ``defer_ctrl_c`` from holding the interrupt
-    back where no chunk loop would see it."""
+    back where no chunk loop would see it.  A Ctrl-C that Python drops because it was
+    raised inside a weakref callback or a ``__del__`` is not printed as "Exception
+    ignored" with a traceback: it is raised again (:func:`_repeat`)."""
     state = {"armed": False, "hit": False}
     if threading.current_thread() is not threading.main_thread():
         yield state
@@ -223,11 +225,21 @@ def _ctrl_c():
         if state["armed"]:
             raise KeyboardInterrupt
 
+    previous_hook = sys.unraisablehook
+
+    def unraisable(info):
+        if state["hit"] and issubclass(info.exc_type, KeyboardInterrupt):
+            return              # ours, lost where Python cannot raise it: _repeat will
+        previous_hook(info)
+
     old = signal.signal(signal.SIGINT, handler)
+    sys.unraisablehook = unraisable
     try:
         yield state
     finally:
         signal.signal(signal.SIGINT, old)
+        if sys.unraisablehook is unraisable:
+            sys.unraisablehook = previous_hook
 
 
 #: s after a Ctrl-C within which the running section must have ended before it is raised
