@@ -262,14 +262,29 @@ def test_ctrl_c_keeps_the_finished_sections(tmp_path, quick):
         assert x.startswith("#") or (out / x).is_file()
 
 
-_SWALLOWING_CHILD = """
-import json, sys, time
+# A child process whose "potential" section is the function BUILDER (defined between the
+# head and the tail): the report's Ctrl-C handling, with stderr kept to be read.
+_CHILD_HEAD = """
+import io, json, sys, time, weakref
 sys.path.insert(0, {root!r})
 from kapitza.report import ReportInterrupted, build_report
 from kapitza.report import _sections
 
+err = sys.stderr = io.StringIO()      # what the user's terminal would show
+"""
+_CHILD_TAIL = """
+_sections.BUILDERS["potential"] = BUILDER
+try:
+    build_report(out={out!r}, quick=True, progress=False)
+    print(json.dumps({{"finished": True}}), flush=True)
+except ReportInterrupted as stop:
+    print(json.dumps({{"stopped": time.time(), "missing": list(stop.report.missing),
+                      "stderr": err.getvalue()}}), flush=True)
+"""
 
-def swallowing(job):        # the Ctrl-C lost inside the section (as in a weakref callback)
+_SWALLOWING_CHILD = _CHILD_HEAD + """
+
+def BUILDER(job):           # the Ctrl-C lost inside the section (as in a weakref callback)
     print("ready", flush=True)
     try:
         time.sleep(30)
@@ -277,16 +292,7 @@ def swallowing(job):        # the Ctrl-C lost inside the section (as in a weakre
         pass
     time.sleep(30)          # then a long computation that would see the next one
     raise AssertionError("never stopped")
-
-
-_sections.BUILDERS["potential"] = swallowing
-try:
-    build_report(out={out!r}, quick=True, progress=False)
-    print(json.dumps({{"finished": True}}), flush=True)
-except ReportInterrupted as stop:
-    print(json.dumps({{"stopped": time.time(), "missing": list(stop.report.missing)}}),
-          flush=True)
-"""
+""" + _CHILD_TAIL
 
 
 def test_a_ctrl_c_lost_inside_a_section_is_raised_again(tmp_path):
@@ -304,14 +310,7 @@ def test_a_ctrl_c_lost_inside_a_section_is_raised_again(tmp_path):
     assert "potential" in res["missing"]
 
 
-_CALLBACK_CHILD = """
-import io, json, sys, time, weakref
-sys.path.insert(0, {root!r})
-from kapitza.report import ReportInterrupted, build_report
-from kapitza.report import _sections
-
-err = sys.stderr = io.StringIO()      # what the user's terminal would show
-
+_CALLBACK_CHILD = _CHILD_HEAD + """
 
 class Thing:
     pass
@@ -326,7 +325,7 @@ def callback(ref):          # the Ctrl-C arrives while this weakref callback run
         time.sleep(1.0)
 
 
-def losing(job):
+def BUILDER(job):
     print("ready", flush=True)
     deadline = time.time() + 30
     while time.time() < deadline:
@@ -335,16 +334,7 @@ def losing(job):
         del thing           # runs the callback
         time.sleep(0.01)
     raise AssertionError("never stopped")
-
-
-_sections.BUILDERS["potential"] = losing
-try:
-    build_report(out={out!r}, quick=True, progress=False)
-    print(json.dumps({{"finished": True}}), flush=True)
-except ReportInterrupted as stop:
-    print(json.dumps({{"stopped": time.time(), "missing": list(stop.report.missing),
-                      "stderr": err.getvalue()}}), flush=True)
-"""
+""" + _CHILD_TAIL
 
 
 def test_a_ctrl_c_lost_in_a_weakref_callback_shows_no_traceback(tmp_path):

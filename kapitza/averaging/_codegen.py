@@ -56,8 +56,9 @@ def _generator_fingerprint() -> str:
     return module_store.source_fingerprint(sys.modules[__name__])
 
 
-def terms(K, q, p, n):
-    """M, ∂M/∂q, the fast forces f_k, their gradients and weights 1/(4 k² ω²) at ``q``."""
+def _mass_and_fast_terms(K, q, p, n):
+    """M, ∂M/∂q, ∂²M/∂q², the weights 1/(4 k² ω²) and the fast forces f_k with their
+    first and second derivatives at ``q``."""
     M = np.empty((n, n))
     Mg, Mh = np.zeros((n, n, n)), np.zeros((n, n, n, n))
     K.mass_terms(q, p, M, Mg, Mh)
@@ -65,6 +66,12 @@ def terms(K, q, p, n):
     w = np.zeros(nf)
     f, fg, fh = np.zeros((nf, n)), np.zeros((nf, n, n)), np.zeros((nf, n, n, n))
     K.fast_terms(q, p, w, f, fg, fh)
+    return M, Mg, Mh, w, f, fg, fh
+
+
+def terms(K, q, p, n):
+    """M, ∂M/∂q, the fast forces f_k, their gradients and weights 1/(4 k² ω²) at ``q``."""
+    M, Mg, _, w, f, fg, _ = _mass_and_fast_terms(K, q, p, n)
     return M, Mg, f, fg, w
 
 
@@ -75,14 +82,7 @@ def effective(K, q, p, G, H) -> float:
     n = K.N_DOF
     U, Ug, Uh = np.empty(1), np.empty(n), np.empty((n, n))
     K.slow_terms(q, p, U, Ug, Uh)
-    M = np.empty((n, n))
-    Mg, Mh = np.zeros((n, n, n)), np.zeros((n, n, n, n))
-    K.mass_terms(q, p, M, Mg, Mh)
-    nf = K.N_FAST
-    w = np.zeros(nf)
-    f, fg, fh = np.zeros((nf, n)), np.zeros((nf, n, n)), np.zeros((nf, n, n, n))
-    K.fast_terms(q, p, w, f, fg, fh)
-    return effective_from_terms(U[0], Ug, Uh, M, Mg, Mh, w, f, fg, fh, G, H)
+    return effective_from_terms(U[0], Ug, Uh, *_mass_and_fast_terms(K, q, p, n), G, H)
 
 
 def kernel_source(avg) -> str:
