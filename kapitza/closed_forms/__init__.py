@@ -10,10 +10,12 @@ window and stability map), ``_pendulum`` (averaging in closed form), ``_window``
 
 For sibling rooms (not in ``__all__``): ``pendulum_floquet``, what
 :func:`kapitza.floquet_grid` gives about the pendulum's equilibria, without compiling the
-general Floquet kernels (the report, ``KapitzaPendulum.verify``, the animation).
+general Floquet kernels (the report, ``KapitzaPendulum.verify``, the animation), and
+``slow_frequency_error``, the bound of Ω from a monodromy's error (also the verification's).
 """
 from ._characteristic import characteristic_value, ince_strutt_chart
 from ._floquet import pendulum_floquet as pendulum_floquet
+from ._floquet import slow_frequency_error as slow_frequency_error
 from ._mathieu import mathieu_monodromy_trace, mathieu_parameters, pendulum_stability_map
 from ._pendulum import multiple_pendulum_upright, pendulum_averaged, pendulum_effective_potential
 from ._window import averaging_window, pendulum_stability_window, pendulum_window

@@ -27,7 +27,17 @@ import numpy as np
 from ..results import BOUNDARIES
 from ._mathieu import mathieu_monodromy_trace, mathieu_parameters
 
-__all__ = ["pendulum_floquet"]
+__all__ = ["pendulum_floquet", "slow_frequency_error"]
+
+
+def slow_frequency_error(omega_slow, T, delta):
+    """A bound on the error of Ω = arccos(c) / T (rad/s) when c = cos ΩT is known to ±δ:
+    δ / (T max(|sin ΩT|, √δ)) — arccos's slope where ΩT is away from 0 and π, and √δ/T
+    at those ends, where arccos is not Lipschitz; 0 where δ = 0.  The bound of Ω from
+    any monodromy (:func:`pendulum_floquet`; :mod:`kapitza.verification`'s general one)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        turn = np.maximum(np.abs(np.sin(omega_slow * T)), np.sqrt(delta))
+        return np.where(delta > 0, delta / (T * turn), 0.0)
 
 
 def pendulum_floquet(A, omega, *, l, g, damping=0.0, about="inverted", tol=1e-10):
@@ -51,10 +61,10 @@ def pendulum_floquet(A, omega, *, l, g, damping=0.0, about="inverted", tol=1e-10
         2) and ``boundary`` (its name in :data:`kapitza.results.BOUNDARIES`: "stable",
         "T", "2T"), ``multipliers`` (shape + (2,), complex), ``omega_slow`` (rad/s, NaN
         where unstable), ``omega_slow_error`` (a bound on its error from the trace's:
-        δ/(T max(|sin ΩT|, √δ)) with δ that of tr M_u / 2, as :mod:`kapitza.verification`
-        bounds the general monodromy's), ``margin`` (the distance of |tr M_u| from the
-        stability limit in units of twice its error bound: below 1 the verdict is not
-        certain).
+        :func:`slow_frequency_error` with δ that of tr M_u / 2, as
+        :mod:`kapitza.verification` bounds the general monodromy's), ``margin`` (the
+        distance of |tr M_u| from the stability limit in units of twice its error bound:
+        below 1 the verdict is not certain).
     """
     A, omega = np.broadcast_arrays(np.asarray(A, dtype=float), np.asarray(omega, dtype=float))
     a, q, c = mathieu_parameters(A, omega, l, g, damping, about=about)
@@ -72,9 +82,8 @@ def pendulum_floquet(A, omega, *, l, g, damping=0.0, about="inverted", tol=1e-10
     margin = np.abs(limit - np.abs(trace_u)) / (2.0 * bound)
     with np.errstate(invalid="ignore"):
         omega_slow = np.where(stable, np.arccos(np.clip(trace_u / 2, -1.0, 1.0)) / T, np.nan)
-        delta = bound / 2                               # the error of cos ΩT = tr M_u / 2
-        turn = np.maximum(np.abs(np.sin(omega_slow * T)), np.sqrt(delta))
-        omega_slow_error = np.where(stable, delta / (T * turn), np.nan)
+    # bound / 2: the error of cos ΩT = tr M_u / 2
+    omega_slow_error = np.where(stable, slow_frequency_error(omega_slow, T, bound / 2), np.nan)
     det = np.exp(-damping * T)                          # Liouville
     root = np.sqrt((trace_y * trace_y - 4.0 * det).astype(complex))
     multipliers = np.stack([(trace_y + root) / 2, (trace_y - root) / 2], axis=-1)

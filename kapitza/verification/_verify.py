@@ -122,7 +122,13 @@ from lagrange_core.checks import real_array
 
 from .. import _arguments as arguments
 from ..averaging import average
-from ..closed_forms import mathieu_parameters, pendulum_averaged, pendulum_floquet, pendulum_window
+from ..closed_forms import (
+    mathieu_parameters,
+    pendulum_averaged,
+    pendulum_floquet,
+    pendulum_window,
+    slow_frequency_error,
+)
 from ..floquet import floquet_grid
 from ..results import OrderFit, Verification
 from ..simulation import DEFAULT_PERIODS, measure_grid
@@ -155,10 +161,7 @@ def _floquet_fields(grid):
     with np.errstate(over="ignore", invalid="ignore"):
         norm = np.sqrt(np.sum(np.abs(grid.monodromy) ** 2, axis=(-2, -1)))
     delta = (np.asarray(grid.error_estimate) * np.maximum(1.0, norm))[..., None]
-    T = np.asarray(grid.period)[..., None]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        turn = np.maximum(np.abs(np.sin(omega_slow * T)), np.sqrt(delta))
-        tol = np.where(delta > 0, delta / (T * turn), 0.0)
+    tol = slow_frequency_error(omega_slow, np.asarray(grid.period)[..., None], delta)
     return np.asarray(grid.stable, bool), omega_slow, tol, np.asarray(grid.margin, float)
 
 
@@ -609,9 +612,8 @@ def _pendulum_line(w0, tol, line, constants):
     a_line = velocity / w_line
     exact = pendulum_floquet(a_line, w_line, l=l, g=g, damping=constants["damping"],
                              about="inverted", tol=tol)
-    stable_fl, omega_fl, tol_fl = (exact.stable, exact.omega_slow[:, None],
-                                   exact.omega_slow_error[:, None])
-    omega_fl = np.where(stable_fl[:, None], omega_fl, np.nan)
+    # (Ω and its error are NaN where Floquet finds the state unstable)
+    omega_fl, tol_fl = exact.omega_slow[:, None], exact.omega_slow_error[:, None]
     avg = _pendulum_averaging(a_line, w_line, **constants)
     kappa = velocity / math.sqrt(g * l)
     text = f"ε = ω0/ω along A ω = {kappa:.4g} √(g l)"
