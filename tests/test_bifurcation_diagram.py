@@ -104,6 +104,22 @@ def test_dataframe_figure_and_about(ddp, cascade, tmp_path):
     np.testing.assert_allclose(d.q[0, 0, 0], cascade.q[0, 0, 0], atol=1e-6)
 
 
+def test_one_value_runs_the_kernels_a_grid_compiled(ddp, cascade):
+    """One value of one parameter (its arrays broadcast views of scalars, read-only) runs
+    the lanes kernels the grid compiled: numba compiles no read-only specialisation
+    (~10 s on first use, each)."""
+    from kapitza.chaos import _lanes as chaos_lanes
+    from lagrange_core import _first_order_lanes
+    bifurcation_diagram(ddp, dict(FIXED, F=9.0), about=[0.2], parameter="F", values=[1.35],
+                        periods=2, transient=2, progress=False)
+    lyapunov_grid(ddp, dict(FIXED, F=1.35), 0.2, periods=4, transient=0, blocks=2,
+                  progress=False)
+    lyapunov_grid(ddp, dict(FIXED, F=np.array([1.35, 1.4])), 0.2, periods=4, transient=0,
+                  blocks=2, progress=False)
+    for kernel in (_first_order_lanes._block, chaos_lanes._block):
+        assert len(kernel.signatures) == 1, kernel.signatures
+
+
 def test_frequency_as_the_parameter(ddp):
     """Sweeping ω itself: T varies per value and the samples land on each one's period."""
     w = np.array([0.6, 2 / 3])

@@ -394,8 +394,10 @@ def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200,
     names = system.parameters
 
     def flat(a, tail=()):
-        return np.ascontiguousarray(np.broadcast_to(a, S + tail).reshape((N,) + tail),
-                                    dtype=float)
+        # a writable copy: a broadcast view is read-only, and numba compiles the lanes
+        # kernel once more (~10 s) for a read-only argument (one value of one parameter)
+        return np.array(np.broadcast_to(a, S + tail).reshape((N,) + tail), dtype=float,
+                        order="C")
 
     Y0 = np.hstack([flat(Q0, (n,)), flat(V0, (n,))])
     P = np.stack([flat(pv[name]) for name in names], axis=1) if names else np.zeros((N, 0))

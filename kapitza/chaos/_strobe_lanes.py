@@ -104,8 +104,10 @@ def strobe_runs_lanes(system, params, Q0, V0, T, t0, transient, periods, rtol, a
     N = int(np.prod(S, dtype=np.int64))
 
     def flat(a, tail=()):
-        return np.ascontiguousarray(np.broadcast_to(a, S + tail).reshape((N,) + tail),
-                                    dtype=float)
+        # a writable copy: a broadcast view is read-only, and numba compiles the lanes
+        # kernel once more (~10 s) for a read-only argument (one value of one parameter)
+        return np.array(np.broadcast_to(a, S + tail).reshape((N,) + tail), dtype=float,
+                        order="C")
 
     Y = np.hstack([flat(Q0, (n,)), flat(V0, (n,))])
     P = np.ascontiguousarray(np.stack([flat(pv[k]) for k in names], axis=1).reshape(N, -1))
