@@ -145,3 +145,32 @@ def test_long_titles_are_wrapped_never_cut(pend):
     assert not _within(fig)                          # as drawn by the caller's title: cut
     assert figures.fit_texts(fig) and _within(fig)
     assert figures.fit_texts(fig) == []              # once fitted, left alone
+
+
+def test_a_title_is_wrapped_exactly_when_the_drawn_figure_cuts_it():
+    """For titles of 4 to 31 words, on a plain panel and on a panel with a colour bar (the
+    layout moves its centre), fit_texts wraps the title exactly when the drawn figure cuts
+    it unwrapped — its quick check skips no title that needs it — and no title is cut
+    afterwards.  Beside the colour bar the equal-aspect panel shrinks as its title grows:
+    when each round wrapped the wrapped title again, the longest title was broken into
+    single words ("inverted", "state") and still cut."""
+    import matplotlib.pyplot as plt
+    words = ("the slow frequency of the inverted state q = (π, π) of a damped chain of "
+             "two links driven at ω = 60 Hz measured by direct simulation over many periods")
+    for colorbar in (False, True):
+        # 4 and 9 words: passed by the quick check; 14: measured, fits on the plain panel
+        # and is cut beside the colour bar; all 31: cut
+        for n in (4, 9, 14, len(words.split())):
+            text = " ".join(words.split()[:n])
+            fig, ax = plt.subplots(figsize=(6, 3), layout="constrained")
+            image = ax.imshow(np.eye(3))
+            if colorbar:
+                fig.colorbar(image, ax=ax)
+            ax.set_title(text)
+            fig.canvas.draw()
+            cut = not _within(fig)
+            changed = figures.fit_texts(fig)
+            fig.canvas.draw()
+            assert bool(changed) == cut, (colorbar, text)
+            assert _within(fig), (colorbar, text)
+            plt.close(fig)
