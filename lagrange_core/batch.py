@@ -231,6 +231,17 @@ class GridInterrupted(KeyboardInterrupt):
 
 # -- arguments ---------------------------------------------------------------------------
 
+def point_rows(a, shape, tail=()) -> np.ndarray:
+    """``a`` broadcast to ``shape + tail`` with the grid's points as rows: a float array of
+    shape (N,) + tail, N = prod(shape), C-ordered and always a writable copy (a view of a
+    broadcast input is read-only, and numba compiles a grid kernel once more for every
+    read-only/writable mix of its arguments: ~10-30 s each).  The grid kernels of
+    ``kapitza.chaos`` take their inputs through it too."""
+    n = int(np.prod(shape, dtype=np.int64))
+    return np.array(np.broadcast_to(a, tuple(shape) + tail).reshape((n,) + tail),
+                    dtype=float, order="C")
+
+
 def _grid_arrays(system, q0, qdot0, t_span, params, h, strobe, reference, band):
     """Broadcast every per-point input to the grid shape S; flat (N, ...) float arrays."""
     n = system.n_dof
@@ -299,10 +310,7 @@ def _grid_arrays(system, q0, qdot0, t_span, params, h, strobe, reference, band):
     N = int(np.prod(S, dtype=np.int64))
 
     def flat(a, tail=()):
-        # always a writable copy: a view of a broadcast input is read-only, and numba
-        # compiles the grid kernels once more for every read-only/writable mix (~30 s each)
-        return np.array(np.broadcast_to(a, S + tail).reshape((N,) + tail), dtype=float,
-                        order="C")
+        return point_rows(a, S, tail)
 
     T0, T1 = flat(t0), flat(t1)
     bad = ~(T1 > T0)

@@ -67,7 +67,7 @@ import warnings
 
 import numpy as np
 
-from lagrange_core.batch import STATUS_NAMES, _run_paused
+from lagrange_core.batch import STATUS_NAMES, _run_paused, point_rows
 from lagrange_core.checks import real_number
 from lagrange_core.progress import defer_ctrl_c, run_in_chunks
 
@@ -394,10 +394,7 @@ def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200,
     names = system.parameters
 
     def flat(a, tail=()):
-        # a writable copy: a broadcast view is read-only, and numba compiles the lanes
-        # kernel once more (~10 s) for a read-only argument (one value of one parameter)
-        return np.array(np.broadcast_to(a, S + tail).reshape((N,) + tail), dtype=float,
-                        order="C")
+        return point_rows(a, S, tail)       # (a writable copy: see point_rows)
 
     Y0 = np.hstack([flat(Q0, (n,)), flat(V0, (n,))])
     P = np.stack([flat(pv[name]) for name in names], axis=1) if names else np.zeros((N, 0))

@@ -18,7 +18,7 @@ import numba
 import numpy as np
 
 from lagrange_core import _first_order_lanes as _fl
-from lagrange_core.batch import STATUS_NAMES
+from lagrange_core.batch import STATUS_NAMES, point_rows
 from lagrange_core.progress import defer_ctrl_c
 
 from .._arguments import whole_number
@@ -104,10 +104,7 @@ def strobe_runs_lanes(system, params, Q0, V0, T, t0, transient, periods, rtol, a
     N = int(np.prod(S, dtype=np.int64))
 
     def flat(a, tail=()):
-        # a writable copy: a broadcast view is read-only, and numba compiles the lanes
-        # kernel once more (~10 s) for a read-only argument (one value of one parameter)
-        return np.array(np.broadcast_to(a, S + tail).reshape((N,) + tail), dtype=float,
-                        order="C")
+        return point_rows(a, S, tail)       # (a writable copy: see point_rows)
 
     Y = np.hstack([flat(Q0, (n,)), flat(V0, (n,))])
     P = np.ascontiguousarray(np.stack([flat(pv[k]) for k in names], axis=1).reshape(N, -1))
