@@ -91,6 +91,9 @@ def _group(item) -> str:
     # its own, so the two workers share them
     if path.endswith(("test_docs.py", "test_docs_browser.py")):
         return "docs-site"
+    # the quick reports likewise (tests/report_builds.py)
+    if path.endswith(("test_report.py", "test_report_browser.py")):
+        return "quick-reports"
     if (path.endswith("test_notebooks.py")
             and getattr(item, "originalname", "") == "test_notebook_runs"):
         return f"notebook-{item.callspec.id}"     # as marked in the file

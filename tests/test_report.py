@@ -1,9 +1,9 @@
 """kapitza report (issue 14.2): the folder it writes, checked against independent calls.
 
-The quick report of the default scene is built once per module; its tables are checked
-against references computed here: the exact window against the map's own labels and
-the closed form of first-order averaging, the spot checks' Floquet verdicts and the
-slow frequencies against monodromies integrated by scipy (tests/helpers.py).
+The quick report of the default scene is built once per process (tests/report_builds.py);
+its tables are checked against references computed here: the exact window against the
+map's own labels and the closed form of first-order averaging, the spot checks' Floquet
+verdicts and the slow frequencies against monodromies integrated by scipy (tests/helpers.py).
 """
 import html
 import json
@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from report_builds import quick_report
 
 import kapitza
 from kapitza import KapitzaPendulum
@@ -27,10 +28,10 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory):
-    out = tmp_path_factory.mktemp("report")
-    lines = []
-    report = build_report(out=out, quick=True, progress=lines.append)
-    return report, lines
+    """The default scene's quick report and its progress lines (tests/report_builds.py: one
+    build per process, shared with tests/test_report_browser.py)."""
+    built = quick_report("report", tmp_path_factory)
+    return built.report, built.progress
 
 
 def _links(page: str):

@@ -10,10 +10,11 @@ entry), nothing loaded from outside the folder, no horizontal scrolling at 1280 
 full-page screenshot, checked to be a real picture (``KAPITZA_SCREENSHOT_DIR`` set: a copy is
 kept there). Negative tests on hand-made pages prove that each check catches what it is for.
 
-Every shipped scene (``kapitza.scenes.example_scenes()``) gets its quick report built once for
-the module and opened: images, console, a page no wider than the window, no "nan"/"inf" or
-Python warning class where a number should stand; the build itself lets no warning reach the
-terminal and cuts no figure's title (each figure's drawn extent within it).
+Every shipped scene (``kapitza.scenes.example_scenes()``) gets its quick report built once per
+process (tests/report_builds.py, shared with tests/test_report.py) and opened: images,
+console, a page no wider than the window, no "nan"/"inf" or Python warning class where a
+number should stand; the build itself lets no warning reach the terminal and cuts no
+figure's title (each figure's drawn extent within it).
 
 Browser and driver: Debian's ``chromium`` and ``chromium-driver`` (the same source version, so
 they always match; ``.ci/run`` installs both when missing), driven by Selenium with the driver's
@@ -27,20 +28,17 @@ from disk (no JavaScript, no server), so a path that works only under a server (
 favicon request to get wrong.
 """
 import base64
-import contextlib
 import dataclasses
-import io
 import os
 import re
 import shutil
-import time
-import warnings
 from pathlib import Path
 from urllib.parse import urlsplit
 from urllib.request import url2pathname
 
 import numpy as np
 import pytest
+from report_builds import quick_report
 
 #: Debian's names first; any Chromium-based browser with a matching chromedriver works
 BROWSERS = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
@@ -248,52 +246,11 @@ SCENES = ("report", "double_pendulum", "elliptic_damped", "horizontal_drive", "k
           "kapitza_pendulum_map", "period_doubling")
 
 
-@dataclasses.dataclass(frozen=True)
-class Built:
-    """A scene's quick report and what its build let through."""
-    report: object
-    escaped: list       # warnings that reached the caller of build_report (its terminal)
-    stderr: str         # what the build wrote on stderr (progress off: nothing)
-    figures: list       # (name, tight bbox, figure bbox) of every saved figure, in inches
-    seconds: float
-
-
-def _build_scene(name, out):
-    """Build ``name``'s quick report into ``out``, recording the escaped warnings, stderr and
-    every figure's extent (Job.figure wrapped: the figure is measured after it is saved)."""
-    from kapitza.report import build_report
-    from kapitza.report._job import Job
-    from kapitza.scenes import example_scenes
-
-    extents = []
-    save = Job.figure
-
-    def figure(self, fig, fname):
-        rel = save(self, fig, fname)
-        extents.append((fname, fig.get_tightbbox(), fig.bbox_inches))
-        return rel
-    err = io.StringIO()
-    with pytest.MonkeyPatch.context() as mp, warnings.catch_warnings(record=True) as caught, \
-            contextlib.redirect_stderr(err):
-        warnings.simplefilter("always")
-        mp.setattr(Job, "figure", figure)
-        t0 = time.perf_counter()
-        report = build_report(example_scenes()[name], out, quick=True, progress=False)
-        seconds = time.perf_counter() - t0
-    return Built(report, list(caught), err.getvalue(), extents, seconds)
-
-
 @pytest.fixture(scope="module")
 def scene_report(tmp_path_factory):
-    """``scene_report(name)``: the scene's quick report, built once for the module (the
-    file is one xdist group: tests/conftest.py), on the first test that asks for it."""
-    cache = {}
-
-    def get(name):
-        if name not in cache:
-            cache[name] = _build_scene(name, tmp_path_factory.mktemp(f"scene-{name}"))
-        return cache[name]
-    return get
+    """``scene_report(name)``: the scene's quick report, built once per process, on the first
+    test that asks for it (tests/report_builds.py: shared with tests/test_report.py)."""
+    return lambda name: quick_report(name, tmp_path_factory)
 
 
 # --- the default report ----------------------------------------------------------------------
