@@ -40,6 +40,7 @@ Examples
 """
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -195,10 +196,22 @@ class PivotDrive:
         if self.path == "elliptic":
             B = sp.Symbol("B", real=True)
             return A * sp.cos(w * t), B * sp.sin(w * t)
-        s = sum(sp.nsimplify(a) * sp.cos(int(k) * w * t + sp.nsimplify(ph))
-                for k, a, ph in self.harmonics)
-        dx, dy = (sp.nsimplify(c) for c in self.direction)
+        s = sum(_exact(a) * sp.cos(int(k) * w * t + _exact(ph)) for k, a, ph in self.harmonics)
+        dx, dy = (_exact(c) for c in self.direction)
         return dx * A * s, dy * A * s
+
+
+def _exact(x):
+    """``sympy.nsimplify(x)``: the exact number a float stands for (0.7071067811865476 →
+    √2/2), remembered: nsimplify searches for it with mpmath's PSLQ (~5 ms a number), and
+    every drive's statement asks again for the same few (1.0, 0.0, its direction's)."""
+    try:
+        return _exact_remembered(x)
+    except TypeError:           # unhashable (a 0-d array): as it was
+        return sp.nsimplify(x)
+
+
+_exact_remembered = functools.lru_cache(maxsize=1024)(sp.nsimplify)
 
 
 @dataclass(frozen=True)
@@ -300,7 +313,7 @@ def build(rig: Rig, effects: Sequence = (), *, name: str | None = None) -> Syste
                                  f"{rig.name} ({names}).")
             q = rig.coordinates[names.index(e.coordinate)]
             k = sp.Symbol(f"k_{e.coordinate}", positive=True)
-            V += k * (q - sp.nsimplify(e.rest)) ** 2 / 2
+            V += k * (q - _exact(e.rest)) ** 2 / 2
             labels.append(f"spring on {e.coordinate}")
     return System(list(rig.coordinates), particles=particles, potential=V, dissipation=D,
                   forces=forces or None,
