@@ -43,13 +43,7 @@ from lagrange_core.progress import run_in_chunks
 from .. import _arguments as arguments
 from .._deprecation import deprecated_alias
 from ..results import ComputationInterrupted, StabilityMap, StabilityWindow
-from ._characteristic import (
-    _KMAX_LIMIT,
-    _char_value,
-    _char_values,
-    _kmax_needed,
-    stability_counts,
-)
+from ._characteristic import _KMAX_LIMIT, _char_value, _kmax_needed, stability_counts
 
 # reached as _mathieu.<name> by tests and studies written before the split (0.2); the
 # public path is kapitza.closed_forms
@@ -284,38 +278,18 @@ def _bracket_root(f, lo, hi, tol):
     return r, np.nan
 
 
-#: scan points evaluated per call of a vectorised ``values`` (:func:`_first_root`): the
-#: first sign change lies ~90 points in on average, and a call per point cost more in
-#: Python than the characteristic value itself
-_SCAN_CHUNK = 48
-
-
-def _first_root(f, hi, tol, n=400, values=None):
-    """The smallest q in (0, hi] where f changes sign (scan, then Brent).
-
-    ``values(qs)``, if given, is f at every point of an array (equal to f pointwise): the
-    scan then evaluates :data:`_SCAN_CHUNK` points per call; same result.
-    """
+def _first_root(f, hi, tol, n=400):
+    """The smallest q in (0, hi] where f changes sign (scan, then Brent)."""
     qs = np.concatenate([[1e-300], np.geomspace(1e-6, 1e-2, 40)[:-1],
                          np.linspace(1e-2, hi, n)])
-    if values is None:
-        values = lambda x: np.array([f(v) for v in x])      # noqa: E731
-    prev = None
-    for lo in range(0, qs.size, _SCAN_CHUNK):
-        vals = np.asarray(values(qs[lo:lo + _SCAN_CHUNK]), float)
-        if prev is not None:
-            vals = np.concatenate([[prev], vals])
-            lo -= 1
-        # the first k with f(q_{k-1}) = 0 (a root on the scan) or a change of sign
-        zero = vals[:-1] == 0
-        change = np.sign(vals[1:]) != np.sign(vals[:-1])
-        hit = np.flatnonzero(zero | change)
-        if hit.size:
-            k = lo + int(hit[0]) + 1
-            if zero[hit[0]]:
-                return qs[k - 1], 0.0
+    prev = f(qs[0])
+    for k in range(1, qs.size):
+        cur = f(qs[k])
+        if prev == 0:
+            return qs[k - 1], 0.0
+        if np.sign(cur) != np.sign(prev):
             return _bracket_root(f, qs[k - 1], qs[k], tol)
-        prev = vals[-1]
+        prev = cur
     return np.inf, np.nan
 
 
@@ -454,10 +428,8 @@ def exact_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inverted",
                 f0 = lambda q, a=a: _char_value(False, 0, q, np.nan) - a      # noqa: E731
                 f1 = lambda q, a=a: _char_value(True, 1, q, np.nan) - a       # noqa: E731
                 # a0(q) ≤ −q²/2 + 7q⁴/128 and b1(q) ≤ 1 − q bound the brackets
-                q0, e0 = _first_root(f0, max(2.0, 4 * math.sqrt(-a) + 4), tol,
-                                     values=lambda q, a=a: _char_values(False, 0, q) - a)
-                q1, e1 = _first_root(f1, max(4.0, 2 * (1 - a) + 4), tol,
-                                     values=lambda q, a=a: _char_values(True, 1, q) - a)
+                q0, e0 = _first_root(f0, max(2.0, 4 * math.sqrt(-a) + 4), tol)
+                q1, e1 = _first_root(f1, max(4.0, 2 * (1 - a) + 4), tol)
                 if q0 < q1:
                     Amin[i], Amax[i], acc[i] = q0, q1, max(e0, e1)
             else:
@@ -467,12 +439,10 @@ def exact_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inverted",
                     continue
                 hi = 4 * a + 20
                 f_b = lambda q, r=r, a=a: _char_value(True, r + 1, q, np.nan) - a  # noqa: E731
-                roots = [_first_root(f_b, hi, tol, values=lambda q, r=r, a=a:
-                                     _char_values(True, r + 1, q) - a)]
+                roots = [_first_root(f_b, hi, tol)]
                 if r >= 1:
                     f_a = lambda q, r=r, a=a: _char_value(False, r, q, np.nan) - a  # noqa: E731
-                    roots.append(_first_root(f_a, hi, tol, values=lambda q, r=r, a=a:
-                                             _char_values(False, r, q) - a))
+                    roots.append(_first_root(f_a, hi, tol))
                 q1, e1 = min(roots)
                 Amin[i], Amax[i], acc[i] = 0.0, q1, e1
         else:
