@@ -12,7 +12,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import io
-import time
 import warnings
 
 import pytest
@@ -26,7 +25,6 @@ class Built:
     escaped: list      # warnings that reached the caller of build_report (its terminal)
     stderr: str        # what the build wrote on stderr (progress to a callable: nothing)
     figures: list      # (name, tight bbox, figure bbox) of every saved figure, in inches
-    seconds: float
 
 
 _BUILT: dict[str, Built] = {}
@@ -49,10 +47,8 @@ def _build(name, out) -> Built:
             contextlib.redirect_stderr(err):
         warnings.simplefilter("always")
         mp.setattr(Job, "figure", figure)
-        t0 = time.perf_counter()
         report = build_report(example_scenes()[name], out, quick=True, progress=lines.append)
-        seconds = time.perf_counter() - t0
-    return Built(report, lines, list(caught), err.getvalue(), extents, seconds)
+    return Built(report, lines, list(caught), err.getvalue(), extents)
 
 
 def quick_report(name: str, tmp_path_factory) -> Built:
