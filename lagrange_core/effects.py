@@ -209,7 +209,7 @@ def _exact(x):
     same values: the scene tests asked 2331 times for 41 numbers, 10 s)."""
     try:
         return _exact_remembered(x)
-    except TypeError:           # unhashable (a 0-d array): as it was
+    except TypeError:           # unhashable: nsimplify alone decides, as before
         return sp.nsimplify(x)
 
 
