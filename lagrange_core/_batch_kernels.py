@@ -50,7 +50,9 @@ of error ratios, the drive's rotations) in its row of ``SAVE``/``SAVEI``
 (:func:`save_width` floats, :data:`SAVEI_WIDTH` integers).  The next call with that row
 resumes it exactly: the same steps and the same numbers as an unbroken run.  So
 :func:`lagrange_core.batch.simulate_grid` cuts a long trajectory into calls of about a
-quarter of a second, for progress and Ctrl-C.  The loops are the drivers of
+quarter of a second, for progress; and on Ctrl-C every driver pauses its running points
+at their next step (it reads ``stop[0]``, :data:`lagrange_core.progress.KERNEL_STOP`,
+at every step).  The loops are the drivers of
 :mod:`lagrange_core._integrator_kernels` rewritten per point without output buffers
 (RKN 12(10) and the symplectic composition on the drive kernel, with the drive advanced
 by rotations; DOP853 on the generic right-hand side, with projection onto the
@@ -343,7 +345,7 @@ SAVEI_WIDTH = 1 + STATS_SIZE
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, flags, rtol,
                        atol, max_steps, c, A, b, bp, bh, bph, w, yf, sq, qsum, dev, counts,
-                       hbuf, block, budget, save, savei):
+                       hbuf, block, budget, stop, save, savei):
     """Integrate one point of a q̈ = f(q, t) system (drive kernel) from y0 at t0 to t1.
 
     family 0: RKN 12(10), adaptive (``adaptive``) or at the fixed step ``h0``;
@@ -357,11 +359,13 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
     A non-empty ``hbuf`` records the accepted steps (a pilot run; observables off; it
     stops when ``hbuf`` is full, all a pilot uses).
 
-    After ``budget`` steps of this call the point *pauses*: its integrator state goes to
-    ``save``/``savei`` (``savei[SAVED]`` = 1) and the status is GRID_INTERRUPTED, with the
-    observables so far in place; called again with them it resumes exactly where it
-    stopped (the same steps and numbers as an unbroken run).  Returns (status, t, exit
-    coordinate, energy drift, error estimate, steps recorded in hbuf).
+    After ``budget`` steps of this call — or the next step once ``stop[0]`` is set
+    (Ctrl-C, :data:`lagrange_core.progress.KERNEL_STOP`) — the point *pauses*: its
+    integrator state goes to ``save``/``savei`` (``savei[SAVED]`` = 1) and the status is
+    GRID_INTERRUPTED, with the observables so far in place; called again with them it
+    resumes exactly where it stopped (the same steps and numbers as an unbroken run).
+    Returns (status, t, exit coordinate, energy drift, error estimate, steps recorded in
+    hbuf).
     """
     n = y0.shape[0] // 2
     rates = drive_rates(ka, p)
@@ -485,7 +489,8 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
             break
         if hbuf.shape[0] > 0 and n_h >= hbuf.shape[0]:
             break                   # a pilot with all the steps it records
-        if counts[CNT_STEPS] - steps0 >= budget:
+        taken = counts[CNT_STEPS] - steps0
+        if taken >= budget or (taken > 0 and stop[0] != 0):
             # pause: save the state (a step just ended; the observables are in place)
             for i in range(n):
                 save[i] = q[i]
@@ -667,7 +672,8 @@ def pilot_step(ka, y0, p, t0, t1, T, rtol, atol, c, A, b, bp, bh, bph, counts):
     out = point_second_order(ka, 0, True, y0, p, t0, t0 + span / 50.0, 0.0, 0.0, z, -inf, inf,
                              0, rtol, atol, 1 << 40, c, A, b, bp, bh, bph, np.zeros(1), yf,
                              np.empty((1, 2 * n)), np.zeros(n), np.zeros(n), counts, hbuf,
-                             np.zeros(0), 1 << 62, np.zeros(0), np.zeros(1, dtype=np.int64))
+                             np.zeros(0), 1 << 62, np.zeros(1, dtype=np.int64), np.zeros(0),
+                             np.zeros(1, dtype=np.int64))
     m = out[5]
     if m == 0:
         return span
@@ -678,12 +684,14 @@ def pilot_step(ka, y0, p, t0, t1, T, rtol, atol, c, A, b, bp, bh, bph, counts):
 
 def grid_second_order(ka, family, adaptive, pilot, hold_block, idx, Y0, P, TS, H, TSTR, REF,
                       LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, w, YF, TF,
-                      SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, slot,
-                      SAVE, SAVEI):
+                      SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, stop,
+                      slot, SAVE, SAVEI):
     """Every point ``idx[k]`` with :func:`point_second_order` (``pilot``: the fixed step of
     each point from :func:`pilot_step`; ``hold_block``: steps per block of the adaptive
     held step); a point pauses after ``budget`` steps of this call, its state in row
     ``slot[k]`` of ``SAVE``/``SAVEI``, and resumes from it when that row is marked saved.
+    Once ``stop[0]`` is set (Ctrl-C) the running points pause at their next step and no
+    other point starts (their status stays as it was: not run, or paused earlier).
 
     The points go in blocks to the threads (:func:`lagrange_core._thread_blocks.run_rows`,
     16 per thread: points end at different times), each block one GIL-free call.
@@ -691,17 +699,19 @@ def grid_second_order(ka, family, adaptive, pilot, hold_block, idx, Y0, P, TS, H
     run_rows(_second_order_rows, idx.shape[0], ka, family, adaptive, pilot, hold_block, idx,
              Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh,
              bph, w, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget,
-             slot, SAVE, SAVEI, per_thread=16)
+             stop, slot, SAVE, SAVEI, per_thread=16, stoppable=True)
 
 
 @njit(cache=True, nogil=True)
 def _second_order_rows(ka, family, adaptive, pilot, hold_block, idx, Y0, P, TS, H, TSTR,
                        REF, LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, w,
                        YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS,
-                       budget, slot, SAVE, SAVEI, lo, hi):
+                       budget, stop, slot, SAVE, SAVEI, lo, hi):
     """The points idx[lo:hi] of :func:`grid_second_order`, on the calling thread."""
     nb = np.zeros(0)
     for k in range(lo, hi):
+        if stop[0] != 0:            # Ctrl-C: the points not started stay as they were
+            break
         i = idx[k]
         s = slot[k]
         block = np.empty(hold_block if adaptive else 0)
@@ -712,7 +722,7 @@ def _second_order_rows(ka, family, adaptive, pilot, hold_block, idx, Y0, P, TS, 
         st, t, jx, drift, err, nh = point_second_order(
             ka, family, adaptive, Y0[i], P[i], TS[i, 0], TS[i, 1], h0, TSTR[i], REF[i], LO[i],
             HI[i], flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, w, YF[i], SQ[i], QM[i],
-            DEV[i], COUNTS[i], nb, block, budget, SAVE[s], SAVEI[s])
+            DEV[i], COUNTS[i], nb, block, budget, stop, SAVE[s], SAVEI[s])
         STATUS[i] = st
         TF[i] = t
         EXITC[i] = jx
@@ -1009,7 +1019,7 @@ def _stage_positions(s, A, c, K, q, v, hs, qs, acc, L):
 
 def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
                    rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT, EXITC,
-                   EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
+                   EDRIFT, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI):
     """RKN 12(10) over the points ``idx`` on *lanes*: each thread takes blocks of ``block``
     points (:func:`lagrange_core._thread_blocks.run_spans`) and advances :data:`LANES` of
     them together, refilling a lane from its block when its trajectory ends.
@@ -1033,19 +1043,20 @@ def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO
     Pausing, as :func:`grid_second_order`: a point that has taken ``budget`` steps in this
     call (after its pilot) pauses with status GRID_INTERRUPTED, its observables so far
     written and its state in row ``slot[k]`` of ``SAVE``/``SAVEI``; a point whose row is
-    marked saved resumes from it.
+    marked saved resumes from it.  Once ``stop[0]`` is set (Ctrl-C) every running point
+    pauses at its next step and no other point starts.
     """
     run_spans(lambda lo, hi: _lanes_block(ka, mode, hold_block, idx, lo, hi, Y0, P, TS, H,
                                           TSTR, REF, LO, HI, flags, rtol, atol, max_steps, c,
                                           A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT, EXITC,
-                                          EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE,
-                                          SAVEI), idx.shape[0], block)
+                                          EDRIFT, COUNTS, ERR, STATUS, budget, stop, slot,
+                                          SAVE, SAVEI), idx.shape[0], block, stoppable=True)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST_MATH)
 def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
                  rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT, EXITC,
-                 EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
+                 EDRIFT, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI):
     """The points idx[lo_b:hi_b] of :func:`grid_rkn_lanes` on one thread's lanes (a
     function of its own, so that numba's parallel pass sees a small loop body)."""
     ns = c.shape[0]
@@ -1170,6 +1181,11 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
         if pt[l] < 0:
             ph[l] = _IDLE
     while active > 0:
+        if stop[0] != 0 and budget > 0:     # Ctrl-C: every running point pauses at its
+            budget = 0                      # next step, and no other point starts
+            nxt = hi_b
+            for l in range(L):
+                lim[l] = min(lim[l], nst[l])
         # the step of every lane: its length (shortened to land on t1 or a strobe time)
         any_adaptive = False
         for l in range(L):
@@ -1512,10 +1528,11 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
 
 @njit(cache=True)
 def point_dop853(ka, m, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, flags, rtol, atol,
-                 max_steps, A, B, C, E3, E5, yf, sq, qsum, dev, counts, budget, save, savei):
+                 max_steps, A, B, C, E3, E5, yf, sq, qsum, dev, counts, budget, stop, save,
+                 savei):
     """Integrate one point with DOP853 (adaptive, or the fixed 8th-order step ``h0``) on
     the system's ``rhs``; constrained states are projected onto Φ = 0, Φ̇ = 0 after every
-    step.  Observables, pausing (``budget``, ``save``, ``savei``) and returns as
+    step.  Observables, pausing (``budget``, ``stop``, ``save``, ``savei``) and returns as
     :func:`point_second_order`."""
     n = y0.shape[0] // 2
     n2 = 2 * n
@@ -1578,7 +1595,8 @@ def point_dop853(ka, m, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, flags, rtol
         if counts[CNT_STEPS] >= max_steps:
             status = GRID_MAX_STEPS
             break
-        if counts[CNT_STEPS] - steps0 >= budget:      # pause (as point_second_order)
+        taken = counts[CNT_STEPS] - steps0
+        if taken >= budget or (taken > 0 and stop[0] != 0):   # pause (as point_second_order)
             for i in range(n2):
                 save[i] = y[i]
                 save[n2 + i] = Kst[0, i]
@@ -1709,29 +1727,32 @@ def point_dop853(ka, m, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, flags, rtol
 
 def grid_dop853(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol,
                 max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT,
-                COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
-    """Every point ``idx[k]`` with :func:`point_dop853` (pausing as
+                COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI):
+    """Every point ``idx[k]`` with :func:`point_dop853` (pausing and stopping as
     :func:`grid_second_order`).
 
     The points go in blocks to the threads, as :func:`grid_second_order`'s.
     """
     run_rows(_dop853_rows, idx.shape[0], ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO,
              HI, flags, rtol, atol, max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT,
-             EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI, per_thread=16)
+             EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI,
+             per_thread=16, stoppable=True)
 
 
 @njit(cache=True, nogil=True)
 def _dop853_rows(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol,
                  max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT,
-                 COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI, lo, hi):
+                 COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI, lo, hi):
     """The points idx[lo:hi] of :func:`grid_dop853`, on the calling thread."""
     for k in range(lo, hi):
+        if stop[0] != 0:            # Ctrl-C: the points not started stay as they were
+            break
         i = idx[k]
         s = slot[k]
         st, t, jx, drift, err, nh = point_dop853(
             ka, m, adaptive, Y0[i], P[i], TS[i, 0], TS[i, 1], H[i], TSTR[i], REF[i], LO[i],
             HI[i], flags, rtol, atol, max_steps, A, B, C, E3, E5, YF[i], SQ[i], QM[i], DEV[i],
-            COUNTS[i], budget, SAVE[s], SAVEI[s])
+            COUNTS[i], budget, stop, SAVE[s], SAVEI[s])
         STATUS[i] = st
         TF[i] = t
         EXITC[i] = jx

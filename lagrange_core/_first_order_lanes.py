@@ -299,7 +299,7 @@ def _load(ka, l, i, sv, svi, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, y, K, P
 
 def grid_dop853_lanes(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol,
                       max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT,
-                      COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
+                      COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI):
     """Adaptive DOP853 over the points ``idx`` on lanes, with the arguments and results of
     :func:`lagrange_core._batch_kernels.grid_dop853` (so ``simulate_grid`` can call either):
     ``m`` must be 0 and ``adaptive`` true, and ``flags`` must not ask for a band or the
@@ -307,7 +307,9 @@ def grid_dop853_lanes(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, fla
     hold the slots ``rhs`` and ``rhs_lanes``.  A point pauses after ``budget`` accepted
     steps in this call (status GRID_INTERRUPTED = 7, its integrator state in
     ``SAVE[slot[k]]``, ``SAVEI[slot[k], 0]`` = 1, in ``point_dop853``'s layout: 4n + 8
-    floats) and a later call resumes it.
+    floats) and a later call resumes it.  Once ``stop[0]`` is set (Ctrl-C,
+    :data:`lagrange_core.progress.KERNEL_STOP`) every running point pauses at its next
+    step and no other point starts.
 
     The points are cut into two blocks per thread; a thread advances up to :data:`LANES`
     points of a block together, refilling a lane from its block when its point ends."""
@@ -316,22 +318,24 @@ def grid_dop853_lanes(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, fla
                          "observing strobe samples and deviations only; use grid_dop853.")
     block = max(8, -(-idx.shape[0] // (2 * numba.get_num_threads())))
     _grid(ka, idx, block, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_steps, A, B, C, E3,
-          E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI)
+          E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI)
 
 
 def _grid(ka, idx, block, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_steps, A, B, C, E3,
-          E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
+          E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI):
     """The blocks of :func:`grid_dop853_lanes` on the threads of
     :func:`lagrange_core._thread_blocks.run_spans`."""
     run_spans(lambda lo, hi: _block(ka, idx, lo, hi, Y0, P, TS, H, TSTR, REF, flags, rtol,
                                     atol, max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV,
-                                    COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI),
-              idx.shape[0], block)
+                                    COUNTS, ERR, STATUS, budget, stop, slot, SAVE,
+                                    SAVEI),
+              idx.shape[0], block, stoppable=True)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST_MATH)
 def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_steps, A, B,
-           C, E3, E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS, budget, slot, SAVE, SAVEI):
+           C, E3, E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS, budget, stop, slot, SAVE,
+           SAVEI):
     """The points idx[lo_b:hi_b] of :func:`grid_dop853_lanes` on one thread's lanes."""
     d = Y0.shape[1]
     n = d // 2
@@ -400,6 +404,9 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_
                 active += 1
             nxt += 1
     while active > 0:
+        if stop[0] != 0 and budget > 0:     # Ctrl-C: every running point pauses at its
+            budget = 0                      # next step, and no other point starts
+            nxt = hi_b
         # each lane's step: shortened to land on its end or its next strobe time
         for l in range(L):
             tt = t[l]

@@ -13,10 +13,12 @@ that cost more than the kernels themselves (measured 2026-11-26, exclusive compi
 serial wrapper).  Run time is the same: the blocks are seconds-long compiled calls, a
 pool's hand-off costs microseconds.
 
-A Ctrl-C while the blocks run waits for the running blocks (each is sized to a fraction
-of a second by its caller's step budget) before it is raised: the caller then reads
-results no thread is still writing — as numba's parallel region did, which Python's
-signal handler could only run after.
+A Ctrl-C while the blocks run waits for the running blocks before it is raised: the
+caller then reads results no thread is still writing — as numba's parallel region did,
+which Python's signal handler could only run after.  The wait is short: the kernels that
+pause long runs read :data:`lagrange_core.progress.KERNEL_STOP`, set here while waiting,
+and pause their points at the next step (the others' blocks are sized to a fraction of
+a second by their callers).
 """
 from __future__ import annotations
 
@@ -24,6 +26,8 @@ import concurrent.futures
 from collections.abc import Callable
 
 import numba
+
+from .progress import KERNEL_STOP
 
 __all__ = ["run_blocks", "run_spans", "run_rows", "thread_count"]
 
@@ -43,36 +47,49 @@ def _pool(threads: int) -> concurrent.futures.ThreadPoolExecutor:
     return _POOLS[threads]
 
 
-def run_blocks(work: Callable[[int], None], nblocks: int) -> None:
+def run_blocks(work: Callable[[int], None], nblocks: int, *, stoppable: bool = False) -> None:
     """``work(b)`` for every block b in range(nblocks), on :func:`thread_count` threads
     (on the calling thread alone when that is 1 or there is one block).  ``work`` must
-    call a ``nogil`` kernel: with the GIL held the threads would run one at a time."""
+    call a ``nogil`` kernel: with the GIL held the threads would run one at a time.
+
+    ``stoppable``: the kernel reads :data:`~lagrange_core.progress.KERNEL_STOP`; then even
+    a single block runs on the pool, so that the calling thread only waits, sees a Ctrl-C
+    at once and can set the flag (a hand-off costs tens of microseconds; such a block is
+    a compiled call sized to a quarter of a second)."""
     threads = min(thread_count(), nblocks)
-    if threads <= 1:
+    if threads <= 1 and not (stoppable and nblocks > 0):
         for b in range(nblocks):
             work(b)
         return
-    futures = [_pool(threads).submit(work, b) for b in range(nblocks)]
+    futures = [_pool(max(threads, 1)).submit(work, b) for b in range(nblocks)]
     try:
         for future in futures:
             future.result()
     except BaseException:
-        for future in futures:          # (a Ctrl-C): let the running blocks finish
+        for future in futures:          # (a Ctrl-C): let the running blocks finish,
             future.cancel()
-        concurrent.futures.wait(futures)
+        before = KERNEL_STOP[0]
+        KERNEL_STOP[0] = 1              # pausing their points at the next step
+        try:
+            concurrent.futures.wait(futures)
+        finally:
+            KERNEL_STOP[0] = before
         raise
 
 
-def run_spans(work: Callable[[int, int], None], npoints: int, block: int) -> None:
+def run_spans(work: Callable[[int, int], None], npoints: int, block: int, *,
+              stoppable: bool = False) -> None:
     """``work(lo, hi)`` for the consecutive spans [lo, hi) of ``block`` points (the last
     one shorter) that cover 0 … npoints − 1, by :func:`run_blocks`."""
-    run_blocks(lambda b: work(b * block, min(npoints, (b + 1) * block)), -(-npoints // block))
+    run_blocks(lambda b: work(b * block, min(npoints, (b + 1) * block)), -(-npoints // block),
+               stoppable=stoppable)
 
 
-def run_rows(kernel, npoints: int, *args, per_thread: int = 4) -> None:
+def run_rows(kernel, npoints: int, *args, per_thread: int = 4,
+             stoppable: bool = False) -> None:
     """``kernel(*args, lo, hi)`` over the points 0 … npoints − 1 in about ``per_thread``
     contiguous blocks per thread (more when the points' costs differ, so that the pool
     balances them), by :func:`run_spans`.  ``kernel`` is a ``nogil`` kernel taking the
     block's bounds as its last two arguments."""
     step = max(1, -(-npoints // (per_thread * thread_count())))
-    run_spans(lambda lo, hi: kernel(*args, lo, hi), npoints, step)
+    run_spans(lambda lo, hi: kernel(*args, lo, hi), npoints, step, stoppable=stoppable)

@@ -61,10 +61,11 @@ in a call *pauses* and goes on in the next one exactly where it stopped (its who
 integrator state saved: the same steps and numbers as an unbroken run; see
 :mod:`lagrange_core._batch_kernels`).  A progress line is shown on stderr when it is a
 terminal (``progress``; a single long run shows its share of the span and the time
-left).  Ctrl-C stops at the end of the running call and raises :class:`GridInterrupted`
-(a KeyboardInterrupt) whose ``.result`` holds every finished point, the points stopped
-part-way (status "interrupted": their observables up to ``t_final``) and the points not
-started (status "not_run").
+left).  Ctrl-C stops the running call within a step — its kernels read
+:data:`lagrange_core.progress.KERNEL_STOP`, and each running point pauses at its next
+step — and raises :class:`GridInterrupted` (a KeyboardInterrupt) whose ``.result`` holds
+every finished point, the points stopped part-way (status "interrupted": their
+observables up to ``t_final``) and the points not started (status "not_run").
 """
 from __future__ import annotations
 
@@ -78,7 +79,7 @@ import numpy as np
 from . import _batch_kernels as _bk
 from .checks import real_array
 from .drive_kernel import load_drive_kernel
-from .progress import ProgressLine, defer_ctrl_c, interrupt_requested
+from .progress import KERNEL_STOP, ProgressLine, defer_ctrl_c, interrupt_requested
 
 __all__ = ["GridTrajectories", "GridInterrupted", "simulate_grid", "STATUS_NAMES"]
 
@@ -417,7 +418,8 @@ def _grid_method(kernels, method, h_given):
 
 # -- the calls: chunks of points, long runs paused and resumed ----------------------------
 
-#: seconds one compiled call is sized to take: Ctrl-C (seen between calls) waits about this
+#: seconds one compiled call is sized to take: progress is shown between calls (Ctrl-C
+#: does not wait for a call: its kernels read KERNEL_STOP at every step)
 _TARGET = 0.25
 #: steps a point may take in the first call (the next calls' budget is sized from its time)
 _FIRST_BUDGET = 2048
@@ -425,7 +427,8 @@ _FIRST_BUDGET = 2048
 
 def _run_paused(call, N, TS, TF, STATUS, width, progress, first, label="simulate_grid"):
     """Integrate every point through ``call(idx, budget, slot, SAVE, SAVEI)`` in calls of
-    about :data:`_TARGET` seconds; returns (points ended, interrupted).
+    about :data:`_TARGET` seconds; returns (points ended, interrupted) — interrupted also
+    when the Ctrl-C came during the last call and every point ended.
 
     A call takes the points paused by the last one (their saved state first) and new
     points up to ``size``; a point that has taken ``budget`` steps in a call pauses
@@ -433,8 +436,10 @@ def _run_paused(call, N, TS, TF, STATUS, width, progress, first, label="simulate
     next.  ``size`` (points) and ``budget`` (steps) are sized from the time each call
     took, at most 8× the last, so a grid of short runs goes by chunks of points and a
     long run by chunks of steps.  Progress counts a paused point by the share of its
-    span it has reached.  On Ctrl-C (between calls) the paused points keep status
-    GRID_INTERRUPTED with their observables so far, the points never started "not_run".
+    span it has reached.  On Ctrl-C (the call in flight pauses its running points at
+    their next step: :data:`lagrange_core.progress.KERNEL_STOP`) the paused points keep
+    status GRID_INTERRUPTED with their observables so far, the points never started
+    "not_run".
     """
     bar = ProgressLine(progress, N, label, "points" if N != 1 else "of the run",
                        fraction=N == 1)
@@ -473,7 +478,9 @@ def _run_paused(call, N, TS, TF, STATUS, width, progress, first, label="simulate
         bar.close()
         return ended, True
     bar.close()
-    return ended, False
+    # a Ctrl-C during the last call (its points all ended) is not dropped: the caller
+    # raises its interruption, with the whole result in it
+    return ended, interrupt_requested()
 
 
 # -- simulate_grid -----------------------------------------------------------------------
@@ -537,8 +544,9 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
         load_drive_kernel(kernels, lanes=lanes)
     ka = kernels.addresses(*sorted(slots))
 
-    # from here on Ctrl-C is seen between calls (the allocations included: the strobe
-    # samples of a long run take a while), and the run stops with what it computed
+    # from here on Ctrl-C is deferred (the allocations included: the strobe samples of a
+    # long run take a while): the call in flight pauses its points at their next step
+    # (KERNEL_STOP), and the run stops with what it computed
     with defer_ctrl_c():
         YF = np.full((N, 2 * n), np.nan)
         TF = np.full(N, np.nan)
@@ -574,14 +582,16 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
                 block = max(_BLOCK, -(-len(idx) // (2 * numba.get_num_threads())))
                 _bk.grid_rkn_lanes(ka, lane_mode, _HOLD_BLOCK, idx, block, *common, tab["c"],
                                    tab["A"], tab["b"], tab["bp"], tab["bh"], tab["bph"], *outs,
-                                   budget, slot, save, savei)
+                                   budget, KERNEL_STOP, slot, save, savei)
             elif family == "second_order":
                 _bk.grid_second_order(ka, sub, adaptive, pilot, _HOLD_BLOCK, idx, *common,
                                       tab["c"], tab["A"], tab["b"], tab["bp"], tab["bh"],
-                                      tab["bph"], tab["w"], *outs, budget, slot, save, savei)
+                                      tab["bph"], tab["w"], *outs, budget, KERNEL_STOP, slot,
+                                      save, savei)
             else:
                 _bk.grid_dop853(ka, m, adaptive, idx, *common, tab["A"], tab["B"], tab["C"],
-                                tab["E3"], tab["E5"], *outs, budget, slot, save, savei)
+                                tab["E3"], tab["E5"], *outs, budget, KERNEL_STOP, slot,
+                                save, savei)
 
         with numba.parallel_chunksize(1):
             done, interrupted = _run_paused(call, N, g["TS"], TF, STATUS, width, progress,

@@ -5,7 +5,9 @@ call returns.  So every long computation of the toolkit (grids of simulations, F
 maps, sweeps) is cut into chunks of about a quarter of a second by :func:`run_in_chunks`,
 which shows progress between chunks and stops at the next boundary on Ctrl-C; the
 caller then returns or raises what finished.  :func:`defer_ctrl_c` keeps a Ctrl-C
-from cutting the NumPy glue between chunked stages in the middle.
+from cutting the NumPy glue between chunked stages in the middle.  The grid kernels
+that pause long runs need not wait for a boundary: they read :data:`KERNEL_STOP`, which
+Ctrl-C sets, at every step.
 """
 from __future__ import annotations
 
@@ -15,7 +17,10 @@ import sys
 import threading
 import time
 
-__all__ = ["ProgressLine", "defer_ctrl_c", "run_in_chunks", "interrupt_requested"]
+import numpy as np
+
+__all__ = ["ProgressLine", "defer_ctrl_c", "run_in_chunks", "interrupt_requested",
+           "KERNEL_STOP"]
 
 #: seconds of work before a progress line appears (shorter work shows none)
 SHOW_AFTER = 0.5
@@ -69,11 +74,24 @@ class ProgressLine:
 #: Ctrl-C while :func:`defer_ctrl_c` is active: "hit" is set instead of raising in NumPy glue
 _SIGINT = {"active": False, "hit": False}
 
+#: Ctrl-C for the compiled calls in flight.  The grid kernels that pause long runs (the
+#: drivers of :mod:`lagrange_core._batch_kernels` and :mod:`lagrange_core._first_order_lanes`,
+#: ``kapitza.chaos._lanes``) take this one-element array as their argument ``stop`` and
+#: read it at every step: once it is 1 their running points pause at their next accepted
+#: step (status "interrupted", as when a call's step budget is used) and the points not
+#: yet started stay unstarted.  Why: a call is sized to ~0.25 s from the calls before it,
+#: but on a loaded machine one can run several times longer, and Python sees Ctrl-C only
+#: when it returns.  Set by Ctrl-C while :func:`defer_ctrl_c` is active (and by
+#: :func:`lagrange_core._thread_blocks.run_blocks` on a KeyboardInterrupt); 0 again when
+#: the outermost :func:`defer_ctrl_c` is entered or left.
+KERNEL_STOP = np.zeros(1, dtype=np.int64)
+
 
 @contextlib.contextmanager
 def defer_ctrl_c():
     """While active (main thread, Python's own SIGINT handler installed), Ctrl-C only sets
-    ``_SIGINT["hit"]``; :func:`run_in_chunks` stops at the next chunk boundary, and the
+    ``_SIGINT["hit"]`` (and :data:`KERNEL_STOP`); :func:`run_in_chunks` stops at the next
+    chunk boundary, the grid kernels' running points pause at their next step, and the
     NumPy code between the chunked stages is never cut in the middle (its result would be
     lost with a plain KeyboardInterrupt).  Re-entrant: nested calls do nothing."""
     if (_SIGINT["active"] or threading.current_thread() is not threading.main_thread()
@@ -83,14 +101,17 @@ def defer_ctrl_c():
 
     def handler(signum, frame):
         _SIGINT["hit"] = True
+        KERNEL_STOP[0] = 1
 
     _SIGINT.update(active=True, hit=False)
+    KERNEL_STOP[0] = 0
     old = signal.signal(signal.SIGINT, handler)
     try:
         yield
     finally:
         signal.signal(signal.SIGINT, old)
         _SIGINT.update(active=False, hit=False)
+        KERNEL_STOP[0] = 0
 
 
 def run_in_chunks(work, total, *, progress=None, label="", unit="points", first=64,
@@ -102,7 +123,8 @@ def run_in_chunks(work, total, *, progress=None, label="", unit="points", first=
     at most 8× the last), so Ctrl-C — which Python sees only between compiled
     calls — stops the loop within a chunk's time.  Returns (items finished,
     interrupted); the caller turns an interruption into
-    :class:`~kapitza.results.ComputationInterrupted` with its partial result.
+    :class:`~kapitza.results.ComputationInterrupted` with its partial result (whole, when
+    the Ctrl-C came during the last chunk: it is raised all the same, not dropped).
     """
     bar = ProgressLine(progress, total, label, unit)
     done = 0
@@ -122,7 +144,9 @@ def run_in_chunks(work, total, *, progress=None, label="", unit="points", first=
         bar.close()
         return done, True
     bar.close()
-    return done, False
+    # a Ctrl-C during the last chunk is not dropped: the caller raises its interruption,
+    # with the whole result in it
+    return done, _SIGINT["hit"]
 
 
 

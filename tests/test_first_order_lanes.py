@@ -218,7 +218,9 @@ def _outputs(N, K):
 
 def test_paused_and_resumed_runs_equal_an_unbroken_one(pendulum):
     """The pausing protocol of simulate_grid's drivers (a step budget per call, the state
-    saved in point_dop853's layout): calls of 40 steps give bit for bit the run of one."""
+    saved in point_dop853's layout): calls of 40 steps give bit for bit the run of one; so
+    does a first call whose stop flag (Ctrl-C) is set, in which every started point
+    pauses after one step (a point not yet started would stay unstarted)."""
     from lagrange_core.integrate import METHODS
     load_rhs_lanes(pendulum.kernels)
     ka = pendulum.kernels.addresses("rhs")
@@ -228,26 +230,36 @@ def test_paused_and_resumed_runs_equal_an_unbroken_one(pendulum):
     Y0, P, TS, T = _grid_arrays(pendulum, N, K)
     REF = np.zeros((N, 1))
 
-    def run(budget):
+    def run(budget, stopped_first=False):
         out = _outputs(N, K)
         save = np.zeros((N, 12))
         savei = np.zeros((N, 1), dtype=np.int64)
         idx = np.arange(N, dtype=np.int64)
+        stop = np.array([1 if stopped_first else 0])
         calls = 0
         while idx.size:
             fl.grid_dop853_lanes(ka, 0, True, idx, Y0, P, TS, np.zeros(N), T, REF, REF, REF,
                                  bk.OBS_STROBE | bk.OBS_REF, 1e-8, 1e-8, 1 << 40, *tables,
-                                 *out.values(), budget, idx, save, savei)
-            idx = idx[out["STATUS"][idx] == 7]
+                                 *out.values(), budget, stop, idx, save, savei)
+            if stop[0]:
+                first = (out["STATUS"].copy(), out["COUNTS"][:, 0].copy())
+                stop[0] = 0
+            idx = idx[np.isin(out["STATUS"][idx], (7, bk.GRID_NOT_RUN))]
             calls += 1
-        return out, calls
+        return out, calls, (first if stopped_first else None)
 
-    whole, one = run(1 << 40)
-    paused, many = run(40)
+    whole, one, _ = run(1 << 40)
+    paused, many, _ = run(40)
     assert one == 1 and many > 3
     for name, value in whole.items():
         np.testing.assert_array_equal(paused[name], value, err_msg=name)
     assert set(whole["STATUS"]) == {bk.GRID_FINISHED}
+    stopped, _, (status, steps) = run(1 << 40, stopped_first=True)
+    started = status == 7
+    assert started.any() and set(status[~started]) <= {bk.GRID_NOT_RUN}
+    assert set(steps[started]) == {1}
+    for name, value in whole.items():
+        np.testing.assert_array_equal(stopped[name], value, err_msg=name)
 
 
 # -- Lyapunov maps on lanes ------------------------------------------------------------------
@@ -313,7 +325,9 @@ def test_failing_lyapunov_points_stay_in_their_lane(pendulum):
 def test_paused_and_resumed_lyapunov_lanes_equal_an_unbroken_run(pendulum):
     """The pausing protocol on the Lyapunov lanes (so lyapunov_grid can stop on Ctrl-C in a
     long run): calls of 25 accepted steps give bit for bit the exponents' logs, states,
-    times, counts and statuses of one call, and a point failing mid-way keeps its status."""
+    times, counts and statuses of one call, and a point failing mid-way keeps its status;
+    so does a first call with the stop flag (Ctrl-C) set, which pauses every started point
+    after one step."""
     from kapitza.chaos import _lanes as lk
     from kapitza.chaos._common import record_stops
     from lagrange_core.integrate import METHODS
@@ -327,19 +341,25 @@ def test_paused_and_resumed_lyapunov_lanes_equal_an_unbroken_run(pendulum):
     stops = record_stops(3, 12, 3)
     v0 = np.array([0.6, 0.8])
 
-    def run(budget, max_steps=1 << 40):
+    def run(budget, max_steps=1 << 40, stopped_first=False):
         LOGS, YF, TF = np.zeros((N, stops.size)), np.full((N, 2), np.nan), np.full(N, np.nan)
         COUNTS = np.zeros((N, 3), dtype=np.int64)
         STATUS = np.full(N, 6, dtype=np.int64)
         save = np.zeros((N, lk.save_width(1)))
         savei = np.zeros((N, 1), dtype=np.int64)
         idx = np.arange(N, dtype=np.int64)
+        stop = np.array([1 if stopped_first else 0])
         calls = 0
         while idx.size:
             lk.grid_largest_lanes(ka, lk.JVP, idx, Y0, P, T, T0, stops, v0, 1e-8, 1e-8, max_steps,
-                                  *tables, LOGS, YF, TF, COUNTS, STATUS, budget, idx, save,
-                                  savei)
-            idx = idx[STATUS[idx] == lk.INTERRUPTED]
+                                  *tables, LOGS, YF, TF, COUNTS, STATUS, budget, stop, idx,
+                                  save, savei)
+            if stop[0]:                 # Ctrl-C in the first call: started points paused
+                assert set(STATUS[STATUS != 6]) == {lk.INTERRUPTED}
+                assert np.any(STATUS == lk.INTERRUPTED)
+                assert set(COUNTS[STATUS == lk.INTERRUPTED, 0]) == {1}
+                stop[0] = 0
+            idx = idx[np.isin(STATUS[idx], (lk.INTERRUPTED, 6))]
             calls += 1
         return dict(LOGS=LOGS, YF=YF, TF=TF, COUNTS=COUNTS, STATUS=STATUS), calls
 
@@ -351,6 +371,9 @@ def test_paused_and_resumed_lyapunov_lanes_equal_an_unbroken_run(pendulum):
     assert one == 1 and many > 4
     for name, value in whole.items():
         np.testing.assert_array_equal(paused[name], value, err_msg=name)
+    stopped, _ = run(1 << 40, limit, stopped_first=True)
+    for name, value in whole.items():
+        np.testing.assert_array_equal(stopped[name], value, err_msg=name)
     assert set(whole["STATUS"]) == {0, 5}
     finished = whole["STATUS"] == 0
     np.testing.assert_array_equal(whole["LOGS"][finished], free["LOGS"][finished])

@@ -12,6 +12,11 @@ quarter of a second; between them Python shows progress and sees Ctrl-C.  Checke
   with the part computed: a measurement with status "interrupted", ``t_reached`` and
   ``completed_periods`` (and Ω from the samples so far, equal to a run of that length);
   the command prints it and exits 130, no traceback;
+* Ctrl-C stops a compiled call in flight, not only between calls: with the calls sized to
+  a minute, every grid kernel that pauses long runs (RKN 12 on lanes and per point, the
+  symplectic composition, DOP853 per point and on lanes, the Lyapunov lanes) returns
+  within a second of the signal (``lagrange_core.progress.KERNEL_STOP``); a Ctrl-C
+  during the last call is raised, not dropped;
 * a progress line with the share done and the time left.
 """
 import math
@@ -81,6 +86,107 @@ def test_paused_runs_equal_unbroken_runs_bit_for_bit(pend, monkeypatch, method, 
     assert list(whole.status_name) == ["finished"] * 3 + ["left_band"]
     for name in FIELDS:
         np.testing.assert_array_equal(getattr(parts, name), getattr(whole, name), err_msg=name)
+
+
+MID_CALL_CHILD = r'''
+import json, math, os, signal, threading, time
+import numpy as np
+signal.signal(signal.SIGINT, signal.default_int_handler)   # a background job ignores SIGINT
+from lagrange_core import batch, problems
+from lagrange_core.batch import GridInterrupted
+from kapitza.chaos import bifurcation_diagram, lyapunov_grid
+from kapitza.results import ComputationInterrupted
+batch._TARGET = 60.0                  # every call sized to a minute: Ctrl-C must not wait
+batch._FIRST_BUDGET = 1 << 40         # for it (the first call runs its points to the end)
+pend = problems.driven_pendulum("vertical")
+damped = problems.driven_pendulum("vertical", damping=True)
+P = dict(m=1.0, l=1.0, g=9.81)
+w = 2 * math.pi * 60
+A = np.linspace(0.03, 0.1, 400)
+w0 = math.sqrt(9.81)
+PD = dict(P, A=0.3, omega=2 * w0, gamma=0.1 * w0)
+
+
+def grid(method, lanes=True, **kw):
+    def run(span):
+        batch._USE_LANES = lanes
+        pend.simulate_grid([math.pi - 0.1], [0.0], (0.0, span), dict(P, A=A, omega=w),
+                           method=method, progress=False, **kw)
+    return run
+
+
+CASES = {
+    "rkn12 on lanes": grid("rkn12"),
+    "rkn12 per point": grid("rkn12", lanes=False),
+    "yoshida6": grid("yoshida6", h=2 * math.pi / w / 20),
+    "dop853": grid("dop853"),
+    "lyapunov lanes": lambda span: lyapunov_grid(
+        damped, dict(PD, A=np.linspace(0.2, 0.4, 64)), 0.3, periods=int(span), transient=0,
+        blocks=2, progress=False),
+    "dop853 on lanes (diagram)": lambda span: bifurcation_diagram(
+        damped, PD, parameter="A", values=np.linspace(0.2, 0.4, 64), q0=0.3, angles="theta",
+        periods=2, transient=int(span), progress=False),
+}
+print("ready", flush=True)
+for name, run in CASES.items():
+    run(4.0)                            # compiled (or loaded) before the clock starts
+    sent = []
+
+    def ctrl_c():
+        sent.append(time.time())
+        os.kill(os.getpid(), signal.SIGINT)
+    timer = threading.Timer(0.3, ctrl_c)
+    start = time.time()
+    timer.start()
+    try:
+        run(1e6)
+        out = {"case": name, "interrupted": False}
+    except (GridInterrupted, ComputationInterrupted):
+        out = {"case": name, "interrupted": True, "after": time.time() - sent[0],
+               "ran": sent[0] - start}
+    timer.cancel()
+    print(json.dumps(out), flush=True)
+'''
+
+
+def test_ctrl_c_stops_a_compiled_call_in_flight_within_a_second(tmp_path):
+    """With every call sized to a minute (its first call runs its points to the end), a
+    Ctrl-C 0.3 s into a long grid stops each kernel family within a second: the kernels
+    read the stop flag at every step (measured 1–6 ms).  Before the flag, the wait was
+    the rest of the call in flight: here the whole run."""
+    import json
+    script = tmp_path / "child.py"
+    script.write_text(MID_CALL_CHILD)
+    env = dict(os.environ, NUMBA_NUM_THREADS="2")       # the blocks on threads, as usual
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                         timeout=300, env=env, preexec_fn=sigint_default)
+    lines = out.stdout.splitlines()
+    assert lines and lines[0] == "ready", out.stderr[-2000:]
+    results = [json.loads(line) for line in lines[1:]]
+    assert len(results) == 6, out.stderr[-2000:]
+    for r in results:
+        assert r["interrupted"], r
+        assert r["after"] < 1.0, r
+
+
+def test_a_ctrl_c_during_the_last_call_is_raised_not_dropped(pend):
+    """A Ctrl-C that came while the last call ran (its points all ended in it) was dropped:
+    the grid returned as if never interrupted and the script went on.  Now it raises
+    GridInterrupted all the same, with every point in its result."""
+    from lagrange_core import progress as _progress
+
+    def ctrl_c_in_the_last_call(done, total):
+        if done == total:
+            _progress._SIGINT["hit"] = True         # what the deferred Ctrl-C handler sets
+    try:
+        with pytest.raises(batch.GridInterrupted) as caught:
+            pend.simulate_grid([np.pi - 0.1], [0.0], (0.0, 20 * T60),
+                               dict(PEND, A=[0.03, 0.05], omega=W60),
+                               progress=ctrl_c_in_the_last_call)
+    finally:
+        _progress._SIGINT["hit"] = False
+    assert list(caught.value.result.status_name) == ["finished"] * 2
+    assert "after 2 of 2 points" in str(caught.value)
 
 
 def test_dop853_simulate_in_chunks_equals_one_chunk():

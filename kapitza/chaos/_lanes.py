@@ -86,7 +86,8 @@ def save_width(n):
 
 
 def grid_largest_lanes(ka, mode, idx, Y0, P, T, T0, stops, v0, rtol, atol, max_steps, A, B, C,
-                       E3, E5, LOGS, YF, TF, COUNTS, STATUS, budget, slot, SAVE, SAVEI):
+                       E3, E5, LOGS, YF, TF, COUNTS, STATUS, budget, stop, slot, SAVE,
+                       SAVEI):
     """Every point ``idx[m]`` on lanes, with the arguments and results of
     :func:`kapitza.chaos._kernels.grid_largest` (``mode`` JVP or DIFFERENCE instead of
     ``exact``); ``ka`` must hold the slots ``rhs``, ``rhs_lanes`` and ``rhs_jvp_lanes``.
@@ -97,20 +98,23 @@ def grid_largest_lanes(ka, mode, idx, Y0, P, T, T0, stops, v0, rtol, atol, max_s
     intervals it finished, YF and TF so far written — and a later call given that row
     resumes it exactly where it stopped (the same steps as an unbroken run), so that
     ``lagrange_core.batch._run_paused`` can size the calls for Ctrl-C as it does for
-    ``simulate_grid``.  The points are cut into two blocks per thread, whose lanes take
+    ``simulate_grid``; once ``stop[0]`` is set (Ctrl-C,
+    ``lagrange_core.progress.KERNEL_STOP``) every running point pauses at its next step
+    and no other point starts.  The points are cut into two blocks per thread, whose lanes take
     the block's next point when theirs ends."""
     block = max(8, -(-idx.shape[0] // (2 * numba.get_num_threads())))
     _grid(ka, mode, idx, block, Y0, P, T, T0, stops, v0, rtol, atol, max_steps, A, B, C, E3,
-          E5, LOGS, YF, TF, COUNTS, STATUS, budget, slot, SAVE, SAVEI)
+          E5, LOGS, YF, TF, COUNTS, STATUS, budget, stop, slot, SAVE, SAVEI)
 
 
 def _grid(ka, mode, idx, block, Y0, P, T, T0, stops, v0, rtol, atol, max_steps, A, B, C, E3,
-          E5, LOGS, YF, TF, COUNTS, STATUS, budget, slot, SAVE, SAVEI):
+          E5, LOGS, YF, TF, COUNTS, STATUS, budget, stop, slot, SAVE, SAVEI):
     """The blocks of :func:`grid_largest_lanes` on the threads of
     :func:`lagrange_core._thread_blocks.run_spans`."""
     run_spans(lambda lo, hi: _block(ka, mode, idx, lo, hi, Y0, P, T, T0, stops, v0, rtol, atol,
                                     max_steps, A, B, C, E3, E5, LOGS, YF, TF, COUNTS, STATUS,
-                                    budget, slot, SAVE, SAVEI), idx.shape[0], block)
+                                    budget, stop, slot, SAVE, SAVEI), idx.shape[0], block,
+              stoppable=True)
 
 
 @njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
@@ -206,7 +210,7 @@ def _load(ka, mode, l, i, sv, svi, Y0, P, T, T0, v0, rtol, atol, y, V, K, KV, Pl
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST_MATH)
 def _block(ka, mode, idx, lo_b, hi_b, Y0, P, T, T0, stops, v0, rtol, atol, max_steps, A, B, C,
-           E3, E5, LOGS, YF, TF, COUNTS, STATUS, budget, slot, SAVE, SAVEI):
+           E3, E5, LOGS, YF, TF, COUNTS, STATUS, budget, stop, slot, SAVE, SAVEI):
     """The points idx[lo_b:hi_b] on one thread's lanes."""
     d = Y0.shape[1]
     n = d // 2
@@ -284,6 +288,9 @@ def _block(ka, mode, idx, lo_b, hi_b, Y0, P, T, T0, stops, v0, rtol, atol, max_s
                 active += 1
             nxt += 1
     while active > 0:
+        if stop[0] != 0 and budget > 0:     # Ctrl-C: every running point pauses at its
+            budget = 0                      # next step, and no other point starts
+            nxt = hi_b
         for l in range(L):          # the step: landing on the interval's end
             tt = t[l]
             tg = T0l[l] + stops[min(jl[l], nj - 1)] * Tl[l]

@@ -69,7 +69,7 @@ import numpy as np
 
 from lagrange_core.batch import STATUS_NAMES, _run_paused, point_rows
 from lagrange_core.checks import real_number
-from lagrange_core.progress import defer_ctrl_c, run_in_chunks
+from lagrange_core.progress import KERNEL_STOP, defer_ctrl_c, run_in_chunks
 
 from .._arguments import check_grid_memory, whole_number
 from ..results import ComputationInterrupted, LyapunovGrid, LyapunovSpectrum
@@ -420,7 +420,8 @@ def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200,
 
     def call(idx, steps, slot, save, savei):
         _lk.grid_largest_lanes(ka, mode, idx, Y0, P, T, T0, stops, v0, rtol, atol, budget,
-                               *tables, LOGS, YF, TF, COUNTS, STATUS, steps, slot, save, savei)
+                               *tables, LOGS, YF, TF, COUNTS, STATUS, steps, KERNEL_STOP, slot,
+                               save, savei)
 
     import numba
     with defer_ctrl_c(), numba.parallel_chunksize(1):

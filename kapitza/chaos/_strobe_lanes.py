@@ -19,7 +19,7 @@ import numpy as np
 
 from lagrange_core import _first_order_lanes as _fl
 from lagrange_core.batch import STATUS_NAMES, point_rows
-from lagrange_core.progress import defer_ctrl_c
+from lagrange_core.progress import KERNEL_STOP, defer_ctrl_c
 
 from .._arguments import whole_number
 from ._lanes import call_points
@@ -76,7 +76,7 @@ def _run(ka, Y0, P, t_start, t_end, T, K, rtol, atol, max_steps, progress, table
     def call(idx, budget, slot, save, savei):
         _fl.grid_dop853_lanes(ka, 0, True, idx, Y0, P, TS, H, T, REF, REF, REF, flags, rtol,
                               atol, max_steps, *tables, YF, TF, SQ, QM, DEV, nan, EXITC, nan,
-                              COUNTS, ERR, STATUS, budget, slot, save, savei)
+                              COUNTS, ERR, STATUS, budget, KERNEL_STOP, slot, save, savei)
 
     with defer_ctrl_c(), numba.parallel_chunksize(1):
         _, interrupted = _run_paused(call, N, TS, TF, STATUS, _save_width(n), progress,

@@ -422,8 +422,9 @@ def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIOD
     ValueError
         Bad input, or an initial state outside its band.
     kapitza.results.ComputationInterrupted
-        On Ctrl-C (within about a quarter of a second: a long run is integrated in
-        parts, and goes on exactly where the last part stopped): ``.result`` is the
+        On Ctrl-C (within a second; the integration within milliseconds: a long run is
+        integrated in parts, which pause at the next step on Ctrl-C and otherwise go on
+        exactly where the last part stopped): ``.result`` is the
         measurement of everything computed — the finished points, the points stopped
         part-way (status "interrupted", measured up to ``t_reached``,
         ``completed_periods``) and the points not started (status "not_run");
