@@ -75,14 +75,14 @@ class ProgressLine:
 _SIGINT = {"active": False, "hit": False}
 
 #: Ctrl-C for the compiled calls in flight.  The grid kernels that pause long runs (the
-#: drivers of :mod:`lagrange_core._batch_kernels` and :mod:`lagrange_core._first_order_lanes`,
+#: drivers of ``lagrange_core._batch_kernels`` and ``lagrange_core._first_order_lanes``,
 #: ``kapitza.chaos._lanes``) take this one-element array as their argument ``stop`` and
 #: read it at every step: once it is 1 their running points pause at their next accepted
 #: step (status "interrupted", as when a call's step budget is used) and the points not
 #: yet started stay unstarted.  Why: a call is sized to ~0.25 s from the calls before it,
 #: but on a loaded machine one can run several times longer, and Python sees Ctrl-C only
 #: when it returns.  Set by Ctrl-C while :func:`defer_ctrl_c` is active (and by
-#: :func:`lagrange_core._thread_blocks.run_blocks` on a KeyboardInterrupt); 0 again when
+#: ``lagrange_core._thread_blocks.run_blocks`` on a KeyboardInterrupt); 0 again when
 #: the outermost :func:`defer_ctrl_c` is entered or left.
 KERNEL_STOP = np.zeros(1, dtype=np.int64)
 
