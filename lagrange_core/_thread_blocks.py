@@ -61,7 +61,7 @@ def run_blocks(work: Callable[[int], None], nblocks: int, *, stoppable: bool = F
         for b in range(nblocks):
             work(b)
         return
-    futures = [_pool(max(threads, 1)).submit(work, b) for b in range(nblocks)]
+    futures = [_pool(threads).submit(work, b) for b in range(nblocks)]
     try:
         for future in futures:
             future.result()
