@@ -708,8 +708,10 @@ def compile_kernels(system) -> Kernels:
     Returns
     -------
     Kernels
-        With ``rhs`` compiled for float64 arrays; the other kernels compile on
-        first use (:meth:`Kernels.warm`).
+        Nothing compiled yet: each kernel compiles (or loads from numba's disk cache)
+        on its first call, or all at once by :meth:`Kernels.warm`.  Only what a caller
+        uses is compiled: a check of the mass matrix, or ``normal_modes`` (the
+        Jacobian), never waits for ``rhs`` (0.3–2 s cold).
     """
     if isinstance(system, Equations):     # derived already: use them, do not re-derive
         equations, system = system, system.system
@@ -722,4 +724,4 @@ def compile_kernels(system) -> Kernels:
 
     module = load_generated("_lc", content_key(_generator_fingerprint(), statement),
                             lambda: generate_source(derived()))
-    return Kernels(module, system._label(), statement, derived).warm()
+    return Kernels(module, system._label(), statement, derived)

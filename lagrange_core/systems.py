@@ -481,7 +481,8 @@ class System:
 
     @functools.cached_property
     def kernels(self):
-        """Compiled numba kernels (:class:`lagrange_core.codegen.Kernels`), cached on disk."""
+        """The numba kernels (:class:`lagrange_core.codegen.Kernels`), cached on disk; each
+        compiles, or loads from the cache, on its first call."""
         from .codegen import compile_kernels
         return compile_kernels(self)
 

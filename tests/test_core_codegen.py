@@ -122,6 +122,7 @@ def test_fresh_process_loads_from_disk_cache_without_deriving(factory):
         s = lc.problems.{factory}
         k = s.kernels
         n = s.n_dof
+        k.rhs(0.0, np.zeros(2 * n), np.ones(len(s.parameters)), np.empty(2 * n), k.work_array())
         k.jacobian(0.0, np.zeros(2 * n), np.ones(len(s.parameters)), np.empty((2 * n, 2 * n)))
         print(json.dumps({{"derived": "equations" in s.__dict__,
                           "hits": sum(k.rhs.stats.cache_hits.values())
