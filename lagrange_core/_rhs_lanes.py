@@ -388,15 +388,20 @@ def _generator_fingerprint() -> str:
     return source_fingerprint(sys.modules[__name__], _linalg, _lane_math, _kernel_calls)
 
 
-def load_rhs_lanes(kernels) -> tuple[bool, str]:
+def load_rhs_lanes(kernels, *, jvp: bool = False) -> tuple[bool, str]:
     """Generate (or load from the store) the lanes kernels of a system and put their C
-    entry points into ``kernels``' address table (slots ``rhs_lanes``, ``rhs_jvp_lanes``).
+    entry points into ``kernels``' address table: slot ``rhs_lanes``, and ``rhs_jvp_lanes``
+    with ``jvp``.
 
     Parameters
     ----------
     kernels : lagrange_core.codegen.Kernels
         The equations are derived (``kernels.equations()``) only when the store has no
         lanes module for the statement.
+    jvp : bool
+        Also the Jacobian–vector kernel (Lyapunov's tangents).  Each is compiled only when
+        asked for (cold, 1–7 s each): the strobe runs of a bifurcation diagram, a section
+        or a basin never wait for the tangent kernel they do not call.
 
     Returns
     -------
@@ -406,7 +411,7 @@ def load_rhs_lanes(kernels) -> tuple[bool, str]:
         answer and the machine code are cached with the module.
     """
     table = kernels.addresses()
-    if table[RHS_LANES] and table[RHS_JVP_LANES]:
+    if table[RHS_LANES] and (table[RHS_JVP_LANES] or not jvp):
         return True, ""
     # the cheap refusals first: no derivation, no module
     if kernels.n_constraints:
@@ -418,9 +423,10 @@ def load_rhs_lanes(kernels) -> tuple[bool, str]:
                             lambda: _generated_source(kernels.equations(), kernels.label))
     if not module.LANES_OK:
         return False, module.LANES_REASON
-    for name in ("rhs_lanes", "rhs_jvp_lanes"):
-        kernels.set_address(name, numba.cfunc(SIGNATURES[name], cache=True)(
-            getattr(module, f"c_{name}")))
+    for name, slot in (("rhs_lanes", RHS_LANES), ("rhs_jvp_lanes", RHS_JVP_LANES))[:1 + jvp]:
+        if not table[slot]:
+            kernels.set_address(name, numba.cfunc(SIGNATURES[name], cache=True)(
+                getattr(module, f"c_{name}")))
     return True, ""
 
 
@@ -451,7 +457,7 @@ def evaluate_lanes(kernels, t, y, p, v=None):
     dydt, jv, status : ndarray (2n, L), (2n, L) or None, (L,)
         ``status`` 0, or 1 for a lane whose mass matrix is singular (its values NaN).
     """
-    ok, why = load_rhs_lanes(kernels)
+    ok, why = load_rhs_lanes(kernels, jvp=v is not None)
     if not ok:
         raise ValueError(f"{kernels.label} has no lanes kernels: {why}.")
     t = np.ascontiguousarray(t, dtype=float)

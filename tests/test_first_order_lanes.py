@@ -331,7 +331,7 @@ def test_paused_and_resumed_lyapunov_lanes_equal_an_unbroken_run(pendulum):
     from kapitza.chaos import _lanes as lk
     from kapitza.chaos._common import record_stops
     from lagrange_core.integrate import METHODS
-    load_rhs_lanes(pendulum.kernels)
+    load_rhs_lanes(pendulum.kernels, jvp=True)
     ka = pendulum.kernels.addresses("rhs")
     tab = METHODS["dop853"].table
     tables = (tab["A"], tab["B"], tab["C"], tab["E3"], tab["E5"])

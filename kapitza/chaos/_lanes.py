@@ -90,7 +90,8 @@ def grid_largest_lanes(ka, mode, idx, Y0, P, T, T0, stops, v0, rtol, atol, max_s
                        SAVEI):
     """Every point ``idx[m]`` on lanes, with the arguments and results of
     :func:`kapitza.chaos._kernels.grid_largest` (``mode`` JVP or DIFFERENCE instead of
-    ``exact``); ``ka`` must hold the slots ``rhs``, ``rhs_lanes`` and ``rhs_jvp_lanes``.
+    ``exact``); ``ka`` must hold the slots ``rhs`` and ``rhs_lanes``, and in JVP mode
+    ``rhs_jvp_lanes`` (:func:`lagrange_core._rhs_lanes.load_rhs_lanes` with ``jvp=True``).
 
     A point pauses after ``budget`` accepted steps in this call — status 7 (as
     ``lagrange_core``'s GRID_INTERRUPTED), its integrator state in ``SAVE[slot[m]]``
@@ -102,6 +103,9 @@ def grid_largest_lanes(ka, mode, idx, Y0, P, T, T0, stops, v0, rtol, atol, max_s
     ``lagrange_core.progress.KERNEL_STOP``) every running point pauses at its next step
     and no other point starts.  The points are cut into two blocks per thread, whose lanes take
     the block's next point when theirs ends."""
+    if mode == JVP and ka[RHS_JVP_LANES] == 0:      # a call through address 0 would crash
+        raise ValueError("grid_largest_lanes: JVP mode needs the rhs_jvp_lanes kernel; load it "
+                         "with load_rhs_lanes(kernels, jvp=True).")
     block = max(8, -(-idx.shape[0] // (2 * numba.get_num_threads())))
     _grid(ka, mode, idx, block, Y0, P, T, T0, stops, v0, rtol, atol, max_steps, A, B, C, E3,
           E5, LOGS, YF, TF, COUNTS, STATUS, budget, stop, slot, SAVE, SAVEI)

@@ -97,11 +97,12 @@ def _dop853():
     return tab["A"], tab["B"], tab["C"], tab["E3"], tab["E5"]
 
 
-def _lanes(system):
+def _lanes(system, jvp=False):
     """Whether the system has lanes kernels (:mod:`lagrange_core._rhs_lanes`: unconstrained,
-    small enough); their slots are then in ``system.kernels``' address table."""
+    small enough); their slots are then in ``system.kernels``' address table (with ``jvp``
+    the Jacobian–vector kernel's too)."""
     from lagrange_core._rhs_lanes import load_rhs_lanes
-    return not system.n_constraints and load_rhs_lanes(system.kernels)[0]
+    return not system.n_constraints and load_rhs_lanes(system.kernels, jvp=jvp)[0]
 
 
 def _addresses(system, tangent, where, lanes=False):
@@ -390,6 +391,8 @@ def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200,
     lanes = _lanes(system)
     if tangent is None:
         tangent = "jacobian" if lanes else "difference"
+    if lanes and tangent == "jacobian":     # the tangent kernel too (compiled on first use)
+        _lanes(system, jvp=True)
     ka = _addresses(system, tangent, where, lanes)
     names = system.parameters
 
