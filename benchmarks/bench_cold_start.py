@@ -1,13 +1,15 @@
 """What a new system's first simulation costs, and what every step and call cost after it.
 
-Run:  python benchmarks/bench_cold_start.py [--quick] [--baseline REV] [--only first-use]
+Run:  python benchmarks/bench_cold_start.py [--quick] [--baseline REV]
+                                            [--only cold|steps|first-use|new-system]
 
 1. Cold start (issue 9): each case in a fresh process with an *empty* kernel store
    (``LAGRANGE_CORE_CACHE`` a new directory: the system was never seen) while the
    installation's integrators are compiled (numba's cache in the package, warmed by
-   ``lagrange_core.warmup()`` first).  Printed per phase: statement, kernels (derive,
-   generate, compile ``rhs``), first ``simulate`` (the C entry points it needs and the
-   run), and the total from statement to trajectory; medians of 3 processes.
+   ``lagrange_core.warmup()`` first).  Printed per phase: statement, kernels (derive and
+   generate; until 2026-11-27 also the compile of ``rhs``, which now compiles on its first
+   call), first ``simulate`` (``rhs``, the C entry points it needs and the run), and the
+   total from statement to trajectory; medians of 3 processes.
 2. Running cost: per step and fixed per ``simulate`` call, from three run lengths in one
    process (per step: the slope between the two longer runs; fixed: the time of a run
    of a few steps less its steps × the per-step cost; minima of 7 repetitions).  With
@@ -22,6 +24,11 @@ Run:  python benchmarks/bench_cold_start.py [--quick] [--baseline REV] [--only f
    (``--without-warmup``) on empty caches.  Wall and CPU seconds (the process and its
    children), with the load average before and after: a figure taken under load
    overstates the wall time.
+4. A new system's first use other than ``simulate`` (``--only new-system``): its mass
+   matrix, its normal modes, its first bifurcation diagram, each in a fresh process with
+   an empty kernel store (the shared kernels compiled: a first untimed round per tree
+   warms them); what only the system's own kernels cost.  With ``--baseline REV`` the
+   same cases on REV's tree, old and new processes alternated, with the ratios.
 
 Absolute times drift on a shared machine; compare ratios and medians.
 """
@@ -152,6 +159,86 @@ def worker_measure(name):
     return dict(first=time.perf_counter() - t0)
 
 
+NEW_SYSTEM_CASES = ["mass matrix, 4-link pendulum", "normal modes, 8-link pendulum",
+                    "bifurcation diagram, damped driven pendulum"]
+
+
+def worker_new_system(name):
+    """One first use of a system never seen (the kernel store is empty)."""
+    import math
+    import warnings
+
+    import numpy as np
+
+    from lagrange_core import problems
+    t0 = time.perf_counter()
+    if name.startswith("mass matrix"):
+        system = problems.n_link_pendulum(4)
+        n = system.n_dof
+        p = np.ones(len(system.parameters))
+        M, F = np.empty((n, n)), np.empty(n)
+        system.kernels.mass_forcing(np.full(n, 0.3), np.zeros(n), 0.0, p, M, F)
+    elif name.startswith("normal modes"):
+        system = problems.n_link_pendulum(8)
+        system.normal_modes({p: (9.81 if p == "g" else 1.0) for p in system.parameters})
+    else:
+        from kapitza.chaos import bifurcation_diagram
+        warnings.simplefilter("ignore")
+        system = problems.driven_pendulum("vertical", damping=True)
+        w0 = math.sqrt(9.81)
+        p = dict(A=0.1, g=9.81, l=1.0, m=1.0, omega=2 * w0, gamma=0.1 * w0)
+        bifurcation_diagram(system, p, parameter="A", values=[0.1, 0.2], angles="theta",
+                            periods=2, transient=1, progress=False)
+    return dict(first=time.perf_counter() - t0)
+
+
+def new_system_table(quick, baseline):
+    rounds = 1 if quick else 3
+    print(f"\n4. A new system's first use (empty kernel store; medians of {rounds} "
+          "processes), s")
+    envs = [("new", dict(os.environ))]
+    tmp = None
+    if baseline:
+        tmp = tempfile.mkdtemp(prefix="kapitza-baseline-")
+        subprocess.run(["git", "-C", ROOT, "worktree", "add", "--detach", tmp, baseline],
+                       check=True, capture_output=True)
+        envs.append(("old", {**os.environ, "PYTHONPATH": tmp}))
+
+    def once(name, env, label):
+        with tempfile.TemporaryDirectory() as store:     # (REV's packages by PYTHONPATH)
+            out = subprocess.run([sys.executable, os.path.abspath(__file__), "--worker",
+                                  "new-system", name],
+                                 env={**env, "LAGRANGE_CORE_CACHE": store,
+                                      "LAGRANGE_CORE_COMPILE_NOTICE": "0"},
+                                 capture_output=True, text=True, check=False)
+            if out.returncode != 0:
+                raise RuntimeError(f"{label} {name!r} failed:\n{out.stderr[-3000:]}")
+            return json.loads(out.stdout.strip().splitlines()[-1])["first"]
+    try:
+        head = f"{'case':>48} {'new':>7}"
+        if baseline:
+            head += f" {'old':>7} {'new/old':>8}"
+        print(head)
+        for name in NEW_SYSTEM_CASES:
+            for label, env in envs:             # the shared kernels, compiled or loaded
+                once(name, env, label)
+            res = {label: [] for label, _ in envs}
+            for _ in range(rounds):             # old and new processes alternated
+                for label, env in envs:
+                    res[label].append(once(name, env, label))
+            med = {k: statistics.median(v) for k, v in res.items()}
+            row = f"{name:>48} {med['new']:7.2f}"
+            if baseline:
+                row += f" {med['old']:7.2f} {med['new'] / med['old']:8.2f}"
+            print(row + "   (new: " + ", ".join(f"{x:.2f}" for x in res["new"])
+                  + (("; old: " + ", ".join(f"{x:.2f}" for x in res["old"])) if baseline
+                     else "") + ")", flush=True)
+    finally:
+        if tmp:
+            subprocess.run(["git", "-C", ROOT, "worktree", "remove", "--force", tmp],
+                           check=False, capture_output=True)
+
+
 def timed(cmd, env):
     """Wall and CPU seconds (the process and its children) of ``cmd``."""
     import resource
@@ -277,8 +364,8 @@ def main():
     ap.add_argument("--quick", action="store_true", help="fewer repetitions (a smoke run)")
     ap.add_argument("--baseline", metavar="REV", help="also measure git revision REV")
     ap.add_argument("--worker", nargs=2, metavar=("KIND", "CASE"), help=argparse.SUPPRESS)
-    ap.add_argument("--only", choices=["cold", "steps", "first-use"],
-                    help="run one of the parts (first-use: only when asked)")
+    ap.add_argument("--only", choices=["cold", "steps", "first-use", "new-system"],
+                    help="run one of the parts (first-use, new-system: only when asked)")
     ap.add_argument("--no-report", action="store_true",
                     help="first-use: leave out the report (the longest part)")
     ap.add_argument("--without-warmup", action="store_true",
@@ -287,7 +374,8 @@ def main():
     if args.worker:
         kind, name = args.worker
         out = (worker_cold(name) if kind == "cold" else worker_measure(name)
-               if kind == "measure" else worker_steps(name, args.quick))
+               if kind == "measure" else worker_new_system(name) if kind == "new-system"
+               else worker_steps(name, args.quick))
         print(json.dumps(out))
         return
     if args.only in (None, "cold"):
@@ -296,6 +384,8 @@ def main():
         steps_table(args.quick, args.baseline)
     if args.only == "first-use":
         first_use_table(args.without_warmup, report=not args.no_report)
+    if args.only == "new-system":
+        new_system_table(args.quick, args.baseline)
 
 
 if __name__ == "__main__":
