@@ -35,6 +35,7 @@ Absolute times drift on a shared machine; compare ratios and medians.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import statistics
@@ -192,10 +193,10 @@ def worker_new_system(name):
     return dict(first=time.perf_counter() - t0)
 
 
-def new_system_table(quick, baseline):
-    rounds = 1 if quick else 3
-    print(f"\n4. A new system's first use (empty kernel store; medians of {rounds} "
-          "processes), s")
+@contextlib.contextmanager
+def trees(baseline):
+    """[("new", env)], and with ``baseline`` ("old", env) whose PYTHONPATH is git revision
+    ``baseline``'s source tree (a temporary worktree, removed afterwards)."""
     envs = [("new", dict(os.environ))]
     tmp = None
     if baseline:
@@ -203,6 +204,18 @@ def new_system_table(quick, baseline):
         subprocess.run(["git", "-C", ROOT, "worktree", "add", "--detach", tmp, baseline],
                        check=True, capture_output=True)
         envs.append(("old", {**os.environ, "PYTHONPATH": tmp}))
+    try:
+        yield envs
+    finally:
+        if tmp:
+            subprocess.run(["git", "-C", ROOT, "worktree", "remove", "--force", tmp],
+                           check=False, capture_output=True)
+
+
+def new_system_table(quick, baseline):
+    rounds = 1 if quick else 3
+    print(f"\n4. A new system's first use (empty kernel store; medians of {rounds} "
+          "processes), s")
 
     def once(name, env, label):
         with tempfile.TemporaryDirectory() as store:     # (REV's packages by PYTHONPATH)
@@ -214,7 +227,8 @@ def new_system_table(quick, baseline):
             if out.returncode != 0:
                 raise RuntimeError(f"{label} {name!r} failed:\n{out.stderr[-3000:]}")
             return json.loads(out.stdout.strip().splitlines()[-1])["first"]
-    try:
+
+    with trees(baseline) as envs:
         head = f"{'case':>48} {'new':>7}"
         if baseline:
             head += f" {'old':>7} {'new/old':>8}"
@@ -233,10 +247,6 @@ def new_system_table(quick, baseline):
             print(row + "   (new: " + ", ".join(f"{x:.2f}" for x in res["new"])
                   + (("; old: " + ", ".join(f"{x:.2f}" for x in res["old"])) if baseline
                      else "") + ")", flush=True)
-    finally:
-        if tmp:
-            subprocess.run(["git", "-C", ROOT, "worktree", "remove", "--force", tmp],
-                           check=False, capture_output=True)
 
 
 def timed(cmd, env):
@@ -326,15 +336,7 @@ def cold_table(repeats):
 
 def steps_table(quick, baseline):
     print("\n2. Running cost: per step and fixed per simulate call (minima of repeated runs)")
-    env_new = dict(os.environ)
-    envs = [("new", env_new)]
-    tmp = None
-    if baseline:
-        tmp = tempfile.mkdtemp(prefix="kapitza-baseline-")
-        subprocess.run(["git", "-C", ROOT, "worktree", "add", "--detach", tmp, baseline],
-                       check=True, capture_output=True)
-        envs.append(("old", {**os.environ, "PYTHONPATH": tmp}))
-    try:
+    with trees(baseline) as envs:
         head = f"{'case':>48} {'ns/step':>9} {'fixed ms':>9}"
         if baseline:
             head += f" {'old ns/step':>11} {'old fixed':>9} {'step ratio':>10} {'fixed ratio':>11}"
@@ -352,10 +354,6 @@ def steps_table(quick, baseline):
                         f"{med['new']['per_step'] / o['per_step']:10.2f} "
                         f"{med['new']['fixed'] / o['fixed']:11.2f}")
             print(row)
-    finally:
-        if tmp:
-            subprocess.run(["git", "-C", ROOT, "worktree", "remove", "--force", tmp],
-                           check=False, capture_output=True)
 
 
 def main():
