@@ -348,8 +348,8 @@ def _margin_and_error(log_abs_u, error, c, thr):
 
 def _scanned_margin(margin, ap, c, thr, qs):
     """The damped margin |tr M_y| − thr at every scan point ``qs``: one parallel compiled
-    call at :data:`_SCAN_TOL` (≈ 10× fewer RK4 steps than the full tolerance, on every
-    core), then ``margin`` (full tolerance) where |value| ≤ 10 × its error estimate."""
+    call at :data:`_SCAN_TOL` (fewer steps than the full tolerance, on every core), then
+    ``margin`` (full tolerance) where |value| ≤ 10 × its error estimate."""
     out = np.empty((qs.size, 1, 5))
     _trace_grid(np.array([ap], float), np.asarray(qs, float), _SCAN_TOL, 1 << 22, out)
     vals, err = _margin_and_error(out[:, 0, 2], out[:, 0, 3], c, thr)
@@ -641,7 +641,7 @@ def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, damping=0.0, about="inver
         flagged = int(bad.sum())
         if flagged:
             i, j = np.argwhere(bad)[0]
-            example = (f"trace not computed at A = {A[i]:.6g} m, ω = {w[j]:.6g} rad/s (RK4 "
+            example = (f"trace not computed at A = {A[i]:.6g} m, ω = {w[j]:.6g} rad/s (trace "
                        "overflow: a slow drive or a huge amplitude); NaN, reported unstable. "
                        "kapitza.floquet.stability_map estimates its growth",)
         est = out[:done, :, 3][np.isfinite(out[:done, :, 3])]

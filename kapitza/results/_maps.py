@@ -69,7 +69,7 @@ class StabilityMap:
         Monodromy maps: points integrated again to the fine tolerance, points whose
         stability test lies within 10× its error estimate of the threshold, points
         whose accuracy guards failed or that could not be integrated (for the
-        Mathieu trace: an RK4 overflow at extreme drives; 0 for characteristic values).
+        Mathieu trace: an overflow at extreme drives; 0 for characteristic values).
     flags_example : tuple of str
         The flags of the first flagged point (empty if none).
     max_steps_per_period, samples : int
