@@ -6,10 +6,10 @@ monodromy trace of y″ + c y′ + (a − 2q cos 2τ) y = 0
 (:func:`kapitza.closed_forms.mathieu_monodromy_trace`: RKN 12 to a stated tolerance)
 instead of the general monodromy of the system's Jacobian.  A 2 × 2 monodromy is fixed
 by its trace and its determinant, which Liouville's formula gives exactly
-(det M = e^(−γT)), so nothing is lost; what is gained is time: the trace costs microseconds per
-point and its kernel compiles in ~2 s, against ~20 s for the general Floquet kernels on
-an empty cache (2026-11-26) — the wait of a first ``kapitza report``, whose verification
-and captions use this.
+(det M = e^(−γT)), so nothing is lost; what is gained is time: the trace costs
+microseconds per point and its kernel compiles in ~2 s, against ~20 s for the general
+Floquet kernels on an empty cache (2026-11-26) — the wait of a first ``kapitza report``,
+whose verification and captions use this.
 
 Conventions (shared/PHYSICS.md; :mod:`kapitza.closed_forms._mathieu`): τ = ωt/2, so one
 drive period T = 2π/ω is one τ-period π; tr M_y = e^(−γT/2) tr M_u, and with

@@ -206,13 +206,13 @@ _ROUNDING = 4e-15
 def _trace_tol(a, q, tol, nmax, res):
     """Trace of M_u to tolerance: RKN 12 at N and 2N steps, N doubled until they agree.
 
-    The step starts at about 0.4/√(|a| + 2|q|) (the fastest local oscillation); from
-    there each doubling shrinks the error ~4096-fold, so the run at 2N errs by at most
-    |tr(2N) − tr(N)| — reported as the error (at least :data:`_ROUNDING`), not divided by
-    4095 (a pair still short of that rate would make the smaller figure too small), and
-    tr(2N) returned as it is.
-    Doubling stops at ``tol``, at ``nmax`` steps, or where a difference below 1e-9 stops
-    shrinking (rounding: the figure then says how far the trace could be resolved).
+    The first run takes N ≈ 2√(|a| + 2|q|) steps per half period, a step of ~0.8 over
+    the fastest local frequency; from there each doubling shrinks the error ~4096-fold,
+    so the run at 2N errs by at most |tr(2N) − tr(N)| — reported as the error (at least
+    :data:`_ROUNDING`), not divided by 4095 (a pair still short of that rate would make
+    the smaller figure too small), and tr(2N) returned as it is.  Doubling stops at
+    ``tol``, at ``nmax`` steps, or where a difference below 1e-9 stops shrinking
+    (rounding: the figure then says how far the trace could be resolved).
 
     res = [trace (±inf if > 1e304), sign, log|trace|, error estimate (relative to
     max(1, |tr|)), steps per half period].
