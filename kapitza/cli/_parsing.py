@@ -421,7 +421,7 @@ def build_parser() -> argparse.ArgumentParser:
             "vertically) through every analysis and write a self-contained folder: "
             "index.html, PNG figures, a GIF and the data (Parquet and CSV); progress on "
             "stderr, Ctrl-C keeps the finished sections (exit 130), exit 1 if a section "
-            "failed. The default scene takes about 1.5 min on a fresh installation "
+            "failed. The default scene takes about 40 s on a fresh installation "
             "(compiling included) and 20 s after", plain)
     p.add_argument("scene", metavar="SCENE.toml", nargs="?", default=None,
                    help="a scene file (default: the embedded kapitza/scenes/report.toml)")
