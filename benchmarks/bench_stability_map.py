@@ -35,6 +35,8 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
+import sys
 import time
 
 import numba
@@ -369,25 +371,17 @@ def section_boundaries(quick, figure=None):
         print(f"figure: {figure}")
 
 
-def _mpmath_trace(a, q):
-    import mpmath as mp
-    with mp.workdps(20):
-        a_, q_ = mp.mpf(a), mp.mpf(q)
-
-        def f(t, y):
-            k = -(a_ - 2 * q_ * mp.cos(2 * t))
-            return [y[1], k * y[0], y[3], k * y[2]]
-        u1, v1, u2, v2 = mp.odefun(f, 0, [1, 0, 0, 1])(mp.pi / 2)
-        return float(2 * (u1 * v2 + v1 * u2))
-
-
 def section_damped_window(quick):
+    # the tests' 20-digit reference (tests/helpers.py: numpy, scipy and mpmath only)
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                                    "tests"))
+    from helpers import mathieu_mpmath_trace
     print(f"\n== 5. the damped pendulum's exact window ({mm.__file__}) ==")
     print(f"{'a':>9} {'q':>8} {'ms per trace':>13} {'reported error':>15} "
           f"{'error vs mpmath':>16}   [mathieu_monodromy_trace, tol 1e-12]")
     for a, q in ((1.3, 0.7), (-4.0, 1.0), (-17.4, 16.0), (-40.0, 100.0), (-400.0, 1000.0)):
         t, (tr, _, err) = best(lambda a=a, q=q: mm.mathieu_monodromy_trace(a, q, tol=1e-12), 3)
-        actual = (abs(float(tr) - _mpmath_trace(a, q)) / max(1.0, abs(float(tr)))
+        actual = (abs(float(tr) - mathieu_mpmath_trace(a, q)) / max(1.0, abs(float(tr)))
                   if abs(q) <= 100 else float("nan"))     # (mpmath's Taylor: minutes beyond)
         print(f"{a:9.1f} {q:8.1f} {t * 1e3:13.3f} {float(err):15.1e} {actual:16.1e}")
     w = np.geomspace(1.5, 20.0, 24)

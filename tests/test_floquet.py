@@ -21,7 +21,7 @@ from kapitza.pendulum import KapitzaPendulum
 from lagrange_core import problems
 from lagrange_core import t as t_sym
 
-from helpers import W0, G, L, jacobian_monodromy, mathieu_ivp_trace
+from helpers import W0, G, L, jacobian_monodromy, mathieu_ivp_trace, mathieu_mpmath_trace
 
 
 @pytest.fixture(scope="session")
@@ -90,26 +90,12 @@ def test_characteristic_curves_are_floquet_boundaries():
             assert mm.mathieu_trace(a, q) == pytest.approx(target, abs=1e-9)
 
 
-def _mpmath_trace(a, q):
-    """tr M_u of u″ = −(a − 2q cos 2τ) u over τ ∈ [0, π] to ~20 digits: mpmath's Taylor
-    integrator at 20 digits over half the period (tr = 2 (u1 u2′ + u1′ u2)(π/2))."""
-    import mpmath as mp
-    with mp.workdps(20):
-        a_, q_ = mp.mpf(a), mp.mpf(q)
-
-        def f(t, y):
-            k = -(a_ - 2 * q_ * mp.cos(2 * t))
-            return [y[1], k * y[0], y[3], k * y[2]]
-        u1, v1, u2, v2 = mp.odefun(f, 0, [1, 0, 0, 1])(mp.pi / 2)
-        return float(2 * (u1 * v2 + v1 * u2))
-
-
 def test_mathieu_trace_error_bounds_its_error_against_mpmath():
     """The trace's reported error (relative to max(1, |tr|)) bounds its error against a
     20-digit reference, and meets the tolerance asked for: inside a window, on a tongue,
     deep in one (|tr| ~ 1e5) and at a higher a (measured: errors ≤ 1e-15 relative)."""
     for a, q in ((1.3, 0.7), (25.0, 3.0), (-4.0, 1.0), (-17.4, 16.0)):
-        ref = _mpmath_trace(a, q)
+        ref = mathieu_mpmath_trace(a, q)
         for tol in (1e-8, 1e-12):
             tr, _, err = mm.mathieu_monodromy_trace(a, q, tol=tol)
             assert err <= tol, (a, q, tol, err)
