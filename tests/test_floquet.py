@@ -93,8 +93,11 @@ def test_characteristic_curves_are_floquet_boundaries():
 def test_mathieu_trace_error_bounds_its_error_against_mpmath():
     """The trace's reported error (relative to max(1, |tr|)) bounds its error against a
     20-digit reference, and meets the tolerance asked for: inside a window, on a tongue,
-    deep in one (|tr| ~ 1e5) and at a higher a (measured: errors ≤ 1e-15 relative)."""
-    for a, q in ((1.3, 0.7), (25.0, 3.0), (-4.0, 1.0), (-17.4, 16.0)):
+    deep in one (|tr| ~ 1e5), at a higher a, and where the solutions swing to ~50 within
+    the period (there the float π/2 at which the steps ended moved the trace by 6e-14
+    relative, under a reported 4e-15: the run now ends at π/2 exactly; measured 7e-15)."""
+    for a, q in ((1.3, 0.7), (25.0, 3.0), (-4.0, 1.0), (-17.4, 16.0),
+                 (-0.7729394600516883, 8.47555926021747)):
         ref = mathieu_mpmath_trace(a, q)
         for tol in (1e-8, 1e-12):
             tr, _, err = mm.mathieu_monodromy_trace(a, q, tol=tol)
