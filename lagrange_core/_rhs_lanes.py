@@ -423,7 +423,8 @@ def load_rhs_lanes(kernels, *, jvp: bool = False) -> tuple[bool, str]:
                             lambda: _generated_source(kernels.equations(), kernels.label))
     if not module.LANES_OK:
         return False, module.LANES_REASON
-    for name, slot in (("rhs_lanes", RHS_LANES), ("rhs_jvp_lanes", RHS_JVP_LANES))[:1 + jvp]:
+    wanted = [("rhs_lanes", RHS_LANES)] + ([("rhs_jvp_lanes", RHS_JVP_LANES)] if jvp else [])
+    for name, slot in wanted:
         if not table[slot]:
             kernels.set_address(name, numba.cfunc(SIGNATURES[name], cache=True)(
                 getattr(module, f"c_{name}")))

@@ -267,7 +267,7 @@ def test_paused_and_resumed_runs_equal_an_unbroken_one(pendulum):
 def _lyap_grid(system, params, lanes, q0=0.0, **kw):
     real = _lyapunov._lanes
     if not lanes:
-        _lyapunov._lanes = lambda s: False
+        _lyapunov._lanes = lambda s, jvp=False: False
     try:
         return lyapunov_grid(system, params, q0, progress=False, **kw)
     finally:

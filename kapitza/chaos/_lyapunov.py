@@ -388,11 +388,10 @@ def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200,
     check_grid_memory("params, q0, qdot0 (broadcast)", S, 8.0 * (24 * n + blocks + 40),
                       where=f"{where}: ", fix="use a coarser grid, or compute it in parts "
                       "(a few rows of A at a time) and join them")
-    lanes = _lanes(system)
+    # the exact tangent (the default on lanes) needs the Jacobian–vector lanes kernel too
+    lanes = _lanes(system, jvp=tangent in (None, "jacobian"))
     if tangent is None:
         tangent = "jacobian" if lanes else "difference"
-    if lanes and tangent == "jacobian":     # the tangent kernel too (compiled on first use)
-        _lanes(system, jvp=True)
     ka = _addresses(system, tangent, where, lanes)
     names = system.parameters
 
