@@ -425,6 +425,26 @@ _TARGET = 0.25
 _FIRST_BUDGET = 2048
 
 
+#: elements of the strobe's samples filled between two looks for Ctrl-C (32 MiB, ~0.1 s)
+_FILL_CHUNK = 1 << 22
+
+
+def _nan_filled(shape):
+    """A float array of NaN, or None when Ctrl-C came while it was filled.
+
+    The strobe's samples of a long run are large (3·10⁷ periods: 480 MB, 1.7 s to fill on
+    the 2-core machine of benchmarks/README.md, most of it the first touch of each page):
+    filled a slice at a time, looking for a deferred Ctrl-C between slices, so that the
+    call stops within a second of it even before its first step."""
+    out = np.empty(shape)
+    flat = out.reshape(-1)
+    for start in range(0, flat.size, _FILL_CHUNK):
+        if start and interrupt_requested():
+            return None
+        flat[start:start + _FILL_CHUNK] = np.nan
+    return out
+
+
 def _run_paused(call, N, TS, TF, STATUS, width, progress, first, label="simulate_grid"):
     """Integrate every point through ``call(idx, budget, slot, SAVE, SAVEI)`` in calls of
     about :data:`_TARGET` seconds; returns (points ended, interrupted) — interrupted also
@@ -550,7 +570,7 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
     with defer_ctrl_c():
         YF = np.full((N, 2 * n), np.nan)
         TF = np.full(N, np.nan)
-        SQ = np.full((N, max(K, 1) if strobe is not None else 1, 2 * n), np.nan)
+        SQ = _nan_filled((N, max(K, 1) if strobe is not None else 1, 2 * n))
         QM = np.zeros((N, n))
         DEV = np.zeros((N, n))
         EXIT = np.full(N, np.nan)
@@ -593,9 +613,13 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
                                 tab["E3"], tab["E5"], *outs, budget, KERNEL_STOP, slot,
                                 save, savei)
 
-        with numba.parallel_chunksize(1):
-            done, interrupted = _run_paused(call, N, g["TS"], TF, STATUS, width, progress,
-                                            8 * numba.get_num_threads())
+        if SQ is None:              # Ctrl-C came while the strobe's samples were filled
+            SQ = np.broadcast_to(np.nan, (N, max(K, 1), 2 * n))     # no point ran
+            done, interrupted = 0, True
+        else:
+            with numba.parallel_chunksize(1):
+                done, interrupted = _run_paused(call, N, g["TS"], TF, STATUS, width,
+                                                progress, 8 * numba.get_num_threads())
     run = STATUS != _bk.GRID_NOT_RUN
     span = TF - g["TS"][:, 0]
     with np.errstate(invalid="ignore", divide="ignore"):

@@ -567,9 +567,10 @@ def _from_grid(system, grid, ref, periods, period, wanted, progress):
         # Ctrl-C, has NaN beyond: no need to copy them)
         with np.errstate(invalid="ignore"):
             reached = np.floor((grid.t_final - grid.t0) / period * (1 + 1e-12))
-        K = grid.strobe_q.shape[-2]
-        if np.isfinite(reached).any():
-            K = int(min(K, np.nanmax(reached) + 2))
+        # (no run started — Ctrl-C before the first step — leaves nothing to fit: not the
+        # 3·10⁷ NaN samples of a long run, 2–4 s of a fit after the Ctrl-C)
+        last = np.nanmax(reached) if np.isfinite(reached).any() else 0.0
+        K = int(min(grid.strobe_q.shape[-2], last + 2))
         q = grid.strobe_q[..., :K, :].reshape(P, K, n)
         qdot = grid.strobe_qdot[..., :K, :].reshape(P, K, n)
         if "omega_slow" in wanted:
