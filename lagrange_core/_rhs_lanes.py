@@ -149,8 +149,13 @@ def _formulas(eq):
     # the directional derivative of what the solve needs (n = 1: q̈ itself; M's value is
     # a check, not differentiated)
     differentiated = exprs[:1] if n == 1 else exprs
-    derivs = [sp.Add(*[sp.diff(e, yi) * di for yi, di in zip(y, dy, strict=True)])
-              for e in differentiated]
+    # (by the variables each expression has: a zero entry of M, or one with few of them,
+    # skips the 2n differentiations that give zero — 60 beads: 227 000 diff calls, 11 s)
+    derivs = []
+    for e in differentiated:
+        has = e.free_symbols
+        derivs.append(sp.Add(*[sp.diff(e, yi) * di for yi, di in zip(y, dy, strict=True)
+                               if yi in has]))
     return exprs, derivs, n
 
 
