@@ -1,9 +1,10 @@
 """Compile, once per installation, the numba code that kapitza's analyses share.
 
 :func:`lagrange_core.warmup` compiles the integrators; this adds Floquet's sampler and
-monodromy kernels, the Mathieu characteristic values of the pendulum's exact maps, the
-grid kernels and the slow-frequency fit that ``measure`` runs, and the pendulum's own
-kernels for both drives, damped and undamped.  After it, a first ``measure`` of any drive
+monodromy kernels, the Mathieu characteristic values and monodromy trace of the
+pendulum's exact maps (undamped and damped), the grid kernels and the slow-frequency fit
+that ``measure`` runs, and the pendulum's own kernels for both drives, damped and
+undamped.  After it, a first ``measure`` of any drive
 only loads machine code (≈ 1 s instead of tens of seconds).
 
 On an empty cache the work is split into independent *groups* (:data:`GROUPS`) that
@@ -85,6 +86,8 @@ def _floquet():
     pendulum.stability_map(A=[0.02, 0.05], omega=[_OMEGA, 2 * _OMEGA])   # characteristic values
     pendulum.window(_OMEGA)                                               # certified window
     pendulum.floquet(0.05, _OMEGA, about="inverted")                     # general monodromy
+    damped = KapitzaPendulum(l=1.0, g=9.81, damping=0.5)
+    damped.stability_map(A=[0.02, 0.05], omega=[_OMEGA, 2 * _OMEGA])      # the Mathieu trace
 
 
 #: The groups, longest first (each alone on an empty cache, 2026-11-26: measure 54 s,
