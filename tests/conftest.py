@@ -151,27 +151,22 @@ def pytest_configure(config):
     # first call does not: the grid's symplectic driver with the energy record (~50 s cold),
     # the chaos room's lanes (Lyapunov and the strobe's DOP853, ~90 s) and its per-point
     # Lyapunov kernel (two files' tests called it at once, and each compiled it: 5 s)
-    # (in two processes: the symplectic driver alone took as long as the pool's groups
-    # together, and the phase waited for it and the chaos room's kernels after it)
-    suite = [subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL,
-                              stderr=subprocess.DEVNULL) for code in _SUITE_KERNELS]
+    suite = subprocess.Popen([sys.executable, "-c", _SUITE_KERNELS],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     compile_in_processes(list(GROUPS), 2, False, start)
-    for process in suite:
-        process.wait()
+    suite.wait()
     print(f"\nconftest: numba's cache was cold: the shared kernels compiled in "
           f"{time.perf_counter() - start:.0f} s before the workers start")
 
 
-_SUITE_KERNELS = ("""
-from lagrange_core import problems
-pend = problems.pendulum()
-pend.simulate_grid([1.0], [0.0], (0.0, 2.0), dict(g=9.81, l=1.0, m=1.0), method="yoshida6",
-                   h=0.2, energy=True, progress=False)
-""", """
+_SUITE_KERNELS = """
 import math, warnings
 warnings.simplefilter("ignore")
 from lagrange_core import problems
 from kapitza.chaos import bifurcation_diagram, lyapunov, lyapunov_grid
+pend = problems.pendulum()
+pend.simulate_grid([1.0], [0.0], (0.0, 2.0), dict(g=9.81, l=1.0, m=1.0), method="yoshida6",
+                   h=0.2, energy=True, progress=False)
 driven = problems.driven_pendulum("vertical", damping=True)
 w0 = math.sqrt(9.81)
 p = dict(A=0.1, g=9.81, l=1.0, m=1.0, omega=2 * w0, gamma=0.1 * w0)
@@ -179,7 +174,7 @@ lyapunov_grid(driven, p, 0.3, periods=4, transient=0, blocks=2, progress=False)
 bifurcation_diagram(driven, p, parameter="A", values=[0.1, 0.2], angles="theta", periods=2,
                     transient=1, progress=False)
 lyapunov(driven, p, 0.3, periods=4, transient=0, blocks=2, progress=False)
-""")
+"""
 
 
 @pytest.fixture(scope="session")
