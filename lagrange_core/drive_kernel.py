@@ -136,11 +136,17 @@ def _generated_source(eq) -> str:
     reps, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("_x"))
     terms = [f"{_print(s)} = {_print(e)}" for s, e in reps]
     results = [_print(r) for r in reduced]
+    # a sparse [M | F] (a string of beads: 380 of 420 entries zero) is zeroed by a loop and
+    # only its other entries are written: each statement costs numba ~6 ms to compile
+    sparse = n > 1 and sum(r == "0" for r in results) > 2 * n
     body = list(loads) + terms
     if n == 1:
         body.append(f"out[0] = {results[0]}")
     else:
-        body += _augmented_entries(n, results, lambda i, j: f"Wn[{i}, {j}]")
+        if sparse:
+            body += [f"for _i in range({n}):", f"    for _j in range({n + 1}):",
+                     "        Wn[_i, _j] = 0.0"]
+        body += _augmented_entries(n, results, lambda i, j: f"Wn[{i}, {j}]", sparse)
         body.append(f"status = solve_augmented(Wn, {n})")
         body += [f"out[{i}] = Wn[{i}, {n}]" for i in range(n)]
         body.append("return status")
@@ -155,22 +161,25 @@ def _generated_source(eq) -> str:
     rl += [f"out[{k}] = {_print(a.xreplace(ren))}" for k, a in enumerate(alphas)]
     rl.append("return 0")
     src.append(textwrap.indent("\n".join(rl), "    "))
-    src += ["", "", _lanes_source(n, lane_loads, terms, results)]
+    src += ["", "", _lanes_source(n, lane_loads, terms, results, sparse)]
     return "\n".join(src) + "\n"
 
 
-def _augmented_entries(n, results, cell):
+def _augmented_entries(n, results, cell, skip_zeros=False):
     """Lines that fill [M | F] (n > 1) from ``results`` (M's upper triangle row by row, then
-    F), mirroring M; ``cell(i, j)`` names entry (i, j) of the target."""
+    F), mirroring M; ``cell(i, j)`` names entry (i, j) of the target.  ``skip_zeros``: no
+    line for an entry that is zero (the caller has zeroed the target)."""
     lines = []
     k = 0
     for i in range(n):
         for j in range(i, n):
-            lines.append(f"{cell(i, j)} = {results[k]}")
-            if j != i:
-                lines.append(f"{cell(j, i)} = {cell(i, j)}")
+            if not (skip_zeros and results[k] == "0"):
+                lines.append(f"{cell(i, j)} = {results[k]}")
+                if j != i:
+                    lines.append(f"{cell(j, i)} = {cell(i, j)}")
             k += 1
-    lines += [f"{cell(i, n)} = {results[k + i]}" for i in range(n)]
+    lines += [f"{cell(i, n)} = {results[k + i]}" for i in range(n)
+              if not (skip_zeros and results[k + i] == "0")]
     return lines
 
 
@@ -180,7 +189,7 @@ def _lane_code(line):
     return line.replace("math.sin(", "lane_sin(").replace("math.cos(", "lane_cos(")
 
 
-def _lanes_source(n, lane_loads, terms, results):
+def _lanes_source(n, lane_loads, terms, results, sparse=False):
     """``fast_accel_lanes``: the same formulas in a loop over lanes (the contract in
     :mod:`lagrange_core._kernel_calls`).  One system of L lanes per call; the loop body has
     no calls, so LLVM vectorises it.  n > 1: M and F go to ``work`` and
@@ -190,12 +199,16 @@ def _lanes_source(n, lane_loads, terms, results):
     the scalar ``fast_accel`` (libm, partial pivoting), whose status it gets."""
     w = n + 1
     loop = list(lane_loads) + [_lane_code(line) for line in terms]
+    zero = []
     if n == 1:
         loop.append(f"out[0, l] = {_lane_code(results[0])}")
         solve = []
     else:
         loop += _augmented_entries(n, [_lane_code(r) for r in results],
-                                   lambda i, j: f"work[{1 + i * w + j}, l]")
+                                   lambda i, j: f"work[{1 + i * w + j}, l]", sparse)
+        if sparse:
+            zero = [f"for _r in range(1, {1 + n * w}):", "    for l in range(L):",
+                    "        work[_r, l] = 0.0"]
         solve = [f"lane_solve(work, {n}, L)", "for l in range(L):"]
         solve += [f"    out[{i}, l] = work[{1 + i * w + n}, l]" for i in range(n)]
     check = ["bad = False", "for l in range(L):"]
@@ -204,7 +217,8 @@ def _lanes_source(n, lane_loads, terms, results):
         check.append("    bad |= work[0, l] != 0.0")
     check += ["if not bad:", "    return 0",
               f"return _lanes_again(q, tl, cs, p, out, work, L, {n > 1})"]
-    body = ["for l in range(L):", textwrap.indent("\n".join(loop), "    ")] + solve + check
+    body = zero + ["for l in range(L):", textwrap.indent("\n".join(loop), "    ")] + solve \
+        + check
     return "\n".join([_JIT, "def fast_accel_lanes(q, tl, cs, p, out, work, L):",
                       textwrap.indent("\n".join(body), "    ")]) + _LANES_AGAIN
 
