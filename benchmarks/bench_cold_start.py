@@ -25,9 +25,10 @@ Run:  python benchmarks/bench_cold_start.py [--quick] [--baseline REV]
    children), with the load average before and after: a figure taken under load
    overstates the wall time.
 4. A new system's first use other than ``simulate`` (``--only new-system``): its mass
-   matrix, its normal modes, its first bifurcation diagram, each in a fresh process with
-   an empty kernel store (the shared kernels compiled: a first untimed round per tree
-   warms them); what only the system's own kernels cost.  With ``--baseline REV`` the
+   matrix, its normal modes, its first bifurcation diagram, and two large sparse systems
+   (a string of 200 beads' normal modes, of 20 beads' first RKN 12 run), each in a fresh
+   process with an empty kernel store (the shared kernels compiled: a first untimed round
+   per tree warms them); what only the system's own kernels cost.  With ``--baseline REV`` the
    same cases on REV's tree, old and new processes alternated, with the ratios.
 
 Absolute times drift on a shared machine; compare ratios and medians.
@@ -161,7 +162,8 @@ def worker_measure(name):
 
 
 NEW_SYSTEM_CASES = ["mass matrix, 4-link pendulum", "normal modes, 8-link pendulum",
-                    "bifurcation diagram, damped driven pendulum"]
+                    "bifurcation diagram, damped driven pendulum",
+                    "normal modes, string of 200 beads", "rkn12 simulate, string of 20 beads"]
 
 
 def worker_new_system(name):
@@ -179,6 +181,13 @@ def worker_new_system(name):
         p = np.ones(len(system.parameters))
         M, F = np.empty((n, n)), np.empty(n)
         system.kernels.mass_forcing(np.full(n, 0.3), np.zeros(n), 0.0, p, M, F)
+    elif name == "normal modes, string of 200 beads":      # tests/test_hard_cases.py
+        problems.bead_string(200).normal_modes(dict(F=80.0, mu=0.005, l=0.65))
+    elif name == "rkn12 simulate, string of 20 beads":      # a sparse [M | F]
+        N = 20
+        y0 = 1e-5 * np.sin(np.pi * np.arange(1, N + 1) / (N + 1))
+        problems.bead_string(N).simulate(y0, np.zeros(N), (0.0, 0.01),
+                                         dict(F=80.0, mu=0.005, l=0.65), method="rkn12")
     elif name.startswith("normal modes"):
         system = problems.n_link_pendulum(8)
         system.normal_modes({p: (9.81 if p == "g" else 1.0) for p in system.parameters})

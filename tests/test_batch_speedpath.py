@@ -235,14 +235,14 @@ def test_several_coordinates_on_lanes(n, method, rtol, atol, steps):
 
 
 def test_a_sparse_mass_matrix_on_lanes_and_per_point():
-    """A string of 12 beads: its [M | F] is mostly zeros (M diagonal), which the drive
+    """A string of 6 beads: its [M | F] is mostly zeros (M diagonal), which the drive
     kernels zero by a loop and do not write one by one (the 20-bead string's first RKN 12
     run compiled in 4.4–4.8 s instead of 9.6–11.5 s).  Its fundamental mode over one
     period, a 3-point grid of amplitudes: on lanes and per point the same run, and both
     within 1e-9 of the amplitude of DOP853 on the first-order kernel, which is generated
     by another code path."""
     from lagrange_core.drive_kernel import _generated_source
-    N, P = 12, dict(F=80.0, mu=0.005, l=0.65)
+    N, P = 6, dict(F=80.0, mu=0.005, l=0.65)
     s = problems.bead_string(N)
     assert "Wn[_i, _j] = 0.0" in _generated_source(s.equations)       # the sparse form
     h = P["l"] / (N + 1)
@@ -251,7 +251,7 @@ def test_a_sparse_mass_matrix_on_lanes_and_per_point():
     amplitudes = np.array([1e-5, 1e-4, 1e-3]) * P["l"]
     y0 = amplitudes[:, None] * shape
     span = (0.0, 2 * np.pi / w1)
-    # a fixed step (200 a period, 24 a period of the highest mode): the same steps
+    # a fixed step (200 a period, 46 a period of the highest mode): the same steps
     lanes, point = both(s, y0, np.zeros_like(y0), span, P, method="rkn12-fixed",
                         h=span[1] / 200)
     assert (lanes.status == 0).all()
