@@ -283,7 +283,8 @@ def _lanes_function(name, n, k, exprs, derivs, jvp):
         check += [f"    bad |= not math.isfinite(jv[{n + i}, l])" for i in range(n)]
     check.append("    bad |= work[0, l] != 0.0")
     again = "tl, y, v, p, dydt, jv, work, L" if jvp else "tl, y, y, p, dydt, dydt, work, L"
-    check += ["if not bad:", "    return 0", f"return _again({again}, {jvp})"]
+    check += ["if not bad:", "    return 0",
+              f"return {'_again_jvp' if jvp else '_again'}({again})"]
     return "\n".join([_JIT, f"def {name}({args}):",
                       textwrap.indent("\n".join(lines + check), "    ")])
 
@@ -295,10 +296,13 @@ def _scalar_function(name, n, k, exprs, derivs, jvp):
     return "\n".join([_JIT, f"def {name}({args}):", textwrap.indent("\n".join(body), "    ")])
 
 
+#: the scalar copy for the lanes that failed, one function per kernel (a flag argument
+#: compiled both scalar kernels, and twice: the Jacobian-vector one for a diagram, basin
+#: or section that never calls it — 1–2 s of a new system's first strobe run)
 _AGAIN = '''
 
 @njit(cache=True)
-def _again(tl, y, v, p, dydt, jv, work, L, jvp):
+def {name}(tl, y, v, p, dydt, jv, work, L):
     # the lanes whose result is not finite or whose M was flagged, by the scalar copy
     yl = np.empty(2 * N_DOF)
     vl = np.empty(2 * N_DOF)
@@ -310,7 +314,7 @@ def _again(tl, y, v, p, dydt, jv, work, L, jvp):
     for l in range(L):
         ok = work[0, l] == 0.0
         for i in range(N_DOF, 2 * N_DOF):
-            ok = ok and math.isfinite(dydt[i, l]) and (not jvp or math.isfinite(jv[i, l]))
+            ok = ok and math.isfinite(dydt[i, l]){check}
         work[0, l] = 0.0
         if ok:
             continue
@@ -319,19 +323,26 @@ def _again(tl, y, v, p, dydt, jv, work, L, jvp):
             vl[i] = v[i, l]
         for i in range(N_PARAMETERS):
             pl[i] = p[i, l]
-        if jvp:
-            st = _jvp_one(tl[l], yl, vl, pl, fl, jl, Wn)
-        else:
-            st = _rhs_one(tl[l], yl, pl, fl, Wn)
+        st = {call}
         for i in range(2 * N_DOF):
-            dydt[i, l] = fl[i] if st == 0 else math.nan
-            if jvp:
-                jv[i, l] = jl[i] if st == 0 else math.nan
+            dydt[i, l] = fl[i] if st == 0 else math.nan{store}
         work[0, l] = float(st)
         if st != 0:
             failed += 1
     return failed
+'''
 
+
+def _again_function(jvp):
+    if jvp:
+        return _AGAIN.format(name="_again_jvp", check=" and math.isfinite(jv[i, l])",
+                             call="_jvp_one(tl[l], yl, vl, pl, fl, jl, Wn)",
+                             store="\n            jv[i, l] = jl[i] if st == 0 else math.nan")
+    return _AGAIN.format(name="_again", check="", call="_rhs_one(tl[l], yl, pl, fl, Wn)",
+                         store="")
+
+
+_ENTRY_POINTS = '''
 
 # -- C entry points (lagrange_core._kernel_calls) ---------------------------------------
 
@@ -383,7 +394,8 @@ def _generated_source(eq, label) -> str:
            _scalar_function("_rhs_one", n, k, exprs, derivs, False), "", "",
            _scalar_function("_jvp_one", n, k, exprs, derivs, True), "", "",
            _lanes_function("rhs_lanes", n, k, exprs, derivs, False), "", "",
-           _lanes_function("rhs_jvp_lanes", n, k, exprs, derivs, True), _AGAIN]
+           _lanes_function("rhs_jvp_lanes", n, k, exprs, derivs, True),
+           _again_function(False), _again_function(True), _ENTRY_POINTS]
     return "\n".join(src)
 
 
