@@ -121,7 +121,10 @@ def run_in_chunks(work, total, *, progress=None, label="", unit="points", first=
     Each chunk is one compiled call sized to take about ``target`` seconds (the
     first has ``first`` items; each next one is sized from the rate measured,
     at most 8× the last), so Ctrl-C — which Python sees only between compiled
-    calls — stops the loop within a chunk's time.  Returns (items finished,
+    calls — stops the loop within a chunk's time.  A ``work`` whose kernel reads
+    :data:`KERNEL_STOP` (the caller inside :func:`defer_ctrl_c`) may stop in the middle
+    of its chunk and return how many of its first items it finished (None: all); the
+    loop then stops there.  Returns (items finished,
     interrupted); the caller turns an interruption into
     :class:`~kapitza.results.ComputationInterrupted` with its partial result (whole, when
     the Ctrl-C came during the last chunk: it is raised all the same, not dropped).
@@ -135,10 +138,13 @@ def run_in_chunks(work, total, *, progress=None, label="", unit="points", first=
                 raise KeyboardInterrupt
             start, stop = done, min(total, done + size)
             t0 = time.perf_counter()
-            work(start, stop)
+            finished = work(start, stop)
             dt = time.perf_counter() - t0
-            done = stop
+            # a call that reads KERNEL_STOP may stop early and say how many it finished
+            done = stop if finished is None else start + int(finished)
             bar.update(done)
+            if done < stop:
+                raise KeyboardInterrupt
             size = int(min(max(1.0, (stop - start) / max(dt, 1e-6) * target), 8 * size))
     except KeyboardInterrupt:
         bar.close()

@@ -244,6 +244,33 @@ def test_ctrl_c_stops_a_long_map_within_a_second(tmp_path):
     assert 0 < res["rows"] < 1500 and res["prefix"] and res["done_finite"] and res["rest_nan"]
 
 
+def test_a_map_stopped_inside_a_chunk_keeps_the_rows_before():
+    """The damped map's kernel skips the rows it has not started once Ctrl-C sets the stop
+    flag (a chunk of expensive rows ran 1.1 s on a loaded machine, past the test above's
+    bound): here the flag is set after the first chunk of 2 rows, as a Ctrl-C that came
+    after the loop's own look would (not the handler's "hit", which the loop reads
+    between chunks); the next chunk stops at once and the map keeps exactly those rows,
+    the rest NaN (fails before: the chunk ran to its end)."""
+    from lagrange_core import progress as _progress
+    calls = []
+
+    def ctrl_c_after_the_first_chunk(done, total):
+        calls.append(done)
+        if len(calls) == 1:
+            _progress.KERNEL_STOP[0] = 1
+    p = KapitzaPendulum(l=L, g=G, damping=0.3)
+    A, w = np.linspace(0.0, 0.7, 40), np.linspace(2.0, 400.0, 30) * W0
+    with pytest.raises(ComputationInterrupted) as info:
+        p.stability_map(A, w, progress=ctrl_c_after_the_first_chunk)
+    rows = info.value.computed.all(axis=1)
+    assert calls[0] == 2 and rows.sum() == 2 and rows[:2].all()
+    tr = info.value.result.trace
+    assert np.isfinite(tr[:2]).all() and np.isnan(tr[2:]).all()
+    assert _progress.KERNEL_STOP[0] == 0                     # reset on the way out
+    whole = p.stability_map(A[:2], w, progress=False)
+    np.testing.assert_array_equal(tr[:2], whole.trace)
+
+
 def test_mathieu_map_at_extreme_slow_drives():
     # ω = 1e-3 rad/s: A ω² = 1e-7 m/s² ≪ g, so the damped upright pendulum falls as the
     # undriven one, rate −γ/2 + √(γ²/4 + ω0²) (closed form), for one period T = 2π/ω

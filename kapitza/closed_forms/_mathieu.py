@@ -39,7 +39,7 @@ from numba import njit, prange
 from scipy.optimize import brentq, minimize_scalar
 
 from lagrange_core.integrator_tables import rkn12_table
-from lagrange_core.progress import run_in_chunks
+from lagrange_core.progress import KERNEL_STOP, defer_ctrl_c, run_in_chunks
 
 from .. import _arguments as arguments
 from .._deprecation import deprecated_alias
@@ -273,14 +273,21 @@ def _trace_tol(a, q, tol, nmax, res):
 
 
 @njit(cache=True, parallel=True)
-def _trace_grid(ap, q, tol, nmax, out):
-    """out[i, j, :] = _trace_tol(ap[j], q[i]) for a grid (u-equation, a′ per column)."""
+def _trace_grid(ap, q, tol, nmax, out, stop, finished):
+    """out[i, j, :] = _trace_tol(ap[j], q[i]) for a grid (u-equation, a′ per column).
+
+    A row not yet started when ``stop[0]`` is set (Ctrl-C:
+    :data:`lagrange_core.progress.KERNEL_STOP`) is skipped; ``finished[i]`` marks the
+    rows computed."""
     for i in prange(q.size):
+        if stop[0] != 0:
+            continue
         res = np.empty(5)
         for j in range(ap.size):
             _trace_tol(ap[j], q[i], tol, nmax, res)
             for k in range(5):
                 out[i, j, k] = res[k]
+        finished[i] = True
 
 
 def mathieu_monodromy_trace(a, q, c=0.0, tol=1e-12, max_steps=1 << 20):
@@ -381,7 +388,9 @@ def _scanned_margin(margin, ap, c, thr, qs):
     call at :data:`_SCAN_TOL` (fewer steps than the full tolerance, on every core), then
     ``margin`` (full tolerance) where |value| ≤ 10 × its error estimate."""
     out = np.empty((qs.size, 1, 5))
-    _trace_grid(np.array([ap], float), np.asarray(qs, float), _SCAN_TOL, 1 << 22, out)
+    # one short call (a window's scan): never stopped in the middle
+    _trace_grid(np.array([ap], float), np.asarray(qs, float), _SCAN_TOL, 1 << 22, out,
+                np.zeros_like(KERNEL_STOP), np.zeros(qs.size, dtype=np.bool_))
     vals, err = _margin_and_error(out[:, 0, 2], out[:, 0, 3], c, thr)
     for k in np.flatnonzero(~(np.abs(vals) > 10.0 * err)):
         vals[k] = margin(float(qs[k]))
@@ -651,11 +660,18 @@ def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, damping=0.0, about="inver
         out = np.full((q.size, w.size, 5), np.nan)
 
         def rows(i0, i1):
-            _trace_grid(ap, qc[i0:i1], float(tol), 1 << 22, out[i0:i1])
+            # a row of many expensive points can make a chunk run several times its
+            # 0.25 s on a loaded machine: Ctrl-C stops the call in flight, not only the
+            # next one (the rows before the first unfinished one count)
+            finished = np.zeros(i1 - i0, dtype=np.bool_)
+            _trace_grid(ap, qc[i0:i1], float(tol), 1 << 22, out[i0:i1], KERNEL_STOP,
+                        finished)
+            return int(np.argmin(finished)) if not finished.all() else i1 - i0
 
-        done, interrupted = run_in_chunks(rows, q.size, progress=progress,
-                                          label="Mathieu trace map", unit="rows of A",
-                                          first=2)
+        with defer_ctrl_c():
+            done, interrupted = run_in_chunks(rows, q.size, progress=progress,
+                                              label="Mathieu trace map", unit="rows of A",
+                                              first=2)
         out[done:] = np.nan          # a chunk may have finished just as Ctrl-C came
         lg_u = out[:, :, 2]
         log_tr = lg_u - (np.pi * c / 2)[None, :]
