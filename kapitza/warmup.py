@@ -4,8 +4,8 @@
 monodromy kernels, the Mathieu characteristic values and monodromy trace of the
 pendulum's exact maps (undamped and damped), the grid kernels and the slow-frequency fit
 that ``measure`` runs, and the pendulum's own kernels for both drives, damped and
-undamped.  After it, a first ``measure`` of any drive
-only loads machine code (≈ 1 s instead of tens of seconds).
+undamped.  After it, a first ``measure`` of any drive only loads machine code (≈ 1 s
+instead of tens of seconds).
 
 On an empty cache the work is split into independent *groups* (:data:`GROUPS`) that
 compile in separate processes, one per core: numba's disk cache is shared, so each

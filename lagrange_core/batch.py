@@ -570,7 +570,8 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
     with defer_ctrl_c():
         YF = np.full((N, 2 * n), np.nan)
         TF = np.full(N, np.nan)
-        SQ = _nan_filled((N, max(K, 1) if strobe is not None else 1, 2 * n))
+        sq_shape = (N, max(K, 1) if strobe is not None else 1, 2 * n)
+        SQ = _nan_filled(sq_shape)
         QM = np.zeros((N, n))
         DEV = np.zeros((N, n))
         EXIT = np.full(N, np.nan)
@@ -614,7 +615,7 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
                                 save, savei)
 
         if SQ is None:              # Ctrl-C came while the strobe's samples were filled
-            SQ = np.broadcast_to(np.nan, (N, max(K, 1), 2 * n))     # no point ran
+            SQ = np.broadcast_to(np.nan, sq_shape)      # no point ran (read-only, no memory)
             done, interrupted = 0, True
         else:
             with numba.parallel_chunksize(1):

@@ -251,6 +251,8 @@ def test_a_map_stopped_inside_a_chunk_keeps_the_rows_before():
     after the loop's own look would (not the handler's "hit", which the loop reads
     between chunks); the next chunk stops at once and the map keeps exactly those rows,
     the rest NaN (fails before: the chunk ran to its end)."""
+    import signal
+
     from lagrange_core import progress as _progress
     calls = []
 
@@ -260,13 +262,21 @@ def test_a_map_stopped_inside_a_chunk_keeps_the_rows_before():
             _progress.KERNEL_STOP[0] = 1
     p = KapitzaPendulum(l=L, g=G, damping=0.3)
     A, w = np.linspace(0.0, 0.7, 40), np.linspace(2.0, 400.0, 30) * W0
-    with pytest.raises(ComputationInterrupted) as info:
-        p.stability_map(A, w, progress=ctrl_c_after_the_first_chunk)
+    # Python's own Ctrl-C handler, as in an interactive run (a worker started by a
+    # background job has SIGINT ignored, and the deferral then stands aside)
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(ComputationInterrupted) as info:
+            p.stability_map(A, w, progress=ctrl_c_after_the_first_chunk)
+    finally:
+        signal.signal(signal.SIGINT, old)
+        stop_left = int(_progress.KERNEL_STOP[0])
+        _progress.KERNEL_STOP[0] = 0
     rows = info.value.computed.all(axis=1)
     assert calls[0] == 2 and rows.sum() == 2 and rows[:2].all()
     tr = info.value.result.trace
     assert np.isfinite(tr[:2]).all() and np.isnan(tr[2:]).all()
-    assert _progress.KERNEL_STOP[0] == 0                     # reset on the way out
+    assert stop_left == 0                                    # reset on the way out
     whole = p.stability_map(A[:2], w, progress=False)
     np.testing.assert_array_equal(tr[:2], whole.trace)
 

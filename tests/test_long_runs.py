@@ -258,7 +258,7 @@ def test_a_ctrl_c_before_the_first_step_stops_at_once(monkeypatch):
     m = stop.value.result
     assert m.status == "not_run" and int(m.completed_periods) == 0
     assert math.isnan(m.omega_slow) and math.isnan(m.t_reached)
-    assert took < 0.5, took
+    assert took < 1.0, took            # the whole call, Ctrl-C's bound (measured ~0.1 s)
 
 
 COMMAND = r'''

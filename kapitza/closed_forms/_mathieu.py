@@ -35,9 +35,10 @@ import time
 import warnings
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 from scipy.optimize import brentq, minimize_scalar
 
+from lagrange_core._thread_blocks import run_rows
 from lagrange_core.integrator_tables import rkn12_table
 from lagrange_core.progress import KERNEL_STOP, defer_ctrl_c, run_in_chunks
 
@@ -272,22 +273,32 @@ def _trace_tol(a, q, tol, nmax, res):
         s1, l1 = s2, l2
 
 
-@njit(cache=True, parallel=True)
-def _trace_grid(ap, q, tol, nmax, out, stop, finished):
-    """out[i, j, :] = _trace_tol(ap[j], q[i]) for a grid (u-equation, a′ per column).
+@njit(cache=True, nogil=True)
+def _trace_rows(ap, q, tol, nmax, out, stop, finished, lo, hi):
+    """out[i, j, :] = _trace_tol(ap[j], q[i]) for the rows lo ≤ i < hi of a grid
+    (u-equation, a′ per column), on one thread (:func:`_trace_grid` spreads the rows).
 
     A row not yet started when ``stop[0]`` is set (Ctrl-C:
     :data:`lagrange_core.progress.KERNEL_STOP`) is skipped; ``finished[i]`` marks the
     rows computed."""
-    for i in prange(q.size):
+    res = np.empty(5)
+    for i in range(lo, hi):
         if stop[0] != 0:
-            continue
-        res = np.empty(5)
+            return
         for j in range(ap.size):
             _trace_tol(ap[j], q[i], tol, nmax, res)
             for k in range(5):
                 out[i, j, k] = res[k]
         finished[i] = True
+
+
+def _trace_grid(ap, q, tol, nmax, out, stop, finished):
+    """:func:`_trace_rows` over every row, in blocks on numba's threads, the calling
+    thread waiting: it sees a Ctrl-C at once and the blocks stop at their next row
+    (numba's ``prange`` ran on the calling thread too, which saw the signal only when the
+    whole call returned: a chunk of expensive rows ran 1.1 s past the Ctrl-C)."""
+    run_rows(_trace_rows, q.size, ap, q, tol, nmax, out, stop, finished, per_thread=8,
+             stoppable=True)
 
 
 def mathieu_monodromy_trace(a, q, c=0.0, tol=1e-12, max_steps=1 << 20):
@@ -672,17 +683,22 @@ def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, damping=0.0, about="inver
             done, interrupted = run_in_chunks(rows, q.size, progress=progress,
                                               label="Mathieu trace map", unit="rows of A",
                                               first=2)
-        out[done:] = np.nan          # a chunk may have finished just as Ctrl-C came
-        lg_u = out[:, :, 2]
+        # the finished rows only (the rest NaN, unstable, label 3; rows a stopped chunk
+        # computed after its first unfinished one are dropped): after a Ctrl-C early in a
+        # large map, the whole grid's arithmetic took 0.5 s of the second allowed
+        o = out[:done]
+        lg_u = o[:, :, 2]
         log_tr = lg_u - (np.pi * c / 2)[None, :]
-        tr = np.where(log_tr > 700, out[:, :, 1] * np.inf,
-                      out[:, :, 1] * np.exp(np.minimum(log_tr, 700)))
+        tr = np.full((q.size, w.size), np.nan)
+        lg = np.full((q.size, w.size), np.nan)
+        tr[:done] = np.where(log_tr > 700, o[:, :, 1] * np.inf,
+                             o[:, :, 1] * np.exp(np.minimum(log_tr, 700)))
         # log|λ|max = −cπ/2 + arccosh(|tr M_u|/2) (0 where |tr M_u| ≤ 2), in log form
         with np.errstate(over="ignore", invalid="ignore"):
             big = lg_u > 30
             trm = np.where(big, 0.0, np.exp(np.minimum(lg_u, 30)) / 2)
             ach = np.where(big, lg_u, np.arccosh(np.maximum(trm, 1.0)))
-        lg = ach - (np.pi * c / 2)[None, :]
+        lg[:done] = ach - (np.pi * c / 2)[None, :]
         bad = ~np.isfinite(lg[:done])
         flagged = int(bad.sum())
         if flagged:
@@ -694,10 +710,11 @@ def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, damping=0.0, about="inver
         err = float(np.max(est)) if est.size else 0.0
         if damping > 0.0:
             thr = 1.0 + np.exp(-2 * np.pi * damping / w)
+            stable = np.zeros((q.size, w.size), dtype=bool)
+            label = np.full((q.size, w.size), 3, dtype=np.int8)
             with np.errstate(invalid="ignore"):
-                stable = np.where(log_tr > 700, False, np.abs(tr) < thr[None, :])
-            label = np.where(stable, 0, np.where(out[:, :, 1] > 0, 1, 2)).astype(np.int8)
-            label[done:] = 3
+                stable[:done] = np.where(log_tr > 700, False, np.abs(tr[:done]) < thr[None, :])
+            label[:done] = np.where(stable[:done], 0, np.where(o[:, :, 1] > 0, 1, 2))
             label[:done][bad] = 3
             method = "monodromy (Mathieu, damping removed)"
         if interrupted:
