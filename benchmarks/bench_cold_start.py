@@ -221,21 +221,26 @@ def trees(baseline):
                            check=False, capture_output=True)
 
 
+def alternated(envs, rounds, measure):
+    """{label: [measure(env), ...]} for each tree of ``envs`` (:func:`trees`), ``rounds``
+    times, the trees' processes alternated (so that a drift of the machine's pace falls
+    on both)."""
+    res = {label: [] for label, _ in envs}
+    for _ in range(rounds):
+        for label, env in envs:
+            res[label].append(measure(env))
+    return res
+
+
 def new_system_table(quick, baseline):
     rounds = 1 if quick else 3
     print(f"\n4. A new system's first use (empty kernel store; medians of {rounds} "
           "processes), s")
 
-    def once(name, env, label):
+    def once(name, env):
         with tempfile.TemporaryDirectory() as store:     # (REV's packages by PYTHONPATH)
-            out = subprocess.run([sys.executable, os.path.abspath(__file__), "--worker",
-                                  "new-system", name],
-                                 env={**env, "LAGRANGE_CORE_CACHE": store,
-                                      "LAGRANGE_CORE_COMPILE_NOTICE": "0"},
-                                 capture_output=True, text=True, check=False)
-            if out.returncode != 0:
-                raise RuntimeError(f"{label} {name!r} failed:\n{out.stderr[-3000:]}")
-            return json.loads(out.stdout.strip().splitlines()[-1])["first"]
+            return run_worker("new-system", name, env={
+                **env, "LAGRANGE_CORE_CACHE": store, "LAGRANGE_CORE_COMPILE_NOTICE": "0"})["first"]
 
     with trees(baseline) as envs:
         head = f"{'case':>48} {'new':>7}"
@@ -243,12 +248,9 @@ def new_system_table(quick, baseline):
             head += f" {'old':>7} {'new/old':>8}"
         print(head)
         for name in NEW_SYSTEM_CASES:
-            for label, env in envs:             # the shared kernels, compiled or loaded
-                once(name, env, label)
-            res = {label: [] for label, _ in envs}
-            for _ in range(rounds):             # old and new processes alternated
-                for label, env in envs:
-                    res[label].append(once(name, env, label))
+            for _, env in envs:                 # the shared kernels, compiled or loaded
+                once(name, env)
+            res = alternated(envs, rounds, lambda env, name=name: once(name, env))
             med = {k: statistics.median(v) for k, v in res.items()}
             row = f"{name:>48} {med['new']:7.2f}"
             if baseline:
@@ -351,10 +353,8 @@ def steps_table(quick, baseline):
             head += f" {'old ns/step':>11} {'old fixed':>9} {'step ratio':>10} {'fixed ratio':>11}"
         print(head)
         for name in STEP_CASES:
-            res = {k: [] for k, _ in envs}
-            for _ in range(1 if quick else 3):        # alternate old and new processes
-                for label, env in envs:
-                    res[label].append(run_worker("steps", name, env=env, quick=quick))
+            res = alternated(envs, 1 if quick else 3, lambda env, name=name: run_worker(
+                "steps", name, env=env, quick=quick))
             med = {k: {f: statistics.median(r[f] for r in v) for f in v[0]} for k, v in res.items()}
             row = f"{name:>48} {med['new']['per_step'] * 1e9:9.0f} {med['new']['fixed'] * 1e3:9.3f}"
             if baseline:
