@@ -668,7 +668,8 @@ def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, damping=0.0, about="inver
     if damping > 0.0 or trace:
         ap = np.ascontiguousarray(a - c * c / 4)
         qc = np.ascontiguousarray(q)
-        out = np.full((q.size, w.size, 5), np.nan)
+        # (only the finished rows, out[:done], are read below: no fill of the whole grid)
+        out = np.empty((q.size, w.size, 5))
 
         def rows(i0, i1):
             # a row of many expensive points can make a chunk run several times its
