@@ -669,11 +669,15 @@ def pilot_step(ka, y0, p, t0, t1, T, rtol, atol, c, A, b, bp, bh, bph, counts):
     yf = np.empty(2 * n)
     z = np.zeros(n)
     inf = np.full(n, np.inf)
-    out = point_second_order(ka, 0, True, y0, p, t0, t0 + span / 50.0, 0.0, 0.0, z, -inf, inf,
-                             0, rtol, atol, 1 << 40, c, A, b, bp, bh, bph, np.zeros(1), yf,
+    # the constants as np.int64/np.bool_: a literal argument (numba types ``0`` as
+    # Literal[int](0)) would compile point_second_order a second time (10–17 s), for the
+    # pilot alone, beside the grid's own specialisation
+    out = point_second_order(ka, np.int64(0), np.bool_(True), y0, p, t0, t0 + span / 50.0,
+                             0.0, 0.0, z, -inf, inf, np.int64(0), rtol, atol,
+                             np.int64(1 << 40), c, A, b, bp, bh, bph, np.zeros(1), yf,
                              np.empty((1, 2 * n)), np.zeros(n), np.zeros(n), counts, hbuf,
-                             np.zeros(0), 1 << 62, np.zeros(1, dtype=np.int64), np.zeros(0),
-                             np.zeros(1, dtype=np.int64))
+                             np.zeros(0), np.int64(1 << 62), np.zeros(1, dtype=np.int64),
+                             np.zeros(0), np.zeros(1, dtype=np.int64))
     m = out[5]
     if m == 0:
         return span
