@@ -112,7 +112,7 @@ from ._kernel_calls import (
     call_rhs,
 )
 from ._lane_math import lane_sincos_rows
-from ._selection import kth_smallest
+from ._selection import PILOT_MIN_SETTLED, PILOT_WIDEN, pilot_step_quantile
 from ._thread_blocks import run_rows, run_spans
 
 #: per-point status (``GridTrajectories.status``)
@@ -660,28 +660,41 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def pilot_step(ka, y0, p, t0, t1, T, rtol, atol, c, A, b, bp, bh, bph, counts):
     """The fixed step of RKN 12 for one point: an adaptive pilot over the first 1/50 of
-    [t0, t1] (as ``integrate``'s "rkn12-fixed"), the 20th percentile of its accepted
-    steps, shortened so that a whole number of steps spans the strobe period T (or
-    the span)."""
+    [t0, t1] (as ``integrate``'s "rkn12-fixed"), run again over a window
+    :data:`PILOT_WIDEN` times longer (at most the span) until it has taken
+    :data:`PILOT_MIN_SETTLED` steps beyond its starting ramp; the 20th percentile of
+    those steps (:func:`pilot_step_quantile`), shortened so that a whole number of steps
+    spans the strobe period T (or the span)."""
     n = y0.shape[0] // 2
     span = t1 - t0
-    hbuf = np.empty(4096)
+    hbuf = np.empty(PILOT_STEPS)
     yf = np.empty(2 * n)
     z = np.zeros(n)
     inf = np.full(n, np.inf)
-    # the constants as np.int64/np.bool_: a literal argument (numba types ``0`` as
-    # Literal[int](0)) would compile point_second_order a second time (10–17 s), for the
-    # pilot alone, beside the grid's own specialisation
-    out = point_second_order(ka, np.int64(0), np.bool_(True), y0, p, t0, t0 + span / 50.0,
-                             0.0, 0.0, z, -inf, inf, np.int64(0), rtol, atol,
-                             np.int64(1 << 40), c, A, b, bp, bh, bph, np.zeros(1), yf,
-                             np.empty((1, 2 * n)), np.zeros(n), np.zeros(n), counts, hbuf,
-                             np.zeros(0), np.int64(1 << 62), np.zeros(1, dtype=np.int64),
-                             np.zeros(0), np.zeros(1, dtype=np.int64))
-    m = out[5]
-    if m == 0:
+    tw = t0 + span / 50.0           # the window's end (as _lanes_load and _lanes_block)
+    h_done = -1.0                   # the step of the last window that finished
+    while True:
+        # the constants as np.int64/np.bool_: a literal argument (numba types ``0`` as
+        # Literal[int](0)) would compile point_second_order a second time (10–17 s), for
+        # the pilot alone, beside the grid's own specialisation
+        out = point_second_order(ka, np.int64(0), np.bool_(True), y0, p, t0, tw,
+                                 0.0, 0.0, z, -inf, inf, np.int64(0), rtol, atol,
+                                 np.int64(1 << 40), c, A, b, bp, bh, bph, np.zeros(1), yf,
+                                 np.empty((1, 2 * n)), np.zeros(n), np.zeros(n), counts, hbuf,
+                                 np.zeros(0), np.int64(1 << 62), np.zeros(1, dtype=np.int64),
+                                 np.zeros(0), np.zeros(1, dtype=np.int64))
+        m = out[5]
+        h, settled = pilot_step_quantile(hbuf, m)
+        if out[0] != GRID_FINISHED:
+            if h_done >= 0.0:   # a widened pilot failed (a blow-up, an underflow): its
+                h = h_done      # shrinking steps say nothing; the step of the last
+            break               # window that finished
+        if settled >= PILOT_MIN_SETTLED or m >= PILOT_STEPS or not tw < t1:
+            break
+        h_done = h
+        tw = min(t1, t0 + PILOT_WIDEN * (tw - t0))
+    if not h > 0.0:
         return span
-    h = kth_smallest(hbuf[:m], int(0.2 * (m - 1)))
     period = T if T > 0.0 else span
     return period / math.ceil(period / h)
 
@@ -753,11 +766,11 @@ def _lanes_load(ka, l, i, phase, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, a
                 cq, cv, Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl,
                 e0, drift, errsum, rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh, sth):
     """Start point i in lane l in ``phase`` (_PILOT: the pilot over the first 1/50 of the
-    span, observing nothing; _ADAPTIVE or _FIXED: the run itself, with ``h[l]`` set by
-    the caller for _FIXED).  ``scr`` (7, ≥ max(2n, MAX_DRIVE_RATES)) and ``Wn`` (n, n + 1)
-    are scratch.  Returns 0, or the point's status when it cannot start: GRID_SINGULAR
-    (the acceleration at the start cannot be evaluated), GRID_NON_FINITE (it is not
-    finite)."""
+    span, observing nothing; the caller widens that window, as :func:`pilot_step`;
+    _ADAPTIVE or _FIXED: the run itself, with ``h[l]`` set by the caller for _FIXED).
+    ``scr`` (7, ≥ max(2n, MAX_DRIVE_RATES)) and ``Wn`` (n, n + 1) are scratch.  Returns 0,
+    or the point's status when it cannot start: GRID_SINGULAR (the acceleration at the
+    start cannot be evaluated), GRID_NON_FINITE (it is not finite)."""
     n = q.shape[0]
     p = P[i]
     qv = scr[0, :n]
@@ -1030,8 +1043,9 @@ def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO
 
     ``mode``: LANES_ADAPTIVE ("rkn12": the step control of :func:`point_second_order`,
     held in blocks of ``hold_block`` steps), LANES_FIXED (the step ``H``), LANES_PILOT (the
-    step of each point from an adaptive pilot over the first 1/50 of its span, as
-    :func:`pilot_step`; the pilot runs on the lanes too).  Same algorithm, statuses,
+    step of each point from an adaptive pilot over the first 1/50 of its span, widened
+    until it has steps beyond its starting ramp, as :func:`pilot_step`; the pilot runs
+    on the lanes too).  Same algorithm, statuses,
     counts and observables as :func:`point_second_order` (and :func:`pilot_step`), to
     rounding: the arithmetic is the same except that sin and cos are the lane
     polynomials of :mod:`lagrange_core._lane_math` (within 2 ulp).
@@ -1142,6 +1156,7 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
     sth = np.zeros((L, STATS_SIZE), dtype=np.int64)
     blk = np.empty((L, hold_block if mode == LANES_ADAPTIVE else 0))
     hbuf = np.empty((L, PILOT_STEPS if mode == LANES_PILOT else 0))
+    hpl = np.zeros(L)           # a pilot's step from its last window that finished
     scr = np.zeros((7, max(2 * n, MAX_DRIVE_RATES)))
     Wn = np.zeros((n, n + 1))
     q1 = np.empty(n)
@@ -1442,11 +1457,29 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
             if phase == _PILOT:     # the pilot ends (however): the run itself begins
                 m_ = nh[l]
                 span = TS[i, 1] - TS[i, 0]
+                tw = t1l[l]
+                hq, settled = pilot_step_quantile(hbuf[l], m_)
+                if st != GRID_FINISHED and tw > TS[i, 0] + span / 50.0:
+                    # a widened pilot failed (a blow-up, an underflow): its shrinking steps
+                    # say nothing; the step of the last window that finished (as pilot_step)
+                    hq = hpl[l]
+                elif (st == GRID_FINISHED and settled < PILOT_MIN_SETTLED
+                        and m_ < PILOT_STEPS and tw < TS[i, 1]):
+                    hpl[l] = hq
+                    # too few steps beyond the starting ramp: the pilot again, over a
+                    # longer window (as pilot_step)
+                    st = _lanes_load(ka, l, i, np.int64(_PILOT), Y0, P, TS, H, TSTR, REF,
+                                     LO, HI, flags, rtol, atol, q, v, K, cq, cv, Pl, R, nd, t,
+                                     tc, h, hrot, t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl,
+                                     e0, drift, errsum, rejected, nh, ph, YF, SQ, COUNTS, scr,
+                                     Wn, hmax, tvh, sth)
+                    t1l[l] = min(TS[i, 1], TS[i, 0] + PILOT_WIDEN * (tw - TS[i, 0]))
+                    if st == 0:
+                        continue
                 hf = span
-                if m_ > 0:
+                if hq > 0.0:
                     period = TSTR[i] if TSTR[i] > 0.0 else span
-                    hf = period / math.ceil(period / kth_smallest(hbuf[l, :m_],
-                                                                  int(0.2 * (m_ - 1))))
+                    hf = period / math.ceil(period / hq)
                 h[l] = hf
                 # (np.int64: a bare constant is typed Literal[int] and compiles a second
                 # _lanes_load, ~2 s cold)

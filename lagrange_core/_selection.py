@@ -1,4 +1,4 @@
-"""The k-th smallest of a few numbers, inside numba kernels.
+"""The k-th smallest of a few numbers, inside numba kernels; the fixed step of a pilot run.
 
 The step-size controllers take a quantile of recent steps (the pilot's fixed step, the
 held step of a block).  ``np.sort`` and ``np.partition`` do it, but numba compiles their
@@ -10,7 +10,17 @@ from __future__ import annotations
 
 from numba import njit
 
-__all__ = ["kth_smallest"]
+__all__ = ["kth_smallest", "pilot_step_quantile", "PILOT_MIN_SETTLED", "PILOT_WIDEN"]
+
+#: a pilot's step after which the classic controller grew the step at least this much
+#: (:func:`lagrange_core._integrator_kernels.rkn_next_step`: min(5, 0.9 err^(-1/11)), so
+#: the step's error was below 1.5e-4 of the tolerance) was far shorter than the
+#: tolerance allows: the starting ramp
+RAMP_GROWTH = 2.0
+#: a pilot of "rkn12-fixed" is run again over a window PILOT_WIDEN times longer (at most
+#: the whole span) until it has taken PILOT_MIN_SETTLED steps beyond its starting ramp
+PILOT_MIN_SETTLED = 8
+PILOT_WIDEN = 8.0
 
 
 @njit(cache=True, nogil=True)
@@ -52,3 +62,27 @@ def kth_smallest(x, k):
         else:
             return a[k]         # between the two parts: equal to the pivot
     return a[k]
+
+
+@njit(cache=True, nogil=True)
+def pilot_step_quantile(steps, m):
+    """The 20th percentile of a pilot's ``m`` accepted steps ``steps[:m]`` (in the order
+    taken, clipped ones left out) beyond its *starting ramp*, and how many steps that is.
+
+    The ramp is the leading steps after each of which the controller grew the step at
+    least :data:`RAMP_GROWTH`-fold: their length was set by the starting guess, not by
+    the tolerance (a string of beads whose natural step is a third of its period starts
+    at 1/3800 of it, growing about 5-fold a step, and a pilot of a few steps was all
+    ramp: "rkn12-fixed" took 3800 steps a period where "rkn12" took 4).  Where every
+    step is ramp, the percentile is taken over all of them (and the count is 0).
+    ``m`` = 0 gives (0, 0).
+    """
+    k = 0
+    while k + 1 < m and steps[k + 1] >= RAMP_GROWTH * (1.0 - 1e-9) * steps[k]:
+        k += 1
+    if m == 0:
+        return 0.0, 0
+    if k + 1 == m:          # all ramp (its last step had no successor to show it)
+        return kth_smallest(steps[:m], int(0.2 * (m - 1))), 0
+    settled = m - k
+    return kth_smallest(steps[k:m], int(0.2 * (settled - 1))), settled

@@ -22,7 +22,8 @@ The names of :data:`lagrange_core.integrate.METHODS` that run compiled: ``"rkn12
 (adaptive RKN 12(10), the step control of ``simulate``'s "rkn12": held in blocks of 64
 steps, at most 3/4 of the fastest drive period), ``"rkn12-fixed"`` (its 12th-order
 formula at a fixed step: ``h``, or per point from an adaptive pilot over the first 1/50
-of the span, shortened so a whole number of steps spans the strobe period),
+of the span (widened as ``simulate``'s), shortened so a whole number of steps spans the
+strobe period),
 ``"yoshida6"`` (symplectic, ``h`` required), for q̈ = f(q, t); ``"dop853"`` and ``"rk8"``
 (``h`` required) for any system, constrained ones included.  The strobe samples are the
 method's own solution, not an interpolation: the adaptive RKN 12 step (and its held

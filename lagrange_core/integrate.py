@@ -34,9 +34,11 @@ name -> :class:`Method`).  ``list(METHODS)`` gives the valid names:
 ``"rkn12-fixed"``
     The same 12th-order formula at a fixed step ``h``; without ``h`` the step is
     chosen from the tolerance by a pilot run of the classic adaptive controller
-    over the first 1/50 of t_span (the 20th percentile of its steps), and nothing
-    checks it afterwards (a motion that speeds up later gets a step too long for
-    the tolerance).
+    over the first 1/50 of t_span (the 20th percentile of its steps beyond its
+    starting ramp, where the controller still grows the step 2-fold or more a step;
+    a pilot with fewer than 8 such steps runs again over a window 8 times longer,
+    at most t_span), and nothing checks it afterwards (a motion that speeds up later
+    gets a step too long for the tolerance).
 ``"yoshida6"``
     A symplectic, time-reversible 6th-order composition of velocity Verlet
     (Yoshida 1990), fixed step, for q̈ = f(q, t).
@@ -73,9 +75,9 @@ Default method (``method=None``)
    error level from 1e-3 to 1e-10 at most as slowly as heyoka's Taylor integrator
    (benchmarks/README.md, "Work–precision", issue 11 point 8).  It is the default
    rather than ``"rkn12-fixed"`` because its step is checked at every step and
-   re-estimated every 64: a motion that speeds up after the start (a pendulum that
-   falls over, a comet at perihelion) keeps its tolerance instead of silently
-   losing it.
+   re-estimated every 64: a motion that speeds up after the pilot's window (a pendulum
+   that falls over late, an oscillator whose frequency grows) keeps its tolerance
+   instead of silently losing it.
 3. What ``rtol`` (and ``atol``, default ``rtol``) promise: every accepted step's
    embedded error estimate is within atol + rtol·|y| (RMS over the state).  That
    is a *local* promise.  On the work–precision problem it keeps the global error
@@ -142,6 +144,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from . import _integrator_kernels as _kern
+from ._selection import PILOT_MIN_SETTLED, PILOT_WIDEN, pilot_step_quantile
 from .drive_kernel import load_drive_kernel
 from .progress import ProgressLine, defer_ctrl_c, interrupt_requested
 
@@ -701,17 +704,36 @@ def simulate_checked(kernels, q0, qdot0, p, options, *, method=None, events=(),
 
 def _step_from_tolerance(kernels, label, q0, qd0, p, o):
     """Fixed step for "rkn12-fixed" without ``h``: a pilot run of the adaptive RKN 12(10)
-    over the first 1/50 of t_span at the same tolerances; h is the 20th percentile of
-    its accepted steps (the last, clipped one excluded), rounded down so that a whole
-    number of steps spans t_span.  The pilot costs about 1/50 of an adaptive run.
+    over the first 1/50 of t_span at the same tolerances, run again over a window
+    PILOT_WIDEN (8) times longer (at most t_span) while it has fewer than
+    PILOT_MIN_SETTLED (8) steps beyond its starting ramp; h is the 20th percentile of
+    those steps (:func:`lagrange_core._selection.pilot_step_quantile`; the last, clipped
+    step excluded), rounded down so that a whole number of steps spans t_span.  The pilot
+    costs about 1/50 of an adaptive run where the span holds many steps, and at most
+    about two where it holds few; a widened pilot that fails (a blow-up) gives way to the
+    last window that finished (the grids' pilots, :func:`lagrange_core._batch_kernels.
+    pilot_step`, take the same steps).
     """
     span = o.t1 - o.t0
-    pilot = replace(o, t1=o.t0 + span / 50, t_eval=None, h=None, stride=1, max_steps=None)
-    t_pilot = _run_compiled(kernels, label, METHODS["rkn12"], q0, qd0, p, pilot, (),
-                            _NO_EV_INT, _EMPTY, time.perf_counter(), along=False, hold=False).t
-    steps = np.sort(np.diff(t_pilot)[:-1] if len(t_pilot) > 2 else np.diff(t_pilot))
-    h = float(steps[int(0.2 * (len(steps) - 1))])
-    return span / math.ceil(span / h)
+    tw = o.t0 + span / 50           # the window's end
+    h_done = None                   # the step of the last window that finished
+    while True:
+        pilot = replace(o, t1=tw, t_eval=None, h=None, stride=1, max_steps=None)
+        run = _run_compiled(kernels, label, METHODS["rkn12"], q0, qd0, p, pilot, (),
+                            _NO_EV_INT, _EMPTY, time.perf_counter(), along=False, hold=False)
+        steps = np.ascontiguousarray(np.diff(run.t)[:-1] if len(run.t) > 2
+                                     else np.diff(run.t))
+        h, settled = pilot_step_quantile(steps, len(steps))
+        if run.status != "success":
+            # a widened pilot that failed (a blow-up, an underflow): its shrinking steps
+            # say nothing; the step of the last window that finished
+            h = h_done if h_done is not None else h
+            break
+        if settled >= PILOT_MIN_SETTLED or not tw < o.t1:
+            break
+        h_done = h
+        tw = min(o.t1, o.t0 + PILOT_WIDEN * (tw - o.t0))
+    return span / math.ceil(span / h) if h > 0.0 else span
 
 
 def _finish(kernels, ka, meth, o, p, T, Y, err, err_kind, counts, status, message, ev_list,

@@ -315,7 +315,10 @@ def mathieu_monodromy_trace(a, q, c=0.0, tol=1e-12, max_steps=1 << 20):
     log_abs : float
         log|tr M_y|, finite even when |tr| ≫ 1e308.
     error : float
-        Estimated error of tr M_u relative to max(1, |tr M_u|).
+        Estimated error of tr M_u relative to max(1, |tr M_u|): the difference of the
+        runs at N and 2N steps.  Above ``tol`` where the step count reached
+        ``max_steps`` or the difference stopped shrinking below 1e-9 (rounding); a
+        ``RuntimeWarning`` then names how many traces and the largest error.
     """
     a, q, c = (np.asarray(x, dtype=float) for x in (a, q, c))
     a, q, c = np.broadcast_arrays(a, q, c)
@@ -327,11 +330,19 @@ def mathieu_monodromy_trace(a, q, c=0.0, tol=1e-12, max_steps=1 << 20):
     for k in range(ap.size):
         _trace_tol(ap[k], qq[k], tol, max_steps, res)
         out[0, k] = res
+    error = out[0, :, 3]
+    missed = ~(error <= tol)
+    if missed.any():
+        warnings.warn(f"mathieu_monodromy_trace: {int(missed.sum())} of {error.size} traces "
+                      f"did not reach tol={tol:g} (largest error {np.nanmax(error):.2g}): the "
+                      f"step count reached max_steps={max_steps} or rounding stopped the "
+                      f"refinement; the returned error bounds them; raise max_steps or "
+                      f"loosen tol.", RuntimeWarning, stacklevel=2)
     damp = (np.pi * c / 2).ravel()
     log_abs = out[0, :, 2] - damp
     sign = out[0, :, 1]
     tr = np.where(log_abs > 700, sign * np.inf, sign * np.exp(np.minimum(log_abs, 700)))
-    return tr.reshape(shape), log_abs.reshape(shape), out[0, :, 3].reshape(shape)
+    return tr.reshape(shape), log_abs.reshape(shape), error.reshape(shape)
 
 
 def mathieu_trace(a, q, c=0.0, tol=1e-12):
