@@ -25,7 +25,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from ..results import BOUNDARIES
-from ._mathieu import mathieu_monodromy_trace, mathieu_parameters
+from ._mathieu import _monodromy_trace, mathieu_parameters
 
 __all__ = ["pendulum_floquet", "slow_frequency_error"]
 
@@ -68,7 +68,7 @@ def pendulum_floquet(A, omega, *, l, g, damping=0.0, about="inverted", tol=1e-10
     """
     A, omega = np.broadcast_arrays(np.asarray(A, dtype=float), np.asarray(omega, dtype=float))
     a, q, c = mathieu_parameters(A, omega, l, g, damping, about=about)
-    trace_y, log_abs, error = mathieu_monodromy_trace(a, q, c, tol=tol)
+    trace_y, log_abs, error = _monodromy_trace(a, q, c, tol=tol)   # its error: in the bounds
     trace_y, log_abs, error = (np.asarray(x, dtype=float) for x in (trace_y, log_abs, error))
     T = 2 * np.pi / omega
     half_damp = damping * T / 2                         # γT/2 = cπ/2

@@ -320,6 +320,21 @@ def mathieu_monodromy_trace(a, q, c=0.0, tol=1e-12, max_steps=1 << 20):
         ``max_steps`` or the difference stopped shrinking below 1e-9 (rounding); a
         ``RuntimeWarning`` then names how many traces and the largest error.
     """
+    trace, log_abs, error = _monodromy_trace(a, q, c, tol, max_steps)
+    missed = ~(error <= tol)
+    if missed.any():
+        warnings.warn(f"mathieu_monodromy_trace: {int(missed.sum())} of {error.size} traces "
+                      f"did not reach tol={tol:g} (largest error {np.nanmax(error):.2g}): the "
+                      f"step count reached max_steps={max_steps} or rounding stopped the "
+                      f"refinement; the returned error bounds them; raise max_steps or "
+                      f"loosen tol.", RuntimeWarning, stacklevel=2)
+    return trace, log_abs, error
+
+
+def _monodromy_trace(a, q, c, tol, max_steps=1 << 20):
+    """:func:`mathieu_monodromy_trace` without its warning, for callers that carry the
+    error into their own bounds (the exact windows' margins, the pendulum's Floquet
+    result)."""
     a, q, c = (np.asarray(x, dtype=float) for x in (a, q, c))
     a, q, c = np.broadcast_arrays(a, q, c)
     shape = a.shape
@@ -331,13 +346,6 @@ def mathieu_monodromy_trace(a, q, c=0.0, tol=1e-12, max_steps=1 << 20):
         _trace_tol(ap[k], qq[k], tol, max_steps, res)
         out[0, k] = res
     error = out[0, :, 3]
-    missed = ~(error <= tol)
-    if missed.any():
-        warnings.warn(f"mathieu_monodromy_trace: {int(missed.sum())} of {error.size} traces "
-                      f"did not reach tol={tol:g} (largest error {np.nanmax(error):.2g}): the "
-                      f"step count reached max_steps={max_steps} or rounding stopped the "
-                      f"refinement; the returned error bounds them; raise max_steps or "
-                      f"loosen tol.", RuntimeWarning, stacklevel=2)
     damp = (np.pi * c / 2).ravel()
     log_abs = out[0, :, 2] - damp
     sign = out[0, :, 1]
@@ -545,13 +553,13 @@ def exact_window(omega, *, l=1.0, g=9.81, damping=0.0, about="inverted",
 
             # the loop's values bound as defaults (margin is called in this iteration only)
             def margin(q, ap=ap, c=c, thr=thr):          # > 0 unstable, < 0 stable
-                tr, la, _ = mathieu_monodromy_trace(ap, q, 0.0, tol=min(1e-12, tol / 100))
+                tr, la, _ = _monodromy_trace(ap, q, 0.0, tol=min(1e-12, tol / 100))
                 return math.exp(min(float(la) - math.pi * c / 2, 700.0)) - thr
 
             qs = np.concatenate([[0.0], np.geomspace(1e-4, 40.0, 240)]) if sign < 0 else \
                 np.linspace(0.0, 4 * abs(a) + 20, 400)
             def coarse(q, ap=ap, c=c, thr=thr):          # (margin, its error bound)
-                _, la, err = mathieu_monodromy_trace(ap, q, 0.0, tol=_SCAN_TOL)
+                _, la, err = _monodromy_trace(ap, q, 0.0, tol=_SCAN_TOL)
                 value, bound = _margin_and_error(float(la), float(err), c, thr)
                 return float(value), float(bound)
 
