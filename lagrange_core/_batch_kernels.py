@@ -1045,10 +1045,10 @@ def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO
     held in blocks of ``hold_block`` steps), LANES_FIXED (the step ``H``), LANES_PILOT (the
     step of each point from an adaptive pilot over the first 1/50 of its span, widened
     until it has steps beyond its starting ramp, as :func:`pilot_step`; the pilot runs
-    on the lanes too).  Same algorithm, statuses,
-    counts and observables as :func:`point_second_order` (and :func:`pilot_step`), to
-    rounding: the arithmetic is the same except that sin and cos are the lane
-    polynomials of :mod:`lagrange_core._lane_math` (within 2 ulp).
+    on the lanes too).  Same algorithm, statuses, counts and observables as
+    :func:`point_second_order` (and :func:`pilot_step`), to rounding: the arithmetic is
+    the same except that sin and cos are the lane polynomials of
+    :mod:`lagrange_core._lane_math` (within 2 ulp).
 
     Why lanes: one trajectory is a chain of dependent evaluations (each stage needs the
     last one's sin q), so alone it waits on latencies, and a call through the kernel's
