@@ -268,8 +268,8 @@ def test_a_piloted_step_comes_from_steps_past_the_starting_ramp(periods):
     a third of the period, and the controller starts at 1/3800 of it, growing the step
     5-fold a step.  The pilot over 1/50 of a span of 1 or 30 periods was all that ramp, and
     "rkn12-fixed" took 3800 (or 760) steps a period where "rkn12" took 4–8 (before the fix:
-    3814 and 762).  The pilot now runs on over a longer window until it has 8 steps past
-    the ramp: the piloted run, pilot included, takes at most 4 times the adaptive run's
+    3814 and 762).  The pilot now runs again over a window 8 times longer until it has 8
+    steps past the ramp: the piloted run, pilot included, takes at most 4 times the adaptive run's
     steps (measured: 3.0 and 1.06), on lanes and per point the same steps, ``simulate``
     at most as many; and its error against DOP853 at rtol 1e-13 stays within
     100 rtol of the amplitude, as the adaptive run's (measured: 4.7e-8 adaptive, 4.4e-9

@@ -90,14 +90,15 @@ def test_default_keeps_the_tolerance_when_the_motion_speeds_up():
     "rkn12-fixed", whose step its pilot chooses at the start and nothing checks after.
 
     An oscillator whose frequency grows 11-fold over the run (q̈ = −(1 + t/20)² q, 200 s):
-    the pilot finds its 8 steps past the starting ramp in the first 4 s, and the fixed step
-    loses the phase (1.9e-2 of an amplitude 0.3, against DOP853 at rtol 1e-13); the default
-    keeps the tolerance (4.7e-10).  A comet (Kepler orbit, eccentricity 0.9, Cartesian
-    coordinates) from aphelion for three orbits, its speed growing 19-fold at perihelion:
-    the default keeps the tolerance, with rejections where the comet speeds up.  (The
-    comet's slow start gives the pilot too few steps, so it runs on over the perihelion;
-    its fixed step keeps the orbit too: energy to 1.4e-8.  Before the pilot looked past
-    its starting ramp, it chose the step from the slow start and lost the orbit.)"""
+    the pilot finds its 8 steps past the starting ramp in the first 32 s (its first window,
+    4 s, held too few), and the fixed step loses the phase (1.9e-2 of an amplitude 0.3,
+    against DOP853 at rtol 1e-13); the default keeps the tolerance (4.7e-10).  A comet
+    (Kepler orbit, eccentricity 0.9, Cartesian coordinates) from aphelion for three
+    orbits, its speed growing 19-fold at perihelion: the default keeps the tolerance, with
+    rejections where the comet speeds up.  (The comet's slow start gives the pilot too
+    few steps, so it runs again over the perihelion; its fixed step keeps the orbit too:
+    energy to 1.4e-8.  Before the pilot looked past its starting ramp, it chose the step
+    from the slow start and lost the orbit.)"""
     (q,), (qd,) = coordinates("q")
     c = sp.Symbol("c", positive=True)
     chirp = System([q], lagrangian=qd**2 / 2 - (1 + c * T_SYM)**2 * q**2 / 2,
