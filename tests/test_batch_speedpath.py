@@ -400,16 +400,19 @@ def test_blow_up_and_zero_mass_do_not_poison_their_neighbours():
 
 def test_singular_mass_matrix_in_one_lane():
     """m = 0 at one point of a 2-coordinate grid: that point is "singular" (found by the
-    scalar kernel's pivoting, to which the lane goes back), the others unaffected."""
+    scalar kernel's pivoting, to which the lane goes back), the others unaffected.  At a
+    fixed step (8 a drive period): a pilot's step may differ on lanes and per point by a
+    rejection that a rounding decides (test_piloted_fixed_step_on_lanes)."""
     s = coupled(2)
     m = np.array([1.0, 0.0, 2.0, 1.5])
+    h = 1 / 40 / 8
     g, point = both(s, [np.pi - 0.05, np.pi + 0.03], [0.0, 0.0], (0.0, 0.5),
                     dict(m=m, l=1.0, g=9.81, k=2.0, A=0.05, omega=2 * np.pi * 40),
-                    method="rkn12-fixed", rtol=1e-7)
+                    method="rkn12-fixed", h=h)
     assert list(g.status_name) == ["finished", "singular", "finished", "finished"]
     clean, _ = both(s, [np.pi - 0.05, np.pi + 0.03], [0.0, 0.0], (0.0, 0.5),
                     dict(m=np.where(m == 0, 1.0, m), l=1.0, g=9.81, k=2.0, A=0.05,
-                         omega=2 * np.pi * 40), method="rkn12-fixed", rtol=1e-7)
+                         omega=2 * np.pi * 40), method="rkn12-fixed", h=h)
     ok = m != 0
     assert np.array_equal(g.q[ok], clean.q[ok])
     assert_same_run(g, point, atol=1e-10)
