@@ -109,3 +109,17 @@ def test_grid_inputs_are_writable_whatever_the_caller_gave():
     assert {"Y0", "P", "TS", "TSTR", "REF", "LO", "HI"} <= set(arrays)
     assert all(a.flags.writeable and a.flags.c_contiguous for a in arrays.values()), \
         {k: (a.flags.writeable, a.flags.c_contiguous) for k, a in arrays.items()}
+
+
+def test_import_leaves_the_heavy_libraries_for_first_use():
+    """``import kapitza`` (every CLI command, every worker process) does not import what
+    only some calls need: scipy.optimize and scipy.linalg (~0.4 s, in the averaging and
+    closed-form functions that call them), pandas (``to_dataframe``), matplotlib (the
+    figures).  Checked in a fresh interpreter."""
+    heavy = ("scipy.optimize", "scipy.linalg", "pandas", "matplotlib")
+    code = ("import sys, kapitza, kapitza.cli\n"
+            f"print(' '.join(m for m in {heavy!r} if m in sys.modules))")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() == "", f"imported by `import kapitza`: {run.stdout.strip()}"

@@ -103,8 +103,6 @@ import math
 import warnings
 
 import numpy as np
-import scipy.linalg
-import scipy.optimize
 import sympy as sp
 
 from lagrange_core.checks import real_array
@@ -475,6 +473,8 @@ class AveragedSystem:
             F, J = self._slow_force(x, p)
             return -F, -J
 
+        import scipy.optimize  # not at import: scipy costs ~0.4 s
+
         found = []
         for g0 in guesses:
             sol = scipy.optimize.root(fun, g0, jac=True, method="hybr", options={"xtol": 1e-13})
@@ -520,6 +520,8 @@ class AveragedSystem:
         M, _, f, fg, w = terms(K, qa, p, n)
         C = np.zeros((n, n))
         K.damping(qa, p, C)
+        import scipy.linalg  # not at import: scipy costs ~0.4 s
+
         if self._drag_pairs:
             w2 = np.sort(scipy.linalg.eigvals(H, M).real)
         else:
@@ -699,6 +701,8 @@ class AveragedSystem:
             raise ValueError(f"{where}: no value of {amplitude!r} up to {limit} makes "
                              f"{list(np.atleast_1d(about))} stable in first-order averaging; "
                              "widen A_range=(low, high).")
+        import scipy.optimize  # not at import: scipy costs ~0.4 s
+
         return float(scipy.optimize.brentq(lowest, lo, hi, xtol=1e-14, rtol=1e-12))
 
     def window(self, params, about, *, omega, amplitude: str = "A",

@@ -34,7 +34,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy.optimize
 import sympy as sp
 
 from ..results import StabilityWindow
@@ -63,6 +62,8 @@ def averaged_system_window(avg, params, about, omega, *, amplitude: str = "A",
                            A_range=None) -> StabilityWindow:
     """The window of :meth:`kapitza.averaging.AveragedSystem.window` (see there and the
     module docstring)."""
+    import scipy.optimize  # not at import: scipy costs ~0.4 s
+
     where = "AveragedSystem.window"
     system = avg.system
     names = system.parameters

@@ -36,7 +36,6 @@ import warnings
 
 import numpy as np
 from numba import njit
-from scipy.optimize import brentq, minimize_scalar
 
 from lagrange_core._thread_blocks import run_rows
 from lagrange_core.integrator_tables import rkn12_table
@@ -368,6 +367,8 @@ def _bracket_root(f, lo, hi, tol):
     Brent's method, then a certificate: f changes sign across root·(1 ± δ); the
     smallest such δ tried (tol/4, tol, 4 tol, ...) is the reported accuracy.
     """
+    from scipy.optimize import brentq  # not at import: scipy costs ~0.4 s
+
     r = brentq(f, lo, hi, xtol=1e-300, rtol=max(tol / 8, 4.5e-16), maxiter=500)
     delta = max(tol / 4, 1e-15)
     for _ in range(40):
@@ -444,6 +445,8 @@ def _resolved_scan(margin, qs, vals, tol, coarse=None):
     some dip came within :data:`_MARGIN_RESOLUTION` of 0 without crossing it (a sliver
     narrower than the margin resolves cannot be ruled out there).
     """
+    from scipy.optimize import minimize_scalar  # not at import: scipy costs ~0.4 s
+
     extra_q, extra_v, undecided = [], [], False
     for k in range(1, qs.size - 1):
         sg = np.sign(vals[k])

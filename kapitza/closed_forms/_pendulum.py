@@ -22,7 +22,6 @@ import math
 import warnings
 
 import numpy as np
-import scipy.linalg
 
 from lagrange_core.checks import real_array
 from lagrange_core.progress import run_in_chunks
@@ -499,6 +498,8 @@ def multiple_pendulum_upright(masses, lengths, *, g=9.81, A=None, omega=None, or
     idx = np.maximum.outer(np.arange(n), np.arange(n))
     M = np.outer(ls, ls) * mu[idx]
     L = np.diag(ls * mu)
+    import scipy.linalg  # not at import: scipy costs ~0.4 s
+
     w2 = np.sort(scipy.linalg.eigh(g * L, M, eigvals_only=True))
     wk = np.sqrt(w2)
     lam = g / w2
