@@ -428,7 +428,11 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
         for k in range(nb):
             block[k] = save[o + k]
         o += nb
-        rot.reshape(nr)[:] = save[o:o + nr]
+        rot_flat = rot.reshape(nr)
+        # element by element: an array copied into a slice makes numba compile its
+        # shape-mismatch message (f-strings), ~2 s in each process that compiles it
+        for k in range(nr):
+            rot_flat[k] = save[o + k]
         for k in range(STATS_SIZE):
             sth[k] = savei[1 + k]
         savei[SAVED] = 0
@@ -517,7 +521,9 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
             for k in range(nb):
                 save[o + k] = block[k]
             o += nb
-            save[o:o + nr] = rot.reshape(nr)
+            rot_flat = rot.reshape(nr)
+            for k in range(nr):
+                save[o + k] = rot_flat[k]
             for k in range(STATS_SIZE):
                 savei[1 + k] = sth[k]
             savei[SAVED] = 1
@@ -1191,7 +1197,10 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
             if st != 0:
                 STATUS[i] = st
                 TF[i] = TS[i, 0]
-                YF[i] = Y0[i]
+                # element by element: an array copied into a slice makes numba compile its
+                # shape-mismatch message (f-strings), ~2 s in each process that compiles it
+                for k in range(Y0.shape[1]):
+                    YF[i, k] = Y0[i, k]
                 EDRIFT[i] = 0.0
                 ERR[i] = 0.0
             else:
@@ -1541,7 +1550,8 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                 if st2 != 0:
                     STATUS[i2] = st2
                     TF[i2] = TS[i2, 0]
-                    YF[i2] = Y0[i2]
+                    for k in range(Y0.shape[1]):
+                        YF[i2, k] = Y0[i2, k]
                     EDRIFT[i2] = 0.0
                     ERR[i2] = 0.0
                 else:

@@ -284,7 +284,10 @@ def _block(ka, mode, idx, lo_b, hi_b, Y0, P, T, T0, stops, v0, rtol, atol, max_s
             if st != 0:
                 STATUS[i] = st
                 TF[i] = T0[i]
-                YF[i] = Y0[i]
+                # element by element: an array copied into a slice makes numba compile its
+                # shape-mismatch message (f-strings), ~2 s in each process that compiles it
+                for k in range(Y0.shape[1]):
+                    YF[i, k] = Y0[i, k]
             else:
                 pt[l] = i
                 pk[l] = nxt
@@ -442,7 +445,8 @@ def _block(ka, mode, idx, lo_b, hi_b, Y0, P, T, T0, stops, v0, rtol, atol, max_s
                 if st2 != 0:
                     STATUS[i2] = st2
                     TF[i2] = T0[i2]
-                    YF[i2] = Y0[i2]
+                    for k in range(Y0.shape[1]):
+                        YF[i2, k] = Y0[i2, k]
                 else:
                     pt[l] = i2
                     pk[l] = nxt

@@ -250,7 +250,11 @@ def _monodromy_rows(C, S, K, omega, T, tol, order, half, M, logscale, error, ste
     X = np.empty((d, d))
     for i in range(lo, hi):
         ls, err, ns = _period_map(C[i], S[i], K, omega[i], T[i], tol, order, X, work, coef, half)
-        M[i] = X
+        # element by element: an array copied into a slice makes numba compile its
+        # shape-mismatch message (f-strings), ~2 s in each process that compiles it
+        for r in range(d):
+            for c in range(d):
+                M[i, r, c] = X[r, c]
         logscale[i] = ls
         error[i] = err
         steps[i] = ns
