@@ -137,6 +137,7 @@ def pytest_configure(config):
             "shared fixture would be built once per worker.  Install the pinned one: "
             "pip install -e '.[test]'.")
     _write_bytecode()
+    _rewrite_test_modules(config)
     if os.environ.get("KAPITZA_TEST_WARMUP", "1") == "0":
         return
     import subprocess
@@ -175,6 +176,42 @@ def _write_bytecode():
     root = Path(__file__).resolve().parent.parent
     for package in ("lagrange_core", "kapitza"):
         compileall.compile_dir(root / package, quiet=1)
+
+
+def _rewrite_test_modules(config):
+    """Write pytest's rewritten test modules (their asserts made to explain themselves)
+    once, before the workers start, where no process would: with ``PYTHONDONTWRITEBYTECODE``
+    set, pytest keeps no rewritten copy, and each worker rewrote every test module it
+    collected (~4 s each).  Written as pytest writes them (an atomic rename), where pytest
+    reads them whatever that setting says; an up-to-date file is left alone.  This reaches
+    into pytest's private ``_pytest.assertion.rewrite``: where it differs, nothing is
+    written, and the workers rewrite as before."""
+    import fnmatch
+    import sys
+    if not sys.dont_write_bytecode or config.getoption("assertmode") != "rewrite":
+        return
+    try:
+        from _pytest.assertion import rewrite
+        state = config.stash[rewrite.assertstate_key]
+        tail, read, rewritten, write, cache_dir = (
+            rewrite.PYC_TAIL, rewrite._read_pyc, rewrite._rewrite_test, rewrite._write_pyc,
+            rewrite.get_cache_dir)
+    except (ImportError, AttributeError, KeyError):
+        return
+    from pathlib import Path
+    here = Path(__file__).resolve().parent
+    patterns = config.getini("python_files")
+    for path in sorted(here.glob("*.py")):
+        if path.name != "conftest.py" and not any(fnmatch.fnmatch(path.name, pattern)
+                                                  for pattern in patterns):
+            continue
+        cache = cache_dir(path)
+        pyc = cache / (path.name[:-3] + tail)
+        if read(path, pyc) is not None:
+            continue
+        cache.mkdir(exist_ok=True)
+        source_stat, code = rewritten(path, config)
+        write(state, code, source_stat, pyc)
 
 
 _SUITE_KERNELS = """
