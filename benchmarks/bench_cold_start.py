@@ -1,7 +1,7 @@
 """What a new system's first simulation costs, and what every step and call cost after it.
 
 Run:  python benchmarks/bench_cold_start.py [--quick] [--baseline REV]
-                                            [--only cold|steps|first-use|new-system]
+                                            [--only cold|steps|first-use|new-system|notices]
 
 1. Cold start (issue 9): each case in a fresh process with an *empty* kernel store
    (``LAGRANGE_CORE_CACHE`` a new directory: the system was never seen) while the
@@ -30,6 +30,10 @@ Run:  python benchmarks/bench_cold_start.py [--quick] [--baseline REV]
    process with an empty kernel store (the shared kernels compiled: a first untimed round
    per tree warms them); what only the system's own kernels cost.  With ``--baseline REV`` the
    same cases on REV's tree, old and new processes alternated, with the ratios.
+
+5. The compile notice's estimate (``--only notices``): each first use in a fresh process on
+   empty caches, the seconds the one-line notice quotes (``lagrange_core._compile_notice``)
+   against the seconds the call took, and their ratio.
 
 Absolute times drift on a shared machine; compare ratios and medians.
 """
@@ -159,6 +163,77 @@ def worker_measure(name):
     t0 = time.perf_counter()
     pend.measure(A, omega, theta0, periods=200)
     return dict(first=time.perf_counter() - t0)
+
+
+NOTICE_CASES = ["simulate, driven pendulum", "simulate_grid rkn12, driven pendulum",
+                "simulate_grid yoshida6, pendulum", "simulate_grid dop853, driven pendulum",
+                "measure, vertical", "measure, vertical, damped",
+                "floquet_point, driven 2-link chain", "pendulum_window",
+                "pendulum_stability_map, damped", "lyapunov_grid, damped driven pendulum"]
+
+
+def worker_notice(name):
+    """One first use (the public API) on empty caches; the notice goes to stderr."""
+    import math
+
+    import numpy as np
+    import sympy as sp
+
+    import kapitza
+    from lagrange_core import problems, t
+    driven = problems.driven_pendulum("vertical", damping=False)
+    p = dict(A=0.05, g=9.81, l=1.0, m=1.0, omega=2 * math.pi * 60)
+    q0, qd0 = [[math.pi - 0.1], [math.pi - 0.2]], [[0.0], [0.0]]
+    w0 = math.sqrt(9.81)
+    damped = dict(A=0.1, g=9.81, l=1.0, m=1.0, omega=2 * w0, gamma=0.1 * w0)
+    A, w = sp.symbols("A omega", positive=True)
+    cases = {
+        "simulate, driven pendulum": lambda: driven.simulate([math.pi - 0.1], [0.0],
+                                                             (0.0, 1.0), p),
+        "simulate_grid rkn12, driven pendulum": lambda: driven.simulate_grid(
+            q0, qd0, (0.0, 1.0), p, method="rkn12", progress=False),
+        "simulate_grid yoshida6, pendulum": lambda: problems.pendulum().simulate_grid(
+            q0, qd0, (0.0, 1.0), dict(g=9.81, l=1.0, m=1.0), method="yoshida6", h=0.01,
+            progress=False),
+        "simulate_grid dop853, driven pendulum": lambda: driven.simulate_grid(
+            q0, qd0, (0.0, 1.0), p, method="dop853", progress=False),
+        "measure, vertical": lambda: worker_measure("vertical"),
+        "measure, vertical, damped": lambda: worker_measure("vertical,damped"),
+        "floquet_point, driven 2-link chain": lambda: kapitza.floquet_point(
+            problems.n_link_pendulum(2, pivot=(0, A * sp.cos(w * t))),
+            dict(g=9.81, l1=1.0, l2=1.0, m1=1.0, m2=1.0, A=0.05, omega=300.0),
+            [math.pi, math.pi]),
+        "pendulum_window": lambda: kapitza.pendulum_window(300.0),
+        "pendulum_stability_map, damped": lambda: kapitza.pendulum_stability_map(
+            np.linspace(0.01, 0.1, 4), np.linspace(100, 400, 4), damping=0.5,
+            progress=False),
+        "lyapunov_grid, damped driven pendulum": lambda: kapitza.lyapunov_grid(
+            problems.driven_pendulum("vertical", damping=True), damped, 0.3, periods=4,
+            transient=0, blocks=2, progress=False),
+    }
+    t0 = time.perf_counter()
+    cases[name]()
+    return dict(seconds=time.perf_counter() - t0)
+
+
+def notices_table():
+    print(f"5. The compile notice's estimate against the first use (each in a fresh process, "
+          f"empty caches; load before {os.getloadavg()[0]:.1f}), s")
+    print(f"{'first use':>40} {'call':>7} {'notice':>7} {'notice/call':>11}  notice")
+    for name in NOTICE_CASES:
+        env = empty_caches()
+        env.pop("LAGRANGE_CORE_COMPILE_NOTICE", None)
+        out = subprocess.run([sys.executable, os.path.abspath(__file__), "--worker", "notice",
+                              name], env=env, capture_output=True, text=True, check=False)
+        if out.returncode != 0:
+            raise RuntimeError(f"{name} failed:\n{out.stderr[-3000:]}")
+        call = json.loads(out.stdout.strip().splitlines()[-1])["seconds"]
+        lines = [x for x in out.stderr.splitlines() if "compiling numba kernels" in x]
+        quoted = float(lines[0].split("~")[1].split(" s")[0]) if lines else float("nan")
+        said = lines[0].split("first use")[1].split(";")[0].strip(" ,") if lines else "none"
+        print(f"{name:>40} {call:7.1f} {quoted:7.0f} {quoted / call:11.2f}  {said}",
+              flush=True)
+    print(f"load after: {os.getloadavg()[0]:.1f}")
 
 
 NEW_SYSTEM_CASES = ["mass matrix, 4-link pendulum", "normal modes, 8-link pendulum",
@@ -371,8 +446,9 @@ def main():
     ap.add_argument("--quick", action="store_true", help="fewer repetitions (a smoke run)")
     ap.add_argument("--baseline", metavar="REV", help="also measure git revision REV")
     ap.add_argument("--worker", nargs=2, metavar=("KIND", "CASE"), help=argparse.SUPPRESS)
-    ap.add_argument("--only", choices=["cold", "steps", "first-use", "new-system"],
-                    help="run one of the parts (first-use, new-system: only when asked)")
+    ap.add_argument("--only", choices=["cold", "steps", "first-use", "new-system", "notices"],
+                    help="run one of the parts (first-use, new-system, notices: only when "
+                         "asked)")
     ap.add_argument("--no-report", action="store_true",
                     help="first-use: leave out the report (the longest part)")
     ap.add_argument("--without-warmup", action="store_true",
@@ -382,6 +458,7 @@ def main():
         kind, name = args.worker
         out = (worker_cold(name) if kind == "cold" else worker_measure(name)
                if kind == "measure" else worker_new_system(name) if kind == "new-system"
+               else worker_notice(name) if kind == "notice"
                else worker_steps(name, args.quick))
         print(json.dumps(out))
         return
@@ -393,6 +470,8 @@ def main():
         first_use_table(args.without_warmup, report=not args.no_report)
     if args.only == "new-system":
         new_system_table(args.quick, args.baseline)
+    if args.only == "notices":
+        notices_table()
 
 
 if __name__ == "__main__":

@@ -16,10 +16,15 @@ A warm run compiles nothing of these and prints nothing.  A new system's own ker
 every new statement.
 
 The estimate comes from :data:`ACTIVITY_SECONDS` (what the outermost running activity
-compiles in all, declared by :func:`activity`) or else :data:`FAMILY_SECONDS` (the
-family of the first function compiled), both measured on the 2-core development machine
-(benchmarks/README.md, "A first use in seconds"), scaled by the load when the machine
-has more runnable processes than cores.  It is a rough figure (±50 %), not a bound.
+compiles in all, declared by :func:`activity`: the report, the warm-ups, each grid
+driver's first ``simulate_grid`` and ``measure``, a general system's first Floquet
+analysis) or else :data:`FAMILY_SECONDS` (the family of the first function compiled),
+both measured on the 2-core development machine (benchmarks/README.md; ``python
+benchmarks/bench_cold_start.py --only notices`` compares each with the first use it
+announces), scaled by the load when the machine has more runnable processes than cores.
+The activity is a context variable: the grid kernels' pool threads run in a copy of the
+caller's context (:mod:`lagrange_core._thread_blocks`), where their first call compiles.
+It is a rough figure (±50 %), not a bound.
 
 ``LAGRANGE_CORE_COMPILE_NOTICE=0`` turns the line off (e.g. a test suite that compares
 stderr).
@@ -41,9 +46,17 @@ ACTIVITY_SECONDS = {
     "kapitza report": 40,           # 38–41 s in all, 2026-11-26 (compiling most of it)
     "kapitza.warmup": 55,           # 57 s, 2026-11-26 (two processes)
     "lagrange_core.warmup": 20,
-    # a first measure without warmup, 2026-11-26: 36–43 s undamped (RKN 12's lanes), 13 s
-    # damped (DOP853): the notice quotes the longer
-    "measure": 40,
+    # the first grid of each driver (lagrange_core.batch.compile_activity), the driven
+    # pendulum on empty caches, 2026-11-27: RKN 12's lanes 27 s, the symplectic per-point
+    # driver 24 s, DOP853 8–10 s; measuring adds the strobe fit: 41 s, 13–14 s
+    "simulate_grid, RKN 12": 27,
+    "simulate_grid, symplectic": 24,
+    "simulate_grid, DOP853": 9,
+    "measure, RKN 12": 40,
+    "measure, DOP853": 14,          # (measure runs no fixed-step method: it passes no h)
+    # a general system's first Floquet analysis (the sampler, the monodromy rows): a
+    # 2-link chain's floquet_point, 15.5 s, 2026-11-27
+    "Floquet": 15,
 }
 
 #: Seconds a family of shared kernels compiles on an empty cache, by module of the
@@ -55,7 +68,7 @@ FAMILY_SECONDS = {
     "lagrange_core._variational_kernels": 5,
     "lagrange_core._core_kernels": 3,
     "kapitza.floquet": 15,
-    "kapitza.closed_forms": 8,
+    "kapitza.closed_forms": 3,      # the pendulum's exact window and maps: 2.3–4.5 s
     "kapitza.simulation": 12,
     "kapitza.chaos": 20,
 }

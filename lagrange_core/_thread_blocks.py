@@ -23,6 +23,7 @@ a second by their callers).
 from __future__ import annotations
 
 import concurrent.futures
+import contextvars
 from collections.abc import Callable
 
 import numba
@@ -61,7 +62,11 @@ def run_blocks(work: Callable[[int], None], nblocks: int, *, stoppable: bool = F
         for b in range(nblocks):
             work(b)
         return
-    futures = [_pool(threads).submit(work, b) for b in range(nblocks)]
+    # each block in a copy of the caller's context: a kernel compiled on its first call
+    # (in a pool thread) is announced with the caller's activity and its estimate
+    # (lagrange_core._compile_notice; a context is entered by one thread at a time)
+    futures = [_pool(threads).submit(contextvars.copy_context().run, work, b)
+               for b in range(nblocks)]
     try:
         for future in futures:
             future.result()

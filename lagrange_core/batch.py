@@ -78,6 +78,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _batch_kernels as _bk
+from . import _compile_notice
 from .checks import real_array
 from .drive_kernel import load_drive_kernel
 from .progress import KERNEL_STOP, ProgressLine, defer_ctrl_c, interrupt_requested
@@ -401,6 +402,20 @@ def _check_scalars(rtol, atol, max_steps):
     return rtol, atol, int(max_steps)
 
 
+def compile_activity(what: str, kernels, method) -> str | None:
+    """The compile notice's activity (:mod:`lagrange_core._compile_notice`) for ``what``
+    ("simulate_grid", "measure") running grids of ``method`` (None: the default for
+    ``kernels``), named by the driver it compiles on an empty cache: e.g. "measure,
+    RKN 12".  None for a method :func:`simulate_grid` refuses (it says why)."""
+    if method is None:
+        method = "rkn12" if kernels.rkn_form else "dop853"
+    if method not in _GRID_METHODS:
+        return None
+    family, sub, _ = _GRID_METHODS[method]
+    driver = "DOP853" if family == "dop853" else "symplectic" if sub else "RKN 12"
+    return f"{what}, {driver}"
+
+
 def _grid_method(kernels, method, h_given):
     from .integrate import rkn_eligibility
     if method is None:
@@ -567,8 +582,10 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
 
     # from here on Ctrl-C is deferred (the allocations included: the strobe samples of a
     # long run take a while): the call in flight pauses its points at their next step
-    # (KERNEL_STOP), and the run stops with what it computed
-    with defer_ctrl_c():
+    # (KERNEL_STOP), and the run stops with what it computed; a first compile of the
+    # shared kernels says how long this method's compile takes
+    with defer_ctrl_c(), _compile_notice.declared(compile_activity("simulate_grid", kernels,
+                                                                   method)):
         YF = np.full((N, 2 * n), np.nan)
         TF = np.full(N, np.nan)
         sq_shape = (N, max(K, 1) if strobe is not None else 1, 2 * n)

@@ -38,16 +38,48 @@ def _project_function(module):
 
 def test_first_compile_says_so_once_with_an_estimate(fresh_notice, capsys):
     f = _project_function("lagrange_core._a_kernel_module")
-    with _compile_notice.declared("measure"):
+    with _compile_notice.declared("measure, RKN 12"):
         f(1)
         f(1.5)                  # a second compile in the same process: no second line
         _project_function("kapitza.floquet._kernels")(2)
     err = capsys.readouterr().err
     assert err.count(NOTICE) == 1, err
-    assert "(measure)" in err and " s;" in err
+    assert "(measure, RKN 12)" in err and " s;" in err
     seconds = int(err.split("~")[1].split(" s")[0])
-    base = _compile_notice.ACTIVITY_SECONDS["measure"]
-    assert base <= seconds <= 4 * base        # scaled by the load, at most 4x
+    base = _compile_notice.ACTIVITY_SECONDS["measure, RKN 12"]
+    assert base - 5 <= seconds <= 4 * base + 5    # scaled by the load (at most 4x), rounded
+
+
+def test_a_compile_in_a_pool_thread_quotes_the_callers_activity(fresh_notice, capsys):
+    """The grid kernels run on a pool of threads (lagrange_core._thread_blocks), where a
+    kernel's first call compiles it: the notice quotes the caller's activity there too
+    (it quoted a module's guess instead: ~20 s for the damped pendulum's first measure,
+    which compiles in 13–14 s; ~3 s for a chain's first Floquet analysis, 15 s)."""
+    from lagrange_core._thread_blocks import run_blocks
+    f = _project_function("lagrange_core._a_pool_kernel")
+    with _compile_notice.declared("measure, DOP853"):
+        run_blocks(lambda b: f(b), 1, stoppable=True)      # (stoppable: on the pool)
+    err = capsys.readouterr().err
+    assert err.count(NOTICE) == 1 and "(measure, DOP853)" in err, err
+
+
+def test_every_grid_and_measure_names_a_driver_with_an_estimate():
+    """simulate_grid and measure declare the driver their first call compiles (RKN 12's
+    lanes ~27 s, DOP853 ~9 s on the 2-core machine): every method they run has an
+    estimate, measured (benchmarks/bench_cold_start.py --only notices)."""
+    from lagrange_core.batch import _GRID_METHODS, compile_activity
+    undamped, damped = problems.driven_pendulum(), problems.driven_pendulum(damping=True)
+    assert compile_activity("measure", undamped.kernels, None) == "measure, RKN 12"
+    assert compile_activity("measure", damped.kernels, None) == "measure, DOP853"
+    assert compile_activity("simulate_grid", undamped.kernels, "yoshida6") == \
+        "simulate_grid, symplectic"
+    assert compile_activity("simulate_grid", undamped.kernels, "rk45") is None   # refused
+    names = {compile_activity("simulate_grid", undamped.kernels, m) for m in _GRID_METHODS}
+    # measure passes no step: the fixed-step methods (but the piloted RKN 12) are refused
+    names |= {compile_activity("measure", undamped.kernels, m)
+              for m in ("rkn12", "rkn12-fixed", "dop853")}
+    assert names <= set(_compile_notice.ACTIVITY_SECONDS), \
+        names - set(_compile_notice.ACTIVITY_SECONDS)
 
 
 def test_a_new_systems_own_kernels_and_foreign_code_are_not_announced(fresh_notice, capsys):

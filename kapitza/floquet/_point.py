@@ -18,6 +18,7 @@ import time
 
 import numpy as np
 
+from lagrange_core._compile_notice import activity
 from lagrange_core.progress import _SIGINT, run_in_chunks
 from lagrange_core.progress import defer_ctrl_c as _defer_ctrl_c
 
@@ -27,6 +28,7 @@ from ._multipliers import _analyse_points, _blank
 
 __all__ = ["floquet_point", "floquet_grid", "monodromy_data"]
 
+@activity("Floquet")     # a first compile says how long the Floquet kernels compile
 def monodromy_data(system, params, about, *, frequency="omega", tol=1e-10,
                    order=16, progress=None) -> MonodromyData:
     """Monodromy matrices for a broadcast grid of parameter sets.
@@ -182,6 +184,7 @@ def floquet_grid(system, params, about, *, frequency="omega", tol=1e-10, guard_t
                              coarse_tol, progress)
 
 
+@activity("Floquet")
 def _floquet_grid(system, params, about, frequency, tol, guard_tol, order, certify,
                   coarse_tol, progress) -> FloquetGrid:
     # three chunked stages (sampling J, integration, analysis): Ctrl-C stops any of them at

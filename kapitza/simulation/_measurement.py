@@ -103,8 +103,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from lagrange_core._compile_notice import activity
-from lagrange_core.batch import GridInterrupted
+from lagrange_core._compile_notice import declared
+from lagrange_core.batch import GridInterrupted, compile_activity
 from lagrange_core.checks import real_array, real_number
 from lagrange_core.progress import ProgressLine, defer_ctrl_c, interrupt_requested
 
@@ -359,7 +359,6 @@ def _strobe_frequency(system, params, frequency):
 
 
 
-@activity("measure")     # a first compile says how long measuring compiles
 def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIODS,
                  band=math.pi / 2, frequency="omega", t0=0.0, observables="all", method=None,
                  rtol=None, atol=None, max_steps=None, progress=None) -> Measurement:
@@ -487,8 +486,10 @@ def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIOD
                 f"{np.broadcast_to(ref, outside.shape)[outside][:3].tolist()}: "
                 "a run must start inside it. Pass the state it starts near as `about`, a wider "
                 "band, or band=None.")
-    # Ctrl-C, from here on, stops the simulation or the fit between compiled calls
-    with defer_ctrl_c():
+    # Ctrl-C, from here on, stops the simulation or the fit between compiled calls; a
+    # first compile of the shared kernels says how long measuring with this driver
+    # compiles (the grid's and the fit's kernels)
+    with defer_ctrl_c(), declared(compile_activity("measure", system.kernels, method)):
         try:
             grid = system.simulate_grid(start, rate, (t0, t0 + periods * period), params,
                                         method=method, rtol=rtol, atol=atol,
