@@ -169,7 +169,10 @@ NOTICE_CASES = ["simulate, driven pendulum", "simulate_grid rkn12, driven pendul
                 "simulate_grid yoshida6, pendulum", "simulate_grid dop853, driven pendulum",
                 "measure, vertical", "measure, vertical, damped",
                 "floquet_point, driven 2-link chain", "pendulum_window",
-                "pendulum_stability_map, damped", "lyapunov_grid, damped driven pendulum"]
+                "pendulum_stability_map, damped", "lyapunov_grid, damped driven pendulum",
+                "periodic_orbit, horizontal drive", "continuation, driven pendulum",
+                "bifurcation_diagram, damped driven pendulum",
+                "poincare_section, damped driven pendulum"]
 
 
 def worker_notice(name):
@@ -210,6 +213,17 @@ def worker_notice(name):
         "lyapunov_grid, damped driven pendulum": lambda: kapitza.lyapunov_grid(
             problems.driven_pendulum("vertical", damping=True), damped, 0.3, periods=4,
             transient=0, blocks=2, progress=False),
+        "periodic_orbit, horizontal drive": lambda: kapitza.periodic_orbit(
+            problems.driven_pendulum("horizontal"), dict(p, omega=2 * math.pi * 60), [1.5]),
+        "continuation, driven pendulum": lambda: kapitza.continuation(
+            driven, dict(p, A=0.02, omega=20 * w0), [math.pi], parameter="A", stop=0.6,
+            progress=False),
+        "bifurcation_diagram, damped driven pendulum": lambda: kapitza.bifurcation_diagram(
+            problems.driven_pendulum("vertical", damping=True), damped, parameter="A",
+            values=[0.1, 0.2], angles="theta", periods=2, transient=1, progress=False),
+        "poincare_section, damped driven pendulum": lambda: kapitza.poincare_section(
+            problems.driven_pendulum("vertical", damping=True), damped, 0.3, periods=50,
+            progress=False),
     }
     t0 = time.perf_counter()
     cases[name]()
