@@ -51,8 +51,6 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from lagrange_core._compile_notice import activity
-
 from .._arguments import whole_number
 from ..results import Branch
 from ._branch import Engine
@@ -104,7 +102,6 @@ def _about(system, about):
     return x
 
 
-@activity("continuation")     # a first compile says how long the branch's kernels compile
 def continuation(system, params, about, *, parameter="A", stop, periods=1, winding=0,
                  frequency="omega", step=None, max_step=None, max_points=500, tol=1e-10,
                  progress=None) -> Branch:

@@ -79,8 +79,6 @@ import warnings
 
 import numpy as np
 
-from lagrange_core._compile_notice import activity
-
 from .._arguments import whole_number
 from .._deprecation import renamed_keywords
 from ..floquet import SYMMETRY_RTOL, shoot, symmetry_defect
@@ -212,7 +210,6 @@ def _segments(shooting, periods):
     return periods if periods >= MULTIPLE_FROM else 1
 
 
-@activity("periodic orbit")     # a first compile says how long the shooting compiles
 def periodic_orbit(system, params, about=None, *, frequency="omega", periods=1,
                    symmetry="auto", winding=0, shooting="auto", tol=1e-10,
                    max_iterations=40, max_steps=1 << 16, **old_keywords) -> PeriodicOrbit:
