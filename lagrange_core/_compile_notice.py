@@ -55,8 +55,13 @@ ACTIVITY_SECONDS = {
     "measure, RKN 12": 40,
     "measure, DOP853": 14,          # (measure runs no fixed-step method: it passes no h)
     # a general system's first Floquet analysis (the sampler, the monodromy rows): a
-    # 2-link chain's floquet_point, 15.5 s, 2026-11-27
+    # 2-link chain's floquet_point, 13.5–15.5 s, 2026-11-27
     "Floquet": 15,
+    # a first periodic orbit (shooting on the variational flow, the orbit's check by
+    # DOP853): the horizontal drive's, 10.6–15.1 s; a first branch, the upright
+    # pendulum's, 4.3–5.9 s (2026-11-27)
+    "periodic orbit": 12,
+    "continuation": 5,
 }
 
 #: Seconds a family of shared kernels compiles on an empty cache, by module of the

@@ -51,6 +51,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from lagrange_core._compile_notice import declared
+
 from .._arguments import whole_number
 from ..results import Branch
 from ._branch import Engine
@@ -221,5 +223,8 @@ def continuation(system, params, about, *, parameter="A", stop, periods=1, windi
     x0 = _about(system, about)
     turns = _winding(system.n_dof, winding)
     engine = Engine(system, params, parameter, frequency, float(tol), progress)
-    return engine.start(x0, p0, stop, periods=int(periods), step=step, max_step=max_step,
-                        max_points=int(max_points), winding=turns)
+    # a first compile says how long a branch's kernels compile (declared here, not by a
+    # wrapper: the warnings' stacklevels count frames)
+    with declared("continuation"):
+        return engine.start(x0, p0, stop, periods=int(periods), step=step, max_step=max_step,
+                            max_points=int(max_points), winding=turns)

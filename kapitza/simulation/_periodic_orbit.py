@@ -79,6 +79,8 @@ import warnings
 
 import numpy as np
 
+from lagrange_core._compile_notice import declared
+
 from .._arguments import whole_number
 from .._deprecation import renamed_keywords
 from ..floquet import SYMMETRY_RTOL, shoot, symmetry_defect
@@ -308,50 +310,53 @@ def periodic_orbit(system, params, about=None, *, frequency="omega", periods=1,
         raise ValueError(f"periodic_orbit: tol must be a number in [0, 1e-2) (the residual "
                          f"of the shooting equations relative to max(1, |y|); 0: as far as "
                          f"the flows' rounding allows), got {tol!r}.")
-    T = _period(system, params, frequency, periods)
-    periods = int(periods)
-    segments = _segments(shooting, periods)
-    n = system.n_dof
-    turns = _winding(n, winding)
-    p = system.parameter_array(params)
-    y, at_rest = _start(system, params, about, frequency)
-    if turns is not None:
-        if symmetry is not None and symmetry is not False and not isinstance(symmetry, str):
-            raise ValueError(f"symmetry={symmetry!r} with winding={winding!r}: a rotating "
-                             "orbit has no half-period reflection symmetry; pass "
-                             "symmetry=None (or leave 'auto').")
-        symmetry = None
-    elif _persists(system, p, y, T):
-        from ..floquet import floquet_point
-        fr = floquet_point(system, params, y[:n], frequency=frequency,
-                           tol=tol if tol > 0 else 1e-12)
-        return _result(system, params, y, T, periods, fr.multipliers, None, 0.0,
-                       float(fr.error_estimate), float(fr.error_estimate), 0,
-                       "equilibrium that persists under the drive (kapitza.floquet_point)",
-                       condition=math.nan, flags=tuple(fr.flags),
-                       decided=(bool(fr.stable), fr.omega_slow))
-    center = _symmetry_center(system, p, y, at_rest, T, periods, symmetry)
-    # y(t + periods·T) = y(t) + (2π·winding, 0)
-    shift = None if turns is None else np.r_[2 * math.pi * turns, np.zeros(n)]
-    drive = T / periods
+    # a first compile says how long the shooting, the orbit's check and its multipliers
+    # compile (declared here, not by a wrapper: the warnings' stacklevels count frames)
+    with declared("periodic orbit"):
+        T = _period(system, params, frequency, periods)
+        periods = int(periods)
+        segments = _segments(shooting, periods)
+        n = system.n_dof
+        turns = _winding(n, winding)
+        p = system.parameter_array(params)
+        y, at_rest = _start(system, params, about, frequency)
+        if turns is not None:
+            if symmetry is not None and symmetry is not False and not isinstance(symmetry, str):
+                raise ValueError(f"symmetry={symmetry!r} with winding={winding!r}: a rotating "
+                                 "orbit has no half-period reflection symmetry; pass "
+                                 "symmetry=None (or leave 'auto').")
+            symmetry = None
+        elif _persists(system, p, y, T):
+            from ..floquet import floquet_point
+            fr = floquet_point(system, params, y[:n], frequency=frequency,
+                               tol=tol if tol > 0 else 1e-12)
+            return _result(system, params, y, T, periods, fr.multipliers, None, 0.0,
+                           float(fr.error_estimate), float(fr.error_estimate), 0,
+                           "equilibrium that persists under the drive (kapitza.floquet_point)",
+                           condition=math.nan, flags=tuple(fr.flags),
+                           decided=(bool(fr.stable), fr.omega_slow))
+        center = _symmetry_center(system, p, y, at_rest, T, periods, symmetry)
+        # y(t + periods·T) = y(t) + (2π·winding, 0)
+        shift = None if turns is None else np.r_[2 * math.pi * turns, np.zeros(n)]
+        drive = T / periods
 
-    def attempt(count):
-        return shoot(system, p, y, T, center=center, tol=tol, max_iterations=max_iterations,
-                     max_steps=max_steps, segments=count, shift=shift, drive_period=drive)
+        def attempt(count):
+            return shoot(system, p, y, T, center=center, tol=tol, max_iterations=max_iterations,
+                         max_steps=max_steps, segments=count, shift=shift, drive_period=drive)
 
-    try:
-        shot = attempt(segments)
-    except ValueError:
-        if not (shooting == "auto" and segments == 1 and periods > 1):
-            raise
-        shot = attempt(periods)          # the single flow over 2–3 periods failed
-    if (shooting == "auto" and shot.segments == 1 and periods > 1
-            and float(np.max(np.abs(shot.monodromy))) > SINGLE_GROWTH):
-        try:                             # unstable: the single flow's Jacobian grew too far
-            shot = attempt(periods)
+        try:
+            shot = attempt(segments)
         except ValueError:
-            pass
-    return _report(system, params, shot, center, turns, T, periods, tol)
+            if not (shooting == "auto" and segments == 1 and periods > 1):
+                raise
+            shot = attempt(periods)          # the single flow over 2–3 periods failed
+        if (shooting == "auto" and shot.segments == 1 and periods > 1
+                and float(np.max(np.abs(shot.monodromy))) > SINGLE_GROWTH):
+            try:                             # unstable: the single flow's Jacobian grew too far
+                shot = attempt(periods)
+            except ValueError:
+                pass
+        return _report(system, params, shot, center, turns, T, periods, tol)
 
 
 def _report(system, params, shot, center, turns, T, periods, tol):
