@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-from lagrange_core._compile_notice import activity
+from lagrange_core._compile_notice import declared
 from lagrange_core.progress import _SIGINT, run_in_chunks
 from lagrange_core.progress import defer_ctrl_c as _defer_ctrl_c
 
@@ -28,7 +28,6 @@ from ._multipliers import _analyse_points, _blank
 
 __all__ = ["floquet_point", "floquet_grid", "monodromy_data"]
 
-@activity("Floquet")     # a first compile says how long the Floquet kernels compile
 def monodromy_data(system, params, about, *, frequency="omega", tol=1e-10,
                    order=16, progress=None) -> MonodromyData:
     """Monodromy matrices for a broadcast grid of parameter sets.
@@ -70,7 +69,8 @@ def monodromy_data(system, params, about, *, frequency="omega", tol=1e-10,
     >>> bool(np.allclose(np.linalg.det(data.monodromy), np.exp(-0.5 * data.period), rtol=1e-9))
     True
     """
-    with _defer_ctrl_c():
+    # (a first compile says how long the Floquet kernels compile)
+    with _defer_ctrl_c(), declared("Floquet"):
         prep = _prepare(system, params, about, frequency, tol, progress)
         if prep["stopped"]:
             data = MonodromyData(**_monodromy_fields(prep, *_nothing(prep)))
@@ -179,12 +179,12 @@ def floquet_grid(system, params, about, *, frequency="omega", tol=1e-10, guard_t
     >>> grid.point(1).stable
     True
     """
-    with _defer_ctrl_c():
+    # (a first compile says how long the Floquet kernels compile)
+    with _defer_ctrl_c(), declared("Floquet"):
         return _floquet_grid(system, params, about, frequency, tol, guard_tol, order, certify,
                              coarse_tol, progress)
 
 
-@activity("Floquet")
 def _floquet_grid(system, params, about, frequency, tol, guard_tol, order, certify,
                   coarse_tol, progress) -> FloquetGrid:
     # three chunked stages (sampling J, integration, analysis): Ctrl-C stops any of them at
