@@ -16,12 +16,13 @@ A warm run compiles nothing of these and prints nothing.  A new system's own ker
 every new statement.
 
 The estimate comes from :data:`ACTIVITY_SECONDS` (what the outermost running activity
-compiles in all, declared by :func:`activity`: the report, the warm-ups, each grid
-driver's first ``simulate_grid`` and ``measure``, a general system's first Floquet
-analysis) or else :data:`FAMILY_SECONDS` (the family of the first function compiled),
-both measured on the 2-core development machine (benchmarks/README.md; ``python
-benchmarks/bench_cold_start.py --only notices`` compares each with the first use it
-announces), scaled by the load when the machine has more runnable processes than cores.
+compiles in all, declared by :func:`activity` or :func:`declared`: the report, the
+warm-ups, each grid driver's first ``simulate_grid`` and ``measure``, a general system's
+first Floquet analysis, a first periodic orbit and a first branch) or else
+:data:`FAMILY_SECONDS` (the family of the first function compiled), both measured on the
+2-core development machine (benchmarks/README.md; ``python benchmarks/bench_cold_start.py
+--only notices`` compares each with the first use it announces), scaled by the load when
+the machine has more runnable processes than cores.
 The activity is a context variable: the grid kernels' pool threads run in a copy of the
 caller's context (:mod:`lagrange_core._thread_blocks`), where their first call compiles.
 It is a rough figure (±50 %), not a bound.
