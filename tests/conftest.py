@@ -184,8 +184,8 @@ def _rewrite_test_modules(config):
     set, pytest keeps no rewritten copy, and each worker rewrote every test module it
     collected (~4 s each).  Written as pytest writes them (an atomic rename), where pytest
     reads them whatever that setting says; an up-to-date file is left alone.  This reaches
-    into pytest's private ``_pytest.assertion.rewrite``: where it differs, nothing is
-    written, and the workers rewrite as before."""
+    into pytest's private ``_pytest.assertion.rewrite``: where it differs (or a file cannot
+    be written), nothing more is written, and the workers rewrite as before."""
     import fnmatch
     import sys
     if not sys.dont_write_bytecode or config.getoption("assertmode") != "rewrite":
@@ -205,13 +205,18 @@ def _rewrite_test_modules(config):
         if path.name != "conftest.py" and not any(fnmatch.fnmatch(path.name, pattern)
                                                   for pattern in patterns):
             continue
-        cache = cache_dir(path)
-        pyc = cache / (path.name[:-3] + tail)
-        if read(path, pyc) is not None:
+        try:
+            cache = cache_dir(path)
+            pyc = cache / (path.name[:-3] + tail)
+            if read(path, pyc) is not None:
+                continue
+            cache.mkdir(exist_ok=True)
+            source_stat, code = rewritten(path, config)
+            write(state, code, source_stat, pyc)
+        except SyntaxError:         # collecting it says so, naming the file
             continue
-        cache.mkdir(exist_ok=True)
-        source_stat, code = rewritten(path, config)
-        write(state, code, source_stat, pyc)
+        except (TypeError, ValueError, OSError):     # another pytest's signatures, a
+            return                                  # read-only tree: only slower
 
 
 _SUITE_KERNELS = """
