@@ -252,7 +252,9 @@ def notices_table():
 
 NEW_SYSTEM_CASES = ["mass matrix, 4-link pendulum", "normal modes, 8-link pendulum",
                     "bifurcation diagram, damped driven pendulum",
-                    "normal modes, string of 200 beads", "rkn12 simulate, string of 20 beads"]
+                    "normal modes, string of 200 beads", "rkn12 simulate, string of 20 beads",
+                    "grid on lanes, 2 coupled driven pendulums",
+                    "Lyapunov map on lanes, damped 2-link driven chain"]
 
 
 def worker_new_system(name):
@@ -277,6 +279,30 @@ def worker_new_system(name):
         y0 = 1e-5 * np.sin(np.pi * np.arange(1, N + 1) / (N + 1))
         problems.bead_string(N).simulate(y0, np.zeros(N), (0.0, 0.01),
                                          dict(F=80.0, mu=0.005, l=0.65), method="rkn12")
+    elif name.startswith("grid on lanes"):  # fast_accel_lanes (+ the scalar fast_accel)
+        import sympy as sp
+
+        from lagrange_core import System, coordinates, t
+        # (tests/test_batch_speedpath.py: q̈ = M⁻¹ F(q, t), M constant and not diagonal)
+        qs, qds = coordinates(["th0", "th1"])
+        m, l, g, A, om, k = sp.symbols("m l g A omega k", positive=True)
+        T = m * l**2 * (qds[0]**2 + qds[1]**2 + qds[0] * qds[1] / 2)
+        V = -sum(m * l * (g - A * om**2 * sp.cos(om * t)) * sp.cos(q) for q in qs)
+        V += k * (qs[0] - qs[1]) ** 2 / 2
+        system = System(qs, lagrangian=T - V, name="2 coupled driven pendulums")
+        p = dict(m=1.0, l=1.0, g=9.81, k=2.0, A=np.array([0.01, 0.02, 0.03, 0.04]),
+                 omega=2 * np.pi * 20.0)
+        system.simulate_grid([3.0, 3.1], [0.0, 0.0], (0.0, 0.5), p, method="rkn12",
+                             progress=False)
+    elif name.startswith("Lyapunov map"):   # rhs_lanes, rhs_jvp_lanes (+ rhs, jacobian)
+        from kapitza.chaos import lyapunov_grid
+        from lagrange_core import effects as fx
+        system = fx.build(fx.n_link_rig(2), [fx.Gravity(), fx.PivotDrive("vertical"),
+                                             fx.Damping()])
+        p = dict(A=np.array([0.01, 0.02, 0.03, 0.04]), g=9.81, gamma=0.5, l1=1.0, l2=1.0,
+                 m1=1.0, m2=1.0, omega=2 * np.pi * 20.0)
+        lyapunov_grid(system, p, [3.0, 3.1], periods=4, transient=0, blocks=2,
+                      progress=False)
     elif name.startswith("normal modes"):
         system = problems.n_link_pendulum(8)
         system.normal_modes({p: (9.81 if p == "g" else 1.0) for p in system.parameters})

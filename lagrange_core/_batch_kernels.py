@@ -102,15 +102,14 @@ from ._kernel_calls import (
     DRIVE_RATES,
     ENERGY,
     FAST_ACCEL,
-    FAST_ACCEL_LANES,
     MAX_DRIVE_RATES,
     RHS,
     call_drive_rates,
     call_energy,
     call_fast_accel,
-    call_fast_accel_lanes,
     call_rhs,
 )
+from ._lane_calls import fast_accel_on_lanes
 from ._lane_math import lane_sincos_rows
 from ._selection import PILOT_MIN_SETTLED, PILOT_WIDEN, pilot_step_quantile
 from ._thread_blocks import run_rows, run_spans
@@ -1270,8 +1269,7 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                     css[2 * k + 1, l] = cs0[2 * k + 1, l] * cr + cs0[2 * k, l] * sr
             for l in range(L):
                 ts[l] = t[l] + cs_ * hs[l]
-            if call_fast_accel_lanes(ka[FAST_ACCEL_LANES], qs, ts, css, Pl, K[s], work,
-                                     L) > 0:
+            if fast_accel_on_lanes(ka, qs, ts, css, Pl, K[s], work, L) > 0:
                 for l in range(L):
                     if work[0, l] != 0.0:
                         sing[l] = True
@@ -1321,7 +1319,7 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                 sr = rot[ns - 1, 2 * k + 1, l]
                 css[2 * k, l] = cs0[2 * k, l] * cr - cs0[2 * k + 1, l] * sr
                 css[2 * k + 1, l] = cs0[2 * k + 1, l] * cr + cs0[2 * k, l] * sr
-        if call_fast_accel_lanes(ka[FAST_ACCEL_LANES], qn, tnew, css, Pl, an, work, L) == 0:
+        if fast_accel_on_lanes(ka, qn, tnew, css, Pl, an, work, L) == 0:
             for l in range(L):
                 work[0, l] = 0.0
         # the common case for every lane at once: an accepted step that stays in the band
@@ -1809,8 +1807,15 @@ def _dop853_rows(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags, r
 
 
 # numba's cache does not notice changes to the kernels these call
-from . import _integrator_kernels, _kernel_calls, _lane_math, _linalg, _selection  # noqa: E402
+from . import (  # noqa: E402
+    _integrator_kernels,
+    _kernel_calls,
+    _lane_calls,
+    _lane_math,
+    _linalg,
+    _selection,
+)
 from .module_store import guard_numba_cache  # noqa: E402
 
-guard_numba_cache(sys.modules[__name__], _integrator_kernels, _kernel_calls, _lane_math, _linalg,
-                  _selection)
+guard_numba_cache(sys.modules[__name__], _integrator_kernels, _kernel_calls, _lane_calls,
+                  _lane_math, _linalg, _selection)

@@ -11,7 +11,8 @@ is innermost and free of calls, so LLVM vectorises it:
 
 * the right-hand side of all lanes is one call per stage of the system's generated
   ``rhs_lanes`` (:mod:`lagrange_core._rhs_lanes`: sin/cos by the branch-free polynomials
-  of :mod:`lagrange_core._lane_math`, a lane that fails computed again by a scalar copy);
+  of :mod:`lagrange_core._lane_math`, a lane that fails computed again by the scalar
+  ``rhs``: :mod:`lagrange_core._lane_calls`);
 * the stage sums, the error norm, the acceptance, the step-size control (err^(−1/8) as
   three square roots: no call), the compensated time, the time mean and the deviation
   are loops over lanes;
@@ -42,7 +43,8 @@ import numpy as np
 from numba import njit
 
 from ._integrator_kernels import FAST_MATH, starting_step
-from ._kernel_calls import RHS, RHS_LANES, call_rhs, call_rhs_lanes
+from ._kernel_calls import RHS, call_rhs
+from ._lane_calls import rhs_on_lanes
 from ._thread_blocks import run_spans
 
 __all__ = ["LANES", "grid_dop853_lanes", "sparse_tables", "stage_sum", "error_sums",
@@ -423,13 +425,13 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_
             stage_sum(sidx[s], scoef[s], spairs[s], K, y, hs, ys, L)
             for l in range(L):
                 ts[l] = t[l] + C[s] * hs[l]
-            if call_rhs_lanes(ka[RHS_LANES], ts, ys, Pl, K[s], work, L) > 0:
+            if rhs_on_lanes(ka, ts, ys, Pl, K[s], work, L) > 0:
                 for l in range(L):
                     sing[l] |= work[0, l] != 0.0
         stage_sum(sidx[12], scoef[12], spairs[12], K, y, hs, ynew, L)
         for l in range(L):
             ts[l] = t[l] + hs[l]
-        if call_rhs_lanes(ka[RHS_LANES], ts, ynew, Pl, K[12], work, L) > 0:
+        if rhs_on_lanes(ka, ts, ynew, Pl, K[12], work, L) > 0:
             for l in range(L):
                 sing[l] |= work[0, l] != 0.0
         for l in range(L):
@@ -567,7 +569,7 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_
 
 
 # numba's cache does not notice changes to the kernels these call
-from . import _integrator_kernels, _kernel_calls  # noqa: E402
+from . import _integrator_kernels, _kernel_calls, _lane_calls  # noqa: E402
 from .module_store import guard_numba_cache  # noqa: E402
 
-guard_numba_cache(sys.modules[__name__], _integrator_kernels, _kernel_calls)
+guard_numba_cache(sys.modules[__name__], _integrator_kernels, _kernel_calls, _lane_calls)

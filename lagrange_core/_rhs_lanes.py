@@ -31,8 +31,11 @@ a bad pivot flagged) and, for J v, M δq̈ = δF − δM q̈ by the same factors
 
 Failure and fallback: a lane whose result is not finite (an argument beyond the lane
 sine's range, a state that is not finite, a division by zero) or whose M was flagged is
-computed again by a scalar copy of the same formulas (libm, partial pivoting), whose
-status (0, 1: singular) it gets in ``work[0]``; the other lanes keep their values.
+left: marked in ``work[0]`` and counted in the return value, it is computed again by the
+system's scalar ``rhs`` (and ``jacobian`` for J v; libm, partial pivoting) in
+:mod:`lagrange_core._lane_calls`, whose status (0, 1: singular) it gets; the other lanes
+keep their values.  (No scalar copy is compiled into these kernels: a new system's
+first lanes kernels compile in about half the time.)
 
 Accuracy: the same formulas as the scalar kernels up to rearrangement by the symbolic
 simplification; sin/cos within 2 ulp of libm.  Results agree with ``rhs`` to a few ulps
@@ -55,13 +58,8 @@ import numpy as np
 import sympy as sp
 from numba import njit
 
-from ._kernel_calls import (
-    RHS_JVP_LANES,
-    RHS_LANES,
-    SIGNATURES,
-    call_rhs_jvp_lanes,
-    call_rhs_lanes,
-)
+from ._kernel_calls import RHS_JVP_LANES, RHS_LANES, SIGNATURES
+from ._lane_calls import left_to_scalar_source, rhs_jvp_on_lanes, rhs_on_lanes
 from .module_store import content_key, load_generated, source_fingerprint
 
 __all__ = ["load_rhs_lanes", "evaluate_lanes", "lanes_work_rows", "MAX_DOF", "MAX_OPERATIONS"]
@@ -110,7 +108,7 @@ def _print(expr):
 
 def _lane_code(line):
     """A generated line with sin/cos on the lane functions (vectorisable; NaN beyond
-    their range, which sends the lane to the scalar copy)."""
+    their range, which sends the lane to the scalar kernels)."""
     return line.replace("math.sin(", "lane_sin(").replace("math.cos(", "lane_cos(")
 
 
@@ -159,16 +157,14 @@ def _formulas(eq):
     return exprs, derivs, n
 
 
-def _loads(n, k, lanes, jvp):
-    at = ", l]" if lanes else "]"
-    lines = [f"_q{i} = y[{i}{at}" for i in range(n)]
-    lines += [f"_v{i} = y[{n + i}{at}" for i in range(n)]
+def _loads(n, k, jvp):
+    lines = [f"_q{i} = y[{i}, l]" for i in range(n)]
+    lines += [f"_v{i} = y[{n + i}, l]" for i in range(n)]
     if jvp:
-        lines += [f"_dq{i} = v[{i}{at}" for i in range(n)]
-        lines += [f"_dv{i} = v[{n + i}{at}" for i in range(n)]
-    lines += [f"_p{i} = p[{i}{at}" for i in range(k)]
-    if lanes:
-        lines.append("t = tl[l]")
+        lines += [f"_dq{i} = v[{i}, l]" for i in range(n)]
+        lines += [f"_dv{i} = v[{n + i}, l]" for i in range(n)]
+    lines += [f"_p{i} = p[{i}, l]" for i in range(k)]
+    lines.append("t = tl[l]")
     return lines
 
 
@@ -183,79 +179,48 @@ def _used(lines, loads):
     return out
 
 
-def _kernel(n, k, exprs, derivs, jvp, lanes):
-    """The body of one kernel: the lanes loop (``lanes``) or the scalar copy for one state.
-
-    Lanes: results go to dydt/jv (n = 1) or to ``work`` ([M | F] in rows 1 … n(n + 1), δM
-    and δF after them), solved after the loop.  Scalar: to dydt/jv, solving with pivoting
-    in ``Wn`` (n, n + 1); returns the status."""
+def _kernel(n, k, exprs, derivs, jvp):
+    """The body of the lanes loop: results to dydt/jv (n = 1) or to ``work`` ([M | F] in
+    rows 1 … n(n + 1), δM and δF after them), solved after the loop."""
     outs = list(exprs) + (list(derivs) if jvp else [])
     reps, reduced = sp.cse(outs, symbols=sp.numbered_symbols("_x"))
-    terms = [f"{_print(s)} = {_print(e)}" for s, e in reps]
-    res = [_print(r) for r in reduced]
-    code = _lane_code if lanes else (lambda s: s)
-    at = ", l]" if lanes else "]"
-    body = [code(line) for line in terms]
+    body = [_lane_code(f"{_print(s)} = {_print(e)}") for s, e in reps]
+    res = [_lane_code(_print(r)) for r in reduced]
     w = n + 1
     nm = n * (n + 1) // 2
     if n == 1:
-        body.append(f"dydt[0{at} = _v0")
-        body.append(f"dydt[1{at} = {code(res[0])}")
+        body.append("dydt[0, l] = _v0")
+        body.append(f"dydt[1, l] = {res[0]}")
         if jvp:
-            body.append(f"jv[0{at} = _dv0")
-            body.append(f"jv[1{at} = {code(res[2])}")
-        if lanes:
-            body.append(f"work[0, l] = 0.0 if {code(res[1])} > 0.0 else 1.0")
-        else:
-            body.append(f"if not {res[1]} > 0.0:")
-            body.append("    return 1")
+            body.append("jv[0, l] = _dv0")
+            body.append(f"jv[1, l] = {res[2]}")
+        body.append(f"work[0, l] = 0.0 if {res[1]} > 0.0 else 1.0")
         return body
-    cell = ((lambda i, j: f"work[{1 + i * w + j}, l]") if lanes
-            else (lambda i, j: f"Wn[{i}, {j}]"))
-    dcell = ((lambda i, j: f"work[{1 + n * w + i * n + j}, l]") if lanes
-             else (lambda i, j: f"_dM{i}_{j}"))
-    dfcell = ((lambda i: f"work[{1 + n * w + n * n + i}, l]") if lanes
-              else (lambda i: f"_dF{i}"))
 
-    def fill(target, values, mirror=True):
+    def fill(target, values):
         lines = []
         m = 0
         for i in range(n):
             for j in range(i, n):
-                lines.append(f"{target(i, j)} = {code(values[m])}")
-                if j != i and mirror:
+                lines.append(f"{target(i, j)} = {values[m]}")
+                if j != i:
                     lines.append(f"{target(j, i)} = {target(i, j)}")
                 m += 1
         return lines
 
-    body += fill(cell, res[:nm])
-    body += [f"{cell(i, n)} = {code(res[nm + i])}" for i in range(n)]
+    body += fill(lambda i, j: f"work[{1 + i * w + j}, l]", res[:nm])
+    body += [f"work[{1 + i * w + n}, l] = {res[nm + i]}" for i in range(n)]
     if jvp:
         d = res[nm + n:]
-        body += fill(dcell, d[:nm])
-        body += [f"{dfcell(i)} = {code(d[nm + i])}" for i in range(n)]
-    if lanes:
-        return body
-    # the scalar copy: solve with pivoting, then (J v) M δq̈ = δF − δM q̈ with M again
-    body += [f"_st = solve_augmented(Wn, {n})", "if _st != 0:", "    return _st"]
-    body += [f"dydt[{i}] = _v{i}" for i in range(n)]
-    body += [f"dydt[{n + i}] = Wn[{i}, {n}]" for i in range(n)]
-    if jvp:
-        body += fill(cell, res[:nm])
-        for i in range(n):
-            terms_i = " - ".join([dfcell(i)] + [f"{dcell(min(i, j), max(i, j))} * dydt[{n + j}]"
-                                                for j in range(n)])
-            body.append(f"{cell(i, n)} = {terms_i}")
-        body += [f"_st = solve_augmented(Wn, {n})", "if _st != 0:", "    return _st"]
-        body += [f"jv[{i}] = _dv{i}" for i in range(n)]
-        body += [f"jv[{n + i}] = Wn[{i}, {n}]" for i in range(n)]
+        body += fill(lambda i, j: f"work[{1 + n * w + i * n + j}, l]", d[:nm])
+        body += [f"work[{1 + n * w + n * n + i}, l] = {d[nm + i]}" for i in range(n)]
     return body
 
 
 def _lanes_function(name, n, k, exprs, derivs, jvp):
     args = "tl, y, v, p, dydt, jv, work, L" if jvp else "tl, y, p, dydt, work, L"
-    body = _kernel(n, k, exprs, derivs, jvp, True)
-    loop = _used(body, _loads(n, k, True, jvp)) + body
+    body = _kernel(n, k, exprs, derivs, jvp)
+    loop = _used(body, _loads(n, k, jvp)) + body
     lines = ["for l in range(L):", textwrap.indent("\n".join(loop), "    ")]
     w = n + 1
     if n > 1:
@@ -277,69 +242,12 @@ def _lanes_function(name, n, k, exprs, derivs, jvp):
             lines.append("for l in range(L):")
             lines += [f"    jv[{i}, l] = v[{n + i}, l]" for i in range(n)]
             lines += [f"    jv[{n + i}, l] = work[{r0 + i}, l]" for i in range(n)]
-    check = ["bad = False", "for l in range(L):"]
-    check += [f"    bad |= not math.isfinite(dydt[{n + i}, l])" for i in range(n)]
+    failed = [f"(not math.isfinite(dydt[{n + i}, l]))" for i in range(n)]
     if jvp:
-        check += [f"    bad |= not math.isfinite(jv[{n + i}, l])" for i in range(n)]
-    check.append("    bad |= work[0, l] != 0.0")
-    again = "tl, y, v, p, dydt, jv, work, L" if jvp else "tl, y, y, p, dydt, dydt, work, L"
-    check += ["if not bad:", "    return 0",
-              f"return {'_again_jvp' if jvp else '_again'}({again})"]
+        failed += [f"(not math.isfinite(jv[{n + i}, l]))" for i in range(n)]
+    check = left_to_scalar_source(failed + ["(work[0, l] != 0.0)"])
     return "\n".join([_JIT, f"def {name}({args}):",
                       textwrap.indent("\n".join(lines + check), "    ")])
-
-
-def _scalar_function(name, n, k, exprs, derivs, jvp):
-    args = "t, y, v, p, dydt, jv, Wn" if jvp else "t, y, p, dydt, Wn"
-    body = _kernel(n, k, exprs, derivs, jvp, False)
-    body = _used(body, _loads(n, k, False, jvp)) + body + ["return 0"]
-    return "\n".join([_JIT, f"def {name}({args}):", textwrap.indent("\n".join(body), "    ")])
-
-
-#: the scalar copy for the lanes that failed, one function per kernel (a flag argument
-#: compiled both scalar kernels, and twice: the Jacobian-vector one for a diagram, basin
-#: or section that never calls it — 1–2 s of a new system's first strobe run)
-_AGAIN = '''
-
-@njit(cache=True)
-def {name}(tl, y, v, p, dydt, jv, work, L):
-    # the lanes whose result is not finite or whose M was flagged, by the scalar copy
-    yl = np.empty(2 * N_DOF)
-    vl = np.empty(2 * N_DOF)
-    pl = np.empty(max(N_PARAMETERS, 1))
-    fl = np.empty(2 * N_DOF)
-    jl = np.empty(2 * N_DOF)
-    Wn = np.zeros((N_DOF, N_DOF + 1))
-    failed = 0
-    for l in range(L):
-        ok = work[0, l] == 0.0
-        for i in range(N_DOF, 2 * N_DOF):
-            ok = ok and math.isfinite(dydt[i, l]){check}
-        work[0, l] = 0.0
-        if ok:
-            continue
-        for i in range(2 * N_DOF):
-            yl[i] = y[i, l]
-            vl[i] = v[i, l]
-        for i in range(N_PARAMETERS):
-            pl[i] = p[i, l]
-        st = {call}
-        for i in range(2 * N_DOF):
-            dydt[i, l] = fl[i] if st == 0 else math.nan{store}
-        work[0, l] = float(st)
-        if st != 0:
-            failed += 1
-    return failed
-'''
-
-
-def _again_function(jvp):
-    if jvp:
-        return _AGAIN.format(name="_again_jvp", check=" and math.isfinite(jv[i, l])",
-                             call="_jvp_one(tl[l], yl, vl, pl, fl, jl, Wn)",
-                             store="\n            jv[i, l] = jl[i] if st == 0 else math.nan")
-    return _AGAIN.format(name="_again", check="", call="_rhs_one(tl[l], yl, pl, fl, Wn)",
-                         store="")
 
 
 _ENTRY_POINTS = '''
@@ -364,7 +272,6 @@ import math
 import numpy as np
 from numba import carray, njit
 from lagrange_core._lane_math import lane_cos, lane_sin, lane_solve
-from lagrange_core._linalg import solve_augmented
 from lagrange_core._rhs_lanes import lane_resolve
 
 N_DOF = {n}
@@ -391,18 +298,15 @@ def _generated_source(eq, label) -> str:
         return _HEADER.format(ok=False, reason=f"its equations have {size} operations (lanes: "
                               f"at most {MAX_OPERATIONS})", **head)
     src = [_HEADER.format(ok=True, reason="", **head), "",
-           _scalar_function("_rhs_one", n, k, exprs, derivs, False), "", "",
-           _scalar_function("_jvp_one", n, k, exprs, derivs, True), "", "",
            _lanes_function("rhs_lanes", n, k, exprs, derivs, False), "", "",
-           _lanes_function("rhs_jvp_lanes", n, k, exprs, derivs, True),
-           _again_function(False), _again_function(True), _ENTRY_POINTS]
+           _lanes_function("rhs_jvp_lanes", n, k, exprs, derivs, True), _ENTRY_POINTS]
     return "\n".join(src)
 
 
 @functools.cache
 def _generator_fingerprint() -> str:
-    from . import _kernel_calls, _lane_math, _linalg
-    return source_fingerprint(sys.modules[__name__], _linalg, _lane_math, _kernel_calls)
+    from . import _kernel_calls, _lane_calls, _lane_math
+    return source_fingerprint(sys.modules[__name__], _lane_math, _kernel_calls, _lane_calls)
 
 
 def load_rhs_lanes(kernels, *, jvp: bool = False) -> tuple[bool, str]:
@@ -440,6 +344,8 @@ def load_rhs_lanes(kernels, *, jvp: bool = False) -> tuple[bool, str]:
                             lambda: _generated_source(kernels.equations(), kernels.label))
     if not module.LANES_OK:
         return False, module.LANES_REASON
+    # the scalar kernels that compute a lane the lanes kernels leave (lagrange_core._lane_calls)
+    kernels.addresses("rhs", *(("jacobian",) if jvp else ()))
     wanted = [("rhs_lanes", RHS_LANES)] + ([("rhs_jvp_lanes", RHS_JVP_LANES)] if jvp else [])
     for name, slot in wanted:
         if not table[slot]:
@@ -452,8 +358,8 @@ def load_rhs_lanes(kernels, *, jvp: bool = False) -> tuple[bool, str]:
 def _evaluate(ka, jvp, t, y, v, p, dydt, jv, work):
     L = t.shape[0]
     if jvp:
-        return call_rhs_jvp_lanes(ka[RHS_JVP_LANES], t, y, v, p, dydt, jv, work, L)
-    return call_rhs_lanes(ka[RHS_LANES], t, y, p, dydt, work, L)
+        return rhs_jvp_on_lanes(ka, t, y, v, p, dydt, jv, work, L)
+    return rhs_on_lanes(ka, t, y, p, dydt, work, L)
 
 
 def evaluate_lanes(kernels, t, y, p, v=None):
@@ -492,3 +398,9 @@ def evaluate_lanes(kernels, t, y, p, v=None):
     failed = _evaluate(kernels.addresses(), v is not None, t, y, vv, p, dydt, jv, work)
     status = work[0].astype(np.int64) if failed else np.zeros(L, dtype=np.int64)
     return dydt, (jv if v is not None else None), status
+
+
+from . import _kernel_calls, _lane_calls  # noqa: E402
+from .module_store import guard_numba_cache  # noqa: E402
+
+guard_numba_cache(sys.modules[__name__], _kernel_calls, _lane_calls)

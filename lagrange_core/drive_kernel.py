@@ -37,6 +37,7 @@ import numba
 import sympy as sp
 
 from ._kernel_calls import FAST_ACCEL, FAST_ACCEL_LANES, MAX_DRIVE_RATES, SIGNATURES
+from ._lane_calls import left_to_scalar_source
 from .module_store import content_key, load_generated, source_fingerprint
 
 __all__ = ["load_drive_kernel"]
@@ -195,8 +196,10 @@ def _lanes_source(n, lane_loads, terms, results, sparse=False):
     no calls, so LLVM vectorises it.  n > 1: M and F go to ``work`` and
     :func:`lagrange_core._lane_math.lane_solve` solves every lane at once.  A lane whose
     result is not finite (an argument beyond the lane sine's range, a pivot too small
-    for elimination without pivoting, a state that is not finite) is computed again by
-    the scalar ``fast_accel`` (libm, partial pivoting), whose status it gets."""
+    for elimination without pivoting, a state that is not finite) is left to the scalar
+    ``fast_accel``: marked 1.0 in ``work[0]`` and counted in the return value
+    (:mod:`lagrange_core._lane_calls` computes it again; no scalar copy is compiled into
+    this kernel)."""
     w = n + 1
     loop = list(lane_loads) + [_lane_code(line) for line in terms]
     zero = []
@@ -211,50 +214,13 @@ def _lanes_source(n, lane_loads, terms, results, sparse=False):
                     "        work[_r, l] = 0.0"]
         solve = [f"lane_solve(work, {n}, L)", "for l in range(L):"]
         solve += [f"    out[{i}, l] = work[{1 + i * w + n}, l]" for i in range(n)]
-    check = ["bad = False", "for l in range(L):"]
-    check += [f"    bad |= not math.isfinite(out[{i}, l])" for i in range(n)]
-    if n > 1:
-        check.append("    bad |= work[0, l] != 0.0")
-    check += ["if not bad:", "    return 0",
-              f"return _lanes_again(q, tl, cs, p, out, work, L, {n > 1})"]
+    # a lane not answered: a result not finite, or (n > 1) lane_solve's flag
+    failed = [f"(not math.isfinite(out[{i}, l]))" for i in range(n)]
+    check = left_to_scalar_source(failed + (["(work[0, l] != 0.0)"] if n > 1 else []))
     body = zero + ["for l in range(L):", textwrap.indent("\n".join(loop), "    ")] + solve \
         + check
     return "\n".join([_JIT, "def fast_accel_lanes(q, tl, cs, p, out, work, L):",
-                      textwrap.indent("\n".join(body), "    ")]) + _LANES_AGAIN
-
-
-_LANES_AGAIN = """
-
-
-@njit(cache=True)
-def _lanes_again(q, tl, cs, p, out, work, L, solved):
-    qv = np.empty(N_DOF)
-    cv = np.empty(cs.shape[0])
-    pv = np.empty(N_PARAMETERS)
-    ov = np.empty(N_DOF)
-    Wn = np.zeros((N_DOF, N_DOF + 1))
-    failed = 0
-    for l in range(L):
-        ok = not (solved and work[0, l] != 0.0)
-        for i in range(N_DOF):
-            if not math.isfinite(out[i, l]):
-                ok = False
-        work[0, l] = 0.0
-        if ok:
-            continue
-        for i in range(N_DOF):
-            qv[i] = q[i, l]
-        for i in range(cv.shape[0]):
-            cv[i] = cs[i, l]
-        for i in range(N_PARAMETERS):
-            pv[i] = p[i, l]
-        st = fast_accel(qv, tl[l], cv, pv, ov, Wn)
-        for i in range(N_DOF):
-            out[i, l] = ov[i]
-        work[0, l] = float(st)
-        if st != 0:
-            failed += 1
-    return failed"""
+                      textwrap.indent("\n".join(body), "    ")])
 
 
 _HEADER = """\
@@ -291,8 +257,8 @@ def c_fast_accel_lanes(q, t, cs, p, out, work, L):
 
 @functools.cache
 def _generator_fingerprint() -> str:
-    from . import _lane_math, _linalg
-    return source_fingerprint(sys.modules[__name__], _linalg, _lane_math)
+    from . import _lane_calls, _lane_math, _linalg
+    return source_fingerprint(sys.modules[__name__], _linalg, _lane_math, _lane_calls)
 
 
 def load_drive_kernel(kernels, *, lanes: bool = False) -> None:

@@ -46,12 +46,8 @@ from lagrange_core._first_order_lanes import (
     step_factor,
 )
 from lagrange_core._integrator_kernels import FAST_MATH
-from lagrange_core._kernel_calls import (
-    RHS_JVP_LANES,
-    RHS_LANES,
-    call_rhs_jvp_lanes,
-    call_rhs_lanes,
-)
+from lagrange_core._kernel_calls import RHS_JVP_LANES
+from lagrange_core._lane_calls import rhs_jvp_on_lanes, rhs_on_lanes
 from lagrange_core._thread_blocks import run_spans
 
 #: tangent modes
@@ -126,8 +122,8 @@ def _tangent(ka, mode, ts, ys, Vs, Pl, f, jv, yd, fd, sc, work, L):
     """f = f(ts, ys) and jv = J Vs for every lane (``mode``; ``yd``, ``fd`` (d, L) and ``sc``
     (3, L) are scratch); returns the failed lanes' count, their status in work[0]."""
     if mode == JVP:
-        return call_rhs_jvp_lanes(ka[RHS_JVP_LANES], ts, ys, Vs, Pl, f, jv, work, L)
-    bad = call_rhs_lanes(ka[RHS_LANES], ts, ys, Pl, f, work, L)
+        return rhs_jvp_on_lanes(ka, ts, ys, Vs, Pl, f, jv, work, L)
+    bad = rhs_on_lanes(ka, ts, ys, Pl, f, work, L)
     d = ys.shape[0]
     for l in range(L):
         sc[0, l] = 0.0
@@ -143,7 +139,7 @@ def _tangent(ka, mode, ts, ys, Vs, Pl, f, jv, yd, fd, sc, work, L):
     for i in range(d):
         for l in range(L):
             yd[i, l] = ys[i, l] + sc[2, l] * Vs[i, l]
-    bad2 = call_rhs_lanes(ka[RHS_LANES], ts, yd, Pl, fd, work, L)
+    bad2 = rhs_on_lanes(ka, ts, yd, Pl, fd, work, L)
     if bad > 0:
         for l in range(L):
             work[0, l] = max(work[0, l], sc[0, l])
@@ -464,7 +460,13 @@ def _block(ka, mode, idx, lo_b, hi_b, Y0, P, T, T0, stops, v0, rtol, atol, max_s
 
 
 # numba's cache does not notice changes to the kernels these call
-from lagrange_core import _first_order_lanes, _integrator_kernels, _kernel_calls  # noqa: E402
+from lagrange_core import (  # noqa: E402
+    _first_order_lanes,
+    _integrator_kernels,
+    _kernel_calls,
+    _lane_calls,
+)
 from lagrange_core.module_store import guard_numba_cache  # noqa: E402
 
-guard_numba_cache(sys.modules[__name__], _first_order_lanes, _integrator_kernels, _kernel_calls)
+guard_numba_cache(sys.modules[__name__], _first_order_lanes, _integrator_kernels, _kernel_calls,
+                  _lane_calls)
