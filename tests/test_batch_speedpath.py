@@ -25,7 +25,9 @@ from numba import njit
 
 from lagrange_core import Particle, System, batch, coordinates, problems
 from lagrange_core import _batch_kernels as bk
+from lagrange_core._kernel_calls import FAST_ACCEL_LANES, call_fast_accel_lanes
 from lagrange_core._lane_math import BIG_ARGUMENT, lane_cos, lane_sin, lane_solve
+from lagrange_core.drive_kernel import load_drive_kernel
 from lagrange_core.symbols import t as T_SYM
 
 PEND = dict(m=1.0, l=1.0, g=9.81)
@@ -416,6 +418,38 @@ def test_singular_mass_matrix_in_one_lane():
     ok = m != 0
     assert np.array_equal(g.q[ok], clean.q[ok])
     assert_same_run(g, point, atol=1e-10)
+
+
+@njit(cache=True)
+def _raw_accel_lanes(ka, q, t, cs, p, out, work):
+    """The drive kernel's ``fast_accel_lanes`` alone, through its C entry point."""
+    return call_fast_accel_lanes(ka[FAST_ACCEL_LANES], q, t, cs, p, out, work, t.shape[0])
+
+
+@pytest.mark.parametrize("n", [1, 2])
+def test_fast_accel_lanes_marks_and_counts_the_lanes_it_leaves(pend, n):
+    """The contract of lagrange_core._kernel_calls: ``fast_accel_lanes`` returns how many
+    lanes it could not answer (θ beyond the lane sine's range; for n = 2 a zero mass, which
+    elimination without pivoting flags) and marks exactly those 1.0 in row 0; the drivers'
+    lagrange_core._lane_calls computes them again (the grid tests above)."""
+    s = pend if n == 1 else coupled(2)
+    load_drive_kernel(s.kernels, lanes=True)
+    ka = s.kernels.addresses()
+    L = 8
+    q = np.full((n, L), np.pi - 0.1)
+    t = np.linspace(0.0, 0.1, L)
+    cs = np.vstack([np.cos(40.0 * t), np.sin(40.0 * t)])
+    p = np.ones((len(s.parameters), L))
+    out, work = np.empty((n, L)), np.full((1 + n * (n + 1), L), 7.0)
+    assert _raw_accel_lanes(ka, q, t, cs, p, out, work) == 0
+    q[0, 2] = 3 * BIG_ARGUMENT
+    left = [2]
+    if n == 2:
+        p[s.parameters.index("m"), 5] = 0.0
+        left.append(5)
+    work[:] = 7.0
+    assert _raw_accel_lanes(ka, q, t, cs, p, out, work) == len(left)
+    assert work[0].tolist() == [1.0 if lane in left else 0.0 for lane in range(L)]
 
 
 # -- the method a grid gets by default, and the benchmark's question ----------------------

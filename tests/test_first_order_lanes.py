@@ -23,16 +23,23 @@ import math
 import numpy as np
 import pytest
 import sympy as sp
-from numba import types
+from numba import njit, types
 from scipy.integrate import solve_ivp
 
 from kapitza.chaos import _lyapunov, _sections, bifurcation_diagram, lyapunov_grid
 from lagrange_core import Particle, System, coordinates, problems, t
 from lagrange_core import _batch_kernels as bk
 from lagrange_core import _first_order_lanes as fl
-from lagrange_core._kernel_calls import SIGNATURES, check_arguments
+from lagrange_core._kernel_calls import (
+    RHS_JVP_LANES,
+    RHS_LANES,
+    SIGNATURES,
+    call_rhs_jvp_lanes,
+    call_rhs_lanes,
+    check_arguments,
+)
 from lagrange_core._lane_math import BIG_ARGUMENT
-from lagrange_core._rhs_lanes import evaluate_lanes, load_rhs_lanes
+from lagrange_core._rhs_lanes import evaluate_lanes, lanes_work_rows, load_rhs_lanes
 
 W0 = math.sqrt(9.81)
 
@@ -101,6 +108,42 @@ def test_lanes_kernels_equal_the_scalar_rhs_and_jacobian(which, request):
     assert np.all(np.max(np.abs(jv - jv_ref), axis=0) / jscale < 4e-15)
     np.testing.assert_array_equal(f[:, 5], f_ref[:, 5])         # the scalar rhs's own
     np.testing.assert_array_equal(f_only[:, 5], f_ref[:, 5])
+
+
+@njit(cache=True)
+def _raw_lanes(ka, jvp, t, y, v, p, dydt, jv, work):
+    """The generated lanes kernel alone, through its C entry point (no scalar fallback)."""
+    if jvp:
+        return call_rhs_jvp_lanes(ka[RHS_JVP_LANES], t, y, v, p, dydt, jv, work, t.shape[0])
+    return call_rhs_lanes(ka[RHS_LANES], t, y, p, dydt, work, t.shape[0])
+
+
+@pytest.mark.parametrize("which", ["pendulum", "double"])
+def test_a_lanes_kernel_marks_and_counts_the_lanes_it_leaves(which, request):
+    """The contract of lagrange_core._kernel_calls: the generated kernel returns how many
+    lanes it could not answer (an argument beyond the lane sine's range, a zero mass) and
+    marks exactly those 1.0 in row 0, the others 0.0; on a clean call it returns 0."""
+    s = request.getfixturevalue(which)
+    n, L = s.n_dof, 9
+    rng = np.random.default_rng(5)
+    tt = rng.uniform(0, 5, L)
+    y = rng.uniform(-1, 1, (2 * n, L))
+    v = rng.standard_normal((2 * n, L))
+    p = rng.uniform(0.5, 2.0, (len(s.parameters), L))
+    load_rhs_lanes(s.kernels, jvp=True)
+    ka = s.kernels.addresses()
+    rows = lanes_work_rows(n)
+    for jvp in (False, True):
+        work = np.full((rows, L), 7.0)
+        out = (np.empty((2 * n, L)), np.empty((2 * n, L)))
+        assert _raw_lanes(ka, jvp, tt, y, v, p, *out, work) == 0
+        bad_p = p.copy()
+        bad_p[[i for i, name in enumerate(s.parameters) if name.startswith("m")], 6] = 0.0
+        bad_y = y.copy()
+        bad_y[0, 2] = 3 * BIG_ARGUMENT
+        work = np.full((rows, L), 7.0)
+        assert _raw_lanes(ka, jvp, tt, bad_y, v, bad_p, *out, work) == 2
+        assert work[0].tolist() == [0, 0, 1, 0, 0, 0, 1, 0, 0]
 
 
 @pytest.mark.parametrize("which", ["pendulum", "double"])
