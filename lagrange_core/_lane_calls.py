@@ -62,6 +62,14 @@ def left_to_scalar_source(failed: list[str]) -> list[str]:
 
 
 @njit(cache=True)
+def _lane(a, l, out):
+    """out = a[:, l], lane l of an array whose lanes are its last axis (element by element:
+    a slice copy would make numba compile its shape-mismatch message)."""
+    for i in range(out.shape[0]):
+        out[i] = a[i, l]
+
+
+@njit(cache=True)
 def fast_accel_on_lanes(ka, q, tl, cs, p, out, work, L):
     """``fast_accel_lanes`` of the system whose address table is ``ka`` (arrays as its
     contract: lanes last), the lanes it leaves by the scalar ``fast_accel``.  Returns
@@ -78,12 +86,9 @@ def fast_accel_on_lanes(ka, q, tl, cs, p, out, work, L):
     for l in range(L):
         if work[0, l] == 0.0:
             continue
-        for i in range(n):
-            ql[i] = q[i, l]
-        for i in range(cl.shape[0]):
-            cl[i] = cs[i, l]
-        for i in range(pl.shape[0]):
-            pl[i] = p[i, l]
+        _lane(q, l, ql)
+        _lane(cs, l, cl)
+        _lane(p, l, pl)
         st = call_fast_accel(ka[FAST_ACCEL], ql, tl[l], cl, pl, ol, Wn)
         for i in range(n):
             out[i, l] = ol[i]
@@ -107,10 +112,8 @@ def _rhs_again(ka, jvp, tl, y, v, p, dydt, jv, work, L):
     for l in range(L):
         if work[0, l] == 0.0:
             continue
-        for i in range(d):
-            yl[i] = y[i, l]
-        for i in range(pl.shape[0]):
-            pl[i] = p[i, l]
+        _lane(y, l, yl)
+        _lane(p, l, pl)
         st = call_rhs(ka[RHS], tl[l], yl, pl, fl, Wn)
         if jvp and st == 0:
             st = call_jacobian(ka[JACOBIAN], tl[l], yl, pl, J)

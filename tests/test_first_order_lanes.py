@@ -110,6 +110,14 @@ def test_lanes_kernels_equal_the_scalar_rhs_and_jacobian(which, request):
     np.testing.assert_array_equal(f_only[:, 5], f_ref[:, 5])
 
 
+def _random_lanes(s, L, seed):
+    """Times, states, directions and parameters (mass-like, 0.5-2) for L lanes of ``s``."""
+    rng = np.random.default_rng(seed)
+    n = s.n_dof
+    return (rng.uniform(0, 5, L), rng.uniform(-1, 1, (2 * n, L)),
+            rng.standard_normal((2 * n, L)), rng.uniform(0.5, 2.0, (len(s.parameters), L)))
+
+
 @njit(cache=True)
 def _raw_lanes(ka, jvp, t, y, v, p, dydt, jv, work):
     """The generated lanes kernel alone, through its C entry point (no scalar fallback)."""
@@ -125,11 +133,7 @@ def test_a_lanes_kernel_marks_and_counts_the_lanes_it_leaves(which, request):
     marks exactly those 1.0 in row 0, the others 0.0; on a clean call it returns 0."""
     s = request.getfixturevalue(which)
     n, L = s.n_dof, 9
-    rng = np.random.default_rng(5)
-    tt = rng.uniform(0, 5, L)
-    y = rng.uniform(-1, 1, (2 * n, L))
-    v = rng.standard_normal((2 * n, L))
-    p = rng.uniform(0.5, 2.0, (len(s.parameters), L))
+    tt, y, v, p = _random_lanes(s, L, seed=5)
     load_rhs_lanes(s.kernels, jvp=True)
     ka = s.kernels.addresses()
     rows = lanes_work_rows(n)
@@ -151,12 +155,8 @@ def test_a_singular_lane_is_flagged_alone(which, request):
     """A lane with zero masses (M = 0) gets status 1 and NaN; its neighbours are bit for
     bit what they are without it."""
     s = request.getfixturevalue(which)
-    n, L = s.n_dof, 9
-    rng = np.random.default_rng(4)
-    tt = rng.uniform(0, 5, L)
-    y = rng.uniform(-1, 1, (2 * n, L))
-    v = rng.standard_normal((2 * n, L))
-    p = rng.uniform(0.5, 2.0, (len(s.parameters), L))
+    L = 9
+    tt, y, v, p = _random_lanes(s, L, seed=4)
     clean = evaluate_lanes(s.kernels, tt, y, p, v)
     masses = [i for i, name in enumerate(s.parameters) if name.startswith("m")]
     p[masses, 4] = 0.0
