@@ -25,8 +25,9 @@ Run:  python benchmarks/bench_cold_start.py [--quick] [--baseline REV]
    children), with the load average before and after: a figure taken under load
    overstates the wall time.
 4. A new system's first use other than ``simulate`` (``--only new-system``): its mass
-   matrix, its normal modes, its first bifurcation diagram, and two large sparse systems
-   (a string of 200 beads' normal modes, of 20 beads' first RKN 12 run), each in a fresh
+   matrix, its normal modes, its first bifurcation diagram, two large sparse systems
+   (a string of 200 beads' normal modes, of 20 beads' first RKN 12 run), and its lanes
+   kernels (a first grid on lanes, a first Lyapunov map on lanes), each in a fresh
    process with an empty kernel store (the shared kernels compiled: a first untimed round
    per tree warms them); what only the system's own kernels cost.  With ``--baseline REV`` the
    same cases on REV's tree, old and new processes alternated, with the ratios.
