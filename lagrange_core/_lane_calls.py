@@ -15,11 +15,13 @@ value counts the lanes that failed — the contract the drivers read
 
 Why here and not in each generated module: a scalar copy linked into every lanes kernel
 was compiled and optimised again with it for every new system (~1 s for
-``fast_accel_lanes``, ~2–4 s for the pair ``rhs_lanes`` / ``rhs_jvp_lanes``, each new
-system's first grid or chaos map; benchmarks/README.md, fifteenth session); these are
-compiled once per installation, for every system, and reach the scalar kernels the
-drivers already hold.  Their results are the scalar kernels', which the per-point paths
-give (tests/test_first_order_lanes.py, tests/test_batch_speedpath.py).
+``fast_accel_lanes``, 2–3 s each for ``rhs_lanes`` and ``rhs_jvp_lanes``: a new system's
+first grid or chaos map; benchmarks/README.md, fifteenth session); these are compiled
+once per installation, for every system, and reach the scalar kernels that
+:func:`~lagrange_core.drive_kernel.load_drive_kernel` and
+:func:`~lagrange_core._rhs_lanes.load_rhs_lanes` load beside the lanes kernels.  Their
+results are the scalar kernels', which the per-point paths give
+(tests/test_first_order_lanes.py, tests/test_batch_speedpath.py).
 """
 import math
 import sys

@@ -35,7 +35,7 @@ left: marked in ``work[0]`` and counted in the return value, it is computed agai
 system's scalar ``rhs`` (and ``jacobian`` for J v; libm, partial pivoting) in
 :mod:`lagrange_core._lane_calls`, whose status (0, 1: singular) it gets; the other lanes
 keep their values.  (No scalar copy is compiled into these kernels: a new system's
-first lanes kernels compile in about half the time.)
+lanes kernels compile in 0.5–0.6 of the time they took with one; benchmarks/README.md.)
 
 Accuracy: the same formulas as the scalar kernels up to rearrangement by the symbolic
 simplification; sin/cos within 2 ulp of libm.  Results agree with ``rhs`` to a few ulps

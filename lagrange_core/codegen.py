@@ -61,7 +61,7 @@ Then, by size:
 
 ``mass_forcing`` (``System.mass_forcing``, linearisation, normal modes), which no
 integrator calls, evaluates the program for every system: a 4-link pendulum's compiles
-in 0.15–0.2 s, its printed form took 0.6 s.
+in 0.14–0.23 s, its printed form took 0.61–0.66 s.
 
 The hot kernels (``rhs``, ``solve_state_y``, ``accelerations``) are single
 functions: each call between numba functions costs reference-count updates on
@@ -550,8 +550,8 @@ def generate_source(equations, cse: bool = True, unroll: bool | None = None) -> 
                          + [f"lam[{c}] = W[{n + c}, {N}]" for c in range(m)], ret="0"))
     filled = ["W = work_matrix(N0)"] + assemble["q"] + store
     # M and F from the program for every system, printed or not: mass_forcing is no hot
-    # kernel (linearisation, normal modes, checks), and numba's front end took 0.6 s to
-    # compile a 4-link pendulum's printed assembly (the program: 0.15-0.2 s)
+    # kernel (linearisation, normal modes, checks), and numba's front end took 0.61-0.66 s
+    # to compile a 4-link pendulum's printed assembly (the program: 0.14-0.23 s)
     src.append(_function("mass_forcing", [*state_q, "M", "F"], [
         "W = work_matrix(N0)", "_evaluate_q(q, qd, t, p, W)",
         "for _i in range(N_DOF):", "    F[_i] = W[_i, N0]", "    for _j in range(N_DOF):",
