@@ -654,6 +654,21 @@ class Kernels:
         """A fresh scratch array ``W`` of the shape the kernels expect."""
         return np.zeros(self.module.WORK_SHAPE)
 
+    def accelerations_at(self, q, qd, t: float, p) -> tuple[np.ndarray, np.ndarray, int]:
+        """q̈ (n), the multipliers λ (m) and the status (0, or 1: singular) at one state.
+
+        Computed by ``rhs``, which every system compiles when its kernels are made (it
+        leaves [q̈, λ] in ``W``): the ``accelerations`` kernel solves the same system, and
+        would be compiled for it — 0.2–0.5 s for a small system, 3.5 s for a string of
+        200 beads — where a Python caller (``System.accelerations``, ``linearize``, an
+        event on a multiplier) wants one state."""
+        n, m = self.n_dof, self.n_constraints
+        y = np.concatenate([np.asarray(q, dtype=float), np.asarray(qd, dtype=float)])
+        dydt = np.empty(2 * n)
+        W = self.work_array()
+        status = int(self.rhs(float(t), y, p, dydt, W))
+        return dydt[n:].copy(), W[n:n + m, n + m].copy(), status
+
     def warm(self, *, jacobian: bool = False, everything: bool = False) -> "Kernels":
         """Compile (or load from the disk cache) kernels for float64 arrays now.
 

@@ -952,10 +952,7 @@ def _event_value_py(kernels, row, val, t, y, p):
     if kind == _kern.EV_VELOCITY:
         return y[n + idx] - val
     if kind == _kern.EV_MULTIPLIER:
-        qdd = np.empty(n)
-        lam = np.empty(kernels.n_constraints)
-        kernels.accelerations(y[:n], y[n:], t, p, qdd, lam, kernels.work_array())
-        return lam[idx] - val
+        return kernels.accelerations_at(y[:n], y[n:], t, p)[1][idx] - val
     return kernels.energy(y[:n], y[n:], t, p) - val
 
 

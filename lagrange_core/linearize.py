@@ -92,9 +92,7 @@ def linearize(system, params=None, about=None, t=0.0) -> Linearization:
     J = np.empty((2 * n, 2 * n))
     if k.jacobian(float(t), y, p, J) != 0:
         raise ValueError(f"the mass matrix is singular at q={q0.tolist()}; cannot linearise there.")
-    qdd = np.empty(n)
-    lam = np.empty(m)
-    k.accelerations(q0, np.zeros(n), float(t), p, qdd, lam, k.work_array())
+    qdd = k.accelerations_at(q0, np.zeros(n), float(t), p)[0]
     M = np.empty((n, n))
     F = np.empty(n)
     k.mass_forcing(q0, np.zeros(n), float(t), p, M, F)

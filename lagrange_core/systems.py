@@ -586,10 +586,7 @@ class System:
         q = self.coordinate_array(q, "q")
         qd = self.coordinate_array(qdot, "qdot")
         p = self.parameter_array(params)
-        k = self.kernels
-        qdd = np.empty(self.n_dof)
-        lam = np.empty(self.n_constraints)
-        status = k.accelerations(q, qd, float(t), p, qdd, lam, k.work_array())
+        qdd, lam, status = self.kernels.accelerations_at(q, qd, float(t), p)
         if status != 0:
             augmented = " augmented by the constraint Jacobian" if self.n_constraints else ""
             raise ValueError(

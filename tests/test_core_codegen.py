@@ -85,13 +85,69 @@ def test_parameter_change_does_not_recompile(double):
     system, k = double
     W = k.work_array()
     out = np.empty(4)
-    system.accelerations([0.1, 0.2], [0, 0], 0.0, {**PARAMS, "g": 3.0})    # compiles on first use
+    q, qdd, lam = np.array([0.1, 0.2]), np.empty(2), np.empty(0)
+
+    def accelerations(g):
+        p = system.parameter_array({**PARAMS, "g": g})
+        k.accelerations(q, np.zeros(2), 0.0, p, qdd, lam, W)
+        system.accelerations(q, [0, 0], 0.0, {**PARAMS, "g": g})
+
+    accelerations(3.0)                                      # compiles on first use
     before = {name: len(getattr(k, name).signatures) for name in ("rhs", "accelerations")}
     assert all(before.values())
     for g in (1.0, 9.81, 24.8):
         k.rhs(0.0, np.ones(4), system.parameter_array({**PARAMS, "g": g}), out, W)
-        system.accelerations([0.1, 0.2], [0, 0], 0.0, {**PARAMS, "g": g})
+        accelerations(g)
     assert {name: len(getattr(k, name).signatures) for name in before} == before
+
+
+def _slider_pendulum():
+    """A cart on a rail with a pendulum, its bob held by a constraint (3 coordinates)."""
+    (x, px, py), _ = lc.coordinates("x px py")
+    M, m, l, g = sp.symbols("M m l g", positive=True)
+    return lc.System([x, px, py], particles=[lc.Particle(M, (x, 0)), lc.Particle(m, (px, py))],
+                     potential=m * g * py, constraints=[(px - x)**2 + py**2 - l**2])
+
+
+def _spring_pendulum():
+    """A pendulum on a spring (2 coordinates: length and angle), this test's own statement."""
+    (r, th), _ = lc.coordinates("r th")
+    m, k, l0, g = sp.symbols("m k l0 g", positive=True)
+    return lc.System([r, th], particles=[lc.Particle(m, (r * sp.sin(th), -r * sp.cos(th)))],
+                     potential=-m * g * r * sp.cos(th) + k * (r - l0)**2 / 2)
+
+
+@pytest.mark.parametrize("which", ["spring pendulum", "constrained"])
+def test_python_callers_solve_through_rhs_and_compile_no_accelerations_kernel(which):
+    """``System.accelerations`` and ``linearize`` take q̈ and λ from ``rhs`` (compiled when
+    the kernels are made) instead of compiling the ``accelerations`` kernel for the same
+    numbers: they equal that kernel's to 1e-13, and leave it uncompiled (a new 200-bead
+    string's first ``normal_modes``: 3.5 s less)."""
+    if which == "spring pendulum":
+        system, p_by_name = _spring_pendulum(), dict(m=0.4, k=30.0, l0=0.8, g=9.81)
+        q, qd = np.array([0.9, -1.2]), np.array([0.5, 2.0])
+    else:
+        system, p_by_name = _slider_pendulum(), dict(M=2.0, m=0.7, l=1.1, g=9.81)
+        q = np.array([0.2, 0.2 + 1.1 * np.sin(0.4), -1.1 * np.cos(0.4)])
+        qd = np.array([0.3, 0.3 + 0.8 * np.cos(0.4), 0.8 * np.sin(0.4)])
+    k = system.kernels
+    assert k.accelerations.signatures == []             # this process has not called it
+    got = system.accelerations(q, qd, 0.1, p_by_name)
+    qdd_got, lam_got = got if system.n_constraints else (got, np.empty(0))
+    if which == "spring pendulum":                      # the hanging equilibrium
+        r_eq = p_by_name["l0"] + p_by_name["m"] * p_by_name["g"] / p_by_name["k"]
+        w2 = system.linearize(p_by_name, about=[r_eq, 0.0]).omega_squared
+        np.testing.assert_allclose(w2, sorted([p_by_name["g"] / r_eq,
+                                               p_by_name["k"] / p_by_name["m"]]), rtol=1e-12)
+    assert k.accelerations.signatures == []             # nothing compiled for them
+    n, m = system.n_dof, system.n_constraints
+    qdd, lam = np.empty(n), np.empty(m)
+    p = system.parameter_array(p_by_name)
+    assert k.accelerations(q, qd, 0.1, p, qdd, lam, k.work_array()) == 0
+    np.testing.assert_allclose(qdd_got, qdd, rtol=1e-13, atol=1e-13 * np.abs(qdd).max())
+    np.testing.assert_allclose(lam_got, lam, rtol=1e-13)
+    if m:
+        assert lam_got.shape == (1,) and lam_got[0] != 0.0
 
 
 def test_kernels_are_callable_from_numba_code(double):
