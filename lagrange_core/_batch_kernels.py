@@ -1092,8 +1092,10 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
     db = b - bh
     dbp = bp - bph
     L = min(LANES, hi_b - lo_b)
-    pt = np.full(L, -1, dtype=np.int64)
-    ph = np.zeros(L, dtype=np.int64)
+    pt = np.full(L, -1, dtype=np.int64)     # the lane's point, or -1
+    # the lane's phase; a lane without a point that is not _IDLE is free: it takes the
+    # block's next point at the top of the loop (every lane, the first time round)
+    ph = np.full(L, _FIXED, dtype=np.int64)
     q = np.zeros((n, L))
     v = np.zeros((n, L))
     cq = np.zeros((n, L))
@@ -1172,42 +1174,57 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
     first = _PILOT if mode == LANES_PILOT else (_FIXED if mode == LANES_FIXED else _ADAPTIVE)
     nxt = lo_b
     active = 0
-    for l in range(L):
-        while nxt < hi_b and pt[l] < 0:
-            i = idx[nxt]
-            s_ = slot[nxt]
-            nxt += 1
-            sl[l] = s_
-            mx[l] = max_steps - COUNTS[i, CNT_STEPS]
-            lim[l] = min(budget, mx[l])
-            if SAVEI[s_, SAVED] == 1:
-                _lanes_restore(ka, l, i, SAVE[s_], SAVEI[s_], Y0, P, TS, TSTR, REF, LO, HI,
-                               flags, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl,
-                               kn, QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum, rejected, ph,
-                               QM, DEV, hmax, tvh, sth, blk, rot, scr)
-                pt[l] = i
-                active += 1
+    while True:
+        for l in range(L):          # free lanes take the block's next points
+            if pt[l] >= 0 or ph[l] == _IDLE:
                 continue
-            h[l] = H[i]
-            st = _lanes_load(ka, l, i, first, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol,
-                             atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl,
-                             kn, QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum, rejected, nh,
-                             ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh, sth)
-            if st != 0:
-                STATUS[i] = st
-                TF[i] = TS[i, 0]
-                # element by element: an array copied into a slice makes numba compile its
-                # shape-mismatch message (f-strings), ~2 s in each process that compiles it
-                for k in range(Y0.shape[1]):
-                    YF[i, k] = Y0[i, k]
-                EDRIFT[i] = 0.0
-                ERR[i] = 0.0
-            else:
-                pt[l] = i
-                active += 1
-        if pt[l] < 0:
-            ph[l] = _IDLE
-    while active > 0:
+            while nxt < hi_b and pt[l] < 0:
+                i = idx[nxt]
+                s_ = slot[nxt]
+                nxt += 1
+                sl[l] = s_
+                mx[l] = max_steps - COUNTS[i, CNT_STEPS]
+                lim[l] = min(budget, mx[l])
+                if SAVEI[s_, SAVED] == 1:
+                    _lanes_restore(ka, l, i, SAVE[s_], SAVEI[s_], Y0, P, TS, TSTR, REF, LO, HI,
+                                   flags, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l, t1l,
+                                   Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum,
+                                   rejected, ph, QM, DEV, hmax, tvh, sth, blk, rot, scr)
+                    pt[l] = i
+                    active += 1
+                    continue
+                h[l] = H[i]
+                st = _lanes_load(ka, l, i, first, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
+                                 rtol, atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l,
+                                 t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum,
+                                 rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh, sth)
+                if st != 0:
+                    STATUS[i] = st
+                    TF[i] = TS[i, 0]
+                    # element by element: an array copied into a slice makes numba compile
+                    # its shape-mismatch message (f-strings), ~2 s in each process that
+                    # compiles it
+                    for k in range(Y0.shape[1]):
+                        YF[i, k] = Y0[i, k]
+                    EDRIFT[i] = 0.0
+                    ERR[i] = 0.0
+                else:
+                    pt[l] = i
+                    active += 1
+            if pt[l] < 0:           # idle: a finite state that no longer moves
+                ph[l] = _IDLE
+                h[l] = 0.0
+                hrot[l] = 0.0
+                for j in range(n):
+                    if not (math.isfinite(q[j, l]) and math.isfinite(v[j, l])):
+                        q[j, l] = 0.0
+                        v[j, l] = 0.0
+                    cq[j, l] = 0.0
+                    cv[j, l] = 0.0
+                    for m in range(ns):
+                        K[m, j, l] = 0.0
+        if active == 0:
+            break
         if stop[0] != 0 and budget > 0:     # Ctrl-C: every running point pauses at its
             budget = 0                      # next step, and no other point starts
             nxt = hi_b
@@ -1370,7 +1387,7 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                     sth[l, ST_BLOCK] = k_ + 1
                     special[l] = False
         # the rest, lane by lane: rejections, failures, band exits, strobe samples,
-        # step-size control, ends (an ended lane takes the block's next point)
+        # step-size control, ends (an ended lane is free: the loop's top gives it the next point)
         for l in range(L):
             if not special[l]:
                 continue
@@ -1500,7 +1517,7 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                     continue
                 if st == 0:         # the pilot used the whole step budget
                     st = GRID_MAX_STEPS
-            # the point ends: record it, take the next point of the block
+            # the point ends: record it; the lane is free for the block's next point
             STATUS[i] = st
             TF[i] = t[l]
             EDRIFT[i] = drift[l]
@@ -1524,49 +1541,6 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
             nst[l] = 0
             nrej[l] = 0
             nev[l] = 0
-            while nxt < hi_b and pt[l] < 0:
-                i2 = idx[nxt]
-                s_ = slot[nxt]
-                nxt += 1
-                sl[l] = s_
-                mx[l] = max_steps - COUNTS[i2, CNT_STEPS]
-                lim[l] = min(budget, mx[l])
-                if SAVEI[s_, SAVED] == 1:
-                    _lanes_restore(ka, l, i2, SAVE[s_], SAVEI[s_], Y0, P, TS, TSTR, REF, LO, HI,
-                                   flags, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l, t1l,
-                                   Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum,
-                                   rejected, ph, QM, DEV, hmax, tvh, sth, blk, rot, scr)
-                    pt[l] = i2
-                    active += 1
-                    continue
-                h[l] = H[i2]
-                st2 = _lanes_load(ka, l, i2, first, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
-                                  rtol, atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot,
-                                  t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift,
-                                  errsum, rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax,
-                                  tvh, sth)
-                if st2 != 0:
-                    STATUS[i2] = st2
-                    TF[i2] = TS[i2, 0]
-                    for k in range(Y0.shape[1]):
-                        YF[i2, k] = Y0[i2, k]
-                    EDRIFT[i2] = 0.0
-                    ERR[i2] = 0.0
-                else:
-                    pt[l] = i2
-                    active += 1
-            if pt[l] < 0:           # idle: a finite state that no longer moves
-                ph[l] = _IDLE
-                h[l] = 0.0
-                hrot[l] = 0.0
-                for j in range(n):
-                    if not (math.isfinite(q[j, l]) and math.isfinite(v[j, l])):
-                        q[j, l] = 0.0
-                        v[j, l] = 0.0
-                    cq[j, l] = 0.0
-                    cv[j, l] = 0.0
-                    for m in range(ns):
-                        K[m, j, l] = 0.0
 
 
 # -- any system: DOP853 on the right-hand side, with projection onto the constraints -----
