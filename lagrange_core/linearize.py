@@ -92,7 +92,6 @@ def linearize(system, params=None, about=None, t=0.0) -> Linearization:
     J = np.empty((2 * n, 2 * n))
     if k.jacobian(float(t), y, p, J) != 0:
         raise ValueError(f"the mass matrix is singular at q={q0.tolist()}; cannot linearise there.")
-    qdd = k.accelerations_at(q0, np.zeros(n), float(t), p)[0]
     M = np.empty((n, n))
     F = np.empty(n)
     k.mass_forcing(q0, np.zeros(n), float(t), p, M, F)
@@ -100,10 +99,15 @@ def linearize(system, params=None, about=None, t=0.0) -> Linearization:
     K = -M @ J[n:, :n]
     C = -M @ J[n:, n:]
     basis = np.eye(n)
+    # q̈ at q̇ = 0 (is this an equilibrium?) solved here from M and F (or the augmented
+    # system): neither ``accelerations`` nor ``rhs`` is compiled for one state
     if m:
         W = k.work_array()
         k.augmented(q0, np.zeros(n), float(t), p, W)
         basis = scipy.linalg.null_space(W[n:, :n])      # rows n.. of W hold Φ_q
+        qdd = np.linalg.solve(W[:, :n + m], W[:, n + m])[:n]
+    else:
+        qdd = np.linalg.solve(M, F)
     Mr, Cr, Kr = (basis.T @ X @ basis for X in (M, C, K))
     # |q̈| is compared with ω²·(1 rad or 1 m), the natural acceleration scale
     scale = np.max(np.abs(np.diag(Kr)) / np.abs(np.diag(Mr)))

@@ -118,11 +118,12 @@ def _spring_pendulum():
 
 
 @pytest.mark.parametrize("which", ["spring pendulum", "constrained"])
-def test_python_callers_solve_through_rhs_and_compile_no_accelerations_kernel(which):
-    """``System.accelerations`` and ``linearize`` take q̈ and λ from ``rhs`` (compiled when
-    the kernels are made) instead of compiling the ``accelerations`` kernel for the same
-    numbers: they equal that kernel's to 1e-13, and leave it uncompiled (a new 200-bead
-    string's first ``normal_modes``: 3.5 s less)."""
+def test_accelerations_and_linearize_compile_no_accelerations_kernel(which):
+    """``System.accelerations`` takes q̈ and λ from ``rhs`` (which nearly every use of a
+    system compiles) and ``linearize`` from M and F (or the augmented system), which it
+    evaluates anyway: neither compiles the ``accelerations`` kernel for the same numbers
+    (for a string of 200 beads 5.2 s cold), ``linearize`` not even ``rhs``; the values
+    equal that kernel's to 1e-13, and both equilibria's ω² their closed forms."""
     if which == "spring pendulum":
         system, p_by_name = _spring_pendulum(), dict(m=0.4, k=30.0, l0=0.8, g=9.81)
         q, qd = np.array([0.9, -1.2]), np.array([0.5, 2.0])
@@ -131,15 +132,24 @@ def test_python_callers_solve_through_rhs_and_compile_no_accelerations_kernel(wh
         q = np.array([0.2, 0.2 + 1.1 * np.sin(0.4), -1.1 * np.cos(0.4)])
         qd = np.array([0.3, 0.3 + 0.8 * np.cos(0.4), 0.8 * np.sin(0.4)])
     k = system.kernels
-    assert k.accelerations.signatures == []             # this process has not called it
+    # this process has called neither (nor the generators: this test's own statements)
+    assert k.accelerations.signatures == [] and k.rhs.signatures == []
+    # the equilibrium hanging at rest: ω² in closed form
+    if which == "spring pendulum":
+        g = p_by_name["g"]
+        r_eq = p_by_name["l0"] + p_by_name["m"] * g / p_by_name["k"]
+        w2 = system.linearize(p_by_name, about=[r_eq, 0.0]).omega_squared
+        np.testing.assert_allclose(w2, sorted([g / r_eq, p_by_name["k"] / p_by_name["m"]]),
+                                   rtol=1e-12)
+    else:        # the cart translates freely; the pendulum swings at g (M + m) / (M l)
+        M_, m_, l_, g = (p_by_name[name] for name in ("M", "m", "l", "g"))
+        w2 = system.linearize(p_by_name, about=[0.0, 0.0, -l_]).omega_squared
+        np.testing.assert_allclose(w2, [0.0, g * (M_ + m_) / (M_ * l_)], rtol=1e-12,
+                                   atol=1e-12 * g / l_)
+    assert k.accelerations.signatures == [] and k.rhs.signatures == []
     got = system.accelerations(q, qd, 0.1, p_by_name)
     qdd_got, lam_got = got if system.n_constraints else (got, np.empty(0))
-    if which == "spring pendulum":                      # the hanging equilibrium
-        r_eq = p_by_name["l0"] + p_by_name["m"] * p_by_name["g"] / p_by_name["k"]
-        w2 = system.linearize(p_by_name, about=[r_eq, 0.0]).omega_squared
-        np.testing.assert_allclose(w2, sorted([p_by_name["g"] / r_eq,
-                                               p_by_name["k"] / p_by_name["m"]]), rtol=1e-12)
-    assert k.accelerations.signatures == []             # nothing compiled for them
+    assert k.accelerations.signatures == []             # nothing compiled for it
     n, m = system.n_dof, system.n_constraints
     qdd, lam = np.empty(n), np.empty(m)
     p = system.parameter_array(p_by_name)
