@@ -111,7 +111,7 @@ from ._kernel_calls import (
 )
 from ._lane_calls import fast_accel_on_lanes
 from ._lane_math import lane_sincos_rows
-from ._selection import PILOT_MIN_SETTLED, PILOT_WIDEN, pilot_step_quantile
+from ._selection import PILOT_MIN_SETTLED, PILOT_SPAN_DIVISOR, PILOT_WIDEN, pilot_step_quantile
 from ._thread_blocks import run_rows, run_spans
 
 #: per-point status (``GridTrajectories.status``)
@@ -676,7 +676,7 @@ def pilot_step(ka, y0, p, t0, t1, T, rtol, atol, c, A, b, bp, bh, bph, counts):
     yf = np.empty(2 * n)
     z = np.zeros(n)
     inf = np.full(n, np.inf)
-    tw = t0 + span / 50.0           # the window's end (as _lanes_load and _lanes_block)
+    tw = t0 + span / PILOT_SPAN_DIVISOR     # the window's end
     h_done = -1.0                   # the step of the last window that finished
     while True:
         # the constants as np.int64/np.bool_: a literal argument (numba types ``0`` as
@@ -829,7 +829,7 @@ def _lanes_load(ka, l, i, phase, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, a
     nh[l] = 0
     ph[l] = phase
     if phase == _PILOT:
-        t1l[l] = t0 + (TS[i, 1] - t0) / 50.0
+        t1l[l] = t0 + (TS[i, 1] - t0) / PILOT_SPAN_DIVISOR
         Tl[l] = 0.0
     else:
         t1l[l] = TS[i, 1]
@@ -1483,7 +1483,7 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                 span = TS[i, 1] - TS[i, 0]
                 tw = t1l[l]
                 hq, settled = pilot_step_quantile(hbuf[l], m_)
-                if st != GRID_FINISHED and tw > TS[i, 0] + span / 50.0:
+                if st != GRID_FINISHED and tw > TS[i, 0] + span / PILOT_SPAN_DIVISOR:
                     # a widened pilot failed (a blow-up, an underflow): its shrinking steps
                     # say nothing; the step of the last window that finished (as pilot_step)
                     hq = hpl[l]

@@ -10,15 +10,19 @@ from __future__ import annotations
 
 from numba import njit
 
-__all__ = ["kth_smallest", "pilot_step_quantile", "PILOT_MIN_SETTLED", "PILOT_WIDEN"]
+__all__ = ["kth_smallest", "pilot_step_quantile", "PILOT_MIN_SETTLED", "PILOT_WIDEN",
+           "PILOT_SPAN_DIVISOR"]
 
 #: a pilot's step after which the classic controller grew the step at least this much
 #: (:func:`lagrange_core._integrator_kernels.rkn_next_step`: min(5, 0.9 err^(-1/11)), so
 #: the step's error was below 1.5e-4 of the tolerance) was far shorter than the
 #: tolerance allows: the starting ramp
 RAMP_GROWTH = 2.0
-#: a pilot of "rkn12-fixed" is run again over a window PILOT_WIDEN times longer (at most
-#: the whole span) until it has taken PILOT_MIN_SETTLED steps beyond its starting ramp
+#: a pilot of "rkn12-fixed" first runs over the span's first 1/PILOT_SPAN_DIVISOR, then
+#: again over a window PILOT_WIDEN times longer (at most the whole span) until it has
+#: taken PILOT_MIN_SETTLED steps beyond its starting ramp (``integrate``, and the grids'
+#: pilots in ``_batch_kernels``: one rule, the same steps)
+PILOT_SPAN_DIVISOR = 50.0
 PILOT_MIN_SETTLED = 8
 PILOT_WIDEN = 8.0
 

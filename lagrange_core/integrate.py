@@ -144,7 +144,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from . import _integrator_kernels as _kern
-from ._selection import PILOT_MIN_SETTLED, PILOT_WIDEN, pilot_step_quantile
+from ._selection import PILOT_MIN_SETTLED, PILOT_SPAN_DIVISOR, PILOT_WIDEN, pilot_step_quantile
 from .drive_kernel import load_drive_kernel
 from .progress import ProgressLine, defer_ctrl_c, interrupt_requested
 
@@ -715,7 +715,7 @@ def _step_from_tolerance(kernels, label, q0, qd0, p, o):
     pilot_step`, take the same steps).
     """
     span = o.t1 - o.t0
-    tw = o.t0 + span / 50           # the window's end
+    tw = o.t0 + span / PILOT_SPAN_DIVISOR      # the window's end
     h_done = None                   # the step of the last window that finished
     while True:
         pilot = replace(o, t1=tw, t_eval=None, h=None, stride=1, max_steps=None)
