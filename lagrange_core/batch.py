@@ -407,7 +407,7 @@ def compile_activity(what: str, kernels, method) -> str | None:
     ("simulate_grid", "measure") running grids of ``method`` (None: the default for
     ``kernels``), named by the driver it compiles on an empty cache: e.g. "measure,
     RKN 12".  None for a method :func:`simulate_grid` refuses (it says why)."""
-    method = _default_method(kernels) if method is None else method
+    method = default_method(kernels) if method is None else method
     if method not in _GRID_METHODS:
         return None
     family, sub, _ = _GRID_METHODS[method]
@@ -415,15 +415,17 @@ def compile_activity(what: str, kernels, method) -> str | None:
     return f"{what}, {driver}"
 
 
-def _default_method(kernels) -> str:
-    """A grid's method when none is given: RKN 12 where q̈ = f(q, t), else DOP853."""
+def default_method(kernels) -> str:
+    """A grid's method when none is given: RKN 12 where q̈ = f(q, t), else DOP853 (the
+    one rule: ``simulate_grid``, the compile notice and kapitza's ``measure`` read it
+    here)."""
     return "rkn12" if kernels.rkn_form else "dop853"
 
 
 def _grid_method(kernels, method, h_given):
     from .integrate import rkn_eligibility
     if method is None:
-        method = _default_method(kernels)
+        method = default_method(kernels)
     if method not in _GRID_METHODS:
         raise ValueError(f"simulate_grid runs methods {sorted(_GRID_METHODS)}, got {method!r}.")
     family, sub, adaptive = _GRID_METHODS[method]

@@ -104,7 +104,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from lagrange_core._compile_notice import declared
-from lagrange_core.batch import GridInterrupted, compile_activity
+from lagrange_core.batch import GridInterrupted, compile_activity, default_method
 from lagrange_core.checks import real_array, real_number
 from lagrange_core.progress import ProgressLine, defer_ctrl_c, interrupt_requested
 
@@ -447,8 +447,8 @@ def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIOD
     periods = whole_number(periods, "periods", 1)
     wanted = _observables(observables)
     if rtol is None:
-        rkn = method in ("rkn12", "rkn12-fixed") or (method is None
-                                                      and system.kernels.rkn_form)
+        run = default_method(system.kernels) if method is None else method
+        rkn = run in ("rkn12", "rkn12-fixed")
         rtol = (OMEGA_RTOL if wanted else CLASSIFICATION_RTOL if rkn
                 else CLASSIFICATION_RTOL_OTHER)
     omega = _strobe_frequency(system, params, frequency)
