@@ -17,13 +17,14 @@ while it computes its first sections).
 """
 from __future__ import annotations
 
-import atexit
 import math
 import os
 import subprocess
 import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
+
+from . import _background
 
 __all__ = ["warmup"]
 
@@ -121,24 +122,19 @@ def _command(names) -> list:
 def cold() -> bool:
     """Whether numba's cache lacks the shared kernels (a probe of a few of them)."""
     from lagrange_core import _batch_kernels, _integrator_kernels
-    probes = [_integrator_kernels.fast_rkn_chunk, _integrator_kernels.dop853_chunk,
-              _batch_kernels._dop853_rows, _batch_kernels._lanes_block]
-    for dispatcher in probes:
-        try:
-            # an index with no entry: importing the module writes an empty one (the
-            # guard against stale callees flushes numba's cache)
-            if not dispatcher._cache._cache_file._load_index():
-                return True
-        except AttributeError:       # another numba: assume warm, compile where needed
-            return False
-    return False
+    return _background.cold(_integrator_kernels.fast_rkn_chunk, _integrator_kernels.dop853_chunk,
+                            _batch_kernels._dop853_rows, _batch_kernels._lanes_block)
 
 
 def _parallel(names, processes, verbose, start):
     """Run ``names`` in ``processes`` worker processes; failures are left to the
     in-process pass (which raises them with a traceback of its own)."""
+    # (a worker starts no background compile of its own: it is one)
+    env = dict(os.environ, KAPITZA_BACKGROUND_COMPILE="0")
+
     def one(name):
-        out = subprocess.run(_command([name]), capture_output=True, text=True, check=False)
+        out = subprocess.run(_command([name]), capture_output=True, text=True, check=False,
+                             env=env)
         if verbose:
             print(f"warmup: {name} compiled in a worker ({time.perf_counter() - start:.1f} s"
                   f"{', failed' if out.returncode else ''})")
@@ -177,7 +173,7 @@ def warmup(verbose: bool = False, *, processes: int | None = None) -> float:
 
 
 #: this process's background compiles (:func:`start_background`), by group
-_BACKGROUND: dict = {}
+_BACKGROUND = _background.RUNNING
 
 
 def wait_for(names) -> float:
@@ -187,12 +183,7 @@ def wait_for(names) -> float:
     cold ``kapitza report`` the work–precision section compiled RKN 12's driver itself
     (14 s) while the background process was compiling it.  Ctrl-C ends the wait
     (KeyboardInterrupt).  Returns the seconds waited."""
-    start = time.perf_counter()
-    for name in names:
-        proc = _BACKGROUND.get(name)
-        if proc is not None:
-            proc.wait()         # (a signal's handler raising ends the blocking wait)
-    return time.perf_counter() - start
+    return _background.wait(names)
 
 
 def start_background(names=("grids (dop853)", "report integrators")):
@@ -204,22 +195,7 @@ def start_background(names=("grids (dop853)", "report integrators")):
     compiled them itself as well (cold report 69.6 s, against 61.3 s with one process per
     group, 2026-11-26).  ``KAPITZA_BACKGROUND_COMPILE=0`` turns it off (a test suite,
     whose workers already use every core)."""
-    if os.environ.get("KAPITZA_BACKGROUND_COMPILE", "1").strip() in ("0", "false", "no"):
+    if not _background.enabled() or not cold():
         return None
-    if not cold():
-        return None
-    procs = [subprocess.Popen(_command([name]), stdout=subprocess.DEVNULL,
-                              stderr=subprocess.DEVNULL) for name in names]
-    _BACKGROUND.update(zip(names, procs, strict=True))
-
-    def end():
-        for proc in procs:
-            if proc.poll() is None:
-                proc.terminate()        # numba writes its cache files atomically
-        for proc in procs:
-            try:
-                proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-    atexit.register(end)
-    return procs
+    return [_background.start(name, f"from kapitza.warmup import run_group\nrun_group({name!r})")
+            for name in names]

@@ -199,3 +199,79 @@ def test_orbits_branches_and_floquet_declare_what_their_first_call_compiles(monk
     assert seen == {"periodic_orbit": "periodic orbit", "continuation": "continuation",
                     "floquet_point": "Floquet"}
     assert set(seen.values()) <= set(_compile_notice.ACTIVITY_SECONDS)
+
+
+# -- the slow-frequency fit, compiled on the other core ---------------------------------------
+
+class _FakeProcess:
+    """A background process that has ended; it records that someone waited for it."""
+
+    def __init__(self):
+        self.waited = 0
+
+    def wait(self, timeout=None):
+        self.waited += 1
+        return 0
+
+
+@pytest.mark.parametrize("case", ["cold", "classification only", "switched off", "one core"])
+def test_measure_compiles_its_fit_in_the_background_on_a_cold_cache(monkeypatch, case):
+    """On a cold cache ``measure`` starts the fit's compile in a background process before
+    its grid, and waits for it before fitting (the first damped measure on empty caches:
+    15.5–17 s → 8.5–10.5 s); never for a classification, with
+    ``KAPITZA_BACKGROUND_COMPILE=0`` or on one core."""
+    from kapitza import KapitzaPendulum, _background
+    from kapitza.simulation import _measurement
+    started = []
+
+    def start(name, code):
+        proc = _FakeProcess()
+        started.append((name, code, proc))
+        _background.RUNNING[name] = proc
+        return proc
+
+    monkeypatch.setattr(_background, "RUNNING", {})
+    monkeypatch.setattr(_background, "start", start)
+    monkeypatch.setattr(_background, "cold", lambda *kernels: True)
+    monkeypatch.setattr(_measurement, "_fit_in_process", lambda: False)
+    monkeypatch.setenv("KAPITZA_BACKGROUND_COMPILE", "0" if case == "switched off" else "1")
+    monkeypatch.setattr(_measurement.os, "cpu_count", lambda: 1 if case == "one core" else 2)
+    pend = KapitzaPendulum(l=1.0, g=9.81, damping=0.5)
+    observables = "classification" if case == "classification only" else "all"
+    m = pend.measure(0.05, 2 * np.pi * 60, np.pi - 0.1, periods=200, observables=observables)
+    if case != "cold":
+        assert started == []
+        return
+    assert [(name, code) for name, code, _ in started] == [
+        ("strobe fit", _measurement._FIT_CODE)]
+    assert started[0][2].waited == 1 and np.all(np.isfinite(m.omega_slow))
+
+
+def test_the_background_fit_compiles_what_a_measure_fits_with():
+    """The background group's records reach every specialisation of the fit's kernels that
+    measuring a pendulum (one coordinate) and a 3-coordinate record use: after it, they
+    compile (or load) nothing more.  In a fresh process: there, a kernel has a signature
+    once it is called."""
+    script = textwrap.dedent('''
+        import json, math
+        import numpy as np
+        from kapitza import KapitzaPendulum
+        from kapitza.simulation import _measurement, slow_frequencies
+        def seen():
+            return {k.py_func.__name__: sorted(map(str, k.signatures))
+                    for k in _measurement._FIT_KERNELS}
+        exec(_measurement._FIT_CODE)
+        after_group = seen()
+        KapitzaPendulum(l=1.0, g=9.81, damping=0.5).measure(0.05, 2 * math.pi * 60,
+                                                             math.pi - 0.1, periods=200)
+        k = np.arange(300)[:, None]
+        slow_frequencies(np.cos(0.1 * k * np.arange(1, 4)), np.sin(0.1 * k * np.arange(1, 4)),
+                         0.01)
+        print(json.dumps([after_group, seen()]))
+    ''')
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         timeout=600)
+    assert out.returncode == 0, out.stderr[-2000:]
+    after_group, after_use = __import__("json").loads(out.stdout.splitlines()[-1])
+    assert all(after_group.values()), after_group        # the group called every kernel
+    assert after_use == after_group

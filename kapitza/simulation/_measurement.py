@@ -99,6 +99,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from collections.abc import Mapping
 
 import numpy as np
@@ -108,6 +109,7 @@ from lagrange_core.batch import GridInterrupted, compile_activity, default_metho
 from lagrange_core.checks import real_array, real_number
 from lagrange_core.progress import ProgressLine, defer_ctrl_c, interrupt_requested
 
+from .. import _background
 from .._arguments import (
     SWEEP_FIX,
     check_grid_memory,
@@ -116,6 +118,7 @@ from .._arguments import (
     whole_number,
 )
 from ..results import ComputationInterrupted, Measurement
+from . import _strobe_fit
 from ._strobe_fit import estimate, record_extent
 
 __all__ = ["measure", "measure_grid", "slow_frequencies", "Measurement", "RESIDUAL_FACTOR",
@@ -210,12 +213,53 @@ def _combination(Om, period, count, residual, largest=12):
     return hit
 
 
+#: A first fit's kernels compile in 5.5 s on an empty cache (0.6 s to load, 2026-11-27):
+#: on a cold cache ``measure`` compiles them in a background process while its grid's
+#: kernels compile here (:func:`_compile_fit_in_background`), on the other core.  The
+#: records: two coordinates' slow oscillations and one's (its 2 × 2 solve), long enough
+#: for every fit.
+_FIT_GROUP = "strobe fit"
+_FIT_CODE = """\
+import numpy as np
+from kapitza.simulation import slow_frequencies
+k = np.arange(400)
+T = 2 * np.pi / 377.0
+q = np.stack([np.pi + 0.01 * np.cos(0.05 * k), 0.02 * np.cos(0.13 * k + 0.3)], -1)[None]
+qdot = np.stack([-0.01 * 0.05 / T * np.sin(0.05 * k),
+                 -0.02 * 0.13 / T * np.sin(0.13 * k + 0.3)], -1)[None]
+slow_frequencies(q, qdot, T)
+slow_frequencies(q[..., :1], qdot[..., :1], T)
+"""
+
+
+def _compile_fit_in_background():
+    """Start the fit's compile in a background process when its kernels are neither in
+    this process nor in numba's cache, background compiles are allowed
+    (:mod:`kapitza._background`) and there is a second core; :func:`_estimate_chunked`
+    waits for it."""
+    if (_fit_in_process() or not _background.enabled() or (os.cpu_count() or 1) < 2
+            or not _background.cold(*_FIT_KERNELS)):
+        return
+    _background.start(_FIT_GROUP, _FIT_CODE)
+
+
+#: the fit's compiled kernels (:mod:`kapitza.simulation._strobe_fit`)
+_FIT_KERNELS = (_strobe_fit._valid_lengths, _strobe_fit._moments, _strobe_fit._residuals,
+                _strobe_fit._rotation, _strobe_fit._solve_2)
+
+
+def _fit_in_process() -> bool:
+    """Whether this process has the fit's kernels already (compiled or loaded)."""
+    return bool(_strobe_fit._moments.signatures)
+
+
 def _estimate_chunked(q, qdot, period, progress=False):
     """The estimator (:func:`kapitza.simulation._strobe_fit.estimate`, compiled) over the
     points in chunks of ``_CHUNK`` (bounded copies), with a progress line ("fitting Ω")
     and Ctrl-C between chunks (:func:`lagrange_core.progress.defer_ctrl_c` active): then
     the points not reached are NaN.  Returns (fields, points fitted)."""
     P = q.shape[0]
+    _background.wait((_FIT_GROUP,))     # its kernels, compiling in the background: loaded
 
     def fit(a, b):
         return estimate(q[a:b], qdot[a:b], period[a:b], safety=SAFETY,
@@ -489,6 +533,8 @@ def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIOD
     # Ctrl-C, from here on, stops the simulation or the fit between compiled calls; a
     # first compile of the shared kernels says how long measuring with this driver
     # compiles (the grid's and the fit's kernels)
+    if "omega_slow" in wanted:
+        _compile_fit_in_background()
     with defer_ctrl_c(), declared(compile_activity("measure", system.kernels, method)):
         try:
             grid = system.simulate_grid(start, rate, (t0, t0 + periods * period), params,
