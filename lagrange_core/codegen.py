@@ -656,8 +656,8 @@ class Kernels:
     def accelerations_at(self, q, qd, t: float, p) -> tuple[np.ndarray, np.ndarray, int]:
         """q̈ (n), the multipliers λ (m) and the status (0, or 1: singular) at one state.
 
-        Computed by ``rhs`` (it leaves [q̈, λ] in ``W``), which nearly every use of a
-        system compiles (any integration but RKN's on a drive kernel), rather than by the
+        Computed by ``rhs`` (it leaves [q̈, λ] in ``W``), which every integration of the
+        system compiles (``simulate``, ``simulate_grid``: its entry point), rather than by the
         ``accelerations`` kernel, which solves the same system and would compile for a
         Python caller's one state (``System.accelerations``, an event on a multiplier):
         cold, ``accelerations`` after ``rhs`` took 0.2 s for a double pendulum, 5.2 s for a

@@ -232,6 +232,16 @@ slow_frequencies(q[..., :1], qdot[..., :1], T)
 """
 
 
+#: the fit's compiled kernels (:mod:`kapitza.simulation._strobe_fit`)
+_FIT_KERNELS = (_strobe_fit._valid_lengths, _strobe_fit._moments, _strobe_fit._residuals,
+                _strobe_fit._rotation, _strobe_fit._solve_2)
+
+
+def _fit_in_process() -> bool:
+    """Whether this process has the fit's kernels already (compiled or loaded)."""
+    return bool(_strobe_fit._moments.signatures)
+
+
 def _compile_fit_in_background():
     """Start the fit's compile in a background process when its kernels are neither in
     this process nor in numba's cache, background compiles are allowed
@@ -241,16 +251,6 @@ def _compile_fit_in_background():
             or not _background.cold(*_FIT_KERNELS)):
         return
     _background.start(_FIT_GROUP, _FIT_CODE)
-
-
-#: the fit's compiled kernels (:mod:`kapitza.simulation._strobe_fit`)
-_FIT_KERNELS = (_strobe_fit._valid_lengths, _strobe_fit._moments, _strobe_fit._residuals,
-                _strobe_fit._rotation, _strobe_fit._solve_2)
-
-
-def _fit_in_process() -> bool:
-    """Whether this process has the fit's kernels already (compiled or loaded)."""
-    return bool(_strobe_fit._moments.signatures)
 
 
 def _estimate_chunked(q, qdot, period, progress=False):
