@@ -49,14 +49,19 @@ def cold(*dispatchers) -> bool:
     return False
 
 
-def start(name: str, code: str) -> subprocess.Popen:
+def start(name: str, code: str) -> subprocess.Popen | None:
     """Run ``code`` in a background process for the group ``name`` (once: a group already
-    started is not started again) and return the process."""
+    started is not started again) and return the process; None where no process can be
+    started (the system's limit): the kernels then compile where they are called, as on
+    one core — a background compile only saves time, it is never needed."""
     if name in RUNNING:
         return RUNNING[name]
     env = dict(os.environ, **{_SWITCH: "0"})
-    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL, env=env)
+    try:
+        proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL, env=env)
+    except OSError:
+        return None
     RUNNING[name] = proc
     atexit.register(_end, proc)
     return proc

@@ -188,8 +188,9 @@ def wait_for(names) -> float:
 
 def start_background(names=("grids (dop853)", "report integrators")):
     """Compile the groups ``names`` on an empty cache, each in a background process of its
-    own (the list of processes; None if the cache is warm); they are ended when this
-    process exits.  The caller goes on with its own work, and loads what the background
+    own (the list of processes, None for one that could not start; None if the cache is
+    warm); they are ended when this process exits.  The caller goes on with its own
+    work, and loads what the background
     processes have written by the time it needs it: with one process for both groups the
     report reached its work–precision section before the integrators were compiled and
     compiled them itself as well (cold report 69.6 s, against 61.3 s with one process per

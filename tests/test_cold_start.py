@@ -275,3 +275,18 @@ def test_the_background_fit_compiles_what_a_measure_fits_with():
     after_group, after_use = __import__("json").loads(out.stdout.splitlines()[-1])
     assert all(after_group.values()), after_group        # the group called every kernel
     assert after_use == after_group
+
+
+def test_a_background_compile_that_cannot_start_is_skipped(monkeypatch):
+    """A background process the system refuses (OSError: its process limit) is no error:
+    ``start`` returns None, nothing waits for it, and the kernels compile where called."""
+    from kapitza import _background
+
+    def refuse(*args, **kwargs):
+        raise OSError(11, "Resource temporarily unavailable")
+
+    monkeypatch.setattr(_background, "RUNNING", {})
+    monkeypatch.setattr(_background.subprocess, "Popen", refuse)
+    assert _background.start("strobe fit", "pass") is None
+    assert _background.RUNNING == {}
+    assert _background.wait(("strobe fit",)) < 0.05
