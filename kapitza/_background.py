@@ -11,7 +11,7 @@ atomically, so an ended one leaves nothing half-written).
 
 Users: ``kapitza report`` (its later sections' groups, :func:`kapitza.warmup.start_background`)
 and ``measure`` (the slow-frequency fit beside the grid,
-:func:`kapitza.simulation._strobe_fit.compile_in_background`).
+``kapitza.simulation._measurement._compile_fit_in_background``).
 """
 from __future__ import annotations
 
@@ -80,6 +80,7 @@ def wait(names) -> float:
 
 
 def _end(proc) -> None:
+    """At exit: end a background process still running (5 s to go, then killed)."""
     if proc.poll() is None:
         proc.terminate()
     try:

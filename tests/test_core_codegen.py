@@ -119,7 +119,7 @@ def _spring_pendulum():
 
 @pytest.mark.parametrize("which", ["spring pendulum", "constrained"])
 def test_accelerations_and_linearize_compile_no_accelerations_kernel(which):
-    """``System.accelerations`` takes q̈ and λ from ``rhs`` (which nearly every use of a
+    """``System.accelerations`` takes q̈ and λ from ``rhs`` (which every integration of a
     system compiles) and ``linearize`` from M and F (or the augmented system), which it
     evaluates anyway: neither compiles the ``accelerations`` kernel for the same numbers
     (for a string of 200 beads 5.2 s cold), ``linearize`` not even ``rhs``; the values
