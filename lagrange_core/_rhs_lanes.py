@@ -179,7 +179,7 @@ def _used(lines, loads):
     return out
 
 
-def _kernel(n, k, exprs, derivs, jvp):
+def _kernel(n, exprs, derivs, jvp):
     """The body of the lanes loop: results to dydt/jv (n = 1) or to ``work`` ([M | F] in
     rows 1 … n(n + 1), δM and δF after them), solved after the loop."""
     outs = list(exprs) + (list(derivs) if jvp else [])
@@ -219,7 +219,7 @@ def _kernel(n, k, exprs, derivs, jvp):
 
 def _lanes_function(name, n, k, exprs, derivs, jvp):
     args = "tl, y, v, p, dydt, jv, work, L" if jvp else "tl, y, p, dydt, work, L"
-    body = _kernel(n, k, exprs, derivs, jvp)
+    body = _kernel(n, exprs, derivs, jvp)
     loop = _used(body, _loads(n, k, jvp)) + body
     lines = ["for l in range(L):", textwrap.indent("\n".join(loop), "    ")]
     w = n + 1
