@@ -114,6 +114,42 @@ def test_blitted_frames_equal_full_redraws(anim, monkeypatch, tmp_path):
                                       np.asarray(full.fig.canvas.buffer_rgba()))
 
 
+def test_each_gif_pixel_is_its_drawn_colours_nearest_palette_colour(tmp_path, monkeypatch):
+    """The GIF writer maps each pixel to the palette colour nearest (in RGB) to the colour
+    drawn, through a table filled as colours appear: checked against a search pixel by
+    pixel, on frames whose colours change from one frame to the next (later frames bring
+    colours the first lacked), with the colours drawn flat kept exactly."""
+    from kapitza.animation._drawing import _gif_writer
+    rng = np.random.default_rng(7)
+    exact = [(0.0, 0.0, 1.0), (1.0, 0.5, 0.0)]
+    flat = np.array([[255, 255, 255], [0, 0, 0], [0, 0, 255], [255, 128, 0]], np.uint8)
+    frames = []
+    for k in range(5):
+        rgb = flat[rng.integers(0, 4, size=(12, 16))]
+        rgb[:, :2 * (k + 1)] = rng.integers(0, 256, size=(12, 2 * (k + 1), 3))  # new colours
+        frames.append(np.dstack([rgb, np.full((12, 16), 255, np.uint8)]))
+    written = []        # the indexed frames handed to Pillow's GIF encoder
+    monkeypatch.setattr(Image.Image, "save", lambda self, fp, save_all, append_images, **kw:
+                        written.extend([self, *append_images]))
+    writer = _gif_writer(10, exact=exact)
+    writer.outfile, writer.fps, writer._frames = tmp_path / "t.gif", 10, list(frames)
+    writer.finish()
+    assert len(written) == len(frames)
+    for im, drawn in zip(written, frames, strict=True):
+        assert im.mode == "P"
+        palette = np.array(im.getpalette(), float).reshape(-1, 3)
+        assert len(palette) == 64
+        rgb = drawn[..., :3].reshape(-1, 3).astype(float)
+        d2 = ((rgb[:, None, :] - palette[None]) ** 2).sum(2)
+        # each pixel's index is a nearest palette colour to what was drawn (ties: any)
+        chosen = d2[np.arange(rgb.shape[0]), np.asarray(im).ravel()]
+        np.testing.assert_array_equal(chosen, d2.min(1))
+        # the flat colours are in the palette exactly, so they are written unchanged
+        is_flat = (drawn[..., :3].reshape(-1, 1, 3) == flat[None]).all(2).any(1)
+        assert is_flat.sum() > 50
+        np.testing.assert_array_equal(chosen[is_flat], 0.0)
+
+
 def test_driven_stays_up_the_other_falls_as_measure_and_floquet_say(anim):
     pend = KapitzaPendulum(l=L, g=G)
     assert anim.stayed_up == (True, False)
