@@ -125,8 +125,8 @@ def _pytest_drops_xdist_groups() -> bool:
 
 def pytest_configure(config):
     """On a cold numba cache (a fresh clone), compile the kernels the whole suite shares
-    once, in processes on both cores, before the workers start: each worker would otherwise
-    compile the same ones at the same time (the RKN 12 lanes ~25 s).  In the controller of a
+    once, in two processes, before the workers start: each worker would otherwise compile
+    the same ones at the same time (the RKN 12 lanes ~20 s).  In the controller of a
     ``-n`` run only; ``KAPITZA_TEST_WARMUP=0`` skips it."""
     if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
         return
@@ -143,29 +143,20 @@ def pytest_configure(config):
     import subprocess
     import sys
     import time
-    from concurrent.futures import ThreadPoolExecutor
 
-    from kapitza.warmup import GROUPS, _command, cold
+    from kapitza.warmup import GROUPS, cold
+    from kapitza.warmup import _parallel as compile_in_processes
     if not cold():
         return
     start = time.perf_counter()
-    # kapitza.warmup's groups, and beside them the kernels many test files share that a
-    # user's first call does not (_SUITE_KERNELS), as one queue of processes, the longest
-    # first, three at a time on the two cores: with the suite's kernels in one process
-    # beside warmup's two, that process ran alone for its last ~15 s (one core idle)
-    env = dict(os.environ, KAPITZA_BACKGROUND_COMPILE="0")
-    # (the two short groups last: they reuse what "measure" and "integrators" compile)
-    order = ("measure", "chaos", "integrators", "symplectic", "floquet", "report integrators",
-             "grids (dop853)")
-    assert set(order) == set(GROUPS) | set(_SUITE_KERNELS), "a group left out of the queue"
-    commands = [[sys.executable, "-c", _SUITE_KERNELS[name]] if name in _SUITE_KERNELS
-                else _command([name]) for name in order]
-
-    def run(command):
-        subprocess.run(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                       env=env, check=False)       # a failure shows in the tests that need it
-    with ThreadPoolExecutor(max_workers=3) as pool:
-        list(pool.map(run, commands))
+    # beside kapitza.warmup's groups, the kernels many test files share that a user's
+    # first call does not: the grid's symplectic driver with the energy record (~50 s cold),
+    # the chaos room's lanes (Lyapunov and the strobe's DOP853, ~90 s) and its per-point
+    # Lyapunov kernel (two files' tests called it at once, and each compiled it: 5 s)
+    suite = subprocess.Popen([sys.executable, "-c", _SUITE_KERNELS],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    compile_in_processes(list(GROUPS), 2, False, start)
+    suite.wait()
     print(f"\nconftest: numba's cache was cold: the shared kernels compiled in "
           f"{time.perf_counter() - start:.0f} s before the workers start")
 
@@ -228,24 +219,14 @@ def _rewrite_test_modules(config):
             return                                  # read-only tree: only slower
 
 
-#: The kernels many test files share that a user's first call does not, in two processes:
-#: the grid's symplectic driver with the energy record (~40 s cold), and the chaos room's
-#: lanes (Lyapunov and the strobe's DOP853) with its per-point Lyapunov kernel (two files'
-#: tests called it at once, and each compiled it: 5 s) (~50 s)
-_SUITE_KERNELS = {
-    "symplectic": """
-import warnings
-warnings.simplefilter("ignore")
-from lagrange_core import problems
-pend = problems.pendulum()
-pend.simulate_grid([1.0], [0.0], (0.0, 2.0), dict(g=9.81, l=1.0, m=1.0), method="yoshida6",
-                   h=0.2, energy=True, progress=False)
-""",
-    "chaos": """
+_SUITE_KERNELS = """
 import math, warnings
 warnings.simplefilter("ignore")
 from lagrange_core import problems
 from kapitza.chaos import bifurcation_diagram, lyapunov, lyapunov_grid
+pend = problems.pendulum()
+pend.simulate_grid([1.0], [0.0], (0.0, 2.0), dict(g=9.81, l=1.0, m=1.0), method="yoshida6",
+                   h=0.2, energy=True, progress=False)
 driven = problems.driven_pendulum("vertical", damping=True)
 w0 = math.sqrt(9.81)
 p = dict(A=0.1, g=9.81, l=1.0, m=1.0, omega=2 * w0, gamma=0.1 * w0)
@@ -253,7 +234,7 @@ lyapunov_grid(driven, p, 0.3, periods=4, transient=0, blocks=2, progress=False)
 bifurcation_diagram(driven, p, parameter="A", values=[0.1, 0.2], angles="theta", periods=2,
                     transient=1, progress=False)
 lyapunov(driven, p, 0.3, periods=4, transient=0, blocks=2, progress=False)
-"""}
+"""
 
 
 @pytest.fixture(scope="session")
