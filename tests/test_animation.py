@@ -114,11 +114,15 @@ def test_blitted_frames_equal_full_redraws(anim, monkeypatch, tmp_path):
                                       np.asarray(full.fig.canvas.buffer_rgba()))
 
 
-def test_each_gif_pixel_is_its_drawn_colours_nearest_palette_colour(tmp_path, monkeypatch):
+@pytest.mark.parametrize("as_images", [False, True], ids=["canvas bytes", "PIL images"])
+def test_each_gif_pixel_is_its_drawn_colours_nearest_palette_colour(tmp_path, monkeypatch,
+                                                                    as_images):
     """The GIF writer maps each pixel to the palette colour nearest (in RGB) to the colour
     drawn, through a table filled as colours appear: checked against a search pixel by
     pixel, on frames whose colours change from one frame to the next (later frames bring
-    colours the first lacked), with the colours drawn flat kept exactly."""
+    colours the first lacked), with the colours drawn flat kept exactly.  The frames as
+    ``render`` hands them (the canvas's RGBA bytes) or as PillowWriter's ``grab_frame``
+    does (images)."""
     from kapitza.animation._drawing import _gif_writer
     rng = np.random.default_rng(7)
     exact = [(0.0, 0.0, 1.0), (1.0, 0.5, 0.0)]
@@ -132,7 +136,8 @@ def test_each_gif_pixel_is_its_drawn_colours_nearest_palette_colour(tmp_path, mo
     monkeypatch.setattr(Image.Image, "save", lambda self, fp, save_all, append_images, **kw:
                         written.extend([self, *append_images]))
     writer = _gif_writer(10, exact=exact)
-    writer.outfile, writer.fps, writer._frames = tmp_path / "t.gif", 10, list(frames)
+    writer.outfile, writer.fps = tmp_path / "t.gif", 10
+    writer._frames = [Image.fromarray(f) for f in frames] if as_images else list(frames)
     writer.finish()
     assert len(written) == len(frames)
     for im, drawn in zip(written, frames, strict=True):

@@ -61,10 +61,12 @@ def _gif_writer(fps, exact=()):
             if not self._frames:
                 return
             # the frames are the canvas's RGBA bytes, (height, width, 4) uint8 arrays
-            # (``render``: no PIL image per frame); each pixel as a 24-bit code
-            # R | G << 8 | B << 16, its four bytes read as a little-endian word with the
-            # alpha masked off (the figure is opaque)
-            rgba = self._frames
+            # (``render``: no PIL image per frame; PillowWriter's own grab_frame appends
+            # images); each pixel as a 24-bit code R | G << 8 | B << 16, its four bytes
+            # read as a little-endian word with the alpha masked off (dropped, as an RGB
+            # conversion drops it)
+            rgba = [f if isinstance(f, np.ndarray) else np.asarray(f.convert("RGBA"))
+                    for f in self._frames]
             codes = [f.view("<u4")[..., 0] & 0xFFFFFF for f in rgba]
             # the palette from first, middle and last frame side by side (every colour drawn)
             mosaic = Image.fromarray(np.hstack([rgba[k][..., :3] for k in
@@ -79,8 +81,8 @@ def _gif_writer(fps, exact=()):
             # each pixel's nearest palette colour, through a table over the 2²⁴ colours
             # filled as colours appear: the frames share almost all their colours, so after
             # the first only the few new ones (antialiased edges) are looked up.  The same
-            # indices as a search per frame (np.unique of each frame: 3.2 s of the default
-            # 160-frame GIF's 8.3 s)
+            # indices as a search per frame (np.unique of each frame took 3.2 s of the 8.3 s
+            # of a 321-frame pendulum_animation: benchmarks/bench_animation.py)
             unset = 255                     # (the palette has 64 colours)
             table = np.full(1 << 24, unset, np.uint8)
             frames = []
