@@ -172,10 +172,6 @@ def warmup(verbose: bool = False, *, processes: int | None = None) -> float:
     return time.perf_counter() - start
 
 
-#: this process's background compiles (:func:`start_background`), by group
-_BACKGROUND = _background.RUNNING
-
-
 def wait_for(names) -> float:
     """Wait until the background processes compiling the groups ``names`` have ended
     (:func:`start_background`; at once when none runs), so that the kernels they compile

@@ -363,12 +363,13 @@ def test_a_section_waits_for_the_background_compile_of_its_kernels(monkeypatch):
     import sys
     import time
 
+    from kapitza import _background
     from kapitza.report._sections import COMPILED_IN
     warm = importlib.import_module("kapitza.warmup")    # (kapitza.warmup is the function)
     assert set(COMPILED_IN) <= set(SECTIONS)
     assert {g for groups in COMPILED_IN.values() for g in groups} <= set(warm.GROUPS)
     proc = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(1.0)"])
-    monkeypatch.setitem(warm._BACKGROUND, "report integrators", proc)
+    monkeypatch.setitem(_background.RUNNING, "report integrators", proc)
     assert warm.wait_for(("grids (dop853)",)) < 0.05            # none running
     start = time.perf_counter()
     waited = warm.wait_for(COMPILED_IN["work_precision"])
