@@ -173,8 +173,11 @@ def _measure(args) -> int:
         interrupted = False
     except ComputationInterrupted as stop:      # Ctrl-C: the run so far, measured
         m, interrupted = stop.result, True
-        say(f"measure: interrupted at t = {m.t_reached:.6g} s after {m.completed_periods} of "
-            f"{args.periods} periods; the measurement below covers the run so far.")
+        if m.status == "not_run":
+            say("measure: interrupted before the run started; nothing was integrated.")
+        else:
+            say(f"measure: interrupted at t = {m.t_reached:.6g} s after {m.completed_periods} "
+                f"of {args.periods} periods; the measurement below covers the run so far.")
     fields = {k: getattr(m, k) for k in ("stayed_up", "fall_time", "omega_slow",
                                          "omega_slow_error", "amplitude", "mean_angle",
                                          "growth_rate", "max_deviation", "about", "period",
@@ -182,11 +185,15 @@ def _measure(args) -> int:
                                          "completed_periods")}
     data = {**drive_point(args, A, omega), "theta0": args.theta0, "theta_dot0": args.theta_dot0,
             "measurement": fields}
+    # (None after a Ctrl-C that left no time for the fit: the interruption's message says why)
+    slow = ("not fitted" if m.omega_slow is None
+            else f"{with_error(m.omega_slow, m.omega_slow_error)} rad/s")
+    amplitude = "not computed" if m.amplitude is None else f"{m.amplitude:.4g} rad"
     emit(args, data, f"released at θ0 = {args.theta0:.6g} rad, θ̇0 = {args.theta_dot0:g} rad/s, "
           f"{args.periods} periods of A = {A:.6g} m, ω = {omega:.6g} rad/s:\n"
           f"  stayed up {bool(m.stayed_up)}  fall time {m.fall_time:.6g} s\n"
-          f"  Ω = {with_error(m.omega_slow, m.omega_slow_error)} rad/s  "
-          f"slow amplitude {m.amplitude:.4g} rad  mean angle {m.mean_angle:.6g} rad\n"
+          f"  Ω = {slow}  slow amplitude {amplitude}  "
+          f"mean angle {m.mean_angle:.6g} rad\n"
           f"  status {m.status}")
     return EXIT_INTERRUPTED if interrupted else EXIT_OK
 

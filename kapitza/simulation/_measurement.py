@@ -105,6 +105,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from lagrange_core._compile_notice import declared
+from lagrange_core._thread_blocks import compiling
 from lagrange_core.batch import GridInterrupted, compile_activity, default_method
 from lagrange_core.checks import real_array, real_number
 from lagrange_core.progress import ProgressLine, defer_ctrl_c, interrupt_requested
@@ -240,6 +241,19 @@ _FIT_KERNELS = (_strobe_fit._valid_lengths, _strobe_fit._moments, _strobe_fit._r
 def _fit_in_process() -> bool:
     """Whether this process has the fit's kernels already (compiled or loaded)."""
     return bool(_strobe_fit._moments.signatures)
+
+
+def _fit_ready() -> bool:
+    """Whether the fit's kernels are in this process or load from numba's cache: a fit
+    after Ctrl-C must not wait for a compilation (in the background or here)."""
+    if _fit_in_process():
+        return True
+    if compiling():             # a compilation Ctrl-C gave up on holds numba's compiler
+        return False
+    proc = _background.RUNNING.get(_FIT_GROUP)
+    if proc is not None and proc.poll() is None:
+        return False
+    return not _background.cold(*_FIT_KERNELS)
 
 
 def _compile_fit_in_background():
@@ -548,9 +562,17 @@ def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIOD
             with np.errstate(invalid="ignore"):
                 ran = np.floor((stop.result.t_final - stop.result.t0) / period)
             samples = float(np.sum(ran[np.isfinite(ran)]))
-            fitted = wanted if samples <= _INTERRUPTED_FIT_SAMPLES else wanted - {"omega_slow"}
+            if wanted and not _fit_ready():     # Ω and the amplitude use its kernels
+                why = "the fit's kernels were still compiling"
+                fitted = frozenset()
+            elif "omega_slow" in wanted and samples > _INTERRUPTED_FIT_SAMPLES:
+                why = (f"over {_INTERRUPTED_FIT_SAMPLES:.0e} strobe samples: a fit of "
+                       "seconds after Ctrl-C")
+                fitted = wanted - {"omega_slow"}
+            else:
+                why, fitted = None, wanted
             partial, _ = _from_grid(system, stop.result, ref, periods, period, fitted, False)
-            raise _interrupted(partial, fitted != wanted) from None
+            raise _interrupted(partial, why, wanted - fitted) from None
         result, fitted = _from_grid(system, grid, ref, periods, period, wanted, progress)
         if fitted is not None:       # Ctrl-C during the fit: Ω of the points fitted
             stop = ComputationInterrupted(result, np.arange(result.stayed_up.size).reshape(
@@ -579,9 +601,9 @@ def _observables(observables):
     return frozenset(names - {"classification"})
 
 
-def _interrupted(partial, unfitted):
+def _interrupted(partial, why=None, left=frozenset()):
     """ComputationInterrupted for a measurement stopped by Ctrl-C, saying how far it got
-    (and, ``unfitted``, that Ω was not fitted)."""
+    (and why the observables ``left`` were not computed)."""
     status = np.asarray(partial.status)
     finished = (status != "not_run") & (status != "interrupted")
     stop = ComputationInterrupted(partial, finished)
@@ -594,9 +616,8 @@ def _interrupted(partial, unfitted):
                      f"{first:.6g} s, {int(reached.reshape(-1)[0])} of {partial.periods} "
                      "periods); the partial measurement (status 'interrupted', t_reached, "
                      "completed_periods) is in the exception's .result"
-                     + (f"; Ω was not fitted (over {_INTERRUPTED_FIT_SAMPLES:.0e} strobe "
-                        "samples: a fit of seconds after Ctrl-C), its fields are None"
-                        if unfitted else ""),)
+                     + (f"; {' and '.join(sorted(left))} not computed ({why}): "
+                        "their fields are None" if left else ""),)
     return stop
 
 
