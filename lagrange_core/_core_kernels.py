@@ -74,3 +74,9 @@ def jacobian_from_entries(W, dA, TARGET_TABLE, TAN_PTR, TAN_J, J):
         for j in range(2 * n):
             J[n + i, j] = D[i, N + j]
     return status
+
+
+# a first call on the main thread compiles where Ctrl-C need not wait for it
+from ._first_calls import guard as _guard_first_calls  # noqa: E402
+
+_guard_first_calls(__name__)

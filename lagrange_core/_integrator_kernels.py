@@ -1347,3 +1347,9 @@ from . import _kernel_calls, _linalg, _selection  # noqa: E402
 from .module_store import guard_numba_cache  # noqa: E402
 
 guard_numba_cache(sys.modules[__name__], _kernel_calls, _linalg, _selection)
+
+
+# a first call on the main thread compiles where Ctrl-C need not wait for it
+from ._first_calls import guard as _guard_first_calls  # noqa: E402
+
+_guard_first_calls(__name__)

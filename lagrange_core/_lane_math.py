@@ -148,3 +148,9 @@ def lane_solve(work, n, L):
         for l in range(L):
             if not math.isfinite(work[r, l]):
                 work[0, l] = 1.0
+
+
+# a first call on the main thread compiles where Ctrl-C need not wait for it
+from ._first_calls import guard as _guard_first_calls  # noqa: E402
+
+_guard_first_calls(__name__)

@@ -106,3 +106,9 @@ def solve_banded_spd(W, N, b):
             s -= W[k, i] * W[k, N]
         W[i, N] = s
     return 0
+
+
+# a first call on the main thread compiles where Ctrl-C need not wait for it
+from ._first_calls import guard as _guard_first_calls  # noqa: E402
+
+_guard_first_calls(__name__)

@@ -90,3 +90,9 @@ def pilot_step_quantile(steps, m):
         return kth_smallest(steps[:m], int(0.2 * (m - 1))), 0
     settled = m - k
     return kth_smallest(steps[k:m], int(0.2 * (settled - 1))), settled
+
+
+# a first call on the main thread compiles where Ctrl-C need not wait for it
+from ._first_calls import guard as _guard_first_calls  # noqa: E402
+
+_guard_first_calls(__name__)

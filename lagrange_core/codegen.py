@@ -92,6 +92,7 @@ import numpy as np
 import symengine as se
 
 from . import _ir
+from ._first_calls import aside
 from ._kernel_calls import SIGNATURES, SLOTS
 from .derive import Equations
 from .forms import rkn_form
@@ -714,8 +715,9 @@ class Kernels:
                     raise ValueError(f"{self.label} has no kernel {name!r} with a C entry point; "
                                      f"those of the kernel module are "
                                      f"{[n for n in SLOTS if hasattr(self.module, 'c_' + n)]}.")
-                self._cfuncs[name] = numba.cfunc(SIGNATURES[name], cache=True)(
-                    getattr(self.module, f"c_{name}"))
+                entry = getattr(self.module, f"c_{name}")
+                self._cfuncs[name] = aside(       # (compiles: Ctrl-C need not wait for it)
+                    lambda e=entry, s=SIGNATURES[name]: numba.cfunc(s, cache=True)(e))
                 self._addresses[SLOTS.index(name)] = self._cfuncs[name].address
         return self._addresses
 

@@ -144,6 +144,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from . import _integrator_kernels as _kern
+from ._first_calls import compiling
 from ._selection import PILOT_MIN_SETTLED, PILOT_SPAN_DIVISOR, PILOT_WIDEN, pilot_step_quantile
 from .drive_kernel import load_drive_kernel
 from .progress import ProgressLine, defer_ctrl_c, interrupt_requested
@@ -746,6 +747,11 @@ def _finish(kernels, ka, meth, o, p, T, Y, err, err_kind, counts, status, messag
     # (the multipliers and the residual are written only for a constrained system)
     LAM = np.zeros((N, m)) if m else _NO_LAMBDA
     RES = np.zeros(N) if m else _EMPTY
+    if along and status == "interrupted" and compiling():
+        # a Ctrl-C left a kernel compiling (lagrange_core._first_calls), which holds numba's
+        # compiler: a first call of the energy's kernel would wait for it
+        along = False
+        message += "; the energy not computed (numba was still compiling)"
     if along:
         _kern.along(ka, m, T, Y, p, E, LAM, RES)
     else:

@@ -35,6 +35,8 @@ from pathlib import Path
 
 import numba
 
+from ._first_calls import guard as guard_first_calls
+
 __all__ = ["cache_dir", "source_fingerprint", "content_key", "load_generated",
            "write_module", "load_module", "guard_numba_cache"]
 
@@ -106,6 +108,7 @@ def load_module(path: Path, name: str) -> types.ModuleType:
     except BaseException:
         del sys.modules[name]
         raise
+    guard_first_calls(name)     # its kernels' first calls: where Ctrl-C need not wait
     return module
 
 

@@ -1,17 +1,23 @@
 """Ctrl-C while numba compiles a kernel for its first call (a fresh installation's first
-``measure``: tens of seconds in which numba's compiler cannot be stopped).
+``measure`` or ``simulate``: tens of seconds in which numba's compiler cannot be stopped
+safely).
 
-``lagrange_core._thread_blocks.run_spans`` makes a grid kernel's first call with new
-argument types on an empty span (which compiles it and computes nothing) on a thread of
-its own, and the calling thread waits for it watching for Ctrl-C.  Checked here:
+``lagrange_core._first_calls`` makes a kernel's first call with new argument types — one
+that only compiles: a grid kernel on an empty span (``_thread_blocks.run_spans``), a
+kernel called directly compiled without a call (``compile_for``: ``simulate``'s) — on a
+thread of its own, and the calling thread waits for it watching for Ctrl-C.  Checked:
 
 * every grid kernel family writes nothing on an empty span — what makes giving up on its
   first call safe (the call runs to its end on its thread after the caller has gone on);
-* a Ctrl-C during a (slowed) compilation returns within a second, nothing written, and
-  the next call, which waits for the compilation, computes the right numbers;
+* a Ctrl-C during a (slowed) compilation returns within a second, nothing written, with
+  the deferred Ctrl-C of the grids and with Python's own handler; the next call, which
+  waits for the compilation, computes the right numbers;
 * ``kapitza measure`` on an empty cache, Ctrl-C while its kernels compile: the warning
-  within a second (it was the rest of the compilation: 15–22 s on the development
-  machine), exit 130, no traceback.
+  within a second (it was the rest of the compilation: 15–30 s on the development
+  machine), exit 130, no traceback; ``System.simulate`` likewise, and the process's next
+  ``simulate`` gives the same numbers as a warm one (a KeyboardInterrupt inside numba's
+  compiler, as Python's handler raised it there before, could leave numba unable to
+  compile: "no compiled object yet for <Library …>").
 """
 import _thread
 import math
@@ -27,7 +33,7 @@ import numpy as np
 import pytest
 from numba.core import event
 
-from lagrange_core import _thread_blocks, problems
+from lagrange_core import _first_calls, _thread_blocks, problems
 from lagrange_core.progress import defer_ctrl_c
 
 from helpers import sigint_default
@@ -38,13 +44,15 @@ PEND = dict(m=1.0, l=1.0, g=9.81, A=0.05, omega=W60)
 
 
 def _arrays(x, seen):
-    """The arrays in ``x`` (a closure cell's contents; tuples looked into)."""
+    """The arrays in ``x`` (a closure cell's contents; tuples and functions looked into)."""
     if isinstance(x, np.ndarray):
-        if id(x) not in seen:
-            seen[id(x)] = x
+        seen.setdefault(id(x), x)
     elif isinstance(x, tuple):
         for y in x:
             _arrays(y, seen)
+    elif callable(x) and getattr(x, "__closure__", None):
+        for cell in x.__closure__:
+            _arrays(cell.cell_contents, seen)
 
 
 def test_every_grid_kernel_writes_nothing_on_an_empty_span(monkeypatch):
@@ -58,7 +66,7 @@ def test_every_grid_kernel_writes_nothing_on_an_empty_span(monkeypatch):
     from kapitza.floquet import floquet_grid
 
     works = []
-    monkeypatch.setattr(_thread_blocks, "_compiled", works.append)
+    monkeypatch.setattr(_thread_blocks, "first_call", lambda call, key: works.append(call))
     pend = problems.driven_pendulum("vertical")
     damped = problems.driven_pendulum("vertical", damping=True)
     q0, span = [np.pi - 0.1], (0.0, 4 * T60)
@@ -73,14 +81,14 @@ def test_every_grid_kernel_writes_nothing_on_an_empty_span(monkeypatch):
     floquet_grid(pend, dict(PEND, A=[0.04, 0.05]), [np.pi])
     mathieu_monodromy_trace(1.3, 0.7)
     assert len(works) >= 8
-    for work in works:
+    for call in works:              # call: work(0, 0)
         seen = {}
-        for cell in work.__closure__ or ():
-            _arrays(cell.cell_contents, seen)
+        _arrays(call, seen)
+        assert seen
         before = {k: a.copy() for k, a in seen.items()}
-        work(0, 0)
+        call()
         for k, a in seen.items():
-            np.testing.assert_array_equal(a, before[k], err_msg=str(work.__code__))
+            np.testing.assert_array_equal(a, before[k], err_msg=str(call.__closure__))
 
 
 @numba.njit(nogil=True)
@@ -104,29 +112,90 @@ class _SlowCompile(event.Listener):
 
 
 def test_ctrl_c_while_a_kernel_compiles_returns_at_once_and_the_next_call_waits():
-    """A Ctrl-C 0.3 s into a first call whose compilation lasts 2.5 s: KeyboardInterrupt
+    """A Ctrl-C 0.2 s into a first call whose compilation lasts 1.5 s: KeyboardInterrupt
     within a second, nothing written; the compilation goes on (``compiling()``), and the
     next call waits for it and doubles the numbers."""
-    listener = _SlowCompile(2.5)
+    listener = _SlowCompile(1.5)
     event.register("numba:compile", listener)
     x = np.arange(5.0)
     out = np.zeros(5)
     try:
-        timer = threading.Timer(0.3, _thread.interrupt_main)    # Ctrl-C, as Python sees it
+        timer = threading.Timer(0.2, _thread.interrupt_main)    # Ctrl-C, as Python sees it
         start = time.perf_counter()
         with pytest.raises(KeyboardInterrupt), defer_ctrl_c():
             timer.start()
             _thread_blocks.run_rows(_double_rows, 5, x, out)
         took = time.perf_counter() - start
         assert took < 1.3, took
-        assert _thread_blocks.compiling()
+        assert _first_calls.compiling()
         np.testing.assert_array_equal(out, 0.0)
         _thread_blocks.run_rows(_double_rows, 5, x, out)
-        assert time.perf_counter() - start > 2.0       # it waited for the compilation
+        assert time.perf_counter() - start > 1.2       # it waited for the compilation
         np.testing.assert_array_equal(out, 2.0 * x)
-        assert not _thread_blocks.compiling()
+        assert not _first_calls.compiling()
     finally:
         event.unregister("numba:compile", listener)
+
+
+@numba.njit
+def _triple(x):
+    return 3.0 * x
+
+
+_first_calls.guard(__name__)        # as a kernel module does
+
+
+class _SlowTriple(_SlowCompile):
+    def on_start(self, ev):
+        if ev.data["dispatcher"] is _triple:
+            time.sleep(self.seconds)
+
+
+def test_python_s_own_ctrl_c_leaves_a_direct_kernel_s_compilation_alone():
+    """A guarded kernel called directly (as ``simulate`` calls its drivers) with Python's own
+    SIGINT handler: the KeyboardInterrupt comes in the wait within a second, not inside
+    numba's compiler; the compilation ends on its thread, and the kernel then works."""
+    listener = _SlowTriple(1.5)
+    event.register("numba:compile", listener)
+    try:
+        timer = threading.Timer(0.2, _thread.interrupt_main)
+        start = time.perf_counter()
+        with pytest.raises(KeyboardInterrupt):
+            timer.start()
+            _triple(2.0)
+        assert time.perf_counter() - start < 1.0
+        assert _first_calls.compiling()
+        assert _triple(2.0) == 6.0                  # waits for the compilation
+        assert time.perf_counter() - start > 1.2
+        assert not _first_calls.compiling()
+        assert _triple(2.5) == 7.5                  # the warm call: numba's own dispatch
+    finally:
+        event.unregister("numba:compile", listener)
+
+
+def test_every_kernel_module_guards_its_first_calls():
+    """Every numba kernel of lagrange_core and kapitza (every module imported) has its
+    first call guarded, and a system's generated kernels too."""
+    import importlib
+    import pkgutil
+
+    from numba.core.dispatcher import Dispatcher
+
+    import kapitza
+    import lagrange_core
+    for package in (lagrange_core, kapitza):
+        for info in pkgutil.walk_packages(package.__path__, package.__name__ + "."):
+            if not info.name.endswith("__main__"):
+                importlib.import_module(info.name)
+    assert problems.driven_pendulum("vertical").kernels.module      # generated, loaded
+    kernels = [(name, key) for name, module in list(sys.modules.items())
+               if name.startswith(("lagrange_core", "kapitza", "_lc"))
+               for key, value in vars(module).items()
+               if isinstance(value, Dispatcher) and value.py_func.__module__ == name]
+    assert len(kernels) > 100 and any(name.startswith("_lc_") for name, _ in kernels)
+    unguarded = [f"{name}.{key}" for name, key in kernels
+                 if "_compile_for_args" not in vars(vars(sys.modules[name])[key])]
+    assert not unguarded
 
 
 COLD_MEASURE = r'''
@@ -165,3 +234,56 @@ def test_ctrl_c_while_the_first_measure_compiles_stops_within_a_second(tmp_path)
     assert proc.returncode == 130, (out, err)
     assert took < 1.0, err
     assert "Traceback" not in err and "Ctrl-C while numba compiled kernels" in err, err
+
+
+COLD_SIMULATE = r'''
+import json, math, sys, time
+from lagrange_core import problems
+from lagrange_core.integrate import SimulationInterrupted
+pend = problems.driven_pendulum("vertical")
+P = dict(m=1.0, l=1.0, g=9.81, A=0.05, omega=2 * math.pi * 60)
+print("ready", flush=True)
+try:
+    pend.simulate([math.pi - 0.1], [0.0], (0.0, 0.2), P)
+    outcome = "finished"
+except SimulationInterrupted as stop:
+    outcome = "interrupted: " + stop.trajectory.message
+except KeyboardInterrupt:
+    outcome = "KeyboardInterrupt"
+print(outcome, flush=True)
+'''
+
+
+def test_ctrl_c_while_the_first_simulate_compiles_stops_within_a_second(tmp_path):
+    """``System.simulate`` on empty caches, Ctrl-C 3 s after the compile notice (RKN 12's
+    chunk driver compiling, ~12 s, after ~1.5 s of smaller kernels): interrupted within a
+    second, the interruption taken in the wait (said so), not inside numba's compiler —
+    where Python's handler raised it before, as quickly, but leaving numba unable to
+    compile in 1 of 6 probes ("no compiled object yet for <Library …>" at the next call)
+    — and the process ends without waiting for the compilation (the next call's wait
+    for it: the tests above)."""
+    env = dict(os.environ, PYTHONUNBUFFERED="1", NUMBA_CACHE_DIR=str(tmp_path / "numba"),
+               LAGRANGE_CORE_CACHE=str(tmp_path / "lc"), LAGRANGE_CORE_COMPILE_NOTICE="1")
+    proc = subprocess.Popen([sys.executable, "-c", COLD_SIMULATE], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=env,
+                            preexec_fn=sigint_default)
+    try:
+        assert proc.stdout.readline().strip() == "ready", proc.communicate()
+        notice = proc.stderr.readline()
+        assert "compiling numba kernels for first use" in notice, proc.communicate()
+        time.sleep(3.0)
+        assert proc.poll() is None, proc.communicate()
+        sent = time.time()
+        proc.send_signal(signal.SIGINT)
+        outcome = proc.stdout.readline().strip()
+        took = time.time() - sent
+        out, err = proc.communicate(timeout=120)
+        ended = time.time() - sent
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0, (outcome, out, err)
+    assert outcome.startswith("interrupted: interrupted (Ctrl-C) at t = 0 s"), (outcome, err)
+    assert took < 1.0, (took, outcome)
+    assert ended < 2.0, ended
+    assert "Ctrl-C while numba compiled kernels" in err, err

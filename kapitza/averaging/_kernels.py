@@ -78,3 +78,9 @@ def effective_from_terms(U, Ug, Uh, M, Mg, Mh, w, f, fg, fh, G, H):
                         s -= x[i] * Mh[a, b, i, j] * x[j]
                 H[a, b] += w[k] * s
     return value
+
+
+# a first call on the main thread compiles where Ctrl-C need not wait for it
+from lagrange_core._first_calls import guard as _guard_first_calls  # noqa: E402
+
+_guard_first_calls(__name__)

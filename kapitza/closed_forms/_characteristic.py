@@ -559,3 +559,9 @@ def mathieu_b1_root(a):
         above = mathieu_b1(mid) > target
         lo, hi = np.where(above, mid, lo), np.where(above, hi, mid)
     return (lo + hi) / 2
+
+
+# a first call on the main thread compiles where Ctrl-C need not wait for it
+from lagrange_core._first_calls import guard as _guard_first_calls  # noqa: E402
+
+_guard_first_calls(__name__)

@@ -753,3 +753,9 @@ def pendulum_stability_map(A, omega, *, l=1.0, g=9.81, damping=0.0, about="inver
                         error_estimate=err, about=about, method=method, l=l, g=g,
                         damping=damping, seconds=time.perf_counter() - t0,
                         flagged_points=flagged, flags_example=example)
+
+
+# a first call on the main thread compiles where Ctrl-C need not wait for it
+from lagrange_core._first_calls import guard as _guard_first_calls  # noqa: E402
+
+_guard_first_calls(__name__)

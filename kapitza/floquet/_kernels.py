@@ -272,3 +272,9 @@ def _monodromy_grid(C, S, K, omega, T, tol, order, half, M, logscale, error, ste
 
 # numba's cache does not notice a change of the kernel slots the sampler calls
 guard_numba_cache(sys.modules[__name__], _kernel_calls)
+
+
+# a first call on the main thread compiles where Ctrl-C need not wait for it
+from lagrange_core._first_calls import guard as _guard_first_calls  # noqa: E402
+
+_guard_first_calls(__name__)

@@ -105,7 +105,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from lagrange_core._compile_notice import declared
-from lagrange_core._thread_blocks import compiling
+from lagrange_core._first_calls import compiling
 from lagrange_core.batch import GridInterrupted, compile_activity, default_method
 from lagrange_core.checks import real_array, real_number
 from lagrange_core.progress import ProgressLine, defer_ctrl_c, interrupt_requested

@@ -507,3 +507,9 @@ def estimate(q, qdot, period, *, safety, residual_factor, resonance, combination
     return dict(omega_slow=Om, omega_slow_error=error, refined=refined,
                 growth_rate=fit["growth"][:, FULL] / period[:, None], fit_residual=residual,
                 amplitude=amplitude, samples=Kv)
+
+
+# a first call on the main thread compiles where Ctrl-C need not wait for it
+from lagrange_core._first_calls import guard as _guard_first_calls  # noqa: E402
+
+_guard_first_calls(__name__)
