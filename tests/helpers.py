@@ -80,6 +80,24 @@ def sigint_default():
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
+def ctrl_c_until_said(proc, read=()):
+    """Send SIGINT to ``proc`` (started with :func:`sigint_default`, stdout and stderr
+    piped as text) and read its stderr until a line says "interrupted".  ``read``: the
+    stderr lines read before.  Returns (seconds from the signal to that line, stdout, the
+    whole stderr), the process ended."""
+    import signal
+    import time
+    lines = list(read)
+    sent = time.time()
+    proc.send_signal(signal.SIGINT)
+    while not any("interrupted" in line for line in lines):
+        lines.append(proc.stderr.readline())      # the warning, as soon as it is said
+        assert lines[-1], "stderr closed without saying it was interrupted"
+    took = time.time() - sent
+    out, err = proc.communicate(timeout=60)
+    return took, out, "".join(lines) + err
+
+
 def interrupt_child(tmp_path, source, delay, timeout):
     """Run ``source`` in a child process, send it SIGINT ``delay`` s after it prints
     "ready", and return (its JSON report, the time the signal was sent)."""

@@ -36,7 +36,7 @@ from numba.core import event
 from lagrange_core import _first_calls, _thread_blocks, problems
 from lagrange_core.progress import defer_ctrl_c
 
-from helpers import sigint_default
+from helpers import ctrl_c_until_said, sigint_default
 
 W60 = 2 * math.pi * 60
 T60 = 2 * math.pi / W60
@@ -216,21 +216,14 @@ def test_ctrl_c_while_the_first_measure_compiles_stops_within_a_second(tmp_path)
                             stderr=subprocess.PIPE, text=True, env=env,
                             preexec_fn=sigint_default)
     try:
-        lines = [proc.stderr.readline()]
-        assert "compiling numba kernels for first use" in lines[0], proc.communicate()
+        notice = proc.stderr.readline()
+        assert "compiling numba kernels for first use" in notice, proc.communicate()
         time.sleep(1.5)
         assert proc.poll() is None, proc.communicate()
-        sent = time.time()
-        proc.send_signal(signal.SIGINT)
-        while not any("interrupted" in line for line in lines):
-            lines.append(proc.stderr.readline())      # the warning, as soon as it is said
-            assert lines[-1], "stderr closed without saying it was interrupted"
-        took = time.time() - sent
-        out, err = proc.communicate(timeout=60)
+        took, out, err = ctrl_c_until_said(proc, [notice])
     finally:
         if proc.poll() is None:
             proc.kill()
-    err = "".join(lines) + err
     assert proc.returncode == 130, (out, err)
     assert took < 1.0, err
     assert "Traceback" not in err and "Ctrl-C while numba compiled kernels" in err, err

@@ -23,7 +23,6 @@ quarter of a second; between them Python shows progress and sees Ctrl-C.  Checke
 """
 import math
 import os
-import signal
 import subprocess
 import sys
 import time
@@ -33,7 +32,7 @@ import pytest
 
 from lagrange_core import batch, problems
 
-from helpers import interrupt_child, sigint_default
+from helpers import ctrl_c_until_said, interrupt_child, sigint_default
 
 PEND = dict(m=1.0, l=1.0, g=9.81)
 W60 = 2 * math.pi * 60
@@ -284,18 +283,10 @@ def test_ctrl_c_stops_the_measure_command_with_its_partial_result():
         assert proc.stdout.readline().strip() == "ready"
         time.sleep(1.0)
         assert proc.poll() is None, proc.communicate()
-        sent = time.time()
-        proc.send_signal(signal.SIGINT)
-        lines = []
-        while not any("interrupted" in line for line in lines):
-            lines.append(proc.stderr.readline())      # the warning, as soon as it is said
-            assert lines[-1], "stderr closed without saying it was interrupted"
-        took = time.time() - sent
-        out, err = proc.communicate(timeout=60)
+        took, out, err = ctrl_c_until_said(proc)
     finally:
         if proc.poll() is None:
             proc.kill()
-    err = "".join(lines) + err
     assert proc.returncode == 130, (out, err)
     assert took < 1.0
     assert "Traceback" not in err and "measure: interrupted at t =" in err
