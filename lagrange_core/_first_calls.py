@@ -33,6 +33,7 @@ import threading
 import time
 
 from numba.core import event
+from numba.core.compiler_lock import global_compiler_lock
 from numba.core.dispatcher import Dispatcher
 
 from .progress import interrupt_requested
@@ -106,9 +107,7 @@ def first_call(call, key) -> None:
     computes nothing: it compiles — by :func:`_off_thread`, unless its ``key`` has been
     through (then at once, ~5 µs) or is None (then not at all: the caller's own first call
     compiles)."""
-    if key is None or threading.current_thread() is not threading.main_thread():
-        return
-    if key in _SEEN:
+    if key is None or _here() or key in _SEEN:
         return
     _off_thread(call)
     _SEEN.add(key)
@@ -118,9 +117,7 @@ def aside(call):
     """``call()`` — work that compiles numba code, such as a system's C entry points
     (``numba.cfunc`` compiles when it is made) — by :func:`_off_thread` when made on the
     main thread; here otherwise."""
-    if threading.current_thread() is not threading.main_thread():
-        return call()
-    return _off_thread(call)
+    return call() if _here() else _off_thread(call)
 
 
 def guard(name: str) -> None:
@@ -142,10 +139,17 @@ def _first_call_of(dispatcher):
 
     @functools.wraps(compile_for_args)
     def first_call_compiled_aside(*args, **kws):
-        if threading.current_thread() is not threading.main_thread():
+        if _here():
             return compile_for_args(*args, **kws)
         return _off_thread(lambda: compile_for_args(*args, **kws))
     return first_call_compiled_aside
+
+
+def _here() -> bool:
+    """Whether a first call is made where it is: off the main thread (no Ctrl-C arrives
+    there), or on it inside numba's compiler (which the compiling thread would wait for)."""
+    return (threading.current_thread() is not threading.main_thread()
+            or global_compiler_lock.is_locked())
 
 
 def _off_thread(call):
@@ -182,8 +186,8 @@ def _say_compiling_on() -> None:
         return
     _SAID[0] = True
     try:
-        print("lagrange_core: Ctrl-C while numba compiled kernels for first use: stopped "
-              "before computing anything; the compilation finishes in the background of "
-              "this process (a next call waits for it)", file=sys.stderr, flush=True)
+        print("lagrange_core: Ctrl-C while numba compiled a kernel for its first call: "
+              "stopped without waiting for it; the compilation finishes in the background "
+              "of this process (a next call waits for it)", file=sys.stderr, flush=True)
     except (OSError, ValueError):
         pass
