@@ -58,6 +58,7 @@ import numpy as np
 import sympy as sp
 from numba import njit
 
+from ._first_calls import aside, guard
 from ._kernel_calls import RHS_JVP_LANES, RHS_LANES, SIGNATURES
 from ._lane_calls import left_to_scalar_source, rhs_jvp_on_lanes, rhs_on_lanes
 from .module_store import content_key, load_generated, source_fingerprint
@@ -348,9 +349,10 @@ def load_rhs_lanes(kernels, *, jvp: bool = False) -> tuple[bool, str]:
     kernels.addresses("rhs", *(("jacobian",) if jvp else ()))
     wanted = [("rhs_lanes", RHS_LANES)] + ([("rhs_jvp_lanes", RHS_JVP_LANES)] if jvp else [])
     for name, slot in wanted:
-        if not table[slot]:
-            kernels.set_address(name, numba.cfunc(SIGNATURES[name], cache=True)(
-                getattr(module, f"c_{name}")))
+        if not table[slot]:         # (compiles: Ctrl-C need not wait for it)
+            entry = getattr(module, f"c_{name}")
+            kernels.set_address(name, aside(
+                lambda e=entry, s=SIGNATURES[name]: numba.cfunc(s, cache=True)(e)))
     return True, ""
 
 
@@ -407,6 +409,5 @@ guard_numba_cache(sys.modules[__name__], _kernel_calls, _lane_calls)
 
 
 # a first call on the main thread compiles where Ctrl-C need not wait for it
-from ._first_calls import guard as _guard_first_calls  # noqa: E402
 
-_guard_first_calls(__name__)
+guard(__name__)
