@@ -409,5 +409,4 @@ guard_numba_cache(sys.modules[__name__], _kernel_calls, _lane_calls)
 
 
 # a first call on the main thread compiles where Ctrl-C need not wait for it
-
 guard(__name__)
