@@ -111,7 +111,17 @@ class _SlowCompile(event.Listener):
         pass
 
 
-def test_ctrl_c_while_a_kernel_compiles_returns_at_once_and_the_next_call_waits():
+@pytest.fixture
+def python_s_sigint_handler():
+    """Python's own SIGINT handler for the test (a suite started as a shell's background
+    job has SIGINT ignored, and ``_thread.interrupt_main`` then does nothing)."""
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, old)
+
+
+def test_ctrl_c_while_a_kernel_compiles_returns_at_once_and_the_next_call_waits(
+        python_s_sigint_handler):
     """A Ctrl-C 0.2 s into a first call whose compilation lasts 1.5 s: KeyboardInterrupt
     within a second, nothing written; the compilation goes on (``compiling()``), and the
     next call waits for it and doubles the numbers."""
@@ -151,7 +161,8 @@ class _SlowTriple(_SlowCompile):
             time.sleep(self.seconds)
 
 
-def test_python_s_own_ctrl_c_leaves_a_direct_kernel_s_compilation_alone():
+def test_python_s_own_ctrl_c_leaves_a_direct_kernel_s_compilation_alone(
+        python_s_sigint_handler):
     """A guarded kernel called directly (as ``simulate`` calls its drivers) with Python's own
     SIGINT handler: the KeyboardInterrupt comes in the wait within a second, not inside
     numba's compiler; the compilation ends on its thread, and the kernel then works."""
