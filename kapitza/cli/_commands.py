@@ -334,9 +334,7 @@ def _report(args) -> int:
     start_background()      # empty cache: the later sections' kernels compile on the other core
     try:
         report = build_report(scene, args.out, quick=args.quick)
-    except ReportInterrupted as stop:
-        say(f"kapitza report: interrupted; {stop.report.index} shows the finished sections "
-             f"(missing: {', '.join(stop.report.missing)}).")
+    except ReportInterrupted:       # build_report has said what it kept and what is missing
         return EXIT_INTERRUPTED
     frame = report.to_dataframe()
     data = {"out": report.out, "index": report.index, "scene": report.scene,
