@@ -64,6 +64,13 @@ ACTIVITY_SECONDS = {
     # pendulum's, 4.3–5.9 s (2026-11-27)
     "periodic orbit": 12,
     "continuation": 5,
+    # commands whose first compile comes before any of the API's activities (the command
+    # line's checks compile the closed forms first, whose family says ~3 s): their whole
+    # first run on empty caches, less ~2 s of start-up, 2026-11-28
+    "kapitza animate": 23,          # 25.2 s
+    "kapitza continue": 8,          # 10.0 s
+    "kapitza lyapunov": 11,         # 12.5 s
+    "kapitza map": 5,               # 7.3 s
 }
 
 #: Seconds a family of shared kernels compiles on an empty cache, by module of the

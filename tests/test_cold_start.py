@@ -290,3 +290,31 @@ def test_a_background_compile_that_cannot_start_is_skipped(monkeypatch):
     assert _background.start("strobe fit", "pass") is None
     assert _background.RUNNING == {}
     assert _background.wait(("strobe fit",)) < 0.05
+
+
+def test_commands_whose_first_compile_no_api_activity_covers_declare_themselves(monkeypatch):
+    """``kapitza animate``, ``continue``, ``lyapunov`` and ``map`` compile first in the
+    command line's own checks (the closed forms: "~3 s") and then for 8–25 s on empty
+    caches: the command is the activity, from the checks on; ``measure`` is left to its
+    own, finer one ("measure, RKN 12" or "measure, DOP853")."""
+    from kapitza.cli import _main, main
+    seen = {}
+
+    def spy(where, then=None):
+        def record(args, *rest):
+            seen.setdefault(args.command, []).append((where, _compile_notice._activity.get()))
+            return then(args, *rest) if then is not None else 0
+        return record
+
+    monkeypatch.setattr(_main, "check_pendulum_options",
+                        spy("checks", _main.check_pendulum_options))
+    for command in ("animate", "continue", "lyapunov", "map", "measure"):
+        monkeypatch.setitem(_main.COMMANDS, command, spy("command"))
+    for argv in (["animate", "--out", "x.gif"], ["continue", "--stop", "0.6"],
+                 ["lyapunov", "--damping", "0.2"], ["map"], ["measure"]):
+        assert main(argv) == 0
+    for command in ("animate", "continue", "lyapunov", "map"):
+        assert seen[command] == [("checks", f"kapitza {command}"),
+                                 ("command", f"kapitza {command}")]
+        assert f"kapitza {command}" in _compile_notice.ACTIVITY_SECONDS
+    assert seen["measure"] == [("checks", None), ("command", None)]

@@ -20,6 +20,7 @@ command, not as Python's two-line form.
 """
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import sys
@@ -69,7 +70,7 @@ def main(argv=None) -> int:
             say(f"{name}: error: {unknown_option(parser, args.command, extras)}")
             return EXIT_USAGE
         args.given = given_options(argv)
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), _announced_as(name):
             warnings.showwarning = _one_line_warning(name)
             check_pendulum_options(args)
             check_tolerances(args)
@@ -141,3 +142,11 @@ def _one_line_warning(name):
             f"{category.__name__}: "
         say(f"{name}: warning: {label}{text}")
     return show
+
+
+def _announced_as(name):
+    """The command as the activity a first compile's notice quotes, where its own estimate
+    is known (lagrange_core._compile_notice.ACTIVITY_SECONDS: the commands whose first
+    compile is in no activity of the API's)."""
+    from lagrange_core._compile_notice import ACTIVITY_SECONDS, declared
+    return declared(name) if name in ACTIVITY_SECONDS else contextlib.nullcontext()
