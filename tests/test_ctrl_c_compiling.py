@@ -2,22 +2,22 @@
 ``measure`` or ``simulate``: tens of seconds in which numba's compiler cannot be stopped
 safely).
 
-``lagrange_core._first_calls`` makes a kernel's first call with new argument types — one
-that only compiles: a grid kernel on an empty span (``_thread_blocks.run_spans``), a
-kernel called directly compiled without a call (``compile_for``: ``simulate``'s) — on a
-thread of its own, and the calling thread waits for it watching for Ctrl-C.  Checked:
+``lagrange_core._first_calls`` makes a kernel's first call with new argument types compile
+on a thread of its own while the calling thread waits for it watching for Ctrl-C: a kernel
+called directly through the guard each kernel module puts on its dispatchers, a grid
+kernel by a first call on an empty span (``_thread_blocks.run_spans``).  Checked:
 
 * every grid kernel family writes nothing on an empty span — what makes giving up on its
   first call safe (the call runs to its end on its thread after the caller has gone on);
 * a Ctrl-C during a (slowed) compilation returns within a second, nothing written, with
   the deferred Ctrl-C of the grids and with Python's own handler; the next call, which
   waits for the compilation, computes the right numbers;
+* every kernel of lagrange_core and kapitza, and a system's generated ones, is guarded;
 * ``kapitza measure`` on an empty cache, Ctrl-C while its kernels compile: the warning
   within a second (it was the rest of the compilation: 15–30 s on the development
-  machine), exit 130, no traceback; ``System.simulate`` likewise, and the process's next
-  ``simulate`` gives the same numbers as a warm one (a KeyboardInterrupt inside numba's
-  compiler, as Python's handler raised it there before, could leave numba unable to
-  compile: "no compiled object yet for <Library …>").
+  machine), exit 130, no traceback; ``System.simulate`` likewise, the interruption taken
+  outside numba's compiler (where Python's handler raised it before, which could leave
+  numba unable to compile: "no compiled object yet for <Library …>").
 """
 import _thread
 import math
