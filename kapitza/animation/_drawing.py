@@ -67,7 +67,6 @@ def _gif_writer(fps, exact=()):
             # conversion drops it)
             rgba = [f if isinstance(f, np.ndarray) else np.asarray(f.convert("RGBA"))
                     for f in self._frames]
-            codes = [f.view("<u4")[..., 0] & 0xFFFFFF for f in rgba]
             # the palette from first, middle and last frame side by side (every colour drawn)
             mosaic = Image.fromarray(np.hstack([rgba[k][..., :3] for k in
                                                 (0, len(rgba) // 2, len(rgba) - 1)]))
@@ -85,8 +84,10 @@ def _gif_writer(fps, exact=()):
             # of a 321-frame pendulum_animation: benchmarks/bench_animation.py)
             unset = 255                     # (the palette has 64 colours)
             table = np.full(1 << 24, unset, np.uint8)
+            colours_8bit = np.round(palette).astype(np.uint8).ravel().tolist()
             frames = []
-            for code in codes:
+            for f in rgba:                  # (a frame's codes at a time: 1.5 MB, not 0.5 GB)
+                code = f.view("<u4")[..., 0] & 0xFFFFFF
                 index = table[code]
                 colours = np.unique(code[index == unset])
                 if colours.size:
@@ -94,7 +95,7 @@ def _gif_writer(fps, exact=()):
                     table[colours] = np.argmin(((c[:, None, :] - palette[None]) ** 2).sum(2), 1)
                     index = table[code]
                 im = Image.fromarray(index, "P")
-                im.putpalette(np.round(palette).astype(np.uint8).ravel().tolist())
+                im.putpalette(colours_8bit)
                 frames.append(im)
             frames[0].save(self.outfile, save_all=True, append_images=frames[1:],
                            duration=int(1000 / self.fps), loop=0)
