@@ -53,13 +53,12 @@ import re
 import sys
 import textwrap
 
-import numba
 import numpy as np
 import sympy as sp
 from numba import njit
 
-from ._first_calls import aside, guard
-from ._kernel_calls import RHS_JVP_LANES, RHS_LANES, SIGNATURES
+from ._first_calls import guard
+from ._kernel_calls import RHS_JVP_LANES, RHS_LANES
 from ._lane_calls import left_to_scalar_source, rhs_jvp_on_lanes, rhs_on_lanes
 from .module_store import content_key, load_generated, source_fingerprint
 
@@ -348,11 +347,7 @@ def load_rhs_lanes(kernels, *, jvp: bool = False) -> tuple[bool, str]:
     # the scalar kernels that compute a lane the lanes kernels leave (lagrange_core._lane_calls)
     kernels.addresses("rhs", *(("jacobian",) if jvp else ()))
     wanted = [("rhs_lanes", RHS_LANES)] + ([("rhs_jvp_lanes", RHS_JVP_LANES)] if jvp else [])
-    for name, slot in wanted:
-        if not table[slot]:         # (compiles: Ctrl-C need not wait for it)
-            entry = getattr(module, f"c_{name}")
-            kernels.set_address(name, aside(
-                lambda e=entry, s=SIGNATURES[name]: numba.cfunc(s, cache=True)(e)))
+    kernels.load_entry_points(module, [name for name, slot in wanted if not table[slot]])
     return True, ""
 
 

@@ -709,21 +709,31 @@ class Kernels:
         ndarray of int64, shape (len(SLOTS),)
             The same array object on every call (slots only ever get filled).
         """
-        for name in slots:
-            if name not in self._cfuncs:
-                if not hasattr(self.module, f"c_{name}"):
-                    raise ValueError(f"{self.label} has no kernel {name!r} with a C entry point; "
-                                     f"those of the kernel module are "
-                                     f"{[n for n in SLOTS if hasattr(self.module, 'c_' + n)]}.")
-                entry = getattr(self.module, f"c_{name}")
-                self._cfuncs[name] = aside(       # (compiles: Ctrl-C need not wait for it)
-                    lambda e=entry, s=SIGNATURES[name]: numba.cfunc(s, cache=True)(e))
-                self._addresses[SLOTS.index(name)] = self._cfuncs[name].address
+        missing = [name for name in dict.fromkeys(slots) if name not in self._cfuncs]
+        for name in missing:
+            if not hasattr(self.module, f"c_{name}"):
+                raise ValueError(f"{self.label} has no kernel {name!r} with a C entry point; "
+                                 f"those of the kernel module are "
+                                 f"{[n for n in SLOTS if hasattr(self.module, 'c_' + n)]}.")
+        self.load_entry_points(self.module, missing)
         return self._addresses
 
+    def load_entry_points(self, module, names) -> None:
+        """Compile (or load from numba's cache) the C entry points ``c_<name>`` of
+        ``module`` for ``names`` and put them into this system's address table, all of
+        them together (one slot filled may say that another is: the drive kernel's
+        ``fast_accel`` for ``drive_rates``).  Compiled by
+        ``lagrange_core._first_calls.aside``: Ctrl-C need not wait for numba."""
+        if not names:
+            return
+        entries = aside(lambda: [numba.cfunc(SIGNATURES[name], cache=True)(
+            getattr(module, f"c_{name}")) for name in names])
+        for name, entry in zip(names, entries, strict=True):
+            self.set_address(name, entry)
+
     def set_address(self, name: str, cfunc) -> None:
-        """Put the C entry point of a kernel generated elsewhere (the drive kernel of
-        :mod:`lagrange_core.drive_kernel`) into this system's address table."""
+        """Put the C entry point ``cfunc`` of kernel ``name`` into this system's address
+        table (:meth:`load_entry_points` compiles them)."""
         self._cfuncs[name] = cfunc
         self._addresses[SLOTS.index(name)] = cfunc.address
 

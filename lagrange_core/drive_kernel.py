@@ -33,11 +33,9 @@ import functools
 import sys
 import textwrap
 
-import numba
 import sympy as sp
 
-from ._first_calls import aside
-from ._kernel_calls import FAST_ACCEL, FAST_ACCEL_LANES, MAX_DRIVE_RATES, SIGNATURES
+from ._kernel_calls import FAST_ACCEL, FAST_ACCEL_LANES, MAX_DRIVE_RATES
 from ._lane_calls import left_to_scalar_source
 from .module_store import content_key, load_generated, source_fingerprint
 
@@ -293,9 +291,4 @@ def load_drive_kernel(kernels, *, lanes: bool = False) -> None:
     key = content_key(_generator_fingerprint(), kernels.statement_key)
     module = load_generated("_lcdrive", key, lambda: _HEADER.format(label=repr(kernels.label))
                             + _generated_source(kernels.equations()) + _ENTRY_POINTS)
-    # compiled aside (Ctrl-C need not wait for it), then put in the table together:
-    # fast_accel's slot says that drive_rates is there too
-    entries = aside(lambda: [numba.cfunc(SIGNATURES[name], cache=True)(
-        getattr(module, f"c_{name}")) for name in names])
-    for name, entry in zip(names, entries, strict=True):
-        kernels.set_address(name, entry)
+    kernels.load_entry_points(module, names)   # together: fast_accel's slot says drive_rates
