@@ -232,7 +232,7 @@ def _next_stop(t1, T, k_next, t0, flags):
     return t1
 
 
-# -- q̈ = f(q, t): RKN 12(10) (family 0) and the symplectic composition (family 1) ----------
+# -- q̈ = f(q, t): RKN 12(10) and the symplectic composition -----------------------------
 
 @njit(cache=True, inline=INLINE)
 def _longest_step(rates):
@@ -342,13 +342,17 @@ SAVEI_WIDTH = 1 + STATS_SIZE
 
 
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
-def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, flags, rtol,
-                       atol, max_steps, c, A, b, bp, bh, bph, w, yf, sq, qsum, dev, counts,
-                       hbuf, block, budget, stop, save, savei):
+def point_second_order(ka, rkn, w, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, flags, rtol,
+                       atol, max_steps, yf, sq, qsum, dev, counts, hbuf, block, budget, stop,
+                       save, savei):
     """Integrate one point of a q̈ = f(q, t) system (drive kernel) from y0 at t0 to t1.
 
-    family 0: RKN 12(10), adaptive (``adaptive``) or at the fixed step ``h0``;
-    family 1: the symmetric composition of velocity Verlet with weights ``w`` at ``h0``.
+    ``rkn``, RKN 12(10)'s tables (c, A, b, b', b̂, b̂'): that method, adaptive
+    (``adaptive``) or at the fixed step ``h0`` (``w`` unused);
+    ``rkn`` None: the symmetric composition of velocity Verlet with weights ``w`` at ``h0``.
+    Every branch between the two tests ``rkn is None`` on the argument itself: numba
+    prunes such a branch when it compiles for a None argument, so the symplectic driver
+    carries none of RKN 12's code (its first grid compiled in 11 s against 27 s).
     The adaptive step is controlled as by ``simulate``'s "rkn12"
     (:func:`lagrange_core._integrator_kernels.fast_rkn_chunk`): at most DRIVE_STEP periods
     of the fastest drive harmonic, and *held* (:func:`held_step_record`) once the first
@@ -372,7 +376,10 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
     tvh = np.zeros(TV_SIZE)
     sth = np.zeros(STATS_SIZE, dtype=np.int64)
     nd = rates.shape[0]
-    ns = c.shape[0] if family == 0 else w.shape[0] + 1
+    if rkn is None:
+        ns = w.shape[0] + 1
+    else:
+        ns = rkn[0].shape[0]
     K = np.empty((ns, n))
     q = np.empty(n)
     v = np.empty(n)
@@ -389,14 +396,16 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
     rot = np.empty((ns, max(nd, 1), 2))
     cs0 = np.empty(max(2 * nd, 1))
     css = np.empty(max(2 * nd, 1))
-    S = np.empty(ns)                      # family 1: cumulative substep weights
-    acc = 0.0
-    for k in range(ns - 1 if family == 1 else 0):
-        acc += w[k]
-        S[k] = acc
+    S = np.empty(ns)                      # the symplectic substeps' cumulative weights
     db = np.empty(ns)
     dbp = np.empty(ns)
-    if family == 0:
+    if rkn is None:
+        acc = 0.0
+        for k in range(ns - 1):
+            acc += w[k]
+            S[k] = acc
+    else:
+        b, bp, bh, bph = rkn[2], rkn[3], rkn[4], rkn[5]
         for j in range(ns):
             db[j] = b[j] - bh[j]
             dbp[j] = bp[j] - bph[j]
@@ -460,7 +469,7 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
                 sq[0, i] = y0[i]
         k_next = 1
         h = h0
-        if adaptive and h <= 0.0:
+        if rkn is not None and adaptive and h <= 0.0:
             W = np.zeros((n, n + 1))
             f = np.empty(2 * n)
             for i in range(n):
@@ -548,18 +557,22 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
             # rotations: their angle error α·|hs − h_rot| is at the rounding of t itself
             if abs(hs - h_rot) > 4.0 * _EPS * max(abs(t), abs(t_target)):
                 for s in range(ns):
-                    frac = c[s] if family == 0 else (S[s] if s < ns - 1 else 1.0)
+                    if rkn is None:
+                        frac = S[s] if s < ns - 1 else 1.0
+                    else:
+                        frac = rkn[0][s]
                     for k in range(nd):
                         rot[s, k, 0] = np.cos(rates[k] * frac * hs)
                         rot[s, k, 1] = np.sin(rates[k] * frac * hs)
                 h_rot = hs
-            if family == 0:
-                kst = rkn_stages(ka, t, hs, q, v, a0, c, A, rot, cs0, css, K, qs, p, Wn)
+            if rkn is not None:
+                kst = rkn_stages(ka, t, hs, q, v, a0, rkn[0], rkn[1], rot, cs0, css, K, qs,
+                                 p, Wn)
                 counts[CNT_EVALS] += ns - 1
                 if kst != 0:
                     break
-                err, est, finite = rkn_combine(hs, q, v, K, b, bp, db, dbp, cq, cv, qn, vn,
-                                               cqn, cvn, adaptive, rtol, atol)
+                err, est, finite = rkn_combine(hs, q, v, K, rkn[2], rkn[3], db, dbp, cq, cv,
+                                               qn, vn, cqn, cvn, adaptive, rtol, atol)
             else:
                 for i in range(n):
                     qn[i] = q[i]
@@ -585,6 +598,7 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
                 for i in range(n):
                     if not (np.isfinite(qn[i]) and np.isfinite(vn[i])):
                         finite = False
+                break               # (fixed steps: nothing below is compiled for it)
             if (not adaptive) or (finite and err < 1.0):
                 break
             counts[CNT_REJECTED] += 1
@@ -616,15 +630,15 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
             yk = hs - t_carry
             t_new = t + yk
             t_carry = (t_new - t) - yk
-        if family == 0:         # FSAL: the drive at t + hs is the rotation of stage c = 1
+        if rkn is not None:     # FSAL: the drive at t + hs is the rotation of stage c = 1
             rotate_drive(cs0, rot, ns - 1, css)
             if call_fast_accel(ka[FAST_ACCEL], qn, t_new, css, p, an, Wn) != 0:
                 status = GRID_SINGULAR
                 break
             counts[CNT_EVALS] += 1
-        if family == 0 and (flags & OBS_BAND):     # leaving the band: where, exactly
-            x, jx, ev = _rkn_band_exit(ka, t, hs, q, v, a0, qn, vn, p, lo, hi, c, A, b, bp,
-                                       rates, yf)
+        if rkn is not None and (flags & OBS_BAND):    # leaving the band: where, exactly
+            x, jx, ev = _rkn_band_exit(ka, t, hs, q, v, a0, qn, vn, p, lo, hi, rkn[0], rkn[1],
+                                       rkn[2], rkn[3], rates, yf)
             counts[CNT_EVALS] += ev
             if jx >= 0:
                 _accumulate_mean(qsum, q, v, yf[:n], yf[n:], x * hs)
@@ -650,7 +664,7 @@ def point_second_order(ka, family, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
                     sq[k_next, i] = q[i]
                     sq[k_next, n + i] = v[i]
             k_next += 1
-        if adaptive:
+        if rkn is not None and adaptive:
             h = rkn_next_step(tvh, sth, block, h, hs, err, clipped, rejected, h_max)
             rejected = False
             if strobe:
@@ -682,10 +696,10 @@ def pilot_step(ka, y0, p, t0, t1, T, rtol, atol, c, A, b, bp, bh, bph, counts):
         # the constants as np.int64/np.bool_: a literal argument (numba types ``0`` as
         # Literal[int](0)) would compile point_second_order a second time (10–17 s), for
         # the pilot alone, beside the grid's own specialisation
-        out = point_second_order(ka, np.int64(0), np.bool_(True), y0, p, t0, tw,
-                                 0.0, 0.0, z, -inf, inf, np.int64(0), rtol, atol,
-                                 np.int64(1 << 40), c, A, b, bp, bh, bph, np.zeros(1), yf,
-                                 np.empty((1, 2 * n)), np.zeros(n), np.zeros(n), counts, hbuf,
+        out = point_second_order(ka, (c, A, b, bp, bh, bph), np.zeros(1), np.bool_(True), y0,
+                                 p, t0, tw, 0.0, 0.0, z, -inf, inf, np.int64(0), rtol, atol,
+                                 np.int64(1 << 40), yf, np.empty((1, 2 * n)), np.zeros(n),
+                                 np.zeros(n), counts, hbuf,
                                  np.zeros(0), np.int64(1 << 62), np.zeros(1, dtype=np.int64),
                                  np.zeros(0), np.zeros(1, dtype=np.int64))
         m = out[5]
@@ -704,31 +718,32 @@ def pilot_step(ka, y0, p, t0, t1, T, rtol, atol, c, A, b, bp, bh, bph, counts):
     return period / math.ceil(period / h)
 
 
-def grid_second_order(ka, family, adaptive, pilot, hold_block, idx, Y0, P, TS, H, TSTR, REF,
-                      LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, w, YF, TF,
-                      SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, stop,
-                      slot, SAVE, SAVEI):
-    """Every point ``idx[k]`` with :func:`point_second_order` (``pilot``: the fixed step of
-    each point from :func:`pilot_step`; ``hold_block``: steps per block of the adaptive
-    held step); a point pauses after ``budget`` steps of this call, its state in row
-    ``slot[k]`` of ``SAVE``/``SAVEI``, and resumes from it when that row is marked saved.
-    Once ``stop[0]`` is set (Ctrl-C) the running points pause at their next step and no
-    other point starts (their status stays as it was: not run, or paused earlier).
+def grid_second_order(ka, rkn, w, adaptive, pilot, hold_block, idx, Y0, P, TS, H, TSTR, REF,
+                      LO, HI, flags, rtol, atol, max_steps, YF, TF, SQ, QM, DEV, EXIT, EXITC,
+                      EDRIFT, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI):
+    """Every point ``idx[k]`` with :func:`point_second_order` (``rkn``: RKN 12's tables
+    (c, A, b, b', b̂, b̂'), or None for the symplectic composition with weights ``w``;
+    ``pilot``: the fixed step of each point from :func:`pilot_step`; ``hold_block``: steps
+    per block of the adaptive held step); a point pauses after ``budget`` steps of this
+    call, its state in row ``slot[k]`` of ``SAVE``/``SAVEI``, and resumes from it when
+    that row is marked saved.  Once ``stop[0]`` is set (Ctrl-C) the running points pause
+    at their next step and no other point starts (their status stays as it was: not run,
+    or paused earlier).
 
     The points go in blocks to the threads (:func:`lagrange_core._thread_blocks.run_rows`,
     16 per thread: points end at different times), each block one GIL-free call.
     """
-    run_rows(_second_order_rows, idx.shape[0], ka, family, adaptive, pilot, hold_block, idx,
-             Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh,
-             bph, w, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget,
-             stop, slot, SAVE, SAVEI, per_thread=16, stoppable=True)
+    run_rows(_second_order_rows, idx.shape[0], ka, rkn, w, adaptive, pilot, hold_block, idx,
+             Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, max_steps, YF, TF, SQ, QM,
+             DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI,
+             per_thread=16, stoppable=True)
 
 
 @njit(cache=True, nogil=True)
-def _second_order_rows(ka, family, adaptive, pilot, hold_block, idx, Y0, P, TS, H, TSTR,
-                       REF, LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, w,
-                       YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS,
-                       budget, stop, slot, SAVE, SAVEI, lo, hi):
+def _second_order_rows(ka, rkn, w, adaptive, pilot, hold_block, idx, Y0, P, TS, H, TSTR,
+                       REF, LO, HI, flags, rtol, atol, max_steps, YF, TF, SQ, QM, DEV, EXIT,
+                       EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI,
+                       lo, hi):
     """The points idx[lo:hi] of :func:`grid_second_order`, on the calling thread."""
     nb = np.zeros(0)
     for k in range(lo, hi):
@@ -738,13 +753,13 @@ def _second_order_rows(ka, family, adaptive, pilot, hold_block, idx, Y0, P, TS, 
         s = slot[k]
         block = np.empty(hold_block if adaptive else 0)
         h0 = H[i]
-        if pilot and SAVEI[s, SAVED] == 0:
-            h0 = pilot_step(ka, Y0[i], P[i], TS[i, 0], TS[i, 1], TSTR[i], rtol, atol, c, A, b,
-                            bp, bh, bph, COUNTS[i])
+        if rkn is not None and pilot and SAVEI[s, SAVED] == 0:
+            h0 = pilot_step(ka, Y0[i], P[i], TS[i, 0], TS[i, 1], TSTR[i], rtol, atol, rkn[0],
+                            rkn[1], rkn[2], rkn[3], rkn[4], rkn[5], COUNTS[i])
         st, t, jx, drift, err, nh = point_second_order(
-            ka, family, adaptive, Y0[i], P[i], TS[i, 0], TS[i, 1], h0, TSTR[i], REF[i], LO[i],
-            HI[i], flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, w, YF[i], SQ[i], QM[i],
-            DEV[i], COUNTS[i], nb, block, budget, stop, SAVE[s], SAVEI[s])
+            ka, rkn, w, adaptive, Y0[i], P[i], TS[i, 0], TS[i, 1], h0, TSTR[i], REF[i], LO[i],
+            HI[i], flags, rtol, atol, max_steps, YF[i], SQ[i], QM[i], DEV[i], COUNTS[i], nb,
+            block, budget, stop, SAVE[s], SAVEI[s])
         STATUS[i] = st
         TF[i] = t
         EXITC[i] = jx

@@ -629,10 +629,11 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
                                    tab["A"], tab["b"], tab["bp"], tab["bh"], tab["bph"], *outs,
                                    budget, KERNEL_STOP, slot, save, savei)
             elif family == "second_order":
-                _bk.grid_second_order(ka, sub, adaptive, pilot, _HOLD_BLOCK, idx, *common,
-                                      tab["c"], tab["A"], tab["b"], tab["bp"], tab["bh"],
-                                      tab["bph"], tab["w"], *outs, budget, KERNEL_STOP, slot,
-                                      save, savei)
+                # (None: numba compiles the symplectic driver without RKN 12's code)
+                rkn = None if sub else (tab["c"], tab["A"], tab["b"], tab["bp"], tab["bh"],
+                                        tab["bph"])
+                _bk.grid_second_order(ka, rkn, tab["w"], adaptive, pilot, _HOLD_BLOCK, idx,
+                                      *common, *outs, budget, KERNEL_STOP, slot, save, savei)
             else:
                 _bk.grid_dop853(ka, m, adaptive, idx, *common, tab["A"], tab["B"], tab["C"],
                                 tab["E3"], tab["E5"], *outs, budget, KERNEL_STOP, slot,
