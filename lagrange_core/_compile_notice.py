@@ -48,11 +48,12 @@ ACTIVITY_SECONDS = {
     "kapitza.warmup": 55,           # 57 s, 2026-11-26 (two processes)
     "lagrange_core.warmup": 20,
     # the first grid of each driver (lagrange_core.batch.compile_activity), the driven
-    # pendulum on empty caches, 2026-11-27: RKN 12's lanes 27 s, the symplectic per-point
-    # driver 24 s, DOP853 8–10 s; measuring adds the strobe fit, which compiles on the
-    # other core (kapitza's ``measure``): 34–36 s, 8.5–10.5 s (38 s, 15.5–17 s on one)
+    # pendulum on empty caches, 2026-11-27: RKN 12's lanes 27 s, DOP853 8–10 s; the
+    # symplectic per-point driver, compiled without RKN 12's code, 10.2–11.1 s (2026-11-28;
+    # 26–29 s with it); measuring adds the strobe fit, which compiles on the other core
+    # (kapitza's ``measure``): 34–36 s, 8.5–10.5 s (38 s, 15.5–17 s on one)
     "simulate_grid, RKN 12": 27,
-    "simulate_grid, symplectic": 24,
+    "simulate_grid, symplectic": 10,
     "simulate_grid, DOP853": 9,
     "measure, RKN 12": 35,
     "measure, DOP853": 10,          # (measure runs no fixed-step method: it passes no h)

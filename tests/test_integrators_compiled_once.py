@@ -129,3 +129,21 @@ def test_numba_cache_is_flushed_when_a_module_it_calls_into_changes(tmp_path):
     (tmp_path / "dep.py").write_text("VALUE = 5\n")
     assert run() == [6, 0]          # the callee's module changed: recompiled, not stale
     assert run() == [6, 1]
+
+
+def test_the_symplectic_grid_compiles_its_driver_without_rkn12():
+    """A symplectic grid passes RKN 12's tables as None: numba then prunes every branch
+    of the per-point driver that tests them and compiles it without RKN 12's code (its
+    first grid 10–11 s on an empty cache, 26–29 s with it: benchmarks/README.md).  Were
+    the tables passed, the numbers would not change — only the first grid's wait."""
+    from numba import types
+
+    from lagrange_core import _batch_kernels as bk
+    pend = problems.pendulum()
+    params = dict(g=9.81, l=1.0, m=1.0)
+    grid = pend.simulate_grid([1.0], [0.0], (0.0, 2.0), params, method="yoshida6", h=0.2,
+                              progress=False)
+    one = pend.simulate([1.0], [0.0], (0.0, 2.0), params, method="yoshida6", h=0.2)
+    np.testing.assert_allclose(grid.q[0], one.q[-1, 0], rtol=1e-12)    # the same steps
+    rkn_types = {sig[1] for sig in bk._second_order_rows.signatures}
+    assert types.none in rkn_types, rkn_types
