@@ -285,8 +285,8 @@ def _rkn_band_exit(ka, t, h, q, v, a0, qn, vn, p, lo, hi, c, A, b, bp, rates, y)
             xt = guess if it == 0 else (xa * fb - xb * fa) / (fb - fa)
             if not (xa < xt < xb):
                 xt = 0.5 * (xa + xb)
-            if second_order_step(ka, 0, t, q, v, a0, xt * h, p, c, A, b, bp, w0, K, yq, yv, qs,
-                                 rates, css, Wn) != 0:
+            if second_order_step(ka, np.int64(0), t, q, v, a0, xt * h, p, c, A, b, bp, w0, K, yq,
+                                 yv, qs, rates, css, Wn) != 0:
                 break
             evals += ns - 1
             ft = yq[j] - bound

@@ -1137,13 +1137,15 @@ def _rkn_chunk_loop(ka, y, f, tv, stats, p, c, A, b, bp, adaptive, rtol, atol, m
             tv[TV_T_CARRY] = (t_new - t) - yk
         fired = False
         if n_ev > 0:
-            x_stop = second_order_events(ka, 0, t, hs, q, v, a0, qn, vn, p, c, A, b, bp, w0, K,
-                                         qs, rates, css, Wn, W, dydt, ytmp, ev_int, ev_val,
-                                         ev_g, g_new, x_root, ev_t, ev_k, ev_y, stats)
+            # (the family as np.int64: a bare 0 or 1 is typed Literal[int], and the event
+            # functions compiled once for RKN 12 and again for the symplectic driver, 4 s)
+            x_stop = second_order_events(ka, np.int64(0), t, hs, q, v, a0, qn, vn, p, c, A, b,
+                                         bp, w0, K, qs, rates, css, Wn, W, dydt, ytmp, ev_int,
+                                         ev_val, ev_g, g_new, x_root, ev_t, ev_k, ev_y, stats)
             fired = x_stop <= 1.0
         if fired:   # stop at the event: a fresh step there (its accelerations into a0)
-            status = second_order_stop(ka, 0, t, x_stop, hs, q, v, a0, qn, vn, a0, p, c, A, b,
-                                       bp, w0, K, qs, rates, css, Wn, stats)
+            status = second_order_stop(ka, np.int64(0), t, x_stop, hs, q, v, a0, qn, vn, a0, p,
+                                       c, A, b, bp, w0, K, qs, rates, css, Wn, stats)
             t_new = t + x_stop * hs
             tv[TV_T_CARRY] = 0.0
             exact_drive = True
@@ -1301,13 +1303,13 @@ def _symplectic_chunk_loop(ka, y, f, tv, stats, p, w, max_steps, t_eval, stride,
             tv[TV_T_CARRY] = (t_new - t) - yk
         fired = False
         if n_ev > 0:
-            x_stop = second_order_events(ka, 1, t, hs, q, v, a0, qn, vn, p, z, z2, z, z, w, K,
-                                         qs, rates, css, Wn, W, dydt, ytmp, ev_int, ev_val,
-                                         ev_g, g_new, x_root, ev_t, ev_k, ev_y, stats)
+            x_stop = second_order_events(ka, np.int64(1), t, hs, q, v, a0, qn, vn, p, z, z2, z,
+                                         z, w, K, qs, rates, css, Wn, W, dydt, ytmp, ev_int,
+                                         ev_val, ev_g, g_new, x_root, ev_t, ev_k, ev_y, stats)
             fired = x_stop <= 1.0
         if fired:   # stop at the event: a fresh step there
-            second_order_stop(ka, 1, t, x_stop, hs, q, v, a0, qn, vn, a, p, z, z2, z, z, w, K,
-                              qs, rates, css, Wn, stats)
+            second_order_stop(ka, np.int64(1), t, x_stop, hs, q, v, a0, qn, vn, a, p, z, z2, z,
+                              z, w, K, qs, rates, css, Wn, stats)
             t_new = t + x_stop * hs
             tv[TV_T_CARRY] = 0.0
         for i in range(n):

@@ -186,7 +186,9 @@ def _load(ka, mode, l, i, sv, svi, Y0, P, T, T0, v0, rtol, atol, y, V, K, KV, Pl
         Vs[j, 0] = v0[j]
     for k in range(p.shape[0]):
         Pv[k, 0] = p[k]
-    if _tangent(ka, mode, ts, ys, Vs, Pv, f, jv, yd, fd, sc, work, 1) > 0:
+    # (np.int64: a bare 1 is typed Literal[int](1), and _tangent with the lanes calls under
+    # it compiled a second time for this one call, 2.8 s on an empty cache)
+    if _tangent(ka, mode, ts, ys, Vs, Pv, f, jv, yd, fd, sc, work, np.int64(1)) > 0:
         return _SINGULAR
     COUNTS[i, _EVALS] += 1 if mode == JVP else 2
     for j in range(d):

@@ -36,6 +36,7 @@ from numba import njit, prange
 
 from lagrange_core import _kernel_calls
 from lagrange_core._kernel_calls import JACOBIAN, call_jacobian
+from lagrange_core._linalg import solve_dense
 from lagrange_core._thread_blocks import run_rows
 from lagrange_core.module_store import guard_numba_cache
 
@@ -212,7 +213,10 @@ def _period_map(C, S, K, omega, T, tol, order, X, work, coef, half):
     d = X.shape[0]
     n = d // 2
     if half:
-        ls, err, ns = _taylor_period(C, S, K, omega, 0.5 * T, tol, order, X, work, coef, True)
+        # (np.bool_, not a bare True/False: numba types a constant argument as a literal,
+        # and compiled _taylor_period twice, once for each, 2.5 s each on an empty cache)
+        ls, err, ns = _taylor_period(C, S, K, omega, 0.5 * T, tol, order, X, work, coef,
+                                     np.bool_(True))
         nx = 0.0
         for r in range(d):
             for c in range(d):
@@ -220,24 +224,29 @@ def _period_map(C, S, K, omega, T, tol, order, X, work, coef, half):
         # det X = 1 here, so ‖X‖‖X⁻¹‖ ≥ ‖X‖/d: a large X is ill-conditioned, and inverting a
         # numerically singular one raised LinAlgError from inside the compiled loop
         if ls == 0.0 and nx < 1e3:
-            PX = X.copy()
-            for r in range(n, d):
-                for c in range(d):
-                    PX[r, c] = -PX[r, c]
-            Xinv = np.linalg.inv(X)
-            ni = 0.0
+            # [X | I | P X] → [· | X⁻¹ | X⁻¹ P X] by elimination with partial pivoting, no
+            # LAPACK call (numba's np.linalg.inv and @ cost 1.2 s of the first compile); a
+            # singular X says so (1) and the full period is integrated instead
+            W = np.zeros((d, 3 * d))
             for r in range(d):
                 for c in range(d):
-                    ni = max(ni, abs(Xinv[r, c]))
-            if nx * ni < 1e3:
-                Y = Xinv @ PX
+                    W[r, c] = X[r, c]
+                    W[r, 2 * d + c] = -X[r, c] if r >= n else X[r, c]
+                W[r, d + r] = 1.0
+            if solve_dense(W, d) == 0:
+                ni = 0.0
                 for r in range(d):
                     for c in range(d):
-                        X[r, c] = -Y[r, c] if r >= n else Y[r, c]
-                # M = P X⁻¹ P X: relative errors of X enter twice, amplified by the condition
-                return 0.0, 2.0 * err * max(1.0, nx * ni), 2 * ns
+                        ni = max(ni, abs(W[r, d + c]))
+                if nx * ni < 1e3:
+                    for r in range(d):
+                        for c in range(d):
+                            X[r, c] = -W[r, 2 * d + c] if r >= n else W[r, 2 * d + c]
+                    # M = P X⁻¹ P X: relative errors of X enter twice, amplified by the
+                    # condition
+                    return 0.0, 2.0 * err * max(1.0, nx * ni), 2 * ns
         # strong growth: X(T/2) too ill-conditioned to invert, integrate the full period
-    return _taylor_period(C, S, K, omega, T, tol, order, X, work, coef, False)
+    return _taylor_period(C, S, K, omega, T, tol, order, X, work, coef, np.bool_(False))
 
 
 @njit(cache=True, nogil=True)
