@@ -139,7 +139,9 @@ def rhs_on_lanes(ka, tl, y, p, dydt, work, L):
     Returns the number of failed lanes, their status in ``work[0]``."""
     if call_rhs_lanes(ka[RHS_LANES], tl, y, p, dydt, work, L) == 0:
         return 0
-    return _rhs_again(ka, False, tl, y, y, p, dydt, dydt, work, L)
+    # (np.bool_: a bare False or True is typed Literal[bool], and _rhs_again compiled once
+    # for each of the two callers, ~0.5 s more in a first Lyapunov map)
+    return _rhs_again(ka, np.bool_(False), tl, y, y, p, dydt, dydt, work, L)
 
 
 @njit(cache=True)
@@ -149,7 +151,7 @@ def rhs_jvp_on_lanes(ka, tl, y, v, p, dydt, jv, work, L):
     status in ``work[0]``."""
     if call_rhs_jvp_lanes(ka[RHS_JVP_LANES], tl, y, v, p, dydt, jv, work, L) == 0:
         return 0
-    return _rhs_again(ka, True, tl, y, v, p, dydt, jv, work, L)
+    return _rhs_again(ka, np.bool_(True), tl, y, v, p, dydt, jv, work, L)
 
 
 from . import _kernel_calls  # noqa: E402

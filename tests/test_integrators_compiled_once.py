@@ -147,3 +147,55 @@ def test_the_symplectic_grid_compiles_its_driver_without_rkn12():
     np.testing.assert_allclose(grid.q[0], one.q[-1, 0], rtol=1e-12)    # the same steps
     rkn_types = {sig[1] for sig in bk._second_order_rows.signatures}
     assert types.none in rkn_types, rkn_types
+
+
+#: Kernels that take a size as a literal on purpose: each size is its own specialisation,
+#: which lets LLVM unroll their loops (benchmarks/README.md, thirteenth session)
+_LITERAL_SIZES = {"lagrange_core._lane_math.lane_solve",
+                  "lagrange_core._core_kernels.jacobian_scratch"}
+
+
+def test_no_kernel_is_compiled_again_for_a_constant_argument():
+    """numba types a bare constant argument (``0``, ``1``, ``True``) as a literal: a kernel
+    called with 0 in one place and 1, or a variable, in another was compiled once for
+    each — the second-order event functions (family 0 and 1, 4 s on an empty cache), the
+    Floquet period map's Taylor series (True and False, 2.5 s), the chaos lanes' tangent
+    (1 and L, 2.8 s), the lanes' scalar fallback (0.5 s).  After first uses that reach
+    each of them, no kernel of either package has two signatures that differ only in
+    literals (sizes meant as literals aside: ``_LITERAL_SIZES``)."""
+    from numba import types
+    from numba.core.registry import CPUDispatcher
+
+    import kapitza
+    from lagrange_core import Event
+
+    driven = problems.driven_pendulum("vertical", damping=True)
+    w0 = math.sqrt(9.81)
+    p = dict(A=0.1, g=9.81, l=1.0, m=1.0, omega=2 * w0, gamma=0.1 * w0)
+    up = problems.driven_pendulum()
+    pu = dict(A=0.05, g=9.81, l=1.0, m=1.0, omega=2 * math.pi * 60)
+    crossing = Event("coordinate", "theta", math.pi - 0.05)
+    for method, h in (("rkn12", None), ("yoshida6", 1e-3)):       # the event functions
+        up.simulate([math.pi - 0.1], [0.0], (0.0, 0.3), pu, method=method, h=h,
+                    events=[crossing])
+    kapitza.floquet_point(up, pu, [math.pi])                  # the half-period map
+    kapitza.lyapunov_grid(driven, p, [0.3, 0.4], periods=4, transient=0, blocks=2,
+                          progress=False)                         # lanes, their fallback
+    kapitza.lyapunov_grid(driven, p, [0.3, 0.4], periods=4, transient=0, blocks=2,
+                          tangent="difference", progress=False)
+    twice = {}
+    for name, module in list(sys.modules.items()):
+        if not name.startswith(("lagrange_core", "kapitza", "_lc")):
+            continue
+        for attr, f in list(vars(module).items()):
+            if not isinstance(f, CPUDispatcher) or f.py_func.__module__ != name:
+                continue
+            where = f"{name}.{attr}"
+            seen = {}
+            for sig in f.signatures:
+                key = tuple(types.unliteral(t) for t in sig)
+                seen.setdefault(key, []).append(sig)
+            again = [sigs for sigs in seen.values() if len(sigs) > 1]
+            if again and where not in _LITERAL_SIZES:
+                twice[where] = again
+    assert not twice, twice
