@@ -598,7 +598,7 @@ def point_second_order(ka, rkn, w, adaptive, y0, p, t0, t1, h0, T, ref, lo, hi, 
                 for i in range(n):
                     if not (np.isfinite(qn[i]) and np.isfinite(vn[i])):
                         finite = False
-                break               # (fixed steps: nothing below is compiled for it)
+                break               # fixed steps: the rejection below is RKN 12's alone
             if (not adaptive) or (finite and err < 1.0):
                 break
             counts[CNT_REJECTED] += 1

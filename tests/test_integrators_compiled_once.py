@@ -149,53 +149,70 @@ def test_the_symplectic_grid_compiles_its_driver_without_rkn12():
     assert types.none in rkn_types, rkn_types
 
 
-#: Kernels that take a size as a literal on purpose: each size is its own specialisation,
-#: which lets LLVM unroll their loops (benchmarks/README.md, thirteenth session)
-_LITERAL_SIZES = {"lagrange_core._lane_math.lane_solve",
-                  "lagrange_core._core_kernels.jacobian_scratch"}
+def _jit_decorated(function):
+    """(jitted, inlined): whether a function definition carries a numba decorator, and
+    whether numba inlines it into its callers (``inline=`` anything but "never")."""
+    import ast
+    for decorator in function.decorator_list:
+        target = decorator.func if isinstance(decorator, ast.Call) else decorator
+        name = target.attr if isinstance(target, ast.Attribute) else getattr(target, "id", "")
+        if "jit" in name:
+            inline = [k.value for k in getattr(decorator, "keywords", ()) if k.arg == "inline"]
+            inlined = bool(inline) and not (isinstance(inline[0], ast.Constant)
+                                            and inline[0].value == "never")
+            return True, inlined
+    return False, False
 
 
 def test_no_kernel_is_compiled_again_for_a_constant_argument():
-    """numba types a bare constant argument (``0``, ``1``, ``True``) as a literal: a kernel
-    called with 0 in one place and 1, or a variable, in another was compiled once for
-    each — the second-order event functions (family 0 and 1, 4 s on an empty cache), the
+    """numba types a bare integer or boolean constant argument (``0``, ``1``, ``True``) as
+    a literal, and compiles the callee once for each literal and once more for a variable:
+    the second-order event functions (family 0 and 1: 4 s more on an empty cache), the
     Floquet period map's Taylor series (True and False, 2.5 s), the chaos lanes' tangent
-    (1 and L, 2.8 s), the lanes' scalar fallback (0.5 s).  After first uses that reach
-    each of them, no kernel of either package has two signatures that differ only in
-    literals (sizes meant as literals aside: ``_LITERAL_SIZES``)."""
-    from numba import types
-    from numba.core.registry import CPUDispatcher
+    (1 and L, 2.8 s) and the lanes' scalar fallback (False and True, 0.5 s) were compiled
+    twice so.  In the source of both packages, no jitted function calls another one that
+    is not inlined with a bare constant at an argument where some other call passes a
+    different constant or a variable (pass np.int64(…)/np.bool_(…)).  A reading of the
+    source, not of numba's caches: a kernel loaded from the cache with its caller never
+    shows its own signatures, so a first use would have to compile everything to see it."""
+    import ast
+    from pathlib import Path
 
-    import kapitza
-    from lagrange_core import Event
+    root = Path(__file__).resolve().parent.parent
+    trees = {path: ast.parse(path.read_text()) for package in ("lagrange_core", "kapitza")
+             for path in sorted((root / package).rglob("*.py"))}
+    compiled = set()            # jitted functions numba compiles as functions of their own
+    for tree in trees.values():
+        for node in ast.walk(tree):
+            if isinstance(node, ast.FunctionDef):
+                jitted, inlined = _jit_decorated(node)
+                if jitted and not inlined:
+                    compiled.add(node.name)
 
-    driven = problems.driven_pendulum("vertical", damping=True)
-    w0 = math.sqrt(9.81)
-    p = dict(A=0.1, g=9.81, l=1.0, m=1.0, omega=2 * w0, gamma=0.1 * w0)
-    up = problems.driven_pendulum()
-    pu = dict(A=0.05, g=9.81, l=1.0, m=1.0, omega=2 * math.pi * 60)
-    crossing = Event("coordinate", "theta", math.pi - 0.05)
-    for method, h in (("rkn12", None), ("yoshida6", 1e-3)):       # the event functions
-        up.simulate([math.pi - 0.1], [0.0], (0.0, 0.3), pu, method=method, h=h,
-                    events=[crossing])
-    kapitza.floquet_point(up, pu, [math.pi])                  # the half-period map
-    kapitza.lyapunov_grid(driven, p, [0.3, 0.4], periods=4, transient=0, blocks=2,
-                          progress=False)                         # lanes, their fallback
-    kapitza.lyapunov_grid(driven, p, [0.3, 0.4], periods=4, transient=0, blocks=2,
-                          tangent="difference", progress=False)
-    twice = {}
-    for name, module in list(sys.modules.items()):
-        if not name.startswith(("lagrange_core", "kapitza", "_lc")):
-            continue
-        for attr, f in list(vars(module).items()):
-            if not isinstance(f, CPUDispatcher) or f.py_func.__module__ != name:
+    def constant(arg):
+        if isinstance(arg, ast.UnaryOp) and isinstance(arg.op, ast.USub):
+            arg = arg.operand
+        ok = isinstance(arg, ast.Constant) and isinstance(arg.value, (bool, int))
+        return ast.unparse(arg) if ok else None
+
+    passed = {}                 # (callee, position) -> {constant or "a variable": [where]}
+    for path, tree in trees.items():
+        for function in ast.walk(tree):
+            if not (isinstance(function, ast.FunctionDef) and _jit_decorated(function)[0]):
                 continue
-            where = f"{name}.{attr}"
-            seen = {}
-            for sig in f.signatures:
-                key = tuple(types.unliteral(t) for t in sig)
-                seen.setdefault(key, []).append(sig)
-            again = [sigs for sigs in seen.values() if len(sigs) > 1]
-            if again and where not in _LITERAL_SIZES:
-                twice[where] = again
+            for call in ast.walk(function):
+                if not isinstance(call, ast.Call):
+                    continue
+                f = call.func
+                name = f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", None)
+                if name not in compiled:
+                    continue
+                for k, arg in enumerate(call.args):
+                    value = constant(arg) or "a variable"
+                    passed.setdefault((name, k), {}).setdefault(value, []).append(
+                        f"{path.relative_to(root)}:{call.lineno}")
+    twice = {f"{name} argument {k}": values for (name, k), values in passed.items()
+             if len(values) > 1 and set(values) != {"a variable"}}
     assert not twice, twice
+    # the reading sees the kernels it is about (a decorator spelt otherwise would hide them)
+    assert {"second_order_events", "_taylor_period", "_tangent", "_rhs_again"} <= compiled
