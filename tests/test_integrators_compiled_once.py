@@ -190,10 +190,10 @@ def test_no_kernel_is_compiled_again_for_a_constant_argument():
                     compiled.add(node.name)
 
     def constant(arg):
-        if isinstance(arg, ast.UnaryOp) and isinstance(arg.op, ast.USub):
-            arg = arg.operand
-        ok = isinstance(arg, ast.Constant) and isinstance(arg.value, (bool, int))
-        return ast.unparse(arg) if ok else None
+        value = arg.operand if isinstance(arg, ast.UnaryOp) and isinstance(arg.op, ast.USub) \
+            else arg
+        ok = isinstance(value, ast.Constant) and isinstance(value.value, (bool, int))
+        return ast.unparse(arg) if ok else None         # (−1 stays −1)
 
     passed = {}                 # (callee, position) -> {constant or "a variable": [where]}
     for path, tree in trees.items():
