@@ -47,8 +47,6 @@ _SEEN: set = set()
 _PATIENCE = 1.0
 _JOBS: queue.SimpleQueue = queue.SimpleQueue()
 _COMPILER: list[threading.Thread] = []
-#: numba compilations running on the compiling thread (0 or 1: nested ones count once)
-_COMPILING = [0]
 _START = threading.Lock()
 #: whether this Ctrl-C's giving up has been said
 _SAID = [False]
@@ -77,19 +75,17 @@ def _start_compiler() -> None:
 
 class _Compilations(event.Listener):
     """Counts the compilations (cache misses: a load from numba's disk cache is none)
-    running on the compiling thread."""
+    running on the compiling thread, nested ones included."""
 
     depth = 0
 
     def on_start(self, ev):
         if _COMPILER and threading.current_thread() is _COMPILER[0]:
             _Compilations.depth += 1
-            _COMPILING[0] = 1
 
     def on_end(self, ev):
         if _COMPILER and threading.current_thread() is _COMPILER[0]:
             _Compilations.depth -= 1
-            _COMPILING[0] = int(_Compilations.depth > 0)
 
 
 event.register("numba:compile", _Compilations())
@@ -99,7 +95,7 @@ def compiling() -> bool:
     """Whether numba compiles a first call on the compiling thread now — one a Ctrl-C
     gave up waiting for: until it ends, any first call waits for it (numba compiles, and
     loads from its cache, one function at a time)."""
-    return bool(_COMPILING[0])
+    return _Compilations.depth > 0
 
 
 def first_call(call, key) -> None:
@@ -169,7 +165,7 @@ def _off_thread(call):
             # a Ctrl-C held by lagrange_core.progress.defer_ctrl_c (with Python's own
             # handler it raises KeyboardInterrupt in the wait)
             if interrupt_requested() and (
-                    _COMPILING[0] or time.perf_counter() - start > _PATIENCE):
+                    compiling() or time.perf_counter() - start > _PATIENCE):
                 raise KeyboardInterrupt
     except KeyboardInterrupt:
         _say_compiling_on()
