@@ -1,7 +1,7 @@
 """What a new system's first simulation costs, and what every step and call cost after it.
 
 Run:  python benchmarks/bench_cold_start.py [--quick] [--baseline REV]
-                                            [--only cold|steps|first-use|new-system|notices]
+          [--only cold|steps|first-use|new-system|notices|commands]
 
 1. Cold start (issue 9): each case in a fresh process with an *empty* kernel store
    (``LAGRANGE_CORE_CACHE`` a new directory: the system was never seen) while the
@@ -35,6 +35,10 @@ Run:  python benchmarks/bench_cold_start.py [--quick] [--baseline REV]
 5. The compile notice's estimate (``--only notices``): each first use in a fresh process on
    empty caches, the seconds the one-line notice quotes (``lagrange_core._compile_notice``)
    against the seconds the call took, and their ratio.
+6. A command with warm caches (``--only commands``): ``python -m kapitza ...`` in a fresh
+   process, every kernel cached, as a user's second and later commands run; wall seconds,
+   medians.  With ``--baseline REV`` REV's tree runs them too, alternated, with the ratios
+   (2026-11-28: the program no longer pays Python's last collection at its exit).
 
 Absolute times drift on a shared machine; compare ratios and medians.
 """
@@ -328,6 +332,10 @@ def trees(baseline):
         tmp = tempfile.mkdtemp(prefix="kapitza-baseline-")
         subprocess.run(["git", "-C", ROOT, "worktree", "add", "--detach", tmp, baseline],
                        check=True, capture_output=True)
+        # its bytecode written, as this tree's is: where PYTHONDONTWRITEBYTECODE is set
+        # (this machine) every process would compile REV's ~150 modules from source, 0.5 s
+        subprocess.run([sys.executable, "-m", "compileall", "-q", os.path.join(tmp, "kapitza"),
+                        os.path.join(tmp, "lagrange_core")], check=True, capture_output=True)
         envs.append(("old", {**os.environ, "PYTHONPATH": tmp}))
     try:
         yield envs
@@ -376,18 +384,53 @@ def new_system_table(quick, baseline):
                      else "") + ")", flush=True)
 
 
-def timed(cmd, env):
+def timed(cmd, env, cwd=None):
     """Wall and CPU seconds (the process and its children) of ``cmd``."""
     import resource
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False)
+    out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False, cwd=cwd)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     if out.returncode not in (0, 1):          # the report exits 1 when a section failed
         raise RuntimeError(f"{cmd} failed:\n{out.stderr[-3000:]}")
     return wall, cpu, out
+
+
+#: (label, the command line after ``kapitza``): warm commands a user types
+COMMAND_CASES = [("predict", ["predict", "--A", "0.05", "--f", "60"]),
+                 ("measure, 50 periods", ["measure", "--A", "0.05", "--f", "60",
+                                          "--periods", "50"]),
+                 ("--version", ["--version"])]
+
+
+def commands_table(rounds, baseline):
+    print(f"\n6. A command with warm caches (python -m kapitza ..., a fresh process each; "
+          f"medians of {rounds}), wall s")
+    # run from a folder of its own: ``python -m`` puts the working folder first on the
+    # path, which from the repository's root would be this tree's package for both trees
+    where = tempfile.mkdtemp(prefix="kapitza-commands-")
+
+    def once(argv, env):
+        return timed([sys.executable, "-m", "kapitza", *argv], env, cwd=where)[0]
+
+    with trees(baseline) as envs:
+        head = f"{'command':>24} {'new':>7}"
+        if baseline:
+            head += f" {'old':>7} {'new/old':>8}"
+        print(head)
+        for name, argv in COMMAND_CASES:
+            for _, env in envs:                 # every kernel compiled or loaded once
+                once(argv, env)
+            res = alternated(envs, rounds, lambda env, argv=argv: once(argv, env))
+            med = {k: statistics.median(v) for k, v in res.items()}
+            row = f"{name:>24} {med['new']:7.2f}"
+            if baseline:
+                row += f" {med['old']:7.2f} {med['new'] / med['old']:8.2f}"
+            print(row + "   (new: " + ", ".join(f"{x:.2f}" for x in res["new"])
+                  + (("; old: " + ", ".join(f"{x:.2f}" for x in res["old"])) if baseline
+                     else "") + ")", flush=True)
 
 
 def empty_caches():
@@ -487,9 +530,10 @@ def main():
     ap.add_argument("--quick", action="store_true", help="fewer repetitions (a smoke run)")
     ap.add_argument("--baseline", metavar="REV", help="also measure git revision REV")
     ap.add_argument("--worker", nargs=2, metavar=("KIND", "CASE"), help=argparse.SUPPRESS)
-    ap.add_argument("--only", choices=["cold", "steps", "first-use", "new-system", "notices"],
-                    help="run one of the parts (first-use, new-system, notices: only when "
-                         "asked)")
+    ap.add_argument("--only", choices=["cold", "steps", "first-use", "new-system", "notices",
+                                       "commands"],
+                    help="run one of the parts (first-use, new-system, notices, commands: "
+                         "only when asked)")
     ap.add_argument("--no-report", action="store_true",
                     help="first-use: leave out the report (the longest part)")
     ap.add_argument("--without-warmup", action="store_true",
@@ -513,6 +557,8 @@ def main():
         new_system_table(args.quick, args.baseline)
     if args.only == "notices":
         notices_table()
+    if args.only == "commands":
+        commands_table(3 if args.quick else 9, args.baseline)
 
 
 if __name__ == "__main__":

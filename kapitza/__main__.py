@@ -1,6 +1,4 @@
 """``python -m kapitza`` runs the command line (see :mod:`kapitza.cli`)."""
-import sys
+from .cli._main import program
 
-from .cli import main
-
-sys.exit(main())
+program()

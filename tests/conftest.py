@@ -114,6 +114,16 @@ def pytest_collection_modifyitems(config, items):
     items.sort(key=_rank)          # stable: within a rank the collection order is kept
 
 
+def pytest_collection_finish(session):
+    """In a worker, once every test module (and with them sympy, numba and both packages)
+    is imported: freeze the objects alive, so that the collector's full passes, ~28 in a
+    worker's run, walk only what the tests make (the ~600 000 objects of a worker took
+    0.4 s a pass, 11 s a worker, measured 2026-11-28 with ``gc.callbacks``)."""
+    if hasattr(session.config, "workerinput"):
+        import gc
+        gc.freeze()
+
+
 def _pytest_drops_xdist_groups() -> bool:
     """Whether this pytest ignores the ``item._nodeid`` that pytest-xdist's loadgroup sets
     (pytest 9.2: ``nodeid`` is a property of the structured id)."""

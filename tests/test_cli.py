@@ -2,6 +2,7 @@
 ``kapitza.cli.main`` (its ``--json`` numbers equal the API's), the exit codes 0, 1, 2 and
 130, ``--help`` with an example, dimensionless inputs equal to SI ones, and one call of the
 installed entry point."""
+import gc
 import json
 import math
 import shutil
@@ -15,6 +16,7 @@ import pytest
 import kapitza
 from kapitza import KapitzaPendulum, cli
 from kapitza.cli import _commands
+from kapitza.cli import _main as cli_main
 from kapitza.results import ComputationInterrupted
 
 from helpers import pendulum_scene
@@ -311,6 +313,20 @@ def test_warmup_calls_the_api(monkeypatch, capsys):
 
 
 # -- the installed entry point ------------------------------------------------------------------
+
+def test_the_program_exits_with_main_s_code_after_freezing_what_is_alive(monkeypatch):
+    """The program (console script, ``python -m kapitza``) runs ``main`` and exits with its
+    code, having frozen the objects alive first: Python's shutdown then skips its last
+    full collection (0.3–0.5 s of each command; benchmarks/bench_cold_start.py --only
+    commands).  ``main`` itself, run in a user's process, never freezes."""
+    calls = []
+    monkeypatch.setattr(gc, "freeze", lambda: calls.append("freeze"))
+    assert cli.main(["predict", "--A", "0.05", "--f", "60"]) == 0 and calls == []
+    monkeypatch.setattr(cli_main, "main", lambda: calls.append("main") or 2)
+    with pytest.raises(SystemExit) as stop:
+        cli_main.program()
+    assert stop.value.code == 2 and calls == ["main", "freeze"]
+
 
 def test_installed_entry_point():
     exe = shutil.which("kapitza")

@@ -291,3 +291,34 @@ def test_ctrl_c_while_the_first_simulate_compiles_stops_within_a_second(tmp_path
     assert took < 1.0, (took, outcome)
     assert ended < 2.0, ended
     assert "Ctrl-C while numba compiled a kernel" in err, err
+
+
+def test_the_collector_is_paused_while_numba_compiles_and_left_as_it_was():
+    """While numba compiles, Python's cyclic collector is off (10 % of a compile's time,
+    lagrange_core._first_calls), seen from inside numba's typing of a fresh function; after
+    it, the collector is as it was before: on, or off where the caller had turned it off."""
+    import gc
+
+    from numba import njit
+    from numba.extending import overload
+
+    seen = []
+    for before in (True, False):
+        def probe():
+            pass
+
+        @overload(probe)
+        def _probe():
+            seen.append(gc.isenabled())    # numba types the call here, while it compiles
+            return lambda: None
+
+        (gc.enable if before else gc.disable)()
+        try:
+            @njit(cache=False)
+            def fresh():
+                probe()
+            fresh()
+            assert gc.isenabled() is before
+        finally:
+            gc.enable()
+    assert seen == [False, False]

@@ -1,4 +1,5 @@
-"""The ``kapitza`` command (entry point ``kapitza.cli:main``; ``python -m kapitza`` too).
+"""The ``kapitza`` command (entry point ``kapitza.cli._main:program``, which runs
+:func:`main` and exits with its code; ``python -m kapitza`` too).
 
 ``kapitza --help`` lists the commands, ``kapitza COMMAND --help`` shows each one's options
 and examples.  :func:`main` runs a command line in-process and returns its exit code:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import gc
 import os
 import sys
 import traceback
@@ -45,7 +46,7 @@ from ._parsing import (
     unknown_option,
 )
 
-__all__ = ["main"]
+__all__ = ["main", "program"]
 
 #: The environment variable that shows the traceback of an internal error.
 DEBUG_VARIABLE = "KAPITZA_DEBUG"
@@ -113,6 +114,22 @@ def main(argv=None) -> int:
         say(f"{name}: internal error: {type(e).__name__}: {e}{where}; please report it.")
         return EXIT_INTERNAL
 
+
+
+def program() -> None:
+    """The ``kapitza`` program (the console script and ``python -m kapitza``): :func:`main`
+    on ``sys.argv``, then the exit with its code.
+
+    Before the exit the objects still alive are frozen (:func:`gc.freeze`): Python's
+    shutdown otherwise runs a last full collection over the ~10⁶ objects that sympy, numba
+    and the loaded systems hold, which took 0.3–0.5 s of every command (a warm ``kapitza
+    predict``, measured by ``benchmarks/bench_cold_start.py --only commands``).  Nothing
+    the command made depends on it: its files are closed and its temporary folders
+    removed by their own exit handlers, which still run.  Only the program does this:
+    :func:`main` called in a user's process leaves the collector alone."""
+    code = main()
+    gc.freeze()
+    sys.exit(code)
 
 #: What the user can do about an operating-system error, by its errno.
 _OS_FIXES = {
