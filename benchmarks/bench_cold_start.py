@@ -356,6 +356,25 @@ def alternated(envs, rounds, measure):
     return res
 
 
+def print_alternated(cases, envs, rounds, title, width):
+    """For each (name, measure) of ``cases``: one untimed round per tree (what it compiles
+    or loads once), then :func:`alternated`; a row of medians, new/old with a baseline,
+    and every value."""
+    baseline = len(envs) > 1
+    print(f"{title:>{width}} {'new':>7}" + (f" {'old':>7} {'new/old':>8}" if baseline else ""))
+    for name, measure in cases:
+        for _, env in envs:
+            measure(env)
+        res = alternated(envs, rounds, measure)
+        med = {k: statistics.median(v) for k, v in res.items()}
+        row = f"{name:>{width}} {med['new']:7.2f}"
+        if baseline:
+            row += f" {med['old']:7.2f} {med['new'] / med['old']:8.2f}"
+        print(row + "   (new: " + ", ".join(f"{x:.2f}" for x in res["new"])
+              + (("; old: " + ", ".join(f"{x:.2f}" for x in res["old"])) if baseline
+                 else "") + ")", flush=True)
+
+
 def new_system_table(quick, baseline):
     rounds = 1 if quick else 3
     print(f"\n4. A new system's first use (empty kernel store; medians of {rounds} "
@@ -367,21 +386,8 @@ def new_system_table(quick, baseline):
                 **env, "LAGRANGE_CORE_CACHE": store, "LAGRANGE_CORE_COMPILE_NOTICE": "0"})["first"]
 
     with trees(baseline) as envs:
-        head = f"{'case':>48} {'new':>7}"
-        if baseline:
-            head += f" {'old':>7} {'new/old':>8}"
-        print(head)
-        for name in NEW_SYSTEM_CASES:
-            for _, env in envs:                 # the shared kernels, compiled or loaded
-                once(name, env)
-            res = alternated(envs, rounds, lambda env, name=name: once(name, env))
-            med = {k: statistics.median(v) for k, v in res.items()}
-            row = f"{name:>48} {med['new']:7.2f}"
-            if baseline:
-                row += f" {med['old']:7.2f} {med['new'] / med['old']:8.2f}"
-            print(row + "   (new: " + ", ".join(f"{x:.2f}" for x in res["new"])
-                  + (("; old: " + ", ".join(f"{x:.2f}" for x in res["old"])) if baseline
-                     else "") + ")", flush=True)
+        print_alternated([(name, lambda env, name=name: once(name, env))
+                          for name in NEW_SYSTEM_CASES], envs, rounds, "case", 48)
 
 
 def timed(cmd, env, cwd=None):
@@ -416,21 +422,8 @@ def commands_table(rounds, baseline):
         return timed([sys.executable, "-m", "kapitza", *argv], env, cwd=where)[0]
 
     with trees(baseline) as envs:
-        head = f"{'command':>24} {'new':>7}"
-        if baseline:
-            head += f" {'old':>7} {'new/old':>8}"
-        print(head)
-        for name, argv in COMMAND_CASES:
-            for _, env in envs:                 # every kernel compiled or loaded once
-                once(argv, env)
-            res = alternated(envs, rounds, lambda env, argv=argv: once(argv, env))
-            med = {k: statistics.median(v) for k, v in res.items()}
-            row = f"{name:>24} {med['new']:7.2f}"
-            if baseline:
-                row += f" {med['old']:7.2f} {med['new'] / med['old']:8.2f}"
-            print(row + "   (new: " + ", ".join(f"{x:.2f}" for x in res["new"])
-                  + (("; old: " + ", ".join(f"{x:.2f}" for x in res["old"])) if baseline
-                     else "") + ")", flush=True)
+        print_alternated([(name, lambda env, argv=argv: once(argv, env))
+                          for name, argv in COMMAND_CASES], envs, rounds, "command", 24)
 
 
 def empty_caches():
