@@ -26,10 +26,10 @@ and a next call waits for it there, as numba compiles one function at a time.
 While numba compiles (any compilation in the process, on any thread: numba compiles one
 at a time), Python's cyclic collector is paused (:class:`_CollectorPaused`): the
 compiler makes millions of short-lived objects, and the collector's passes over them and
-over the ~600 000 that sympy and numba keep alive took 10 % of a compile (a first RKN 12
-grid 35.2 s on average against 31.3 s paused, three alternated processes each,
-2026-11-28), for ~100 MB more at the peak; it resumes, as it was, when the outermost
-compilation ends.
+over the ~600 000 that sympy and numba keep alive took ~10 % of a compile (a first RKN 12
+grid: 35.6 s on average against 32.8 s paused, seven alternated pairs of processes,
+2026-11-28, benchmarks/README.md), for ~100 MB more at the peak; it resumes, as it was,
+when the outermost compilation ends.
 """
 from __future__ import annotations
 

@@ -115,7 +115,6 @@ def main(argv=None) -> int:
         return EXIT_INTERNAL
 
 
-
 def program() -> None:
     """The ``kapitza`` program (the console script and ``python -m kapitza``): :func:`main`
     on ``sys.argv``, then the exit with its code.
@@ -130,6 +129,7 @@ def program() -> None:
     code = main()
     gc.freeze()
     sys.exit(code)
+
 
 #: What the user can do about an operating-system error, by its errno.
 _OS_FIXES = {
