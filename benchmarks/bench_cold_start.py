@@ -416,12 +416,11 @@ def commands_table(rounds, baseline):
           f"medians of {rounds}), wall s")
     # run from a folder of its own: ``python -m`` puts the working folder first on the
     # path, which from the repository's root would be this tree's package for both trees
-    where = tempfile.mkdtemp(prefix="kapitza-commands-")
+    with tempfile.TemporaryDirectory(prefix="kapitza-commands-") as where, \
+            trees(baseline) as envs:
+        def once(argv, env):
+            return timed([sys.executable, "-m", "kapitza", *argv], env, cwd=where)[0]
 
-    def once(argv, env):
-        return timed([sys.executable, "-m", "kapitza", *argv], env, cwd=where)[0]
-
-    with trees(baseline) as envs:
         print_alternated([(name, lambda env, argv=argv: once(argv, env))
                           for name, argv in COMMAND_CASES], envs, rounds, "command", 24)
 

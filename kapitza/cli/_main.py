@@ -120,8 +120,8 @@ def program() -> None:
     on ``sys.argv``, then the exit with its code.
 
     Before the exit the objects still alive are frozen (:func:`gc.freeze`): Python's
-    shutdown otherwise runs a last full collection over the ~10⁶ objects that sympy, numba
-    and the loaded systems hold, which took 0.3–0.5 s of every command (a warm ``kapitza
+    shutdown otherwise runs a last full collection over the ~600 000 objects that sympy,
+    numba and the loaded systems hold, which took 0.3–0.5 s of every command (a warm ``kapitza
     predict``, measured by ``benchmarks/bench_cold_start.py --only commands``).  Nothing
     the command made depends on it: its files are closed and its temporary folders
     removed by their own exit handlers, which still run.  Only the program does this:
