@@ -10,8 +10,8 @@ their own.  They are ended when this process exits (numba writes its cache files
 atomically, so an ended one leaves nothing half-written).
 
 Users: ``kapitza report`` (its later sections' groups, :func:`kapitza.warmup.start_background`)
-and ``measure`` (the slow-frequency fit beside the grid,
-``kapitza.simulation._measurement._compile_fit_in_background``).
+and ``measure`` (RKN 12 lanes driver's callees and the slow-frequency fit beside the
+grid, ``kapitza.simulation._measurement._compile_in_background``).
 """
 from __future__ import annotations
 

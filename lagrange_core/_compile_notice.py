@@ -50,12 +50,13 @@ ACTIVITY_SECONDS = {
     # the first grid of each driver (lagrange_core.batch.compile_activity), the driven
     # pendulum on empty caches, 2026-11-27: RKN 12's lanes 27 s, DOP853 8–10 s; the
     # symplectic per-point driver, compiled without RKN 12's code, 10.2–11.1 s (2026-11-28;
-    # 26–29 s with it); measuring adds the strobe fit, which compiles on the other core
-    # (kapitza's ``measure``): 34–36 s, 8.5–10.5 s (38 s, 15.5–17 s on one)
+    # 26–29 s with it); kapitza's ``measure`` compiles the strobe fit on the other core,
+    # and RKN 12 lanes driver's callees there too (lagrange_core._lanes_ahead): 27–28 s
+    # (2026-11-28; 33–35 s before), 8.5–10.5 s (38 s, 15.5–17 s on one core)
     "simulate_grid, RKN 12": 27,
     "simulate_grid, symplectic": 10,
     "simulate_grid, DOP853": 9,
-    "measure, RKN 12": 35,
+    "measure, RKN 12": 28,
     "measure, DOP853": 10,          # (measure runs no fixed-step method: it passes no h)
     # a general system's first Floquet analysis (the sampler, the monodromy rows): a
     # 2-link chain's floquet_point, 13.5–15.5 s, 2026-11-27

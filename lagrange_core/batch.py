@@ -422,6 +422,11 @@ def default_method(kernels) -> str:
     return "rkn12" if kernels.rkn_form else "dop853"
 
 
+def _runs_on_lanes(family, sub) -> bool:
+    """Whether a grid of this method family runs on RKN 12's lanes (:func:`_grid_method`)."""
+    return family == "second_order" and sub == 0 and _USE_LANES
+
+
 def _grid_method(kernels, method, h_given):
     from .integrate import rkn_eligibility
     if method is None:
@@ -581,7 +586,7 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
     slots = {"rhs", "energy"} if energy else {"rhs"}
     if m:
         slots |= {"constraint_residual", "constraint_jacobian"}
-    lanes = family == "second_order" and sub == 0 and _USE_LANES
+    lanes = _runs_on_lanes(family, sub)
     if family == "second_order":
         load_drive_kernel(kernels, lanes=lanes)
     ka = kernels.addresses(*sorted(slots))

@@ -201,7 +201,7 @@ def test_orbits_branches_and_floquet_declare_what_their_first_call_compiles(monk
     assert set(seen.values()) <= set(_compile_notice.ACTIVITY_SECONDS)
 
 
-# -- the slow-frequency fit, compiled on the other core ---------------------------------------
+# -- what measure compiles on the other core: RKN 12 lanes driver's callees, the fit ---------
 
 class _FakeProcess:
     """A background process that has ended; it records that someone waited for it."""
@@ -214,14 +214,18 @@ class _FakeProcess:
         return 0
 
 
+@pytest.mark.parametrize("damping", [0.5, 0.0], ids=["damped (DOP853)", "undamped (RKN 12)"])
 @pytest.mark.parametrize("case", ["cold", "classification only", "switched off", "one core"])
-def test_measure_compiles_its_fit_in_the_background_on_a_cold_cache(monkeypatch, case):
-    """On a cold cache ``measure`` starts the fit's compile in a background process before
-    its grid, and waits for it before fitting (the first damped measure on empty caches:
-    15.5–17 s → 8.5–10.5 s); never for a classification, with
-    ``KAPITZA_BACKGROUND_COMPILE=0`` or on one core."""
+def test_measure_compiles_on_the_other_core_on_a_cold_cache(monkeypatch, case, damping):
+    """On a cold cache ``measure`` starts one background process before its grid: RKN 12
+    lanes driver's callees when the grid runs on them (undamped; the first undamped
+    measure on empty caches: 33.2–34.6 s → 27.6–27.9 s, 2026-11-28), then the fit's
+    kernels when Ω is wanted (the first damped one: 15.5–17 s → 8.5–10.5 s); and waits
+    for it before fitting.  Nothing with ``KAPITZA_BACKGROUND_COMPILE=0`` or on one
+    core."""
     from kapitza import KapitzaPendulum, _background
     from kapitza.simulation import _measurement
+    from lagrange_core import _lanes_ahead
     started = []
 
     def start(name, code):
@@ -236,15 +240,17 @@ def test_measure_compiles_its_fit_in_the_background_on_a_cold_cache(monkeypatch,
     monkeypatch.setattr(_measurement, "_fit_in_process", lambda: False)
     monkeypatch.setenv("KAPITZA_BACKGROUND_COMPILE", "0" if case == "switched off" else "1")
     monkeypatch.setattr(_measurement.os, "cpu_count", lambda: 1 if case == "one core" else 2)
-    pend = KapitzaPendulum(l=1.0, g=9.81, damping=0.5)
+    pend = KapitzaPendulum(l=1.0, g=9.81, damping=damping)
     observables = "classification" if case == "classification only" else "all"
     m = pend.measure(0.05, 2 * np.pi * 60, np.pi - 0.1, periods=200, observables=observables)
-    if case != "cold":
+    lanes = _lanes_ahead.CODE if damping == 0.0 else ""
+    if case in ("switched off", "one core") or (case == "classification only" and not lanes):
         assert started == []
         return
-    assert [(name, code) for name, code, _ in started] == [
-        ("strobe fit", _measurement._FIT_CODE)]
-    assert started[0][2].waited == 1 and np.all(np.isfinite(m.omega_slow))
+    fit = _measurement._FIT_CODE if case == "cold" else ""
+    assert [(name, code) for name, code, _ in started] == [("measure kernels", lanes + fit)]
+    assert started[0][2].waited == (1 if fit else 0)
+    assert np.all(np.isfinite(m.omega_slow)) if fit else m.omega_slow is None
 
 
 def test_the_background_fit_compiles_what_a_measure_fits_with():
@@ -277,6 +283,26 @@ def test_the_background_fit_compiles_what_a_measure_fits_with():
     assert after_use == after_group
 
 
+def test_the_lanes_callees_are_compiled_ahead_with_the_drivers_own_signatures():
+    """``lagrange_core._lanes_ahead`` compiles RKN 12 lanes driver's callees in another
+    process, each with the signature of its table: it must be the one the driver's own
+    compile calls it with, or the driver compiles the callee again (only slower).  numba's
+    cache index of each callee holds what was compiled for it: after the driver's compile
+    (the suite's pre-compile, or here), exactly the table's signature — a second one would
+    be the driver's, beside a stale one compiled ahead."""
+    from lagrange_core import _lanes_ahead, problems
+    driven = problems.driven_pendulum()         # the driver compiled, or loaded
+    driven.simulate_grid([[3.0]], [[0.0]], (0.0, 0.05),
+                         dict(A=0.05, g=9.81, l=1.0, m=1.0, omega=377.0), method="rkn12",
+                         progress=False)
+    for dispatcher, args in _lanes_ahead.callees():
+        used = {key[0] for key in dispatcher._cache._cache_file._load_index()}
+        assert used == {args}, (
+            f"{dispatcher.py_func.__qualname__}: numba's cache holds {sorted(map(str, used))}, "
+            f"lagrange_core._lanes_ahead.CALLEES says {args}: spell the driver's signature "
+            "there (if another kernel now calls it too, check the driver's alone)")
+
+
 def test_a_background_compile_that_cannot_start_is_skipped(monkeypatch):
     """A background process the system refuses (OSError: its process limit) is no error:
     ``start`` returns None, nothing waits for it, and the kernels compile where called."""
@@ -287,9 +313,9 @@ def test_a_background_compile_that_cannot_start_is_skipped(monkeypatch):
 
     monkeypatch.setattr(_background, "RUNNING", {})
     monkeypatch.setattr(_background.subprocess, "Popen", refuse)
-    assert _background.start("strobe fit", "pass") is None
+    assert _background.start("measure kernels", "pass") is None
     assert _background.RUNNING == {}
-    assert _background.wait(("strobe fit",)) < 0.05
+    assert _background.wait(("measure kernels",)) < 0.05
 
 
 def test_commands_whose_first_compile_no_api_activity_covers_declare_themselves(monkeypatch):

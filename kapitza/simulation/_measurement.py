@@ -104,6 +104,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from lagrange_core import _batch_kernels, _lanes_ahead
 from lagrange_core._compile_notice import declared
 from lagrange_core._first_calls import compiling
 from lagrange_core.batch import GridInterrupted, compile_activity, default_method
@@ -214,12 +215,13 @@ def _combination(Om, period, count, residual, largest=12):
     return hit
 
 
-#: A first fit's kernels compile in 5.5 s on an empty cache (0.6 s to load, 2026-11-27):
-#: on a cold cache ``measure`` compiles them in a background process while its grid's
-#: kernels compile here (:func:`_compile_fit_in_background`), on the other core.  The
+#: On a cold cache ``measure`` compiles in one background process, on the other core,
+#: while its grid's driver compiles here (:func:`_compile_in_background`): first RKN 12
+#: lanes driver's callees (:mod:`lagrange_core._lanes_ahead`: ~9 s of the driver's ~27),
+#: then the fit's kernels (5.5 s on an empty cache, 0.6 s to load, 2026-11-27).  The fit's
 #: records: two coordinates' slow oscillations and one's (its 2 × 2 solve), long enough
 #: for every fit.
-_FIT_GROUP = "strobe fit"
+_GROUP = "measure kernels"
 _FIT_CODE = """\
 import numpy as np
 from kapitza.simulation import slow_frequencies
@@ -250,21 +252,29 @@ def _fit_ready() -> bool:
         return True
     if compiling():             # a compilation Ctrl-C gave up on holds numba's compiler
         return False
-    proc = _background.RUNNING.get(_FIT_GROUP)
+    proc = _background.RUNNING.get(_GROUP)
     if proc is not None and proc.poll() is None:
         return False
     return not _background.cold(*_FIT_KERNELS)
 
 
-def _compile_fit_in_background():
-    """Start the fit's compile in a background process when its kernels are neither in
-    this process nor in numba's cache, background compiles are allowed
-    (:mod:`kapitza._background`) and there is a second core; :func:`_estimate_chunked`
-    waits for it."""
-    if (_fit_in_process() or not _background.enabled() or (os.cpu_count() or 1) < 2
-            or not _background.cold(*_FIT_KERNELS)):
+def _compile_in_background(system, method, fit: bool) -> None:
+    """On a cold cache, with background compiles allowed (:mod:`kapitza._background`) and
+    a second core: start one background process for what this measurement will compile
+    and the other core can compile meanwhile — RKN 12 lanes driver's callees when the
+    grid runs on them (:func:`lagrange_core._lanes_ahead.runs_on_lanes`), then the fit's
+    kernels when ``fit`` (Ω is wanted); :func:`_estimate_chunked` waits for it.  One
+    process, not two: on two cores a third would slow this one's compile."""
+    if not _background.enabled() or (os.cpu_count() or 1) < 2:
         return
-    _background.start(_FIT_GROUP, _FIT_CODE)
+    code = []
+    if (_lanes_ahead.runs_on_lanes(system.kernels, method)
+            and _background.cold(_batch_kernels._lanes_block)):
+        code.append(_lanes_ahead.CODE)
+    if fit and not _fit_in_process() and _background.cold(*_FIT_KERNELS):
+        code.append(_FIT_CODE)
+    if code:
+        _background.start(_GROUP, "".join(code))
 
 
 def _estimate_chunked(q, qdot, period, progress=False):
@@ -273,7 +283,7 @@ def _estimate_chunked(q, qdot, period, progress=False):
     and Ctrl-C between chunks (:func:`lagrange_core.progress.defer_ctrl_c` active): then
     the points not reached are NaN.  Returns (fields, points fitted)."""
     P = q.shape[0]
-    _background.wait((_FIT_GROUP,))     # its kernels, compiling in the background: loaded
+    _background.wait((_GROUP,))     # the fit's kernels, compiling in the background
 
     def fit(a, b):
         return estimate(q[a:b], qdot[a:b], period[a:b], safety=SAFETY,
@@ -547,8 +557,7 @@ def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIOD
     # Ctrl-C, from here on, stops the simulation or the fit between compiled calls; a
     # first compile of the shared kernels says how long measuring with this driver
     # compiles (the grid's and the fit's kernels)
-    if "omega_slow" in wanted:
-        _compile_fit_in_background()
+    _compile_in_background(system, method, "omega_slow" in wanted)
     with defer_ctrl_c(), declared(compile_activity("measure", system.kernels, method)):
         try:
             grid = system.simulate_grid(start, rate, (t0, t0 + periods * period), params,
