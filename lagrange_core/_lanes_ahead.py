@@ -12,7 +12,8 @@ the driver's compile, when it meets a call, loads what is there by then and comp
 rest itself.  So a wrong or stale signature only costs time, never a result:
 ``tests/test_cold_start.py`` checks every one against what the driver's compile used.
 kapitza's ``measure`` starts it (``kapitza.simulation._measurement``): a first undamped
-``measure`` took 27.2 s against 35.0 s without it (2026-11-28, empty caches).
+``measure`` took 26.3–26.8 s against 36.1–37.1 s without it (both drives, 2026-11-28,
+empty caches, ``benchmarks/bench_cold_start.py --only first-use --without-warmup``).
 """
 from __future__ import annotations
 
