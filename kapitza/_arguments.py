@@ -7,11 +7,13 @@ the form the caller computes with.
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 
+from lagrange_core.batch import grid_bytes_per_point
 from lagrange_core.checks import real_array, real_number
+from lagrange_core.memory import GRID_MEMORY_FRACTION, GridTooLargeError, grid_shape, memory_limit
+from lagrange_core.memory import check_grid_memory as _check_grid_memory
 
 __all__ = ["ABOUT", "DRIVES", "real_number", "pendulum_constants", "amplitude", "frequency",
            "drive", "grid_axis", "about_sign",
@@ -159,81 +161,7 @@ def whole_number(value, name: str, minimum: int, *, integral_floats: bool = Fals
     return int(value)
 
 
-# -- grids that cannot fit in memory ------------------------------------------------------------
-
-class GridTooLargeError(ValueError):
-    """A grid whose arrays would not fit in memory, refused before any work.
-
-    The message names the argument, the estimate and the limit (GiB) and the fix; the
-    numbers are attributes too: ``argument``, ``shape``, ``needed`` and ``limit`` (bytes).
-    A ValueError, so the command line reports it in one line and exits 2.
-    """
-
-    def __init__(self, message, *, argument, shape, needed, limit):
-        super().__init__(message)
-        self.argument, self.shape, self.needed, self.limit = argument, shape, needed, limit
-
-
-#: The share of the machine's memory one grid's arrays may take.  The rest is for the
-#: operating system, other programs, and the copies made after the computation (a table,
-#: a figure, a file): half, so a refused grid is one that would surely swap or fail.
-GRID_MEMORY_FRACTION = 0.5
-#: Environment variable that sets the limit itself, in GiB (for a machine shared by jobs
-#: or a batch system whose memory the operating system does not report).
-MEMORY_LIMIT_VARIABLE = "KAPITZA_MEMORY_LIMIT_GIB"
-
-_GIB = float(1 << 30)
-
-
-def _physical_memory() -> int | None:
-    """The machine's memory (bytes), or a container's cgroup limit where smaller; None
-    where the operating system does not say (then no grid is refused)."""
-    try:
-        total = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (AttributeError, ValueError, OSError):      # Windows: no sysconf
-        return None
-    for cgroup in ("/sys/fs/cgroup/memory.max",                     # cgroup v2
-                   "/sys/fs/cgroup/memory/memory.limit_in_bytes"):  # cgroup v1
-        try:
-            with open(cgroup) as f:
-                text = f.read().strip()
-        except OSError:
-            continue
-        if text.isdigit():
-            total = min(total, int(text))
-    return int(total) if total > 0 else None
-
-
-def memory_limit() -> tuple[float | None, str]:
-    """(The most one grid's arrays may take (bytes), what the limit is) — the
-    environment's ``KAPITZA_MEMORY_LIMIT_GIB`` if set, else :data:`GRID_MEMORY_FRACTION`
-    of the machine's physical memory (``os.sysconf``; a container's cgroup limit where
-    smaller).  (None, reason) where neither is known: no grid is refused."""
-    text = os.environ.get(MEMORY_LIMIT_VARIABLE)
-    if text:
-        try:
-            gib = float(text)
-        except ValueError:
-            gib = math.nan
-        if not (math.isfinite(gib) and gib > 0):
-            raise ValueError(f"the environment variable {MEMORY_LIMIT_VARIABLE} must be a "
-                             f"number of GiB > 0, got {text!r}.")
-        return gib * _GIB, f"{MEMORY_LIMIT_VARIABLE}={text}"
-    total = _physical_memory()
-    if total is None:
-        return None, "the machine's memory is unknown"
-    return (GRID_MEMORY_FRACTION * total,
-            f"{GRID_MEMORY_FRACTION:.0%} of this machine's {total / _GIB:.1f} GiB")
-
-
-def grid_shape(*arrays) -> tuple | None:
-    """The broadcast shape of ``arrays`` (numbers, arrays, or anything ``np.shape`` takes),
-    or None where they do not broadcast (the caller's own check says so)."""
-    try:
-        return tuple(np.broadcast_shapes(*(np.shape(a) for a in arrays)))
-    except ValueError:
-        return None
-
+# -- grids that cannot fit in memory: lagrange_core.memory, with kapitza's fix --------------
 
 # Peak memory per grid point (bytes) of the grid functions: measured with tracemalloc as the
 # difference of the peaks of two grid sizes over their difference in points (the single
@@ -268,7 +196,10 @@ def measure_bytes_per_point(n_dof: int, periods) -> float:
     """A point of a measured grid (:func:`kapitza.measure_grid`): the strobe samples of
     every period (``2 n`` floats each, :func:`lagrange_core.batch.simulate_grid`) and
     their copies in the measurement — 7 in all, measured 112 bytes per period for n = 1 —
-    plus ~60 floats of per-point state and results."""
+    plus ~60 floats of per-point state and results; and never less than
+    :func:`lagrange_core.batch.grid_bytes_per_point` (a classification, no samples kept:
+    1240 bytes measured, 2026-11-28), so that this check, naming measure's arguments,
+    comes before the grid's own."""
     try:
         periods = float(periods)
     except (TypeError, ValueError):
@@ -276,53 +207,12 @@ def measure_bytes_per_point(n_dof: int, periods) -> float:
     if not math.isfinite(periods) or periods < 0:
         periods = 0.0
     n = int(n_dof) if isinstance(n_dof, (int, np.integer)) and n_dof > 0 else 1
-    return 8.0 * (14 * n * (periods + 1) + 60 + 10 * n)
-
-
-def _gib(n: float) -> str:
-    """Bytes as GiB in plain digits: 3 significant, whole numbers from 1000 on."""
-    x = n / _GIB
-    return f"{x:.3g}" if x < 1000 else f"{x:,.0f}"
+    return max(8.0 * (14 * n * (periods + 1) + 60 + 10 * n), grid_bytes_per_point(n, periods))
 
 
 def check_grid_memory(argument: str, shape, bytes_per_point: float, *, where: str = "",
                       fix: str | None = None) -> None:
-    """Refuse, before any work, a grid whose arrays would not fit in memory.
-
-    Parameters
-    ----------
-    argument : str
-        What sets the grid, as the caller names it ("A × omega", "[analyses]
-        stability_map: A × omega").
-    shape : tuple of int or None
-        The grid's shape (None: not known, nothing checked).
-    bytes_per_point : float
-        The caller's peak memory per grid point (bytes): its arrays and their temporaries,
-        measured (tracemalloc) and rounded up where the constant is defined.
-    where : str
-        Prefix of the message (the function's name).
-    fix : str, optional
-        The way out the message offers (default :data:`SWEEP_FIX`: a coarser grid, or a
-        scene sweep, which computes a grid in tiles written to disk).
-
-    Raises
-    ------
-    GridTooLargeError
-        The estimate exceeds :func:`memory_limit`.
-    """
-    if shape is None:
-        return
-    points = math.prod(int(n) for n in shape)
-    needed = float(points) * float(bytes_per_point)
-    limit, what = memory_limit()
-    if limit is None or needed <= limit:
-        return
-    if fix is None:
-        fix = SWEEP_FIX
-    dims = " × ".join(str(int(n)) for n in shape)
-    size = f"{dims} = {points:.3g} points" if len(shape) else "one point"
-    raise GridTooLargeError(
-        f"{where}the grid {argument} of {size} needs about "
-        f"{_gib(needed)} GiB ({bytes_per_point:.0f} bytes per point), more than the "
-        f"limit of {_gib(limit)} GiB ({what}); {fix}.",
-        argument=argument, shape=tuple(int(n) for n in shape), needed=needed, limit=limit)
+    """:func:`lagrange_core.memory.check_grid_memory`, offering :data:`SWEEP_FIX` unless
+    ``fix`` is given: a coarser grid, or a scene sweep (tiles written to disk)."""
+    _check_grid_memory(argument, shape, bytes_per_point, where=where,
+                       fix=SWEEP_FIX if fix is None else fix)

@@ -81,6 +81,7 @@ from . import _batch_kernels as _bk
 from . import _compile_notice
 from .checks import real_array
 from .drive_kernel import load_drive_kernel
+from .memory import check_grid_memory
 from .progress import KERNEL_STOP, ProgressLine, defer_ctrl_c, interrupt_requested
 
 __all__ = ["GridTrajectories", "GridInterrupted", "simulate_grid", "STATUS_NAMES"]
@@ -245,6 +246,32 @@ def point_rows(a, shape, tail=()) -> np.ndarray:
                     dtype=float, order="C")
 
 
+#: What a grid too large for memory can do instead.
+_MEMORY_FIX = ("use fewer points or fewer strobe periods (strobe=None keeps none), or compute "
+               "the grid in parts (slices of its axes), one call each")
+
+
+def grid_bytes_per_point(n_dof: int, periods: int) -> float:
+    """Peak memory (bytes) of one point of :func:`simulate_grid` with ``periods`` strobe
+    samples kept (0 without a strobe): 2n floats a sample, and ~200 floats of inputs,
+    per-point state and results.  Measured with tracemalloc, the difference of two grid
+    sizes' peaks over their difference in points (the driven pendulum and 2- and 4-link
+    chains, band and reference on, 2026-11-28): 1240–1600 bytes without a strobe,
+    2470–7020 with 101 samples for n = 1–4; this is 27–63 % above each."""
+    return 16.0 * n_dof * (periods + 1) + 1600.0 + 200.0 * n_dof
+
+
+def _most_periods(t0, t1, strobe) -> int:
+    """The most strobe samples a point keeps (0 without a strobe), from the unbroadcast
+    inputs; spans that are not positive and finite count as none (checked later)."""
+    if strobe is None:
+        return 0
+    with np.errstate(all="ignore"):
+        span = np.asarray((t1 - t0) / strobe, dtype=float)
+    span = span[np.isfinite(span) & (span > 0)]
+    return int(min(np.floor(span.max() * (1 + 1e-12)), 2.0**62)) + 1 if span.size else 1
+
+
 def _grid_arrays(system, q0, qdot0, t_span, params, h, strobe, reference, band):
     """Broadcast every per-point input to the grid shape S; flat (N, ...) float arrays."""
     n = system.n_dof
@@ -310,6 +337,9 @@ def _grid_arrays(system, q0, qdot0, t_span, params, h, strobe, reference, band):
         raise ValueError(f"the grid inputs do not broadcast against each other: {desc}. Give "
                          "each axis its own dimension, e.g. A[:, None] and omega[None, :].") \
             from None
+    check_grid_memory(" × ".join(f"{k} {s}" for k, s in shapes.items() if s), S,
+                      grid_bytes_per_point(n, _most_periods(t0, t1, extras.get("strobe"))),
+                      where="simulate_grid: ", fix=_MEMORY_FIX)
     N = int(np.prod(S, dtype=np.int64))
 
     def flat(a, tail=()):

@@ -301,14 +301,23 @@ def test_simulate_grid(A, omega, theta0):
         assert result.shape == shape and _rows(result) == int(np.prod(shape))
 
 
-@pytest.mark.xfail(strict=True, reason="lagrange_core's System.simulate_grid checks no grid "
-                   "against memory: 10¹² points raise numpy's MemoryError (7.28 TiB) from "
-                   "the allocation, naming no argument (reported to the lead: lagrange_core "
-                   "needs the memory check of kapitza._arguments)")
 def test_simulate_grid_refuses_a_huge_grid_up_front():
-    with pytest.raises(ValueError, match="A|omega|params"):
+    """10¹² points (found by the property tests: numpy's MemoryError, 7.28 TiB, raised from
+    the allocation and naming no argument): refused before any array is made, naming the
+    inputs that set the grid's shape, the estimate against the limit, and the fix."""
+    with pytest.raises(GridTooLargeError, match="A|omega|params") as refused:
         SYSTEM.simulate_grid({"theta": 3.1}, [0.0], (0.0, 0.05),
                              {**PARAMS, "A": HUGE_COLUMN, "omega": HUGE_ROW})
+    message = str(refused.value)
+    assert message.startswith("simulate_grid: the grid parameter 'A' (")
+    assert "parameter 'omega' (1, " in message and "GiB" in message
+    assert "in parts" in message and refused.value.needed > refused.value.limit
+    # the estimate counts the strobe samples kept: 10⁴ points of 10⁶ periods each (149 GiB
+    # of samples) are refused too
+    with pytest.raises(GridTooLargeError, match="strobe"):
+        SYSTEM.simulate_grid({"theta": 3.1}, [0.0], (0.0, 1e6 * 0.01),
+                             {**PARAMS, "A": np.linspace(0.01, 0.1, 10_000), "omega": 300.0},
+                             strobe=0.01)
 
 
 @pytest.mark.timeout(300)

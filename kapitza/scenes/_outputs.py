@@ -20,7 +20,7 @@ Three rules, for :meth:`kapitza.Scene.run`, the report's tables and the sweeps:
    run.  The manifest lists each file with its rows and SHA-256.
 3. **A grid that cannot fit is refused before any work** (:func:`check_scene_grids`):
    every analysis over axes is estimated (its computation and its table) against
-   :func:`kapitza._arguments.memory_limit`, naming the scene key.
+   :func:`lagrange_core.memory.memory_limit`, naming the scene key.
 """
 from __future__ import annotations
 

@@ -48,7 +48,7 @@ Rules of the store (each holds for every executor)
    keeps a second sweep of the dataset from writing (it refuses, naming the first, or
    waits: ``wait``); a lock whose process is gone is taken over.
 8. **A result too large for memory is not loaded**: where the parts' rows would take
-   more than :func:`kapitza._arguments.memory_limit`, ``SweepResult.frame`` is None
+   more than :func:`lagrange_core.memory.memory_limit`, ``SweepResult.frame`` is None
    (read the dataset in pieces with ``pyarrow.dataset``) and the CSV is written part by
    part.  Metadata store the axes compactly (a range as start, stop, num and scale).
 
