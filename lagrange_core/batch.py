@@ -600,6 +600,9 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
     ------
     ValueError
         Bad input (naming the argument), an ineligible method.
+    lagrange_core.memory.GridTooLargeError
+        A grid whose arrays would not fit in memory (:func:`grid_bytes_per_point` per
+        point against :func:`lagrange_core.memory.memory_limit`), before any is allocated.
     GridInterrupted
         On Ctrl-C, with the finished points in ``.result``.
     """

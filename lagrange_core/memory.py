@@ -18,6 +18,7 @@ import numpy as np
 __all__ = ["GridTooLargeError", "GRID_MEMORY_FRACTION", "MEMORY_LIMIT_VARIABLE",
            "memory_limit", "grid_shape", "check_grid_memory", "PARTS_FIX"]
 
+
 class GridTooLargeError(ValueError):
     """A grid whose arrays would not fit in memory, refused before any work.
 
@@ -101,7 +102,6 @@ def _gib(n: float) -> str:
     """Bytes as GiB in plain digits: 3 significant, whole numbers from 1000 on."""
     x = n / _GIB
     return f"{x:.3g}" if x < 1000 else f"{x:,.0f}"
-
 
 
 def check_grid_memory(argument: str, shape, bytes_per_point: float, *, where: str = "",
