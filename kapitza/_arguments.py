@@ -193,13 +193,16 @@ def averaging_bytes_per_point(n_dof) -> float:
 
 
 def measure_bytes_per_point(n_dof: int, periods) -> float:
-    """A point of a measured grid (:func:`kapitza.measure_grid`): the strobe samples of
-    every period (``2 n`` floats each, :func:`lagrange_core.batch.simulate_grid`) and
-    their copies in the measurement — 7 in all, measured 112 bytes per period for n = 1 —
-    plus ~60 floats of per-point state and results; and never less than
-    :func:`lagrange_core.batch.grid_bytes_per_point` (a classification, no samples kept:
-    1240 bytes measured, 2026-11-28), so that this check, naming measure's arguments,
-    comes before the grid's own."""
+    """A point of a measured grid (:func:`kapitza.measure_grid`) keeping ``periods``
+    strobe samples (0: a classification, none kept): the grid's own
+    (:func:`lagrange_core.batch.grid_bytes_per_point`, the samples' 2n floats each
+    included) and 5n floats a sample more for the fit's records.  Measured with
+    tracemalloc (2026-11-28, the difference of two grid sizes, 500 and 1500 points or
+    1000 and 3000): a classification 250–1240 bytes; with Ω, 17–42 n bytes a sample for
+    the pendulum (the more for the smaller grids) and 37–38 n for 2- and 3-link chains
+    (3500–109 900 bytes a point at 200 and 1000 periods); this is 33–270 % above each (it
+    was 8·14n bytes a sample before 2026-11-28: 2.7–6.7 times the pendulum's).
+    ``tests/test_properties_grids.py`` checks that it bounds what a grid takes."""
     try:
         periods = float(periods)
     except (TypeError, ValueError):
@@ -207,7 +210,7 @@ def measure_bytes_per_point(n_dof: int, periods) -> float:
     if not math.isfinite(periods) or periods < 0:
         periods = 0.0
     n = int(n_dof) if isinstance(n_dof, (int, np.integer)) and n_dof > 0 else 1
-    return max(8.0 * (14 * n * (periods + 1) + 60 + 10 * n), grid_bytes_per_point(n, periods))
+    return grid_bytes_per_point(n, periods) + 40.0 * n * (periods + 1)
 
 
 def check_grid_memory(argument: str, shape, bytes_per_point: float, *, where: str = "",

@@ -320,6 +320,44 @@ def test_simulate_grid_refuses_a_huge_grid_up_front():
                              strobe=0.01)
 
 
+@pytest.mark.parametrize("what", ["simulate_grid, strobe", "measure_grid, classification",
+                                  "measure_grid, omega"])
+def test_the_memory_estimates_bound_what_the_grids_take(what):
+    """The bytes per point that the memory checks count are at least what a grid takes:
+    tracemalloc's peaks of two grid sizes, their difference over the points' (so what is
+    made once, the kernels and the caches, cancels), 120 periods of the pendulum."""
+    import tracemalloc
+
+    from kapitza._arguments import measure_bytes_per_point
+    from lagrange_core.batch import grid_bytes_per_point
+    periods, T = 120, 2 * np.pi / 377.0
+
+    def run(N):
+        A = np.linspace(0.02, 0.05, N)
+        if what == "simulate_grid, strobe":
+            return SYSTEM.simulate_grid([np.pi - 0.1], [0.0], (0.0, periods * T),
+                                        {**PARAMS, "A": A, "omega": 377.0}, strobe=T,
+                                        progress=False)
+        observables = "classification" if what.endswith("classification") else "all"
+        return PENDULUM.measure_grid(A, 377.0, np.pi - 0.1, periods=periods,
+                                     observables=observables)
+
+    def peak(N):
+        tracemalloc.start()
+        try:
+            run(N)
+            return tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+
+    run(8)                                          # compiled or loaded, outside the peaks
+    per_point = (peak(1500) - peak(500)) / 1000
+    estimate = (grid_bytes_per_point(1, periods + 1) if what.startswith("simulate_grid")
+                else measure_bytes_per_point(1, 0 if what.endswith("classification")
+                                             else periods))
+    assert 0 < per_point <= estimate, (per_point, estimate)
+
+
 @pytest.mark.timeout(300)
 @pytest.mark.parametrize("method", [None, "dop853"])
 def test_an_overflowing_drive_ends_its_point_as_underflow(method):
