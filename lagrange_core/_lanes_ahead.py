@@ -70,12 +70,13 @@ def compile_callees() -> None:
         dispatcher.compile(args)
 
 
-def runs_on_lanes(kernels, method=None, h_given: bool = False) -> bool:
+def runs_on_lanes(kernels, method=None) -> bool:
     """Whether ``System.simulate_grid`` of these kernels with ``method`` (None: the
-    default) runs on RKN 12's lanes; False where it refuses the method (it says why)."""
+    default) and no fixed step ``h`` runs on RKN 12's lanes; False where it refuses the
+    method (it says why)."""
     from . import batch
     try:
-        _, family, sub, _ = batch._grid_method(kernels, method, h_given)
+        _, family, sub, _ = batch._grid_method(kernels, method, False)
     except ValueError:
         return False
     return batch._runs_on_lanes(family, sub)

@@ -262,8 +262,9 @@ def grid_bytes_per_point(n_dof: int, periods: int) -> float:
 
 
 def _most_periods(t0, t1, strobe) -> int:
-    """The most strobe samples a point keeps (0 without a strobe), from the unbroadcast
-    inputs; spans that are not positive and finite count as none (checked later)."""
+    """The most strobe samples a point keeps (0 without a strobe): from the unbroadcast
+    inputs, so before the grid's arrays are made (the memory check needs it); spans that
+    are not positive and finite count as none (refused later)."""
     if strobe is None:
         return 0
     with np.errstate(all="ignore"):
@@ -337,9 +338,9 @@ def _grid_arrays(system, q0, qdot0, t_span, params, h, strobe, reference, band):
         raise ValueError(f"the grid inputs do not broadcast against each other: {desc}. Give "
                          "each axis its own dimension, e.g. A[:, None] and omega[None, :].") \
             from None
+    K = _most_periods(t0, t1, extras.get("strobe"))
     check_grid_memory(" × ".join(f"{k} {s}" for k, s in shapes.items() if s), S,
-                      grid_bytes_per_point(n, _most_periods(t0, t1, extras.get("strobe"))),
-                      where="simulate_grid: ", fix=_MEMORY_FIX)
+                      grid_bytes_per_point(n, K), where="simulate_grid: ", fix=_MEMORY_FIX)
     N = int(np.prod(S, dtype=np.int64))
 
     def flat(a, tail=()):
@@ -367,8 +368,7 @@ def _grid_arrays(system, q0, qdot0, t_span, params, h, strobe, reference, band):
             raise ValueError("strobe must be a positive period T (s) at every point, e.g. "
                              "strobe=2*np.pi/omega.")
         out["TSTR"] = TSTR
-        span = (T1 - T0) / TSTR
-        out["K"] = int(np.max(np.floor(span * (1 + 1e-12)))) + 1 if N else 1
+        out["K"] = K if N else 1
     else:
         out["TSTR"] = np.zeros(N)
         out["K"] = 0

@@ -245,6 +245,11 @@ def _fit_in_process() -> bool:
     return bool(_strobe_fit._moments.signatures)
 
 
+def _lanes_in_process() -> bool:
+    """Whether this process has RKN 12 lanes driver already (compiled or loaded)."""
+    return bool(_batch_kernels._lanes_block.signatures)
+
+
 def _fit_ready() -> bool:
     """Whether the fit's kernels are in this process or load from numba's cache: a fit
     after Ctrl-C must not wait for a compilation (in the background or here)."""
@@ -268,7 +273,8 @@ def _compile_in_background(system, method, fit: bool) -> None:
     if not _background.enabled() or (os.cpu_count() or 1) < 2:
         return
     code = []
-    if (_lanes_ahead.runs_on_lanes(system.kernels, method)
+    # (what this process has needs no look at numba's cache: a file read, every call)
+    if (not _lanes_in_process() and _lanes_ahead.runs_on_lanes(system.kernels, method)
             and _background.cold(_batch_kernels._lanes_block)):
         code.append(_lanes_ahead.CODE)
     if fit and not _fit_in_process() and _background.cold(*_FIT_KERNELS):
