@@ -2,7 +2,7 @@
 
 With ``--dist loadgroup`` (pyproject.toml) each test file is one group, so a file's tests
 share a worker and the systems it compiles (as ``--dist loadfile`` did); the studies are
-one group each, so two workers share them instead of one running all of them at the end.
+one group each, so the workers share them instead of one running all of them at the end.
 The longest groups are handed out first (``_FIRST``): a short file never waits behind the
 studies at the tail of the run.
 """
@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, settings
 os.environ.setdefault("MPLBACKEND", "Agg")
 # On a cold cache (a fresh clone) the first compile prints a one-line notice on stderr, and
 # `kapitza report` compiles its later sections in a background process: tests that compare
-# stderr, and two workers that already use both cores, want neither (tests/test_cold_start.py
+# stderr, and workers that already use every core, want neither (tests/test_cold_start.py
 # switches the notice back on where it is the subject).
 os.environ.setdefault("LAGRANGE_CORE_COMPILE_NOTICE", "0")
 os.environ.setdefault("KAPITZA_BACKGROUND_COMPILE", "0")
@@ -26,11 +26,11 @@ os.environ.setdefault("KAPITZA_BACKGROUND_COMPILE", "0")
 os.environ.setdefault("KAPITZA_MEMORY_LIMIT_GIB", "4")
 
 # A guard for the suite's processes: a test whose process grows past
-# KAPITZA_TEST_RSS_LIMIT_GIB (default 8: two workers on a 24 GiB machine) fails with a
+# KAPITZA_TEST_RSS_LIMIT_GIB (default 6: three workers on a 24 GiB machine) fails with a
 # MemoryError raised in it, where it allocates, instead of the kernel's OOM killer ending
 # the worker (after which xdist's group scheduling waits for ever, and the run shows
 # neither the test nor the place).  Checked every 0.1 s from a daemon thread.
-_RSS_LIMIT = float(os.environ.get("KAPITZA_TEST_RSS_LIMIT_GIB", "8")) * 2**30
+_RSS_LIMIT = float(os.environ.get("KAPITZA_TEST_RSS_LIMIT_GIB", "6")) * 2**30
 
 
 def _rss_guard():
@@ -83,12 +83,23 @@ _FIRST = ("test_studies.py", "test_docs.py", "test_docs_browser.py", "test_noteb
           "test_lyapunov.py", "test_floquet_boundaries.py", "test_verify.py")
 
 
+def pytest_xdist_auto_num_workers(config):
+    """``-n auto`` (pyproject.toml): one worker more than the cores this process may use.
+    About a tenth of a worker's time is spent waiting — on a CLI or Ctrl-C test's
+    subprocess, a notebook's kernel, the site's build, a timer before a Ctrl-C — and the
+    extra worker fills it.  Measured 2026-11-28 on the 2-core machine, warm caches, one
+    run each: 2 workers 223 s, 3 workers 203 and 203 s, 4 workers 216 s (and the
+    timing-bound Ctrl-C tests then wait behind three other processes)."""
+    return len(os.sched_getaffinity(0)) + 1 if hasattr(os, "sched_getaffinity") \
+        else (os.cpu_count() or 1) + 1
+
+
 def _group(item) -> str:
     path = item.nodeid.split("::")[0]
     if path.endswith("test_studies.py") and hasattr(item, "callspec"):
         return f"{path}::{item.callspec.id}"
     # the site is built once for both files (tests/docs_site.py); each notebook runs on
-    # its own, so the two workers share them
+    # its own, so the workers share them
     if path.endswith(("test_docs.py", "test_docs_browser.py")):
         return "docs-site"
     # the quick reports likewise (tests/report_builds.py)
@@ -174,7 +185,7 @@ def pytest_configure(config):
 def _write_bytecode():
     """Compile the packages' bytecode (``__pycache__``) once, before the workers start,
     where no process would: with ``PYTHONDONTWRITEBYTECODE`` set (this machine sets it)
-    every process of the run — the two workers, the pre-compile, each CLI, Ctrl-C and
+    every process of the run — the workers, the pre-compile, each CLI, Ctrl-C and
     fresh-process test, the docs build — compiled the ~150 modules of ``import kapitza``
     from source, 0.5 s each time (``import kapitza`` 1.5 s → 0.95 s with bytecode).
     ``py_compile`` writes whatever that setting says; an up-to-date file is left alone."""

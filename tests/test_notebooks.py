@@ -53,7 +53,7 @@ def test_notebook_is_stored_without_outputs(path):
 
 @pytest.mark.parametrize(
     "path",
-    # one xdist group per notebook: the two workers share them
+    # one xdist group per notebook: the workers share them
     [pytest.param(p, marks=pytest.mark.xdist_group(f"notebook-{p.stem}")) for p in NOTEBOOKS],
     ids=[p.stem for p in NOTEBOOKS],
 )
