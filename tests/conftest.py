@@ -87,8 +87,8 @@ def pytest_xdist_auto_num_workers(config):
     """``-n auto`` (pyproject.toml): one worker more than the cores this process may use.
     About a tenth of a worker's time is spent waiting — on a CLI or Ctrl-C test's
     subprocess, a notebook's kernel, the site's build, a timer before a Ctrl-C — and the
-    extra worker fills it.  Measured 2026-11-28 on the 2-core machine, warm caches, one
-    run each: 2 workers 223 s, 3 workers 203 and 203 s, 4 workers 216 s (and the
+    extra worker fills it.  Measured 2026-11-28 on the 2-core machine, warm caches:
+    2 workers 223 and 229 s, 3 workers 185–206 s (five runs), 4 workers 216 s (and the
     timing-bound Ctrl-C tests then wait behind three other processes)."""
     return len(os.sched_getaffinity(0)) + 1 if hasattr(os, "sched_getaffinity") \
         else (os.cpu_count() or 1) + 1

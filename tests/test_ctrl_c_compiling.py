@@ -250,7 +250,8 @@ from lagrange_core.integrate import SimulationInterrupted
 class Driver(event.Listener):
     """Says when numba starts compiling RKN 12's chunk driver (on the compiling thread)."""
     def on_start(self, ev):
-        if ev.data["dispatcher"].py_func.__name__ == "fast_rkn_chunk":
+        function = getattr(ev.data.get("dispatcher"), "py_func", None)
+        if getattr(function, "__name__", "") == "fast_rkn_chunk":
             print("driver compiling", flush=True)
 
     def on_end(self, ev):
