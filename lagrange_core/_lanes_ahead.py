@@ -7,9 +7,9 @@ when it meets the call: the ten of :data:`CALLEES`, ~9 s of those 27 (2026-11-28
 2-core development machine), one after another, while the machine's second core idles.
 
 :data:`CODE`, run in a second process as the first grid starts, compiles them into numba's
-disk cache, each with the one signature the driver calls it with, the last one met first;
-the driver's compile, when it meets a call, loads what is there by then and compiles the
-rest itself.  So a wrong or stale signature only costs time, never a result:
+disk cache, each with the one signature the driver calls it with: the first two the driver
+meets, then the rest from the last one met (:func:`compile_callees`); the driver's compile,
+when it meets a call, loads what is there by then and compiles the rest itself.  So a wrong or stale signature only costs time, never a result:
 ``tests/test_cold_start.py`` checks every one against what the driver's compile used.
 kapitza's ``measure`` starts it (``kapitza.simulation._measurement``): a first undamped
 ``measure`` took 26.3–26.8 s against 36.1–37.1 s without it (both drives, 2026-11-28,
@@ -64,9 +64,16 @@ def callees():
 
 
 def compile_callees() -> None:
-    """Compile (or load) every callee with its signature, the last one the driver meets
-    first: the driver's compile, running at the same time, reaches those last."""
-    for dispatcher, args in reversed(callees()):
+    """Compile (or load) every callee with its signature: the two the driver meets first,
+    then the rest from the last one it meets.  The driver's compile, running at the same
+    time, spends ~3.5 s on its untyped passes before its first call; in that time this
+    process compiles those two (~2.6 s), and while the driver then compiles the next
+    ones itself, this one works from the other end.  Every cache empty, the first
+    undamped ``measure`` of the vertical drive, alternated with the order from the last
+    met alone (which left the first two to the driver): shorter in 7 of 9 pairs, by
+    0.5 s on average (17.4 against 17.9 s; 2026-11-28, benchmarks/README.md)."""
+    order = callees()
+    for dispatcher, args in order[:2] + order[:1:-1]:
         dispatcher.compile(args)
 
 
