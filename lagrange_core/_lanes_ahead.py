@@ -9,8 +9,9 @@ when it meets the call: the ten of :data:`CALLEES`, ~9 s of those 27 (2026-11-28
 :data:`CODE`, run in a second process as the first grid starts, compiles them into numba's
 disk cache, each with the one signature the driver calls it with: the first two the driver
 meets, then the rest from the last one met (:func:`compile_callees`); the driver's compile,
-when it meets a call, loads what is there by then and compiles the rest itself.  So a wrong or stale signature only costs time, never a result:
-``tests/test_cold_start.py`` checks every one against what the driver's compile used.
+when it meets a call, loads what is there by then and compiles the rest itself.  So a
+wrong or stale signature only costs time, never a result: ``tests/test_cold_start.py``
+checks every one against what the driver's compile used.
 kapitza's ``measure`` starts it (``kapitza.simulation._measurement``): a first undamped
 ``measure`` took 26.3–26.8 s against 36.1–37.1 s without it (both drives, 2026-11-28,
 empty caches, ``benchmarks/bench_cold_start.py --only first-use --without-warmup``).
