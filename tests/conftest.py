@@ -3,8 +3,7 @@
 With ``--dist loadgroup`` (pyproject.toml) each test file is one group, so a file's tests
 share a worker and the systems it compiles (as ``--dist loadfile`` did); the studies are
 one group each, so the workers share them instead of one running all of them at the end.
-The longest groups are handed out first (``_FIRST``): a short file never waits behind the
-studies at the tail of the run.
+The longest groups are handed out first (``_FIRST``): the run ends on short groups.
 """
 import os
 
@@ -76,11 +75,25 @@ settings.register_profile("ci", max_examples=10, derandomize=True, database=None
 settings.register_profile("thorough", max_examples=200, **_PROPERTY_CHECKS)
 settings.load_profile("ci")
 
-#: Test files (and studies) that take longest, started first; the rest keep their order.
-_FIRST = ("test_studies.py", "test_docs.py", "test_docs_browser.py", "test_notebooks.py",
-          "test_report_browser.py", "test_report.py", "test_batch.py",
-          "test_sweeps.py", "test_continuation.py", "test_batch_physics.py",
-          "test_lyapunov.py", "test_floquet_boundaries.py", "test_verify.py")
+#: Test files that take longest, in that order, started first (the longest first, so that
+#: the run ends on short groups: at the end, one worker running a long group while the
+#: others idle is what makes a run long); the rest keep their collection order, the
+#: doctests last.  The order is each file's time summed over its tests (its group's, for
+#: the files that share one), warm and on a fresh clone (where the per-point reference
+#: kernels of test_batch_speedpath.py and test_first_order_lanes.py compile), 2026-11-28.
+#: pyproject.toml's ``--no-loadscope-reorder`` makes pytest-xdist hand the groups out in
+#: this order: by default it hands out the groups with the most tests first, and so the
+#: notebooks and the studies (a test a group) came last (measured: the run's last 14 s
+#: were notebooks, two workers idle).
+_FIRST = ("test_report_browser.py", "test_report.py", "test_docs.py", "test_docs_browser.py",
+          "test_properties_equations.py", "test_batch_speedpath.py", "test_long_runs.py",
+          "test_first_order_lanes.py", "test_sweeps.py", "test_integrators_compiled_once.py",
+          "test_properties_cli.py", "test_ctrl_c_compiling.py", "test_floquet_edges.py",
+          "test_notebooks.py", "test_batch_physics.py", "test_report_scenes.py",
+          "test_studies.py", "test_xarray.py", "test_core_codegen.py", "test_cli_pty.py",
+          "test_animation.py", "test_repr_html.py", "test_cold_start.py",
+          "test_averaging_edges.py", "test_batch.py", "test_lyapunov.py",
+          "test_continuation.py", "test_floquet_boundaries.py", "test_verify.py")
 
 
 def pytest_xdist_auto_num_workers(config):
