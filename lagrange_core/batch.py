@@ -338,9 +338,16 @@ def _grid_arrays(system, q0, qdot0, t_span, params, h, strobe, reference, band):
         raise ValueError(f"the grid inputs do not broadcast against each other: {desc}. Give "
                          "each axis its own dimension, e.g. A[:, None] and omega[None, :].") \
             from None
-    K = _most_periods(t0, t1, extras.get("strobe"))
-    check_grid_memory(" × ".join(f"{k} {s}" for k, s in shapes.items() if s), S,
-                      grid_bytes_per_point(n, K), where="simulate_grid: ", fix=_MEMORY_FIX)
+    label = " × ".join(f"{k} {s}" for k, s in shapes.items() if s)
+    strobe_period = extras.get("strobe")
+    # first from the shapes alone (one strobe sample a point at least): _most_periods
+    # broadcasts t_span against strobe, 8 bytes a point, which for a grid far too large
+    # would fail in numpy, naming no argument, before the check below could refuse it
+    check_grid_memory(label, S, grid_bytes_per_point(n, 0 if strobe_period is None else 1),
+                      where="simulate_grid: ", fix=_MEMORY_FIX)
+    K = _most_periods(t0, t1, strobe_period)
+    check_grid_memory(label, S, grid_bytes_per_point(n, K), where="simulate_grid: ",
+                      fix=_MEMORY_FIX)
     N = int(np.prod(S, dtype=np.int64))
 
     def flat(a, tail=()):

@@ -318,6 +318,14 @@ def test_simulate_grid_refuses_a_huge_grid_up_front():
         SYSTEM.simulate_grid({"theta": 3.1}, [0.0], (0.0, 1e6 * 0.01),
                              {**PARAMS, "A": np.linspace(0.01, 0.1, 10_000), "omega": 300.0},
                              strobe=0.01)
+    # t_span and strobe along different axes (10¹² points): the count of strobe samples
+    # broadcasts them against each other (7.28 TiB); the grid is refused before it, naming
+    # them (numpy's MemoryError, naming nothing, before the fix of 2026-11-28)
+    with pytest.raises(GridTooLargeError) as refused:
+        SYSTEM.simulate_grid({"theta": 3.1}, [0.0], (0.0, HUGE_COLUMN),
+                             {**PARAMS, "A": 0.05, "omega": 300.0},
+                             strobe=np.broadcast_to(0.01, (1, 10**6)))
+    assert "t_span[1] (" in str(refused.value) and "strobe (1, " in str(refused.value)
 
 
 @pytest.mark.parametrize("what", ["simulate_grid, strobe", "measure_grid, classification",
