@@ -109,10 +109,30 @@ from ._kernel_calls import (
     call_fast_accel,
     call_rhs,
 )
-from ._lane_calls import fast_accel_on_lanes
-from ._lane_math import lane_sincos_rows
+from ._lanes_callees import (
+    FAST_ACCEL_ON_LANES,
+    LANES_LOAD,
+    LANES_RESTORE,
+    LANES_SAVE,
+    NO_CALLS,
+    PILOT_STEP_QUANTILE,
+    RKN_BAND_EXIT,
+    SINCOS_ROWS,
+    STAGE_POSITIONS,
+    WEIGHTED_SUMS,
+    call_fast_accel_on_lanes,
+    call_lanes_load,
+    call_lanes_restore,
+    call_lanes_save,
+    call_pilot_step_quantile,
+    call_rkn_band_exit,
+    call_sincos_rows,
+    call_stage_positions,
+    call_weighted_sums,
+)
+from ._lanes_callees import addresses as lanes_callee_addresses
 from ._selection import PILOT_MIN_SETTLED, PILOT_SPAN_DIVISOR, PILOT_WIDEN, pilot_step_quantile
-from ._thread_blocks import run_rows, run_spans
+from ._thread_blocks import first_span_call, run_rows, run_spans
 
 #: per-point status (``GridTrajectories.status``)
 GRID_FINISHED, GRID_LEFT_BAND, GRID_UNDERFLOW, GRID_NON_FINITE, GRID_SINGULAR, \
@@ -1084,19 +1104,30 @@ def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO
     marked saved resumes from it.  Once ``stop[0]`` is set (Ctrl-C) every running point
     pauses at its next step and no other point starts.
     """
-    run_spans(lambda lo, hi: _lanes_block(ka, mode, hold_block, idx, lo, hi, Y0, P, TS, H,
-                                          TSTR, REF, LO, HI, flags, rtol, atol, max_steps, c,
-                                          A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT, EXITC,
-                                          EDRIFT, COUNTS, ERR, STATUS, budget, stop, slot,
-                                          SAVE, SAVEI), idx.shape[0], block, stoppable=True)
+    if idx.shape[0] == 0:
+        return
+    calls = NO_CALLS
+
+    def work(lo, hi):
+        _lanes_block(ka, calls, mode, hold_block, idx, lo, hi, Y0, P, TS, H, TSTR, REF, LO, HI,
+                     flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM, DEV,
+                     EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI)
+
+    # the driver's first call (an empty span, which calls no callee) compiles it; then its
+    # callees' addresses: compiled meanwhile in another process (kapitza's measure starts
+    # it), loaded from numba's cache, or compiled now
+    first_span_call(work, idx.shape[0])
+    calls = lanes_callee_addresses()
+    run_spans(work, idx.shape[0], block, stoppable=True)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST_MATH)
-def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
-                 rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT, EXITC,
-                 EDRIFT, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI):
-    """The points idx[lo_b:hi_b] of :func:`grid_rkn_lanes` on one thread's lanes (a
-    function of its own, so that numba's parallel pass sees a small loop body)."""
+def _lanes_block(ka, calls, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, LO, HI,
+                 flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT,
+                 EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI):
+    """The points idx[lo_b:hi_b] of :func:`grid_rkn_lanes` on one thread's lanes.  Its
+    callees are called by their addresses in ``calls`` (:func:`lagrange_core._lanes_callees.
+    addresses`; none is called on an empty span): their code is not compiled into it."""
     ns = c.shape[0]
     n = Y0.shape[1] // 2
     npar = P.shape[1]
@@ -1201,18 +1232,20 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                 mx[l] = max_steps - COUNTS[i, CNT_STEPS]
                 lim[l] = min(budget, mx[l])
                 if SAVEI[s_, SAVED] == 1:
-                    _lanes_restore(ka, l, i, SAVE[s_], SAVEI[s_], Y0, P, TS, TSTR, REF, LO, HI,
-                                   flags, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l, t1l,
-                                   Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum,
-                                   rejected, ph, QM, DEV, hmax, tvh, sth, blk, rot, scr)
+                    call_lanes_restore(calls[LANES_RESTORE], ka, l, i, SAVE[s_], SAVEI[s_], Y0,
+                                       P, TS, TSTR, REF, LO, HI, flags, q, v, K, cq, cv, Pl, R,
+                                       nd, t, tc, h, hrot, t0l, t1l, Tl, kn, QMl, DEVl, REFl,
+                                       LOl, HIl, e0, drift, errsum, rejected, ph, QM, DEV,
+                                       hmax, tvh, sth, blk, rot, scr)
                     pt[l] = i
                     active += 1
                     continue
                 h[l] = H[i]
-                st = _lanes_load(ka, l, i, first, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
-                                 rtol, atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h, hrot, t0l,
-                                 t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum,
-                                 rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh, sth)
+                st = call_lanes_load(calls[LANES_LOAD], ka, l, i, first, Y0, P, TS, H, TSTR,
+                                     REF, LO, HI, flags, rtol, atol, q, v, K, cq, cv, Pl, R,
+                                     nd, t, tc, h, hrot, t0l, t1l, Tl, kn, QMl, DEVl, REFl,
+                                     LOl, HIl, e0, drift, errsum, rejected, nh, ph, YF, SQ,
+                                     COUNTS, scr, Wn, hmax, tvh, sth)
                 if st != 0:
                     STATUS[i] = st
                     TF[i] = TS[i, 0]
@@ -1264,7 +1297,7 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
             hs[l] = hh
             # a step shortened by rounding only keeps its rotations (as point_second_order)
             rr[l] = abs(hh - hrot[l]) > 4.0 * _EPS * max(abs(tt), abs(tg))
-        nr = np.int64(0)    # (not a literal 0: lane_sincos_rows would compile twice)
+        nr = 0
         for l in range(L):
             if rr[l]:
                 ridx[nr] = l
@@ -1274,7 +1307,7 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                 for k in range(nd):
                     for u in range(nr):
                         x[u] = R[k, ridx[u]] * c[s] * hs[ridx[u]]
-                    lane_sincos_rows(x, sx, cx, nr)
+                    call_sincos_rows(calls[SINCOS_ROWS], x, sx, cx, nr)
                     for u in range(nr):
                         rot[s, 2 * k, ridx[u]] = cx[u]
                         rot[s, 2 * k + 1, ridx[u]] = sx[u]
@@ -1283,7 +1316,7 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
         for k in range(nd):         # the drive at the step's start, exactly
             for l in range(L):
                 x[l] = R[k, l] * t[l]
-            lane_sincos_rows(x, sx, cx, L)
+            call_sincos_rows(calls[SINCOS_ROWS], x, sx, cx, L)
             for l in range(L):
                 cs0[2 * k, l] = cx[l]
                 cs0[2 * k + 1, l] = sx[l]
@@ -1292,7 +1325,7 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
         # the stages: q + c h v + h² Σ A K, the drive rotated, one call for all lanes
         for s in range(1, ns):
             cs_ = c[s]
-            _stage_positions(s, A, c, K, q, v, hs, qs, acc, L)
+            call_stage_positions(calls[STAGE_POSITIONS], s, A, c, K, q, v, hs, qs, acc, L)
             for k in range(nd):
                 for l in range(L):
                     cr = rot[s, 2 * k, l]
@@ -1301,7 +1334,8 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                     css[2 * k + 1, l] = cs0[2 * k + 1, l] * cr + cs0[2 * k, l] * sr
             for l in range(L):
                 ts[l] = t[l] + cs_ * hs[l]
-            if fast_accel_on_lanes(ka, qs, ts, css, Pl, K[s], work, L) > 0:
+            if call_fast_accel_on_lanes(calls[FAST_ACCEL_ON_LANES], ka, qs, ts, css, Pl, K[s],
+                                        work, L) > 0:
                 for l in range(L):
                     if work[0, l] != 0.0:
                         sing[l] = True
@@ -1312,7 +1346,7 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
             fin[l] = True
             inside[l] = True
         for j in range(n):
-            _weighted_sums(b, bp, db, dbp, K, j, acc, L)
+            call_weighted_sums(calls[WEIGHTED_SUMS], b, bp, db, dbp, K, j, acc, L)
             for l in range(L):
                 hh = hs[l]
                 q_ = q[j, l]
@@ -1351,7 +1385,8 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                 sr = rot[ns - 1, 2 * k + 1, l]
                 css[2 * k, l] = cs0[2 * k, l] * cr - cs0[2 * k + 1, l] * sr
                 css[2 * k + 1, l] = cs0[2 * k + 1, l] * cr + cs0[2 * k, l] * sr
-        if fast_accel_on_lanes(ka, qn, tnew, css, Pl, an, work, L) == 0:
+        if call_fast_accel_on_lanes(calls[FAST_ACCEL_ON_LANES], ka, qn, tnew, css, Pl, an,
+                                    work, L) == 0:
             for l in range(L):
                 work[0, l] = 0.0
         # the common case for every lane at once: an accepted step that stays in the band
@@ -1453,8 +1488,9 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                         q2[j] = qn[j, l]
                         v2[j] = vn[j, l]
                         a1[j] = K[0, j, l]
-                    xf, jx, ev = _rkn_band_exit(ka, tt, hh, q1, v1, a1, q2, v2, P[i], LO[i],
-                                                HI[i], c, A, b, bp, R[:nd, l].copy(), YF[i])
+                    xf, jx, ev = call_rkn_band_exit(calls[RKN_BAND_EXIT], ka, tt, hh, q1, v1,
+                                                    a1, q2, v2, P[i], LO[i], HI[i], c, A, b,
+                                                    bp, R[:nd, l].copy(), YF[i])
                     nev[l] += ev
                     for j in range(n):
                         QMl[j, l] += (0.5 * xf * hh * (q1[j] + YF[i, j]) + xf * hh * xf
@@ -1497,7 +1533,7 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                 m_ = nh[l]
                 span = TS[i, 1] - TS[i, 0]
                 tw = t1l[l]
-                hq, settled = pilot_step_quantile(hbuf[l], m_)
+                hq, settled = call_pilot_step_quantile(calls[PILOT_STEP_QUANTILE], hbuf[l], m_)
                 if st != GRID_FINISHED and tw > TS[i, 0] + span / PILOT_SPAN_DIVISOR:
                     # a widened pilot failed (a blow-up, an underflow): its shrinking steps
                     # say nothing; the step of the last window that finished (as pilot_step)
@@ -1507,11 +1543,12 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                     hpl[l] = hq
                     # too few steps beyond the starting ramp: the pilot again, over a
                     # longer window (as pilot_step)
-                    st = _lanes_load(ka, l, i, np.int64(_PILOT), Y0, P, TS, H, TSTR, REF,
-                                     LO, HI, flags, rtol, atol, q, v, K, cq, cv, Pl, R, nd, t,
-                                     tc, h, hrot, t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl,
-                                     e0, drift, errsum, rejected, nh, ph, YF, SQ, COUNTS, scr,
-                                     Wn, hmax, tvh, sth)
+                    st = call_lanes_load(calls[LANES_LOAD], ka, l, i, _PILOT, Y0, P,
+                                         TS, H, TSTR, REF, LO, HI, flags, rtol, atol, q, v, K,
+                                         cq, cv, Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl, kn,
+                                         QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum,
+                                         rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh,
+                                         sth)
                     t1l[l] = min(TS[i, 1], TS[i, 0] + PILOT_WIDEN * (tw - TS[i, 0]))
                     if st == 0:
                         continue
@@ -1520,13 +1557,11 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                     period = TSTR[i] if TSTR[i] > 0.0 else span
                     hf = period / math.ceil(period / hq)
                 h[l] = hf
-                # (np.int64: a bare constant is typed Literal[int] and compiles a second
-                # _lanes_load, ~2 s cold)
-                st = _lanes_load(ka, l, i, np.int64(_FIXED), Y0, P, TS, H, TSTR, REF, LO,
-                                 HI, flags, rtol, atol, q, v, K, cq, cv, Pl, R, nd, t, tc, h,
-                                 hrot, t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0, drift,
-                                 errsum, rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh,
-                                 sth)
+                st = call_lanes_load(calls[LANES_LOAD], ka, l, i, _FIXED, Y0, P, TS,
+                                     H, TSTR, REF, LO, HI, flags, rtol, atol, q, v, K, cq, cv,
+                                     Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl, kn, QMl, DEVl,
+                                     REFl, LOl, HIl, e0, drift, errsum, rejected, nh, ph, YF,
+                                     SQ, COUNTS, scr, Wn, hmax, tvh, sth)
                 lim[l] = min(nst[l] + budget, mx[l])
                 if st == 0 and nst[l] < mx[l]:
                     continue
@@ -1549,8 +1584,9 @@ def _lanes_block(ka, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF,
                     YF[i, j] = q[j, l]
                     YF[i, n + j] = v[j, l]
             if st == GRID_INTERRUPTED:
-                _lanes_save(l, SAVE[sl[l]], SAVEI[sl[l]], q, v, K, cq, cv, t, tc, h, hrot, kn,
-                            e0, drift, errsum, rejected, ph, tvh, sth, blk, rot)
+                call_lanes_save(calls[LANES_SAVE], l, SAVE[sl[l]], SAVEI[sl[l]], q, v, K, cq,
+                                cv, t, tc, h, hrot, kn, e0, drift, errsum, rejected, ph, tvh,
+                                sth, blk, rot)
             pt[l] = -1
             active -= 1
             nst[l] = 0
@@ -1796,18 +1832,19 @@ def _dop853_rows(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags, r
 
 
 # numba's cache does not notice changes to the kernels these call
+# (nor to the signatures its lanes driver declares for the callees it calls by address)
 from . import (  # noqa: E402
     _integrator_kernels,
     _kernel_calls,
-    _lane_calls,
-    _lane_math,
+    _lanes_callees,
     _linalg,
+    _native_calls,
     _selection,
 )
 from .module_store import guard_numba_cache  # noqa: E402
 
-guard_numba_cache(sys.modules[__name__], _integrator_kernels, _kernel_calls, _lane_calls,
-                  _lane_math, _linalg, _selection)
+guard_numba_cache(sys.modules[__name__], _integrator_kernels, _kernel_calls, _lanes_callees,
+                  _linalg, _native_calls, _selection)
 
 
 # a first call on the main thread compiles where Ctrl-C need not wait for it

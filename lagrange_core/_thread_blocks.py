@@ -37,7 +37,7 @@ import numba
 from ._first_calls import first_call
 from .progress import KERNEL_STOP
 
-__all__ = ["run_blocks", "run_spans", "run_rows", "thread_count"]
+__all__ = ["run_blocks", "run_spans", "first_span_call", "run_rows", "thread_count"]
 
 _POOLS: dict[int, concurrent.futures.ThreadPoolExecutor] = {}
 
@@ -97,10 +97,19 @@ def run_spans(work: Callable[[int, int], None], npoints: int, block: int, *,
     ``work`` must compute nothing and write nothing on an empty span (lo = hi): its first
     call with new argument types is ``work(0, 0)`` on the compiling thread
     (:func:`~lagrange_core._first_calls.first_call`), which a Ctrl-C does not wait for."""
-    if npoints > 0:
-        first_call(lambda: work(0, 0), _types(work))
+    first_span_call(work, npoints)
     run_blocks(lambda b: work(b * block, min(npoints, (b + 1) * block)), -(-npoints // block),
                stoppable=stoppable)
+
+
+def first_span_call(work: Callable[[int, int], None], npoints: int) -> None:
+    """``work(0, 0)``, the first call with new argument types of a ``work`` that computes
+    nothing on an empty span, on the compiling thread
+    (:func:`~lagrange_core._first_calls.first_call`; at once when its types have been
+    through): what :func:`run_spans` does first, for a caller that needs the compile
+    done before it prepares the rest of the call."""
+    if npoints > 0:
+        first_call(lambda: work(0, 0), _types(work))
 
 
 def run_rows(kernel, npoints: int, *args, per_thread: int = 4,

@@ -284,24 +284,29 @@ def test_the_background_fit_compiles_what_a_measure_fits_with():
     assert after_use == after_group
 
 
-def test_the_lanes_callees_are_compiled_ahead_with_the_drivers_own_signatures():
-    """``lagrange_core._lanes_ahead`` compiles RKN 12 lanes driver's callees in another
-    process, each with the signature of its table: it must be the one the driver's own
-    compile calls it with, or the driver compiles the callee again (only slower).  numba's
-    cache index of each callee holds what was compiled for it: after the driver's compile
-    (the suite's pre-compile, or here), exactly the table's signature — a second one would
-    be the driver's, beside a stale one compiled ahead."""
-    from lagrange_core import _lanes_ahead, problems
+def test_the_lanes_callees_are_compiled_with_their_declared_signatures():
+    """RKN 12's lanes driver calls its callees by address, with the signatures that
+    ``lagrange_core._lanes_callees.CALLEES`` declares (the driver's compile types each call
+    against them, and the second process compiles them ahead): a grid on the lanes runs,
+    and numba's cache index of each callee holds exactly the declared signature — one more
+    would be a call that compiles the callee again (only slower), beside a stale
+    declaration — returning the declared type (which ``native_address`` checks, refusing
+    a callee that returns another)."""
+    from lagrange_core import _lanes_callees, problems
     driven = problems.driven_pendulum()         # the driver compiled, or loaded
-    driven.simulate_grid([[3.0]], [[0.0]], (0.0, 0.05),
-                         dict(A=0.05, g=9.81, l=1.0, m=1.0, omega=377.0), method="rkn12",
-                         progress=False)
-    for dispatcher, args in _lanes_ahead.callees():
+    grid = driven.simulate_grid([[3.0]], [[0.0]], (0.0, 0.05),
+                                dict(A=0.05, g=9.81, l=1.0, m=1.0, omega=377.0),
+                                method="rkn12", progress=False)
+    assert np.all(grid.status == 0)
+    assert np.all(_lanes_callees.addresses() != 0)
+    for dispatcher, sig in _lanes_callees.callees():
         used = {key[0] for key in dispatcher._cache._cache_file._load_index()}
-        assert used == {args}, (
+        assert used == {tuple(sig.args)}, (
             f"{dispatcher.py_func.__qualname__}: numba's cache holds {sorted(map(str, used))}, "
-            f"lagrange_core._lanes_ahead.CALLEES says {args}: spell the driver's signature "
-            "there (if another kernel now calls it too, check the driver's alone)")
+            f"lagrange_core._lanes_callees.CALLEES declares {sig.args}: declare what the "
+            "driver calls it with (if another kernel now calls it too, check the driver's "
+            "alone)")
+        assert dispatcher.overloads[tuple(sig.args)].signature.return_type == sig.return_type
 
 
 def test_a_background_compile_that_cannot_start_is_skipped(monkeypatch):

@@ -1,0 +1,64 @@
+"""A numba function called by the address of its native entry
+(:mod:`lagrange_core._native_calls`), against the same function called directly: the same
+results (arrays written, a tuple returned, a literal argument cast), its error raised in
+the caller, and a call or a declaration that does not match refused, naming it."""
+import numpy as np
+import pytest
+from numba import njit, types
+from numba.core.errors import TypingError
+
+from lagrange_core._native_calls import native_address, native_caller
+
+
+@njit
+def _running_sums(a, k, out):
+    s = 0.0
+    for i in range(a.shape[0]):
+        s += a[i] * k
+        out[i] = s
+    if s < 0.0:
+        raise ValueError("a negative running sum")
+    return s, k + 1
+
+
+_SIGNATURE = types.Tuple((types.float64, types.int64))(
+    types.Array(types.float64, 1, "C"), types.int64, types.Array(types.float64, 1, "C"))
+_call = native_caller("running_sums", _SIGNATURE)
+
+
+@njit
+def _by_address(address, a, out):
+    s, k = _call(address, a, 3, out)         # (a literal 3: cast to the declared int64)
+    return s + k
+
+
+@njit
+def _strided(address, a, out):
+    return _call(address, a[::2], 3, out)
+
+
+def test_a_call_by_address_equals_a_direct_call():
+    a = np.linspace(-1.0, 2.0, 7)
+    out, out_direct = np.zeros(7), np.zeros(7)
+    value = _by_address(native_address(_running_sums, _SIGNATURE), a, out)
+    s, k = _running_sums(a, 3, out_direct)
+    assert value == s + k
+    np.testing.assert_array_equal(out, out_direct)
+
+
+def test_the_callees_error_is_raised_in_the_caller():
+    with pytest.raises(ValueError, match="a negative running sum"):
+        _by_address(native_address(_running_sums, _SIGNATURE), -np.ones(3), np.zeros(3))
+
+
+def test_an_argument_of_another_layout_is_refused_naming_it():
+    address = native_address(_running_sums, _SIGNATURE)
+    with pytest.raises(TypingError, match=r"running_sums by address: argument 0 is .*"
+                                          r"declared signature says"):
+        _strided(address, np.ones(8), np.zeros(4))
+
+
+def test_a_declaration_that_does_not_match_the_function_is_refused():
+    wrong = types.float64(*_SIGNATURE.args)
+    with pytest.raises(RuntimeError, match="_running_sums returns .* declared float64"):
+        native_address(_running_sums, wrong)
