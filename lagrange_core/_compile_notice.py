@@ -51,12 +51,14 @@ ACTIVITY_SECONDS = {
     # pendulum on empty caches, 2026-11-27: RKN 12's lanes 27 s, DOP853 8–10 s; the
     # symplectic per-point driver, compiled without RKN 12's code, 10.2–11.1 s (2026-11-28;
     # 26–29 s with it); kapitza's ``measure`` compiles the strobe fit on the other core,
-    # and RKN 12 lanes driver's callees there too (lagrange_core._lanes_ahead): 27–28 s
-    # (2026-11-28; 33–35 s before), 8.5–10.5 s (38 s, 15.5–17 s on one core)
-    "simulate_grid, RKN 12": 27,
+    # and RKN 12 lanes driver's callees there too (lagrange_core._lanes_ahead), which
+    # the driver calls by address (lagrange_core._lanes_callees): RKN 12's first grid
+    # 20.1–21.0 s, its first measure 12.8–13.5 s (2026-11-28, twenty-third session; 21.4–
+    # 21.6 s and 16.3–17.4 s before), 8.5–10.5 s (38 s, 15.5–17 s on one core)
+    "simulate_grid, RKN 12": 21,
     "simulate_grid, symplectic": 10,
     "simulate_grid, DOP853": 9,
-    "measure, RKN 12": 28,
+    "measure, RKN 12": 14,
     "measure, DOP853": 10,          # (measure runs no fixed-step method: it passes no h)
     # a general system's first Floquet analysis (the sampler, the monodromy rows): a
     # 2-link chain's floquet_point, 13.5–15.5 s, 2026-11-27
@@ -65,6 +67,10 @@ ACTIVITY_SECONDS = {
     # DOP853): the horizontal drive's, 10.6–15.1 s; a first branch, the upright
     # pendulum's, 4.3–5.9 s (2026-11-27)
     "periodic orbit": 12,
+    # a first Lyapunov map (lyapunov_grid: the system's lanes kernels and the chaos
+    # lanes), the damped driven pendulum's: 15.3–16.4 s (2026-11-28; it had no activity,
+    # and the first module compiled said ~3 s)
+    "Lyapunov map": 16,
     "continuation": 5,
     # commands whose first compile comes before any of the API's activities (the command
     # line's checks compile the closed forms first, whose family says ~3 s): their whole

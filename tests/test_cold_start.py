@@ -162,13 +162,14 @@ class _Reached(Exception):
 
 
 def test_orbits_branches_and_floquet_declare_what_their_first_call_compiles(monkeypatch):
-    """Inside ``periodic_orbit``, ``continuation`` and a general system's Floquet analysis
-    a first compile quotes that activity — not the ~3 s of the first helper they compile
-    (measured on empty caches: 13–15 s, 4–6 s and 13.5 s taken;
-    benchmarks/bench_cold_start.py --only notices)."""
+    """Inside ``periodic_orbit``, ``continuation``, a general system's Floquet analysis and
+    ``lyapunov_grid`` a first compile quotes that activity — not the ~3 s of the first
+    helper they compile (measured on empty caches: 13–15 s, 4–6 s, 13.5 s and 15.3–16.4 s
+    taken; benchmarks/bench_cold_start.py --only notices)."""
     import math
 
     import kapitza
+    from kapitza.chaos import _lyapunov
     from kapitza.continuation import _continuation
     from kapitza.floquet import _point
     from kapitza.simulation import _periodic_orbit
@@ -183,6 +184,7 @@ def test_orbits_branches_and_floquet_declare_what_their_first_call_compiles(monk
     monkeypatch.setattr(_periodic_orbit, "_period", spy("periodic_orbit"))
     monkeypatch.setattr(_continuation.Engine, "start", spy("continuation"))
     monkeypatch.setattr(_point, "_prepare", spy("floquet_point"))
+    monkeypatch.setattr(_lyapunov, "_lanes", spy("lyapunov_grid"))
     p = dict(m=1.0, l=1.0, g=9.81, A=0.05, omega=2 * math.pi * 60)
     calls = {
         "periodic_orbit": lambda: kapitza.periodic_orbit(
@@ -192,12 +194,15 @@ def test_orbits_branches_and_floquet_declare_what_their_first_call_compiles(monk
             parameter="A", stop=0.6, progress=False),
         "floquet_point": lambda: kapitza.floquet_point(
             problems.driven_pendulum("vertical"), p, [math.pi]),
+        "lyapunov_grid": lambda: kapitza.lyapunov_grid(
+            problems.driven_pendulum("vertical"), p, [[math.pi - 0.1]], periods=20,
+            transient=0),
     }
     for call in calls.values():
         with pytest.raises(_Reached):
             call()
     assert seen == {"periodic_orbit": "periodic orbit", "continuation": "continuation",
-                    "floquet_point": "Floquet"}
+                    "floquet_point": "Floquet", "lyapunov_grid": "Lyapunov map"}
     assert set(seen.values()) <= set(_compile_notice.ACTIVITY_SECONDS)
 
 

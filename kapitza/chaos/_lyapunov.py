@@ -67,6 +67,7 @@ import warnings
 
 import numpy as np
 
+from lagrange_core._compile_notice import activity
 from lagrange_core.batch import STATUS_NAMES, _run_paused, point_rows
 from lagrange_core.checks import real_number
 from lagrange_core.progress import KERNEL_STOP, defer_ctrl_c, run_in_chunks
@@ -300,6 +301,7 @@ def _spectrum(system, pv, y_start, y, t0, t_final, T, logs, lengths, transient, 
         wall_time=time.perf_counter() - start_clock)
 
 
+@activity("Lyapunov map")     # a first compile says how long the whole map compiles
 def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200, blocks=8,
                   frequency="omega", t0=0.0, tangent=None, rtol=1e-6, atol=None,
                   max_steps=None, progress=None) -> LyapunovGrid:
