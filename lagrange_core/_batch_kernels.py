@@ -791,8 +791,11 @@ def _second_order_rows(ka, rkn, w, adaptive, pilot, hold_block, idx, Y0, P, TS, 
 # -- RKN 12(10) on lanes: many trajectories per thread, vectorised across them ------------
 
 #: trajectories a thread advances together in :func:`grid_rkn_lanes` (a multiple of the
-#: SIMD width; enough independent vectors to hide the latency of the sine's polynomial)
-LANES = 64
+#: SIMD width; enough independent vectors to hide the latency of the sine's polynomial).
+#: On the inverted pendulum's 64 × 64 grid at rtol 1e-4 (benchmarks/bench_measure.py's),
+#: one thread: 32 lanes 0.52 s, 64 lanes 0.37 s, 128 lanes 0.33 s, 256 lanes 0.35–0.36 s
+#: (2026-11-28, twenty-third session, callees called by address)
+LANES = 128
 #: accepted steps a pilot records (as :func:`pilot_step`)
 PILOT_STEPS = 4096
 #: grid_rkn_lanes modes
