@@ -79,7 +79,7 @@ def _timed(run, *args, **kwargs):
 def per_point():
     """The chaos room's paths as they were before lanes: the per-point kernels."""
     lanes, strobe = _lyapunov._lanes, _sections.lanes_apply
-    _lyapunov._lanes = lambda system: False
+    _lyapunov._lanes = lambda system, jvp=False: False
     _sections.lanes_apply = lambda system, method: False
     try:
         yield
