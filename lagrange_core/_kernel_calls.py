@@ -64,7 +64,7 @@ __all__ = ["SLOTS", "SIGNATURES", "RHS", "ENERGY", "RESIDUAL", "PHI_Q", "JACOBIA
            "FAST_ACCEL", "DRIVE_RATES", "FAST_ACCEL_LANES", "RHS_LANES", "RHS_JVP_LANES",
            "MAX_DRIVE_RATES", "call_rhs", "call_energy", "call_residual",
            "call_constraint_jacobian", "call_jacobian", "call_fast_accel", "call_drive_rates",
-           "call_fast_accel_lanes", "call_rhs_lanes", "call_rhs_jvp_lanes"]
+           "call_fast_accel_lanes", "call_rhs_lanes", "call_rhs_jvp_lanes", "address_intrinsic"]
 
 #: Kernel slots of the address table, in order.
 SLOTS = ("rhs", "energy", "constraint_residual", "constraint_jacobian", "jacobian",
@@ -141,12 +141,19 @@ def _caller(slot_name):
 
         return sig.return_type(address, *args), codegen
 
-    # numba's intrinsics need named parameters (no *args): write the typer for this arity
-    names = ", ".join(f"a{i}" for i in range(len(sig.args)))
+    return address_intrinsic(f"call_{slot_name}", len(sig.args), typing)
+
+
+def address_intrinsic(name: str, arity: int, typing):
+    """An intrinsic ``name(address, a0, …)`` of ``arity`` arguments after the address,
+    typed by ``typing(address, args)`` (which returns ``(signature, codegen)``, or None to
+    refuse the types).  numba's intrinsics need named parameters (no ``*args``): this
+    writes the typer for the arity."""
+    names = ", ".join(f"a{i}" for i in range(arity))
     namespace = {}
-    exec(f"def call_{slot_name}(typingctx, address, {names}):\n"
+    exec(f"def {name}(typingctx, address, {names}):\n"
          f"    return typing(address, ({names},))\n", {"typing": typing}, namespace)
-    return intrinsic(namespace[f"call_{slot_name}"])
+    return intrinsic(namespace[name])
 
 
 call_rhs = _caller("rhs")

@@ -21,7 +21,8 @@ from __future__ import annotations
 from numba import types
 from numba.core import cgutils
 from numba.core.errors import TypingError
-from numba.extending import intrinsic
+
+from ._kernel_calls import address_intrinsic
 
 __all__ = ["native_caller", "native_address"]
 
@@ -70,12 +71,7 @@ def native_caller(name: str, signature):
 
         return signature.return_type(address, *args), codegen
 
-    # numba's intrinsics need named parameters (no *args): write the typer for this arity
-    names = ", ".join(f"a{i}" for i in range(len(signature.args)))
-    namespace = {}
-    exec(f"def call_{name}(typingctx, address, {names}):\n"
-         f"    return typing(address, ({names},))\n", {"typing": typing}, namespace)
-    return intrinsic(namespace[f"call_{name}"])
+    return address_intrinsic(f"call_{name}", len(signature.args), typing)
 
 
 def native_address(dispatcher, signature) -> int:
