@@ -217,7 +217,8 @@ def _combination(Om, period, count, residual, largest=12):
 
 #: On a cold cache ``measure`` compiles in one background process, on the other core,
 #: while its grid's driver compiles here (:func:`_compile_in_background`): first RKN 12
-#: lanes driver's callees (:mod:`lagrange_core._lanes_ahead`: ~9 s of the driver's ~27),
+#: lanes driver's callees, which it calls by address (:mod:`lagrange_core._lanes_ahead`;
+#: the first undamped measure 12.6–13.5 s on empty caches, 2026-11-28),
 #: then the fit's kernels (5.5 s on an empty cache, 0.6 s to load, 2026-11-27).  The fit's
 #: records: two coordinates' slow oscillations and one's (its 2 × 2 solve), long enough
 #: for every fit.
