@@ -114,6 +114,7 @@ from ._lanes_callees import (
     LANES_LOAD,
     LANES_RESTORE,
     LANES_SAVE,
+    N_CALLEES,
     NO_CALLS,
     PILOT_STEP_QUANTILE,
     RKN_BAND_EXIT,
@@ -1131,6 +1132,10 @@ def _lanes_block(ka, calls, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TST
     """The points idx[lo_b:hi_b] of :func:`grid_rkn_lanes` on one thread's lanes.  Its
     callees are called by their addresses in ``calls`` (:func:`lagrange_core._lanes_callees.
     addresses`; none is called on an empty span): their code is not compiled into it."""
+    # a zero or missing address would be a call to nowhere (a crash, not an error)
+    if hi_b > lo_b and (calls.shape[0] != N_CALLEES or np.any(calls == 0)):
+        raise RuntimeError("RKN 12's lanes driver needs its callees' addresses "
+                           "(lagrange_core._lanes_callees.addresses)")
     ns = c.shape[0]
     n = Y0.shape[1] // 2
     npar = P.shape[1]

@@ -22,9 +22,10 @@ import numpy as np
 from ._first_calls import aside
 from ._native_calls import native_address, native_caller
 
-__all__ = ["CALLEES", "signature", "callees", "addresses", "NO_CALLS", "LANES_RESTORE",
-           "LANES_LOAD", "SINCOS_ROWS", "STAGE_POSITIONS", "FAST_ACCEL_ON_LANES",
-           "WEIGHTED_SUMS", "RKN_BAND_EXIT", "PILOT_STEP_QUANTILE", "LANES_SAVE",
+__all__ = ["CALLEES", "N_CALLEES", "signature", "callees", "addresses", "NO_CALLS",
+           "LANES_RESTORE", "LANES_LOAD", "SINCOS_ROWS", "STAGE_POSITIONS",
+           "FAST_ACCEL_ON_LANES", "WEIGHTED_SUMS", "RKN_BAND_EXIT", "PILOT_STEP_QUANTILE",
+           "LANES_SAVE",
            "call_lanes_restore", "call_lanes_load", "call_sincos_rows", "call_stage_positions",
            "call_fast_accel_on_lanes", "call_weighted_sums", "call_rkn_band_exit",
            "call_pilot_step_quantile", "call_lanes_save"]
@@ -52,10 +53,12 @@ CALLEES = (
 )
 (LANES_RESTORE, LANES_LOAD, SINCOS_ROWS, STAGE_POSITIONS, FAST_ACCEL_ON_LANES, WEIGHTED_SUMS,
  RKN_BAND_EXIT, PILOT_STEP_QUANTILE, LANES_SAVE) = range(len(CALLEES))
+#: how many (the length of the address table)
+N_CALLEES = len(CALLEES)
 
 #: The address table of a call that calls no callee (the driver's first call, on an empty
 #: span, which compiles it before :func:`addresses` is asked).
-NO_CALLS = np.zeros(len(CALLEES), dtype=np.int64)
+NO_CALLS = np.zeros(N_CALLEES, dtype=np.int64)
 
 
 def _types(tokens: str) -> list:

@@ -62,3 +62,43 @@ def test_a_declaration_that_does_not_match_the_function_is_refused():
     wrong = types.float64(*_SIGNATURE.args)
     with pytest.raises(RuntimeError, match="_running_sums returns .* declared float64"):
         native_address(_running_sums, wrong)
+
+
+def test_the_lanes_driver_refuses_to_run_without_its_callees_addresses():
+    """RKN 12's lanes driver calls its callees by the addresses it is given: a zero (the
+    table of its compiling first call, on an empty span) or a short table on points to
+    run would be a call to nowhere — a crash — and is refused instead."""
+    from lagrange_core import _batch_kernels as bk
+    from lagrange_core import _lanes_callees, problems
+    from lagrange_core.batch import _grid_arrays
+    from lagrange_core.progress import KERNEL_STOP
+    driven = problems.driven_pendulum()
+    driven.simulate_grid([[3.0]], [[0.0]], (0.0, 0.05),      # the driver compiled, or loaded
+                         dict(A=0.05, g=9.81, l=1.0, m=1.0, omega=377.0), method="rkn12",
+                         progress=False)
+    assert _lanes_callees.addresses().shape == (_lanes_callees.N_CALLEES,)
+    assert np.all(_lanes_callees.addresses() != 0)
+    g = _grid_arrays(driven, [[3.0]], [[0.0]], (0.0, 0.05),
+                     dict(A=0.05, g=9.81, l=1.0, m=1.0, omega=377.0), None, None, None, None)
+    assert g["N"] == 1
+    for calls in (_lanes_callees.NO_CALLS, _lanes_callees.addresses()[:-1]):
+        with pytest.raises(RuntimeError, match="needs its callees' addresses"):
+            _lanes_block_once(bk, driven, g, calls, KERNEL_STOP)
+
+
+def _lanes_block_once(bk, system, g, calls, stop):
+    from lagrange_core.integrate import METHODS
+    tab = METHODS["rkn12"].table
+    ka = system.kernels.addresses("rhs")
+    n = system.n_dof
+    N = g["N"]
+    bk._lanes_block(ka, np.ascontiguousarray(calls), bk.LANES_ADAPTIVE, 8,
+                    np.arange(N, dtype=np.int64), 0, N, g["Y0"], g["P"], g["TS"], g["H"],
+                    g["TSTR"], g["REF"], g["LO"], g["HI"], 0, 1e-6, 1e-6, 10**6, tab["c"],
+                    tab["A"], tab["b"], tab["bp"], tab["bh"], tab["bph"],
+                    np.zeros((N, 2 * n)), np.zeros(N), np.zeros((N, 1, 2 * n)),
+                    np.zeros((N, n)), np.zeros((N, n)), np.zeros(N),
+                    np.zeros(N, dtype=np.int64), np.zeros(N), np.zeros((N, 3), dtype=np.int64),
+                    np.zeros(N), np.zeros(N, dtype=np.int64), 10**6, stop,
+                    np.arange(N, dtype=np.int64), np.zeros((N, 1)),
+                    np.zeros((N, bk.SAVEI_WIDTH), dtype=np.int64))
