@@ -24,7 +24,7 @@ import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
 
-from . import _background
+from lagrange_core import _background
 
 __all__ = ["warmup"]
 

@@ -1118,8 +1118,8 @@ def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO
                      EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI)
 
     # the driver's first call (an empty span, which calls no callee) compiles it; then its
-    # callees' addresses: compiled meanwhile in another process (kapitza's measure starts
-    # it), loaded from numba's cache, or compiled now
+    # callees' addresses: compiled meanwhile in another process (simulate_grid starts it:
+    # lagrange_core._lanes_ahead), loaded from numba's cache, or compiled now
     first_span_call(work, idx.shape[0])
     calls = lanes_callee_addresses()
     run_spans(work, idx.shape[0], block, stoppable=True)

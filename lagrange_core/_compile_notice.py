@@ -52,10 +52,12 @@ ACTIVITY_SECONDS = {
     # symplectic per-point driver, compiled without RKN 12's code, 10.2–11.1 s (2026-11-28;
     # 26–29 s with it); kapitza's ``measure`` compiles the strobe fit on the other core,
     # and RKN 12 lanes driver's callees there too (lagrange_core._lanes_ahead), which
-    # the driver calls by address (lagrange_core._lanes_callees): RKN 12's first grid
-    # 20.0–21.0 s, its first measure 12.2–13.5 s (2026-11-28, twenty-third session; 21.4–
-    # 21.6 s and 16.3–17.4 s before), 8.5–10.5 s (38 s, 15.5–17 s on one core)
-    "simulate_grid, RKN 12": 21,
+    # the driver calls by address (lagrange_core._lanes_callees), and simulate_grid
+    # compiles them there too on its own (lagrange_core._lanes_ahead.start_if_cold):
+    # RKN 12's first grid 12.7–13.3 s (20.0–21.0 s in one process), its first measure
+    # 12.2–13.5 s (2026-11-28, twenty-third session; 21.4–21.6 s and 16.3–17.4 s
+    # before), 8.5–10.5 s (38 s, 15.5–17 s on one core)
+    "simulate_grid, RKN 12": 14,
     "simulate_grid, symplectic": 10,
     "simulate_grid, DOP853": 9,
     "measure, RKN 12": 14,

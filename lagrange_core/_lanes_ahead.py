@@ -3,20 +3,26 @@
 A first grid on RKN 12's lanes (:func:`lagrange_core._batch_kernels.grid_rkn_lanes`: every
 undamped ``kapitza`` measurement) compiles the driver, ``_lanes_block``, and needs its
 callees (:mod:`lagrange_core._lanes_callees`), which it calls by address, once it has
-compiled.  :data:`CODE`, run in a second process as the first grid starts (kapitza's
-``measure`` starts it: ``kapitza.simulation._measurement``), compiles them into numba's
-disk cache meanwhile, on the machine's other core; the driver's process then loads them.
+compiled.  :data:`CODE`, run in a second process as the first grid starts
+(:func:`start_if_cold`, from ``simulate_grid``; kapitza's ``measure`` runs it in its own
+background process, ``kapitza.simulation._measurement``), compiles them into numba's disk
+cache meanwhile, on the machine's other core; the driver's process then loads them.
 A callee the second process has not finished compiles in the driver's process too: it
 costs time, never a result.
 """
 from __future__ import annotations
 
+import os
+
+from . import _background
 from ._lanes_callees import callees
 
-__all__ = ["CODE", "compile_callees", "runs_on_lanes"]
+__all__ = ["CODE", "GROUP", "compile_callees", "start_if_cold"]
 
 #: What the second process runs.
 CODE = "from lagrange_core._lanes_ahead import compile_callees\ncompile_callees()\n"
+#: Its group's name (:mod:`lagrange_core._background`) when ``simulate_grid`` starts it.
+GROUP = "RKN 12 lanes callees"
 
 
 def compile_callees() -> None:
@@ -26,13 +32,21 @@ def compile_callees() -> None:
         dispatcher.compile(tuple(sig.args))
 
 
-def runs_on_lanes(kernels, method=None) -> bool:
-    """Whether ``System.simulate_grid`` of these kernels with ``method`` (None: the
-    default) and no fixed step ``h`` runs on RKN 12's lanes; False where it refuses the
-    method (it says why)."""
-    from . import batch
-    try:
-        _, family, sub, _ = batch._grid_method(kernels, method, False)
-    except ValueError:
-        return False
-    return batch._runs_on_lanes(family, sub)
+def start_if_cold() -> None:
+    """Start :data:`CODE` in a background process, for a first grid on RKN 12's lanes:
+    unless this process has the driver already, background compiles are switched off
+    (:func:`lagrange_core._background.enabled`), the machine has one core, another
+    background compile is running (kapitza's ``measure`` starts its own with these
+    callees in it; on two cores a third process would slow this one's compile), or
+    numba's cache has every callee."""
+    if (_driver_in_process() or not _background.enabled() or (os.cpu_count() or 1) < 2
+            or any(proc.poll() is None for proc in _background.RUNNING.values())):
+        return
+    if _background.cold(*(dispatcher for dispatcher, _ in callees())):
+        _background.start(GROUP, CODE)
+
+
+def _driver_in_process() -> bool:
+    """Whether this process has the lanes driver (compiled or loaded)."""
+    from ._batch_kernels import _lanes_block
+    return bool(_lanes_block.signatures)

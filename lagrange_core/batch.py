@@ -78,7 +78,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _batch_kernels as _bk
-from . import _compile_notice
+from . import _compile_notice, _lanes_ahead
 from .checks import real_array
 from .drive_kernel import load_drive_kernel
 from .memory import check_grid_memory
@@ -464,6 +464,17 @@ def _runs_on_lanes(family, sub) -> bool:
     return family == "second_order" and sub == 0 and _USE_LANES
 
 
+def runs_on_lanes(kernels, method=None) -> bool:
+    """Whether ``System.simulate_grid`` of these kernels with ``method`` (None: the
+    default) and no fixed step ``h`` runs on RKN 12's lanes; False where it refuses the
+    method (it says why)."""
+    try:
+        _, family, sub, _ = _grid_method(kernels, method, False)
+    except ValueError:
+        return False
+    return _runs_on_lanes(family, sub)
+
+
 def _grid_method(kernels, method, h_given):
     from .integrate import rkn_eligibility
     if method is None:
@@ -629,6 +640,8 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
     lanes = _runs_on_lanes(family, sub)
     if family == "second_order":
         load_drive_kernel(kernels, lanes=lanes)
+    if lanes:           # on a cold cache the driver's callees compile on the other core
+        _lanes_ahead.start_if_cold()
     ka = kernels.addresses(*sorted(slots))
 
     # from here on Ctrl-C is deferred (the allocations included: the strobe samples of a

@@ -218,6 +218,9 @@ class _FakeProcess:
         self.waited += 1
         return 0
 
+    def poll(self):
+        return 0
+
 
 @pytest.mark.parametrize("damping", [0.5, 0.0], ids=["damped (DOP853)", "undamped (RKN 12)"])
 @pytest.mark.parametrize("case", ["cold", "classification only", "switched off", "one core"])
@@ -228,9 +231,9 @@ def test_measure_compiles_on_the_other_core_on_a_cold_cache(monkeypatch, case, d
     kernels when Ω is wanted (the first damped one: 15.5–17 s → 8.5–10.5 s); and waits
     for it before fitting.  Nothing with ``KAPITZA_BACKGROUND_COMPILE=0`` or on one
     core."""
-    from kapitza import KapitzaPendulum, _background
+    from kapitza import KapitzaPendulum
     from kapitza.simulation import _measurement
-    from lagrange_core import _lanes_ahead
+    from lagrange_core import _background, _lanes_ahead
     started = []
 
     def start(name, code):
@@ -242,6 +245,8 @@ def test_measure_compiles_on_the_other_core_on_a_cold_cache(monkeypatch, case, d
     monkeypatch.setattr(_background, "RUNNING", {})
     monkeypatch.setattr(_background, "start", start)
     monkeypatch.setattr(_background, "cold", lambda *kernels: True)
+    # (simulate_grid's own start of the callees: the next test)
+    monkeypatch.setattr(_lanes_ahead, "start_if_cold", lambda: None)
     monkeypatch.setattr(_measurement, "_fit_in_process", lambda: False)
     monkeypatch.setattr(_measurement, "_lanes_in_process", lambda: False)
     monkeypatch.setenv("KAPITZA_BACKGROUND_COMPILE", "0" if case == "switched off" else "1")
@@ -257,6 +262,35 @@ def test_measure_compiles_on_the_other_core_on_a_cold_cache(monkeypatch, case, d
     assert [(name, code) for name, code, _ in started] == [("measure kernels", lanes + fit)]
     assert started[0][2].waited == (1 if fit else 0)
     assert np.all(np.isfinite(m.omega_slow)) if fit else m.omega_slow is None
+
+
+@pytest.mark.parametrize("case", ["cold", "driver in process", "switched off", "one core",
+                                  "another running", "warm", "DOP853"])
+def test_a_first_rkn12_grid_compiles_the_callees_on_the_other_core(monkeypatch, case):
+    """``simulate_grid``'s first grid on RKN 12's lanes starts the driver's callees in a
+    background process on a cold cache (``lagrange_core._lanes_ahead.start_if_cold``): the
+    first RKN 12 grid 20.0–21.0 s without it, 2026-11-28.  Not where this process has the
+    driver, with ``KAPITZA_BACKGROUND_COMPILE=0``, on one core, while another background
+    compile runs (kapitza's ``measure`` starts its own, with the callees in it), on a warm
+    cache, nor for a grid on another method."""
+    from lagrange_core import _background, _lanes_ahead
+    started = []
+
+    class Running:
+        def poll(self):
+            return None
+
+    monkeypatch.setattr(_background, "RUNNING",
+                        {"other": Running()} if case == "another running" else {})
+    monkeypatch.setattr(_background, "start", lambda name, code: started.append((name, code)))
+    monkeypatch.setattr(_background, "cold", lambda *kernels: case != "warm")
+    monkeypatch.setattr(_lanes_ahead, "_driver_in_process", lambda: case == "driver in process")
+    monkeypatch.setenv("KAPITZA_BACKGROUND_COMPILE", "0" if case == "switched off" else "1")
+    monkeypatch.setattr(_lanes_ahead.os, "cpu_count", lambda: 1 if case == "one core" else 2)
+    problems.driven_pendulum().simulate_grid(
+        [[3.0]], [[0.0]], (0.0, 0.05), dict(A=0.05, g=9.81, l=1.0, m=1.0, omega=377.0),
+        method="dop853" if case == "DOP853" else None, progress=False)
+    assert started == ([(_lanes_ahead.GROUP, _lanes_ahead.CODE)] if case == "cold" else [])
 
 
 def test_the_background_fit_compiles_what_a_measure_fits_with():
@@ -317,7 +351,7 @@ def test_the_lanes_callees_are_compiled_with_their_declared_signatures():
 def test_a_background_compile_that_cannot_start_is_skipped(monkeypatch):
     """A background process the system refuses (OSError: its process limit) is no error:
     ``start`` returns None, nothing waits for it, and the kernels compile where called."""
-    from kapitza import _background
+    from lagrange_core import _background
 
     def refuse(*args, **kwargs):
         raise OSError(11, "Resource temporarily unavailable")

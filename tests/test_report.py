@@ -363,8 +363,8 @@ def test_a_section_waits_for_the_background_compile_of_its_kernels(monkeypatch):
     import sys
     import time
 
-    from kapitza import _background
     from kapitza.report._sections import COMPILED_IN
+    from lagrange_core import _background
     warm = importlib.import_module("kapitza.warmup")    # (kapitza.warmup is the function)
     assert set(COMPILED_IN) <= set(SECTIONS)
     assert {g for groups in COMPILED_IN.values() for g in groups} <= set(warm.GROUPS)

@@ -104,14 +104,13 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from lagrange_core import _batch_kernels, _lanes_ahead
+from lagrange_core import _background, _batch_kernels, _lanes_ahead
 from lagrange_core._compile_notice import declared
 from lagrange_core._first_calls import compiling
-from lagrange_core.batch import GridInterrupted, compile_activity, default_method
+from lagrange_core.batch import GridInterrupted, compile_activity, default_method, runs_on_lanes
 from lagrange_core.checks import real_array, real_number
 from lagrange_core.progress import ProgressLine, defer_ctrl_c, interrupt_requested
 
-from .. import _background
 from .._arguments import (
     SWEEP_FIX,
     check_grid_memory,
@@ -265,17 +264,17 @@ def _fit_ready() -> bool:
 
 
 def _compile_in_background(system, method, fit: bool) -> None:
-    """On a cold cache, with background compiles allowed (:mod:`kapitza._background`) and
+    """On a cold cache, with background compiles allowed (:mod:`lagrange_core._background`) and
     a second core: start one background process for what this measurement will compile
     and the other core can compile meanwhile — RKN 12 lanes driver's callees when the
-    grid runs on them (:func:`lagrange_core._lanes_ahead.runs_on_lanes`), then the fit's
+    grid runs on them (:func:`lagrange_core.batch.runs_on_lanes`), then the fit's
     kernels when ``fit`` (Ω is wanted); :func:`_estimate_chunked` waits for it.  One
     process, not two: on two cores a third would slow this one's compile."""
     if not _background.enabled() or (os.cpu_count() or 1) < 2:
         return
     code = []
     # (what this process has needs no look at numba's cache: a file read, every call)
-    if (not _lanes_in_process() and _lanes_ahead.runs_on_lanes(system.kernels, method)
+    if (not _lanes_in_process() and runs_on_lanes(system.kernels, method)
             and _background.cold(_batch_kernels._lanes_block)):
         code.append(_lanes_ahead.CODE)
     if fit and not _fit_in_process() and _background.cold(*_FIT_KERNELS):

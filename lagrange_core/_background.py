@@ -9,9 +9,13 @@ use every core; the processes started here inherit ``0``, so that they start non
 their own.  They are ended when this process exits (numba writes its cache files
 atomically, so an ended one leaves nothing half-written).
 
-Users: ``kapitza report`` (its later sections' groups, :func:`kapitza.warmup.start_background`)
-and ``measure`` (RKN 12 lanes driver's callees and the slow-frequency fit beside the
-grid, ``kapitza.simulation._measurement._compile_in_background``).
+Users: ``System.simulate_grid``'s first grid on RKN 12's lanes (the driver's callees,
+:func:`lagrange_core._lanes_ahead.start_if_cold`); kapitza's ``report`` (its later
+sections' groups, :func:`kapitza.warmup.start_background`) and ``measure`` (the lanes
+driver's callees and the slow-frequency fit beside the grid,
+``kapitza.simulation._measurement._compile_in_background``).  The switch keeps kapitza's
+name, which the test suite and users set (the module moved here from kapitza on
+2026-11-28, so that the engine's own first grid can use it).
 """
 from __future__ import annotations
 
