@@ -17,7 +17,7 @@ import os
 from . import _background
 from ._lanes_callees import callees
 
-__all__ = ["CODE", "GROUP", "compile_callees", "start_if_cold"]
+__all__ = ["CODE", "GROUP", "compile_callees", "start_if_cold", "wanted"]
 
 #: What the second process runs.
 CODE = "from lagrange_core._lanes_ahead import compile_callees\ncompile_callees()\n"
@@ -39,11 +39,19 @@ def start_if_cold() -> None:
     background compile is running (kapitza's ``measure`` starts its own with these
     callees in it; on two cores a third process would slow this one's compile), or
     numba's cache has every callee."""
-    if (_driver_in_process() or not _background.enabled() or (os.cpu_count() or 1) < 2
+    if (not _background.enabled() or (os.cpu_count() or 1) < 2
             or any(proc.poll() is None for proc in _background.RUNNING.values())):
         return
-    if _background.cold(*(dispatcher for dispatcher, _ in callees())):
+    if wanted():
         _background.start(GROUP, CODE)
+
+
+def wanted() -> bool:
+    """Whether compiling the callees ahead would save time: this process has no lanes
+    driver yet (what it has needs no look at numba's cache, a file read a callee), and
+    numba's cache lacks one of the callees.  :func:`start_if_cold` and kapitza's
+    ``measure`` (which compiles them in its own background process) both ask this."""
+    return not _driver_in_process() and _background.cold(*(d for d, _ in callees()))
 
 
 def _driver_in_process() -> bool:

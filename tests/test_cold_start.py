@@ -248,7 +248,7 @@ def test_measure_compiles_on_the_other_core_on_a_cold_cache(monkeypatch, case, d
     # (simulate_grid's own start of the callees: the next test)
     monkeypatch.setattr(_lanes_ahead, "start_if_cold", lambda: None)
     monkeypatch.setattr(_measurement, "_fit_in_process", lambda: False)
-    monkeypatch.setattr(_measurement, "_lanes_in_process", lambda: False)
+    monkeypatch.setattr(_lanes_ahead, "_driver_in_process", lambda: False)
     monkeypatch.setenv("KAPITZA_BACKGROUND_COMPILE", "0" if case == "switched off" else "1")
     monkeypatch.setattr(_measurement.os, "cpu_count", lambda: 1 if case == "one core" else 2)
     pend = KapitzaPendulum(l=1.0, g=9.81, damping=damping)

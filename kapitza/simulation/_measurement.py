@@ -104,7 +104,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from lagrange_core import _background, _batch_kernels, _lanes_ahead
+from lagrange_core import _background, _lanes_ahead
 from lagrange_core._compile_notice import declared
 from lagrange_core._first_calls import compiling
 from lagrange_core.batch import GridInterrupted, compile_activity, default_method, runs_on_lanes
@@ -245,11 +245,6 @@ def _fit_in_process() -> bool:
     return bool(_strobe_fit._moments.signatures)
 
 
-def _lanes_in_process() -> bool:
-    """Whether this process has RKN 12 lanes driver already (compiled or loaded)."""
-    return bool(_batch_kernels._lanes_block.signatures)
-
-
 def _fit_ready() -> bool:
     """Whether the fit's kernels are in this process or load from numba's cache: a fit
     after Ctrl-C must not wait for a compilation (in the background or here)."""
@@ -273,9 +268,7 @@ def _compile_in_background(system, method, fit: bool) -> None:
     if not _background.enabled() or (os.cpu_count() or 1) < 2:
         return
     code = []
-    # (what this process has needs no look at numba's cache: a file read, every call)
-    if (not _lanes_in_process() and runs_on_lanes(system.kernels, method)
-            and _background.cold(_batch_kernels._lanes_block)):
+    if runs_on_lanes(system.kernels, method) and _lanes_ahead.wanted():
         code.append(_lanes_ahead.CODE)
     if fit and not _fit_in_process() and _background.cold(*_FIT_KERNELS):
         code.append(_FIT_CODE)
