@@ -347,8 +347,10 @@ def _strobe_step(h, T):
 
 # -- pausing a point: its integrator state, saved between calls ----------------------------
 
-#: save[0] of a paused point's integer row: its state is saved (the next call resumes it)
+#: save[0] of a paused point's integer row: its state is saved (the next call resumes it);
+#: DRAINED: saved by a lanes block that drained (:func:`grid_rkn_lanes` resumes it at once)
 SAVED = 0
+DRAINED = 2
 
 
 def save_width(n, stages, rates, hold_block):
@@ -797,6 +799,13 @@ def _second_order_rows(ka, rkn, w, adaptive, pilot, hold_block, idx, Y0, P, TS, 
 #: one thread: 32 lanes 0.52 s, 64 lanes 0.37 s, 128 lanes 0.33 s, 256 lanes 0.35–0.36 s
 #: (2026-11-28, twenty-third session, callees called by address)
 LANES = 128
+#: A block's last points end at scattered times, and every step costs all its lanes: once
+#: every point of a block has started and at most this share of its lanes still run, they
+#: pause (saved, as on Ctrl-C) and run on again on as many lanes as they are (blocks of
+#: at least DRAIN_MIN_LANES lanes).  The same steps and numbers; on the 64 × 64 grid at rtol
+#: 1e-4 (benchmarks/bench_measure.py's, 2 threads) see benchmarks/README.md.
+DRAIN_FRACTION = 0.75
+DRAIN_MIN_LANES = 16
 #: accepted steps a pilot records (as :func:`pilot_step`)
 PILOT_STEPS = 4096
 #: grid_rkn_lanes modes
@@ -1106,16 +1115,31 @@ def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO
     call (after its pilot) pauses with status GRID_INTERRUPTED, its observables so far
     written and its state in row ``slot[k]`` of ``SAVE``/``SAVEI``; a point whose row is
     marked saved resumes from it.  Once ``stop[0]`` is set (Ctrl-C) every running point
-    pauses at its next step and no other point starts.
+    pauses at its next step and no other point starts.  A block whose last points run on
+    few of its lanes pauses them the same way and runs them again at once, on fewer lanes
+    (:data:`DRAIN_FRACTION`).
     """
     if idx.shape[0] == 0:
         return
     calls = NO_CALLS
 
     def work(lo, hi):
-        _lanes_block(ka, calls, mode, hold_block, idx, lo, hi, Y0, P, TS, H, TSTR, REF, LO, HI,
-                     flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM, DEV,
-                     EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI)
+        ii = idx[lo:hi].copy()
+        ss = slot[lo:hi].copy()
+        while ii.shape[0] > 0:
+            _lanes_block(ka, calls, mode, hold_block, ii, 0, ii.shape[0], Y0, P, TS, H, TSTR,
+                         REF, LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, YF,
+                         TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget,
+                         stop, ss, SAVE, SAVEI)
+            # the points the block drained run on, on fewer lanes (not after a Ctrl-C)
+            m = 0
+            for k in range(ii.shape[0]):
+                if stop[0] == 0 and SAVEI[ss[k], SAVED] == DRAINED:
+                    ii[m] = ii[k]
+                    ss[m] = ss[k]
+                    m += 1
+            ii = ii[:m].copy()
+            ss = ss[:m].copy()
 
     # the driver's first call (an empty span, which calls no callee) compiles it; then its
     # callees' addresses: compiled meanwhile in another process (simulate_grid starts it:
@@ -1228,6 +1252,8 @@ def _lanes_block(ka, calls, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TST
     first = _PILOT if mode == LANES_PILOT else (_FIXED if mode == LANES_FIXED else _ADAPTIVE)
     nxt = lo_b
     active = 0
+    drained = False
+    paused = 0                  # points paused by the budget (a long run: no drain)
     while True:
         for l in range(L):          # free lanes take the block's next points
             if pt[l] >= 0 or ph[l] == _IDLE:
@@ -1239,7 +1265,7 @@ def _lanes_block(ka, calls, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TST
                 sl[l] = s_
                 mx[l] = max_steps - COUNTS[i, CNT_STEPS]
                 lim[l] = min(budget, mx[l])
-                if SAVEI[s_, SAVED] == 1:
+                if SAVEI[s_, SAVED] != 0:
                     call_lanes_restore(calls[LANES_RESTORE], ka, l, i, SAVE[s_], SAVEI[s_], Y0,
                                        P, TS, TSTR, REF, LO, HI, flags, q, v, K, cq, cv, Pl, R,
                                        nd, t, tc, h, hrot, t0l, t1l, Tl, kn, QMl, DEVl, REFl,
@@ -1284,6 +1310,14 @@ def _lanes_block(ka, calls, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TST
         if stop[0] != 0 and budget > 0:     # Ctrl-C: every running point pauses at its
             budget = 0                      # next step, and no other point starts
             nxt = hi_b
+            for l in range(L):
+                lim[l] = min(lim[l], nst[l])
+        elif (budget > 0 and nxt >= hi_b and paused == 0 and L >= DRAIN_MIN_LANES
+              and active <= DRAIN_FRACTION * L):
+            # the block drains: its running points pause at their next step, to run on
+            # fewer lanes (grid_rkn_lanes)
+            budget = 0
+            drained = True
             for l in range(L):
                 lim[l] = min(lim[l], nst[l])
         # the step of every lane: its length (shortened to land on t1 or a strobe time)
@@ -1434,10 +1468,13 @@ def _lanes_block(ka, calls, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TST
             for l in range(L):      # work: record its error ratio (held_step_record)
                 hold = tvh[l, TV_HOLD]
                 k_ = sth[l, ST_BLOCK]
+                hh_hold = _strobe_step(hold, Tl[l])
+                # (only where rkn_next_step would leave the step as it is: the held step,
+                # not a step retaken after a rejection, which it sets back to the held one)
                 if (special[l] and upd[l] and ph[l] == _ADAPTIVE and hold > 0.0
-                        and hs[l] >= _strobe_step(hold, Tl[l]) and not clip[l]
-                        and k_ + 1 < hold_block and t[l] < t1l[l] and nst[l] < lim[l]
-                        and not energy):
+                        and hs[l] >= hh_hold and h[l] == hh_hold and not rejected[l]
+                        and not clip[l] and k_ + 1 < hold_block and t[l] < t1l[l]
+                        and nst[l] < lim[l] and not energy):
                     xr = tvh[l, TV_HREF] / hs[l]
                     x2 = xr * xr
                     x4 = x2 * x2
@@ -1595,6 +1632,10 @@ def _lanes_block(ka, calls, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TST
                 call_lanes_save(calls[LANES_SAVE], l, SAVE[sl[l]], SAVEI[sl[l]], q, v, K, cq,
                                 cv, t, tc, h, hrot, kn, e0, drift, errsum, rejected, ph, tvh,
                                 sth, blk, rot)
+                if drained:
+                    SAVEI[sl[l], SAVED] = DRAINED
+                else:
+                    paused += 1
             pt[l] = -1
             active -= 1
             nst[l] = 0
