@@ -1021,14 +1021,53 @@ def _acc4(x, a, K, m, j, l):
 @njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
 def _weighted_sums(b, bp, db, dbp, K, j, acc, L):
     """acc[0..3, l] = Σ_m (b, b', b − b̂, b' − b̂')[m] K[m, j, l]: the step's increments and
-    error estimates, summed in point_second_order's order.  (Unrolled into registers as
-    the stage sums are, it measured slower: four chains of 17 exceed the registers.)"""
+    error estimates, summed in point_second_order's order.  Four stages a pass, the four
+    sums in registers: a pass a stage loaded and stored the four sums for each term.
+    (Unrolled over all 17 stages into registers it measured slower: four chains of 17
+    exceed the registers.)"""
     for l in range(L):
         acc[0, l] = 0.0
         acc[1, l] = 0.0
         acc[2, l] = 0.0
         acc[3, l] = 0.0
-    for m in range(K.shape[0]):
+    ns = K.shape[0]
+    m = 0
+    while m + 4 <= ns:
+        b0, b1, b2, b3 = b[m], b[m + 1], b[m + 2], b[m + 3]
+        p0, p1, p2, p3 = bp[m], bp[m + 1], bp[m + 2], bp[m + 3]
+        d0, d1, d2, d3 = db[m], db[m + 1], db[m + 2], db[m + 3]
+        e0, e1, e2, e3 = dbp[m], dbp[m + 1], dbp[m + 2], dbp[m + 3]
+        for l in range(L):
+            k0 = K[m, j, l]
+            k1 = K[m + 1, j, l]
+            k2 = K[m + 2, j, l]
+            k3 = K[m + 3, j, l]
+            x = acc[0, l]
+            x += b0 * k0
+            x += b1 * k1
+            x += b2 * k2
+            x += b3 * k3
+            acc[0, l] = x
+            x = acc[1, l]
+            x += p0 * k0
+            x += p1 * k1
+            x += p2 * k2
+            x += p3 * k3
+            acc[1, l] = x
+            x = acc[2, l]
+            x += d0 * k0
+            x += d1 * k1
+            x += d2 * k2
+            x += d3 * k3
+            acc[2, l] = x
+            x = acc[3, l]
+            x += e0 * k0
+            x += e1 * k1
+            x += e2 * k2
+            x += e3 * k3
+            acc[3, l] = x
+        m += 4
+    while m < ns:
         bm = b[m]
         bpm = bp[m]
         dbm = db[m]
@@ -1039,6 +1078,7 @@ def _weighted_sums(b, bp, db, dbp, K, j, acc, L):
             acc[1, l] += bpm * km
             acc[2, l] += dbm * km
             acc[3, l] += dbpm * km
+        m += 1
 
 
 @njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
