@@ -1164,22 +1164,20 @@ def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO
     calls = NO_CALLS
 
     def work(lo, hi):
-        ii = idx[lo:hi].copy()
-        ss = slot[lo:hi].copy()
-        while ii.shape[0] > 0:
-            _lanes_block(ka, calls, mode, hold_block, ii, 0, ii.shape[0], Y0, P, TS, H, TSTR,
-                         REF, LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, YF,
-                         TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget,
-                         stop, ss, SAVE, SAVEI)
+        ii, ss = idx, slot
+        while True:
+            _lanes_block(ka, calls, mode, hold_block, ii, lo, hi, Y0, P, TS, H, TSTR, REF, LO,
+                         HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ,
+                         QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, stop, ss,
+                         SAVE, SAVEI)
             # the points the block drained run on, on fewer lanes (not after a Ctrl-C)
-            m = 0
-            for k in range(ii.shape[0]):
-                if stop[0] == 0 and SAVEI[ss[k], SAVED] == DRAINED:
-                    ii[m] = ii[k]
-                    ss[m] = ss[k]
-                    m += 1
-            ii = ii[:m].copy()
-            ss = ss[:m].copy()
+            if hi <= lo or stop[0] != 0:
+                return
+            drained = SAVEI[ss[lo:hi], SAVED] == DRAINED
+            if not drained.any():
+                return
+            ii, ss = ii[lo:hi][drained], ss[lo:hi][drained]
+            lo, hi = 0, ii.shape[0]
 
     # the driver's first call (an empty span, which calls no callee) compiles it; then its
     # callees' addresses: compiled meanwhile in another process (simulate_grid starts it:
