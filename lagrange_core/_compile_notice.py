@@ -18,7 +18,8 @@ every new statement.
 The estimate comes from :data:`ACTIVITY_SECONDS` (what the outermost running activity
 compiles in all, declared by :func:`activity` or :func:`declared`: the report, the
 warm-ups, each grid driver's first ``simulate_grid`` and ``measure``, a general system's
-first Floquet analysis, a first periodic orbit and a first branch) or else
+first Floquet analysis, a first periodic orbit and a first branch; for RKN 12's first
+grid and measure, :data:`ALONE_SECONDS` when no second process compiles beside) or else
 :data:`FAMILY_SECONDS` (the family of the first function compiled), both measured on the
 2-core development machine (benchmarks/README.md; ``python benchmarks/bench_cold_start.py
 --only notices`` compares each with the first use it announces), scaled by the load when
@@ -39,7 +40,8 @@ import os
 import sys
 import threading
 
-__all__ = ["install", "activity", "declared", "say", "ACTIVITY_SECONDS", "FAMILY_SECONDS"]
+__all__ = ["install", "activity", "declared", "say", "ACTIVITY_SECONDS", "ALONE_SECONDS",
+           "FAMILY_SECONDS"]
 
 #: Seconds an activity compiles on an empty cache (idle 2-core machine, numba 0.68):
 #: the whole of it, so the notice at its first compile says how long the wait is.
@@ -81,6 +83,16 @@ ACTIVITY_SECONDS = {
     "kapitza continue": 8,          # 10.0 s
     "kapitza lyapunov": 11,         # 12.5 s
     "kapitza map": 5,               # 7.3 s
+}
+
+#: The same first RKN 12 grid and ``measure`` when no second process compiles the lanes
+#: driver's callees beside this one (one core, ``KAPITZA_BACKGROUND_COMPILE=0``, or none
+#: started) and they are not in numba's cache: all of it compiles here.  Measured on
+#: empty caches with the switch off, 2026-11-28 (twenty-fourth session): the grid 21.8–
+#: 21.9 s, the first measure 24.1–25.2 s (the notice had quoted ~14 s for both).
+ALONE_SECONDS = {
+    "simulate_grid, RKN 12": 22,
+    "measure, RKN 12": 24,
 }
 
 #: Seconds a family of shared kernels compiles on an empty cache, by module of the
@@ -138,7 +150,9 @@ def _shared(module: str) -> bool:
 def estimate(module: str) -> int:
     """The notice's estimate (s) for a first compile in ``module``, load included."""
     name = _activity.get()
-    if name in ACTIVITY_SECONDS:
+    if name in ALONE_SECONDS and _compiles_alone():
+        seconds = ALONE_SECONDS[name]
+    elif name in ACTIVITY_SECONDS:
         seconds = ACTIVITY_SECONDS[name]
     else:
         seconds = next((s for prefix, s in FAMILY_SECONDS.items() if module.startswith(prefix)),
@@ -151,6 +165,16 @@ def estimate(module: str) -> int:
         share = 1.0
     seconds *= min(max(share, 1.0), 4.0)
     return int(round(seconds, -1)) if seconds >= 20 else max(int(round(seconds)), 1)
+
+
+def _compiles_alone() -> bool:
+    """Whether RKN 12's lanes callees would compile in this process: no background
+    compile runs beside it (:mod:`lagrange_core._background`) and numba's cache lacks one
+    of them (:func:`lagrange_core._lanes_ahead.wanted`)."""
+    from . import _background, _lanes_ahead
+    if any(proc.poll() is None for proc in _background.RUNNING.values()):
+        return False
+    return _lanes_ahead.wanted()
 
 
 def message(module: str) -> str:
