@@ -50,7 +50,8 @@ def wanted() -> bool:
     """Whether compiling the callees ahead would save time: this process has no lanes
     driver yet (what it has needs no look at numba's cache, a file read a callee), and
     numba's cache lacks one of the callees.  :func:`start_if_cold` and kapitza's
-    ``measure`` (which compiles them in its own background process) both ask this."""
+    ``measure`` (which compiles them in its own background process) both ask this, and
+    the compile notice, for its estimate (``lagrange_core._compile_notice``)."""
     return not _driver_in_process() and _background.cold(*(d for d, _ in callees()))
 
 
