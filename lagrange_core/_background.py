@@ -25,7 +25,7 @@ import subprocess
 import sys
 import time
 
-__all__ = ["enabled", "cold", "start", "wait", "RUNNING"]
+__all__ = ["enabled", "cold", "start", "running", "wait", "RUNNING"]
 
 #: this process's background compiles, by group name
 RUNNING: dict[str, subprocess.Popen] = {}
@@ -69,6 +69,11 @@ def start(name: str, code: str) -> subprocess.Popen | None:
     RUNNING[name] = proc
     atexit.register(_end, proc)
     return proc
+
+
+def running() -> bool:
+    """Whether a background compile this process started is still running."""
+    return any(proc.poll() is None for proc in RUNNING.values())
 
 
 def wait(names) -> float:

@@ -1346,17 +1346,15 @@ def _lanes_block(ka, calls, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TST
                         K[m, j, l] = 0.0
         if active == 0:
             break
-        if stop[0] != 0 and budget > 0:     # Ctrl-C: every running point pauses at its
-            budget = 0                      # next step, and no other point starts
-            nxt = hi_b
-            for l in range(L):
-                lim[l] = min(lim[l], nst[l])
-        elif (budget > 0 and nxt >= hi_b and paused == 0 and L >= DRAIN_MIN_LANES
-              and active <= DRAIN_FRACTION * L):
-            # the block drains: its running points pause at their next step, to run on
-            # fewer lanes (grid_rkn_lanes)
+        # Ctrl-C, or the block drains (its points all started, few lanes still run): every
+        # running point pauses at its next step and no other point starts; drained, they
+        # run on at once on fewer lanes (grid_rkn_lanes)
+        if budget > 0 and (stop[0] != 0 or (nxt >= hi_b and paused == 0
+                                            and L >= DRAIN_MIN_LANES
+                                            and active <= DRAIN_FRACTION * L)):
+            drained = stop[0] == 0
             budget = 0
-            drained = True
+            nxt = hi_b
             for l in range(L):
                 lim[l] = min(lim[l], nst[l])
         # the step of every lane: its length (shortened to land on t1 or a strobe time)

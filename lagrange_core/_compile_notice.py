@@ -172,9 +172,7 @@ def _compiles_alone() -> bool:
     compile runs beside it (:mod:`lagrange_core._background`) and numba's cache lacks one
     of them (:func:`lagrange_core._lanes_ahead.wanted`)."""
     from . import _background, _lanes_ahead
-    if any(proc.poll() is None for proc in _background.RUNNING.values()):
-        return False
-    return _lanes_ahead.wanted()
+    return not _background.running() and _lanes_ahead.wanted()
 
 
 def message(module: str) -> str:

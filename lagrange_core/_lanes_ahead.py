@@ -39,8 +39,7 @@ def start_if_cold() -> None:
     background compile is running (kapitza's ``measure`` starts its own with these
     callees in it; on two cores a third process would slow this one's compile), or
     numba's cache has every callee."""
-    if (not _background.enabled() or (os.cpu_count() or 1) < 2
-            or any(proc.poll() is None for proc in _background.RUNNING.values())):
+    if not _background.enabled() or (os.cpu_count() or 1) < 2 or _background.running():
         return
     if wanted():
         _background.start(GROUP, CODE)
