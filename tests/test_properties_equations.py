@@ -22,6 +22,10 @@ parameter values to a relative 1e-10 of their size (1e-12 of the natural scale
 (``System.equations``, its entries as derived: the sympy view ``mass_matrix`` is them
 after sympy's ``trigsimp``, which took 25 s for some of these statements).
 
+LagrangesMethod's values are kept in pytest's cache between runs (:class:`_Reference`: they
+depend on the statements, the states and sympy alone, never on the engine), so a second
+run derives only the engine's side: 3.7 s instead of 19.3 s, one process (2026-11-28).
+
 Inputs tried (``--hypothesis-show-statistics``, 2026-11-26): profile "ci" 20 chains and
 6 particle systems, 3 states each, all passing — 27 s with the kernels cached (load
 average 3 on 2 cores; LagrangesMethod's derivation is most of it), 46 s with an empty
@@ -31,6 +35,8 @@ compiles into a temporary cache, so random statements do not fill the user's): 2
 chains and 120 particle systems passed before pytest-timeout's 600 s stopped the run.
 """
 import functools
+import hashlib
+import inspect
 import math
 import os
 import tempfile
@@ -70,6 +76,21 @@ def _kernel_cache():
                 os.environ["LAGRANGE_CORE_CACHE"] = old
 
 
+#: pytest's cache, where LagrangesMethod's values are kept between runs (None: not kept)
+_STORE = None
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _reference_store(request):
+    """Keep the reference's values in pytest's cache (``.pytest_cache``) under the "ci"
+    profile, whose statements are the same every run; any other profile draws new ones
+    (hundreds of one-off entries) and derives each."""
+    global _STORE
+    _STORE = getattr(request.config, "cache", None) if settings().derandomize else None
+    yield
+    _STORE = None
+
+
 # -- the comparison -------------------------------------------------------------------------
 
 def _reference_functions(lm, coordinates, parameters):
@@ -93,6 +114,42 @@ def _reference_functions(lm, coordinates, parameters):
         return (np.array(M(*q, *qd, t, *p), dtype=float),
                 np.array(F(*q, *qd, t, *p), dtype=float).ravel())
     return evaluate
+
+
+class _Reference:
+    """LagrangesMethod's M and F of one statement at any state, as
+    ``reference(q, q̇, t, values) -> (M, F)``.
+
+    Deriving them (``derive()``: sympy's ``form_lagranges_equations``, then ``lambdify``)
+    is most of this file's time — ~13 CPU-s of the suite's, for the same statements every
+    run under the "ci" profile.  The values are a function of the statement, the state,
+    the parameter values, sympy's version and this file's reference code alone, none of
+    them the engine's: they are kept in pytest's cache under a digest of all of these,
+    derived again whenever one changes (and on ``pytest --cache-clear``).  The engine's
+    side — its derivation, kernels and equations — is computed in every run."""
+
+    def __init__(self, kind, statement, derive):
+        self.kind, self.statement, self.derive = kind, statement, derive
+        self.stored = False     # whether the last values came from the cache
+
+    def __call__(self, q, qd, t, values):
+        key = None
+        if _STORE is not None:
+            text = repr((self.kind, self.statement, np.asarray(q, float).tolist(),
+                         np.asarray(qd, float).tolist(), float(t), sorted(values.items()),
+                         sp.__version__, _REFERENCE_CODE))
+            key = "kapitza/lagranges-method/" + hashlib.sha256(text.encode()).hexdigest()
+            kept = _STORE.get(key, None)
+            if kept is not None:
+                self.stored = True
+                return np.array(kept["M"], dtype=float), np.array(kept["F"], dtype=float)
+        n = len(q)
+        M, F = self.derive()(q, qd, t, values)
+        M, F = np.broadcast_to(M, (n, n)).copy(), np.broadcast_to(F, (n,)).copy()
+        if key is not None:
+            _STORE.set(key, {"M": M.tolist(), "F": F.tolist()})
+        self.stored = False
+        return M, F
 
 
 def _view_functions(system):
@@ -129,6 +186,9 @@ def _assert_equal_equations(system, reference, view, states, values):
         natural = 1e-2 * scale_M * (1.0 + float(np.dot(qd, qd)))
         scale_F = max(np.abs(F_ref).max(), natural)
         where = f"{system.name} at q={q.tolist()}, q̇={qd.tolist()}, t={t}, params={values}"
+        if getattr(reference, "stored", False):
+            where += (" (the reference's values kept from an earlier run: --cache-clear"
+                      " derives them again)")
         for name, ours in (("kernels", (M, F)), ("derived equations", (M_view, F_view))):
             err_M = np.abs(ours[0] - M_ref).max() / scale_M
             err_F = np.abs(ours[1] - F_ref).max() / scale_F
@@ -184,7 +244,16 @@ def _chain_system(links, gravity, drive, vector, harmonics, damping, drag, sprin
 
 
 @functools.lru_cache(maxsize=64)
-def _chain_reference(links, gravity, drive, vector, harmonics, damping, drag, springs, rests):
+def _chain_reference(*statement):
+    """(the engine's system, the reference, the engine's derived equations) of a chain."""
+    system = _chain_system(*statement)
+    return system, _Reference("chain", statement, lambda: _chain_lagranges_method(
+        *statement, system.coordinates, system.parameters)), _view_functions(system)
+
+
+@functools.lru_cache(maxsize=64)
+def _chain_lagranges_method(links, gravity, drive, vector, harmonics, damping, drag, springs,
+                            rests, coordinates, parameters):
     """The same chain stated with sympy.physics.mechanics: points in a frame, the pivot
     written out from PHYSICS.md, forces on the bobs; LagrangesMethod derives it."""
     N = me.ReferenceFrame("N")
@@ -226,10 +295,7 @@ def _chain_reference(links, gravity, drive, vector, harmonics, damping, drag, sp
         V += sp.Symbol(f"k_theta{j}") * (qs[j - 1] - rest) ** 2 / 2
     lm = LagrangesMethod(T - V, qs, forcelist=forces or None, frame=N)
     lm.form_lagranges_equations()
-    system = _chain_system(links, gravity, drive, vector, harmonics, damping, drag, springs,
-                           rests)
-    return system, _reference_functions(lm, system.coordinates, system.parameters), \
-        _view_functions(system)
+    return _reference_functions(lm, coordinates, parameters)
 
 
 #: Every parameter a chain or a particle system may have, with the range of its values.
@@ -327,18 +393,32 @@ def _particle_system(n, particles, potential, quadratic, q, t):
 
 
 @functools.lru_cache(maxsize=16)
-def _particle_reference(n, particles, potential, quadratic):
+def _particle_reference(*statement):
+    """(the engine's system, the reference, the engine's derived equations)."""
+    n, particles, potential, quadratic = statement
     coords, _ = lc.coordinates([f"x{i}" for i in range(n)])
     bodies, V = _particle_system(n, particles, potential, quadratic, coords, lc.t)
     system = lc.System(coords, particles=[lc.Particle(m, r) for m, r in bodies],
                        potential=V, name="random particle system")
+    return system, _Reference("particles", statement, lambda: _particle_lagranges_method(
+        *statement, system.coordinates, system.parameters)), _view_functions(system)
+
+
+@functools.lru_cache(maxsize=16)
+def _particle_lagranges_method(n, particles, potential, quadratic, coordinates, parameters):
+    """The particles' T − V in sympy's dynamic symbols; LagrangesMethod derives it."""
     qs = dynamicsymbols(" ".join(f"x{i}" for i in range(n)), seq=True)
     ref_bodies, ref_V = _particle_system(n, particles, potential, quadratic, qs, _t)
     T = sum(m * sum(c.diff(_t) ** 2 for c in r) for m, r in ref_bodies) / 2
     lm = LagrangesMethod(T - ref_V, qs)
     lm.form_lagranges_equations()
-    return system, _reference_functions(lm, system.coordinates, system.parameters), \
-        _view_functions(system)
+    return _reference_functions(lm, coordinates, parameters)
+
+
+#: The reference's own code: a change to any of it derives every stored value again.
+_REFERENCE_CODE = hashlib.sha256("".join(inspect.getsource(f) for f in (
+    _reference_functions, _chain_lagranges_method, _particle_lagranges_method,
+    _particle_system, _expression)).encode()).hexdigest()
 
 
 def _moves(statement) -> bool:
