@@ -173,6 +173,7 @@ def worker_measure(name):
 NOTICE_CASES = ["simulate, driven pendulum", "simulate_grid rkn12, driven pendulum",
                 "simulate_grid yoshida6, pendulum", "simulate_grid dop853, driven pendulum",
                 "measure, vertical", "measure, vertical, damped",
+                "measure_grid 16 × 16, vertical, damped",
                 "floquet_point, driven 2-link chain", "pendulum_window",
                 "pendulum_stability_map, damped", "lyapunov_grid, damped driven pendulum",
                 "periodic_orbit, horizontal drive", "continuation, driven pendulum",
@@ -207,6 +208,12 @@ def worker_notice(name):
             q0, qd0, (0.0, 1.0), p, method="dop853", progress=False),
         "measure, vertical": lambda: worker_measure("vertical"),
         "measure, vertical, damped": lambda: worker_measure("vertical,damped"),
+        # 256 points: DOP853's lanes (lagrange_core.batch.FIRST_ORDER_LANES_MIN_POINTS)
+        "measure_grid 16 × 16, vertical, damped": lambda: kapitza.KapitzaPendulum(
+            l=1.0, g=9.81, damping=0.5).measure_grid(
+            *np.meshgrid(np.linspace(0.005, 0.2, 16), 2 * np.pi * np.linspace(5, 100, 16),
+                         indexing="ij"), math.pi - 0.1, periods=500,
+            observables="classification", progress=False),
         "floquet_point, driven 2-link chain": lambda: kapitza.floquet_point(
             problems.n_link_pendulum(2, pivot=(0, A * sp.cos(w * t))),
             dict(g=9.81, l1=1.0, l2=1.0, m1=1.0, m2=1.0, A=0.05, omega=300.0),

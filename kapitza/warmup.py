@@ -4,8 +4,8 @@
 monodromy kernels, the Mathieu characteristic values and monodromy trace of the
 pendulum's exact maps (undamped and damped), the grid kernels and the slow-frequency fit
 that ``measure`` runs, and the pendulum's own kernels for both drives, damped and
-undamped.  After it, a first ``measure`` of any drive only loads machine code (≈ 1 s
-instead of tens of seconds).
+undamped, and DOP853's lanes that a damped grid runs on.  After it, a first ``measure``
+of any drive only loads machine code (≈ 1 s instead of tens of seconds).
 
 On an empty cache the work is split into independent *groups* (:data:`GROUPS`) that
 compile in separate processes, one per core: numba's disk cache is shared, so each
@@ -81,6 +81,19 @@ def _report_integrators():
                   t_eval=np.linspace(0.0, 2 * T, 9))
 
 
+def _damped_grids():
+    """A grid of 256 points of each damped drive: DOP853 on lanes (from
+    ``lagrange_core.batch.FIRST_ORDER_LANES_MIN_POINTS`` points), its driver and each
+    damped pendulum's lanes kernels (``rhs_lanes``)."""
+    import numpy as np
+    A, omega = np.meshgrid(np.linspace(0.02, 0.05, 16), _OMEGA * np.linspace(1.0, 2.0, 16),
+                           indexing="ij")
+    for pend in _pendulums():
+        if pend.damping:
+            pend.measure_grid(A, omega, _start(pend, 0.05), periods=20,
+                              observables="classification", progress=False)
+
+
 def _floquet():
     from .pendulum import KapitzaPendulum
     pendulum = KapitzaPendulum(l=1.0, g=9.81)
@@ -100,7 +113,9 @@ GROUPS = {
     "integrators": _integrators,
     "grids (dop853)": lambda: _measure("dop853"),   # the report's grid integrator
     "report integrators": _report_integrators,      # (within "integrators" but for the
-}                                                   #  report's own call types)
+    #                                                  report's own call types)
+    "damped grids": _damped_grids,                  # DOP853's lanes
+}
 
 
 def run_group(name: str) -> None:

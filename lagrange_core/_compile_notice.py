@@ -64,6 +64,11 @@ ACTIVITY_SECONDS = {
     "simulate_grid, DOP853": 9,
     "measure, RKN 12": 14,
     "measure, DOP853": 10,          # (measure runs no fixed-step method: it passes no h)
+    # a first damped grid of 256 points or more (DOP853's lanes, the system's rhs_lanes):
+    # the damped pendulum's 16 × 16 measure_grid 12.0–12.6 s (6.7–6.8 s per point before
+    # it ran on lanes), 2026-11-28 (twenty-fifth session)
+    "simulate_grid, DOP853 lanes": 12,
+    "measure, DOP853 lanes": 12,
     # a general system's first Floquet analysis (the sampler, the monodromy rows): a
     # 2-link chain's floquet_point, 13.5–15.5 s, 2026-11-27
     "Floquet": 15,

@@ -23,8 +23,14 @@ Same algorithm, statuses, counts and observables as ``point_dop853`` (final stat
 strobe samples, time mean of q, max deviation from a reference, sum of the local error
 estimates), to rounding: sin/cos are within 2 ulp of libm, the step factor's root
 differs from ``pow`` by an ulp, multiply-adds are fused, and a one-coordinate system's
-q̈ = F/M is simplified symbolically.  Not here (the caller runs ``grid_dop853``):
-constraints (projection), band exits, energy drift, the fixed-step "rk8".
+q̈ = F/M is simplified symbolically.  The error estimate, a difference of nearly equal
+sums, carries such rounding to ~1e-7 of a step: the steps are the same in number, their
+ends up to that far apart (what is sampled at step ends — the deviation, the mean —
+differs by as much; tests/test_first_order_lanes.py).  A band exit is located on the step's cubic
+Hermite interpolant, as ``point_dop853`` does.  Not here (the caller runs
+``grid_dop853``): constraints (projection), energy drift, the fixed-step "rk8".
+``System.simulate_grid`` runs this driver for grids of
+:data:`lagrange_core.batch.FIRST_ORDER_LANES_MIN_POINTS` points or more.
 
 Why: the scalar path makes ~12 calls of ``rhs`` per step, each bound by libm's sin/cos
 and unable to overlap the next; benchmarks/README.md ("The chaos room against issue
@@ -42,6 +48,7 @@ import numba
 import numpy as np
 from numba import njit
 
+from ._batch_kernels import _band_exit, _hermite
 from ._integrator_kernels import FAST_MATH, starting_step
 from ._kernel_calls import RHS, call_rhs
 from ._lane_calls import rhs_on_lanes
@@ -57,12 +64,13 @@ __all__ = ["LANES", "grid_dop853_lanes", "sparse_tables", "stage_sum", "error_su
 LANES = 128
 # statuses as lagrange_core._batch_kernels (GRID_*): finished, underflow, non-finite,
 # singular, step budget, not run
-_FINISHED, _UNDERFLOW, _NON_FINITE, _SINGULAR, _MAX_STEPS, _INTERRUPTED = 0, 2, 3, 4, 5, 7
+_FINISHED, _LEFT_BAND, _UNDERFLOW, _NON_FINITE, _SINGULAR, _MAX_STEPS, _INTERRUPTED = \
+    0, 1, 2, 3, 4, 5, 7
 #: SAVEI[·, _SAVED] = 1: the row holds a paused point's state (as _batch_kernels.SAVED)
 _SAVED = 0
 # columns of COUNTS, bits of flags (as _batch_kernels)
 _STEPS, _REJECTED, _EVALS = 0, 1, 2
-_OBS_STROBE, _OBS_REF = 1, 2
+_OBS_STROBE, _OBS_REF, _OBS_BAND = 1, 2, 4
 _EPS = 2.220446049250313e-16
 
 
@@ -235,9 +243,9 @@ def step_factor(err):
 
 
 @njit(cache=True, error_model="numpy")
-def _load(ka, l, i, sv, svi, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, y, K, Pl, t, tc, h,
-          t0l, t1l, Tl, kn, QMl, DEVl, REFl, errsum, rejected, base, YF, SQ, QM, DEV, COUNTS,
-          f, W, y1, f1):
+def _load(ka, l, i, sv, svi, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, y, K, Pl,
+          t, tc, h, t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, errsum, rejected, base, YF,
+          SQ, QM, DEV, COUNTS, f, W, y1, f1):
     """Start point i in lane l — or resume it from its saved row ``sv``/``svi`` (a point
     paused by an earlier call: ``svi[0]`` = 1, the layout of ``point_dop853``'s) — its
     state, parameters, observables, f at the start (K[0], by the scalar ``rhs``, as
@@ -255,6 +263,8 @@ def _load(ka, l, i, sv, svi, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, y, K, P
     base[l] = COUNTS[i, _STEPS]
     for j in range(n):
         REFl[j, l] = REF[i, j] if flags & _OBS_REF else 0.0
+        LOl[j, l] = LO[i, j] if flags & _OBS_BAND else -np.inf
+        HIl[j, l] = HI[i, j] if flags & _OBS_BAND else np.inf
     if svi[_SAVED] == 1:
         for j in range(d):
             y[j, l] = sv[j]
@@ -305,47 +315,54 @@ def grid_dop853_lanes(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, fla
                       max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT,
                       COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI):
     """Adaptive DOP853 over the points ``idx`` on lanes, with the arguments and results of
-    :func:`lagrange_core._batch_kernels.grid_dop853` (so ``simulate_grid`` can call either):
-    ``m`` must be 0 and ``adaptive`` true, and ``flags`` must not ask for a band or the
-    energy (``LO``, ``HI``, ``EXIT``, ``EXITC``, ``EDRIFT`` are not touched); ``ka`` must
-    hold the slots ``rhs`` and ``rhs_lanes``.  A point pauses after ``budget`` accepted
-    steps in this call (status GRID_INTERRUPTED = 7, its integrator state in
-    ``SAVE[slot[k]]``, ``SAVEI[slot[k], 0]`` = 1, in ``point_dop853``'s layout: 4n + 8
-    floats) and a later call resumes it.  Once ``stop[0]`` is set (Ctrl-C,
-    :data:`lagrange_core.progress.KERNEL_STOP`) every running point pauses at its next
-    step and no other point starts.
+    :func:`lagrange_core._batch_kernels.grid_dop853` (``simulate_grid`` calls either:
+    :func:`lagrange_core.batch.runs_on_first_order_lanes`): ``m`` must be 0 and
+    ``adaptive`` true, and ``flags`` must not ask for the energy (``EDRIFT`` is not
+    touched); ``ka`` must hold the slots ``rhs`` and ``rhs_lanes``.  A point that leaves
+    its band [LO, HI] ends where the step's cubic Hermite interpolant first crosses it, as
+    in ``point_dop853`` (status GRID_LEFT_BAND = 1, ``EXIT``, ``EXITC``; the other points'
+    ``EXIT`` and ``EXITC`` are not touched: NaN and −1 from the caller).  A point pauses
+    after ``budget`` accepted steps in this call (status GRID_INTERRUPTED = 7, its
+    integrator state in ``SAVE[slot[k]]``, ``SAVEI[slot[k], 0]`` = 1, in
+    ``point_dop853``'s layout: 4n + 8 floats) and a later call resumes it.  Once
+    ``stop[0]`` is set (Ctrl-C, :data:`lagrange_core.progress.KERNEL_STOP`) every running
+    point pauses at its next step and no other point starts.
 
     The points are cut into two blocks per thread; a thread advances up to :data:`LANES`
     points of a block together, refilling a lane from its block when its point ends."""
-    if m != 0 or not adaptive or flags & ~(_OBS_STROBE | _OBS_REF):
+    if m != 0 or not adaptive or flags & ~(_OBS_STROBE | _OBS_REF | _OBS_BAND):
         raise ValueError("grid_dop853_lanes runs adaptive DOP853 on unconstrained systems "
-                         "observing strobe samples and deviations only; use grid_dop853.")
+                         "observing strobe samples, deviations and bands only; use "
+                         "grid_dop853.")
     block = max(8, -(-idx.shape[0] // (2 * numba.get_num_threads())))
-    _grid(ka, idx, block, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_steps, A, B, C, E3,
-          E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI)
+    _grid(ka, idx, block, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, max_steps, A, B,
+          C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, COUNTS, ERR, STATUS, budget, stop, slot,
+          SAVE, SAVEI)
 
 
-def _grid(ka, idx, block, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_steps, A, B, C, E3,
-          E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI):
+def _grid(ka, idx, block, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, max_steps, A, B,
+          C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, COUNTS, ERR, STATUS, budget, stop, slot,
+          SAVE, SAVEI):
     """The blocks of :func:`grid_dop853_lanes` on the threads of
     :func:`lagrange_core._thread_blocks.run_spans`."""
-    run_spans(lambda lo, hi: _block(ka, idx, lo, hi, Y0, P, TS, H, TSTR, REF, flags, rtol,
-                                    atol, max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV,
-                                    COUNTS, ERR, STATUS, budget, stop, slot, SAVE,
-                                    SAVEI),
+    run_spans(lambda lo, hi: _block(ka, idx, lo, hi, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
+                                    rtol, atol, max_steps, A, B, C, E3, E5, YF, TF, SQ, QM,
+                                    DEV, EXIT, EXITC, COUNTS, ERR, STATUS, budget, stop, slot,
+                                    SAVE, SAVEI),
               idx.shape[0], block, stoppable=True)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST_MATH)
-def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_steps, A, B,
-           C, E3, E5, YF, TF, SQ, QM, DEV, COUNTS, ERR, STATUS, budget, stop, slot, SAVE,
-           SAVEI):
+def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, max_steps,
+           A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, COUNTS, ERR, STATUS, budget, stop,
+           slot, SAVE, SAVEI):
     """The points idx[lo_b:hi_b] of :func:`grid_dop853_lanes` on one thread's lanes."""
     d = Y0.shape[1]
     n = d // 2
     npar = P.shape[1]
     L = min(LANES, hi_b - lo_b)
     ref = (flags & _OBS_REF) != 0
+    band = (flags & _OBS_BAND) != 0
     sidx, scoef, spairs = sparse_tables(A, B, E5, E3)
     pt = np.full(L, -1, dtype=np.int64)
     pk = np.zeros(L, dtype=np.int64)
@@ -358,6 +375,8 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_
     QMl = np.zeros((n, L))
     DEVl = np.zeros((n, L))
     REFl = np.zeros((n, L))
+    LOl = np.full((n, L), -np.inf)
+    HIl = np.full((n, L), np.inf)
     t = np.zeros(L)
     tc = np.zeros(L)
     h = np.zeros(L)
@@ -381,6 +400,8 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_
     special = np.zeros(L, dtype=np.bool_)
     rejected = np.zeros(L, dtype=np.bool_)
     live = np.zeros(L, dtype=np.bool_)
+    out = np.zeros(L, dtype=np.bool_)       # accepted, but the step left the band
+    adv = np.zeros(L, dtype=np.bool_)       # accepted and inside: the lane moves on
     base = np.zeros(L, dtype=np.int64)
     nst = np.zeros(L, dtype=np.int64)
     nrej = np.zeros(L, dtype=np.int64)
@@ -389,15 +410,16 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_
     W = np.zeros((n, n + 1))
     y1 = np.empty(d)
     f1 = np.empty(d)
+    ye = np.empty(d)                        # a lane's state where it leaves its band
     nxt = lo_b
     active = 0
     for l in range(L):
         while nxt < hi_b and pt[l] < 0:
             i = idx[nxt]
             sl = slot[nxt]
-            st = _load(ka, l, i, SAVE[sl], SAVEI[sl], Y0, P, TS, H, TSTR, REF, flags, rtol,
-                       atol, y, K, Pl, t, tc, h, t0l, t1l, Tl, kn, QMl, DEVl, REFl, errsum,
-                       rejected, base, YF, SQ, QM, DEV, COUNTS, f, W, y1, f1)
+            st = _load(ka, l, i, SAVE[sl], SAVEI[sl], Y0, P, TS, H, TSTR, REF, LO, HI, flags,
+                       rtol, atol, y, K, Pl, t, tc, h, t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl,
+                       HIl, errsum, rejected, base, YF, SQ, QM, DEV, COUNTS, f, W, y1, f1)
             if st != 0:
                 STATUS[i] = st
                 TF[i] = TS[i, 0]
@@ -472,23 +494,33 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_
             special[l] = lv & (sing[l] | (rej & (hr < hmin))
                                | (ok & (clip[l] | (tnew[l] >= t1l[l]) | (nst[l] >= budget)
                                         | (base[l] + nst[l] >= max_steps))))
+        for l in range(L):
+            out[l] = False
+        if band:                    # an accepted step whose end is outside the band ends
+            for j in range(n):      # its point (below, lane by lane); the others move on
+                for l in range(L):
+                    yn = ynew[j, l]
+                    out[l] |= good[l] & ((yn < LOl[j, l]) | (yn > HIl[j, l]))
+        for l in range(L):
+            adv[l] = good[l] & (not out[l])
+            special[l] |= out[l]
         for j in range(n):          # the time mean and the deviation of accepted steps
             for l in range(L):
                 hh = hs[l]
                 mean = (0.5 * hh * (y[j, l] + ynew[j, l])
                         + hh * hh * (y[n + j, l] - ynew[n + j, l]) / 12.0)
-                QMl[j, l] += mean if good[l] else 0.0
+                QMl[j, l] += mean if adv[l] else 0.0
             if ref:
                 for l in range(L):
                     dv = abs(ynew[j, l] - REFl[j, l])
-                    DEVl[j, l] = dv if (good[l] & (dv > DEVl[j, l])) else DEVl[j, l]
+                    DEVl[j, l] = dv if (adv[l] & (dv > DEVl[j, l])) else DEVl[j, l]
         for j in range(d):
             for l in range(L):
-                u = good[l]
+                u = adv[l]
                 y[j, l] = ynew[j, l] if u else y[j, l]
                 K[0, j, l] = K[12, j, l] if u else K[0, j, l]
         for l in range(L):
-            u = good[l]
+            u = adv[l]
             t[l] = tnew[l] if u else t[l]
             tc[l] = tcn[l] if u else tc[l]
         # the rest, lane by lane: strobe samples, failures, ends (and the next point)
@@ -501,6 +533,24 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_
                 st = _SINGULAR
             elif not good[l]:       # rejected with a step below the resolution of t
                 st = _UNDERFLOW if fin[l] else _NON_FINITE
+            elif out[l]:            # left the band: where the step's interpolant crosses it
+                hh = hs[l]          # (point_dop853's _observe, on this lane's step)
+                for j in range(d):
+                    y1[j] = y[j, l]
+                    f1[j] = ynew[j, l]
+                x, jx = _band_exit(y1[:n], y1[n:], f1[:n], f1[n:], hh, LOl[:, l], HIl[:, l])
+                for j in range(n):
+                    ye[j], ye[n + j] = _hermite(y1[j], y1[n + j], f1[j], f1[n + j], hh, x)
+                xh = x * hh
+                for j in range(n):
+                    QMl[j, l] += (0.5 * xh * (y1[j] + ye[j])
+                                  + xh * xh * (y1[n + j] - ye[n + j]) / 12.0)
+                for j in range(d):
+                    y[j, l] = ye[j]
+                t[l] = t[l] + xh
+                EXIT[i] = t[l]
+                EXITC[i] = jx
+                st = _LEFT_BAND
             else:
                 if clip[l] and Tl[l] > 0.0 and t[l] == t0l[l] + kn[l] * Tl[l]:
                     k_ = int(kn[l])
@@ -550,9 +600,10 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_
             while nxt < hi_b and pt[l] < 0:
                 i2 = idx[nxt]
                 sl = slot[nxt]
-                st2 = _load(ka, l, i2, SAVE[sl], SAVEI[sl], Y0, P, TS, H, TSTR, REF, flags,
-                            rtol, atol, y, K, Pl, t, tc, h, t0l, t1l, Tl, kn, QMl, DEVl, REFl,
-                            errsum, rejected, base, YF, SQ, QM, DEV, COUNTS, f, W, y1, f1)
+                st2 = _load(ka, l, i2, SAVE[sl], SAVEI[sl], Y0, P, TS, H, TSTR, REF, LO, HI,
+                            flags, rtol, atol, y, K, Pl, t, tc, h, t0l, t1l, Tl, kn, QMl, DEVl,
+                            REFl, LOl, HIl, errsum, rejected, base, YF, SQ, QM, DEV, COUNTS, f,
+                            W, y1, f1)
                 if st2 != 0:
                     STATUS[i2] = st2
                     TF[i2] = TS[i2, 0]
@@ -571,10 +622,11 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, flags, rtol, atol, max_
 
 
 # numba's cache does not notice changes to the kernels these call
-from . import _integrator_kernels, _kernel_calls, _lane_calls  # noqa: E402
+from . import _batch_kernels, _integrator_kernels, _kernel_calls, _lane_calls  # noqa: E402
 from .module_store import guard_numba_cache  # noqa: E402
 
-guard_numba_cache(sys.modules[__name__], _integrator_kernels, _kernel_calls, _lane_calls)
+guard_numba_cache(sys.modules[__name__], _batch_kernels, _integrator_kernels, _kernel_calls,
+                  _lane_calls)
 
 
 # a first call on the main thread compiles where Ctrl-C need not wait for it

@@ -41,11 +41,15 @@ speeds up after the pilot's window keeps its tolerance.  Name "rkn12-fixed" for 
 sweep of periodic drives at tight tolerance.
 
 Both RKN 12 methods run on *lanes* (``lagrange_core._batch_kernels.grid_rkn_lanes``):
-each thread advances 64 points together with every loop over them vectorised and one
+each thread advances 128 points together with every loop over them vectorised and one
 call of the drive kernel's ``fast_accel_lanes`` per stage for all of them; the results
 equal those of the per-point loop (``point_second_order``)
 to rounding (sin and cos are the lanes' own polynomials, within 2 ulp of libm), with
-the same steps at a given fixed step.  ``"yoshida6"`` and ``"dop853"`` run per point.
+the same steps at a given fixed step.  Adaptive ``"dop853"`` runs on lanes too
+(``lagrange_core._first_order_lanes``) for a grid of at least
+:data:`FIRST_ORDER_LANES_MIN_POINTS` points of an unconstrained system with lanes
+kernels and no energy drift asked, with the same results to rounding; smaller grids,
+constrained systems, ``"rk8"`` and ``"yoshida6"`` run per point.
 
 Failure is per point
 --------------------
@@ -79,6 +83,7 @@ import numpy as np
 
 from . import _batch_kernels as _bk
 from . import _compile_notice, _lanes_ahead
+from . import _first_order_lanes as _fl
 from .checks import real_array
 from .drive_kernel import load_drive_kernel
 from .memory import check_grid_memory
@@ -97,6 +102,15 @@ STATUS_NAMES = ("finished", "left_band", "underflow", "non_finite", "singular", 
 _BLOCK = 64
 #: RKN 12(10) (adaptive, fixed, piloted) runs on lanes (_bk.grid_rkn_lanes), not per point
 _USE_LANES = True
+#: adaptive DOP853 (systems not of the form q̈ = f(q, t): damped, velocity-dependent) runs
+#: on lanes (lagrange_core._first_order_lanes) for grids of this many points or more on
+#: unconstrained systems with lanes kernels (lagrange_core._rhs_lanes), with no energy
+#: drift asked: 5× faster than per point on the damped pendulum's 64 × 64 grid
+#: (benchmarks/README.md).  A smaller grid runs per point: ``measure`` and the warm-up
+#: compile that path, and a few points do not pay for the lanes' kernels (their driver
+#: and the system's ``rhs_lanes``, compiled on a grid's first use).
+FIRST_ORDER_LANES_MIN_POINTS = 256
+_USE_FIRST_ORDER_LANES = True
 
 _GRID_METHODS = {"rkn12": ("second_order", 0, True), "rkn12-fixed": ("second_order", 0, False),
                  "yoshida6": ("second_order", 1, False), "dop853": ("dop853", 0, True),
@@ -439,16 +453,20 @@ def _check_scalars(rtol, atol, max_steps):
     return rtol, atol, int(max_steps)
 
 
-def compile_activity(what: str, kernels, method) -> str | None:
+def compile_activity(what: str, kernels, method, points: int | None = None) -> str | None:
     """The compile notice's activity (:mod:`lagrange_core._compile_notice`) for ``what``
     ("simulate_grid", "measure") running grids of ``method`` (None: the default for
-    ``kernels``), named by the driver it compiles on an empty cache: e.g. "measure,
-    RKN 12".  None for a method :func:`simulate_grid` refuses (it says why)."""
+    ``kernels``) over ``points`` points (None: few), named by the driver it compiles on an
+    empty cache: e.g. "measure, RKN 12", "measure, DOP853 lanes".  None for a method
+    :func:`simulate_grid` refuses (it says why)."""
     method = default_method(kernels) if method is None else method
     if method not in _GRID_METHODS:
         return None
-    family, sub, _ = _GRID_METHODS[method]
+    family, sub, adaptive = _GRID_METHODS[method]
     driver = "DOP853" if family == "dop853" else "symplectic" if sub else "RKN 12"
+    if (family == "dop853" and adaptive and _USE_FIRST_ORDER_LANES and points is not None
+            and points >= FIRST_ORDER_LANES_MIN_POINTS and not kernels.n_constraints):
+        driver = "DOP853 lanes"
     return f"{what}, {driver}"
 
 
@@ -462,6 +480,17 @@ def default_method(kernels) -> str:
 def _runs_on_lanes(family, sub) -> bool:
     """Whether a grid of this method family runs on RKN 12's lanes (:func:`_grid_method`)."""
     return family == "second_order" and sub == 0 and _USE_LANES
+
+
+def _runs_on_first_order_lanes(kernels, family, adaptive, flags, npoints) -> bool:
+    """Whether a grid runs DOP853 on lanes (:data:`FIRST_ORDER_LANES_MIN_POINTS`); loads
+    the system's lanes kernels when it does (generated on their first use)."""
+    if not (_USE_FIRST_ORDER_LANES and family == "dop853" and adaptive
+            and npoints >= FIRST_ORDER_LANES_MIN_POINTS and not kernels.n_constraints
+            and not flags & _bk.OBS_ENERGY):
+        return False
+    from ._rhs_lanes import load_rhs_lanes
+    return load_rhs_lanes(kernels)[0]
 
 
 def runs_on_lanes(kernels, method=None) -> bool:
@@ -642,6 +671,7 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
         load_drive_kernel(kernels, lanes=lanes)
     if lanes:           # on a cold cache the driver's callees compile on the other core
         _lanes_ahead.start_if_cold()
+    first_order_lanes = _runs_on_first_order_lanes(kernels, family, adaptive, flags, N)
     ka = kernels.addresses(*sorted(slots))
 
     # from here on Ctrl-C is deferred (the allocations included: the strobe samples of a
@@ -649,7 +679,7 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
     # (KERNEL_STOP), and the run stops with what it computed; a first compile of the
     # shared kernels says how long this method's compile takes
     with defer_ctrl_c(), _compile_notice.declared(compile_activity("simulate_grid", kernels,
-                                                                   method)):
+                                                                   method, N)):
         YF = np.full((N, 2 * n), np.nan)
         TF = np.full(N, np.nan)
         sq_shape = (N, max(K, 1) if strobe is not None else 1, 2 * n)
@@ -686,6 +716,10 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
                 _bk.grid_rkn_lanes(ka, lane_mode, _HOLD_BLOCK, idx, block, *common, tab["c"],
                                    tab["A"], tab["b"], tab["bp"], tab["bh"], tab["bph"], *outs,
                                    budget, KERNEL_STOP, slot, save, savei)
+            elif first_order_lanes:
+                _fl.grid_dop853_lanes(ka, m, adaptive, idx, *common, tab["A"], tab["B"],
+                                      tab["C"], tab["E3"], tab["E5"], *outs, budget,
+                                      KERNEL_STOP, slot, save, savei)
             elif family == "second_order":
                 # (None: numba compiles the symplectic driver without RKN 12's code)
                 rkn = None if sub else (tab["c"], tab["A"], tab["b"], tab["bp"], tab["bh"],

@@ -306,6 +306,152 @@ def test_paused_and_resumed_runs_equal_an_unbroken_one(pendulum):
         np.testing.assert_array_equal(stopped[name], value, err_msg=name)
 
 
+# -- simulate_grid on DOP853's lanes ----------------------------------------------------------
+
+def _spied(monkeypatch):
+    """The drivers simulate_grid calls, counted: {"lanes": calls, "per point": calls}."""
+    from lagrange_core import batch
+    calls = {"lanes": 0, "per point": 0}
+
+    def count(key, real):
+        def wrapper(*args):
+            calls[key] += 1
+            return real(*args)
+        return wrapper
+    monkeypatch.setattr(fl, "grid_dop853_lanes", count("lanes", fl.grid_dop853_lanes))
+    monkeypatch.setattr(bk, "grid_dop853", count("per point", bk.grid_dop853))
+    assert batch._fl is fl and batch._bk is bk
+    return calls
+
+
+def _escape_starts(n_points):
+    """(θ0, θ̇0, A) of :func:`_escapes`."""
+    rng = np.random.default_rng(11)
+    q0 = rng.uniform(-0.5, 0.5, n_points)
+    qdot0 = np.where(np.arange(n_points) < 30, 0.0, rng.uniform(5.0, 8.0, n_points))
+    qdot0 *= np.where(rng.random(n_points) < 0.5, -1.0, 1.0)
+    return q0, qdot0, rng.uniform(0.0, 0.1, n_points)
+
+
+def _escapes(pendulum, n_points, lanes, monkeypatch):
+    """The damped driven pendulum (ω = 2ω0, A ≤ 0.1 m) from the bottom with speeds of 5–8
+    rad/s (over the top within the first swing, away from the separatrix: well-conditioned
+    exits) and 30 starts from rest (never leaving), in the band |θ| ≤ 1.5 rad, 20 drive
+    periods at rtol 1e-9."""
+    from lagrange_core import batch
+    monkeypatch.setattr(batch, "_USE_FIRST_ORDER_LANES", lanes)
+    q0, qdot0, A = _escape_starts(n_points)
+    T = 2 * math.pi / (2 * W0)
+    return pendulum.simulate_grid(q0[:, None], qdot0[:, None], (0.0, 20 * T),
+                                  _pend(A, 2 * W0), rtol=1e-9, reference=[0.0],
+                                  band=([-1.5], [1.5]), progress=False)
+
+
+def test_simulate_grid_runs_dop853_on_lanes_from_its_threshold(pendulum, monkeypatch):
+    """Adaptive DOP853 grids of FIRST_ORDER_LANES_MIN_POINTS points or more go to the lanes
+    driver, smaller ones per point; so do grids asking for the energy drift of a
+    conservative first-order system (the lanes do not compute it), whose lanes run
+    otherwise."""
+    from lagrange_core import batch
+    calls = _spied(monkeypatch)
+
+    def driver(run):
+        calls.update({"lanes": 0, "per point": 0})
+        out = run()
+        assert min(calls.values()) == 0, calls      # one driver, one or more calls of it
+        return max(calls, key=calls.get), out
+    least = batch.FIRST_ORDER_LANES_MIN_POINTS
+    assert driver(lambda: _escapes(pendulum, least, True, monkeypatch))[0] == "lanes"
+    assert driver(lambda: _escapes(pendulum, least - 1, True, monkeypatch))[0] == "per point"
+    double = problems.double_pendulum()     # q̈ depends on q̇: DOP853; energy conserved
+    assert double.kernels.energy_conserved and not double.kernels.rkn_form
+    q0 = np.linspace(0.1, 1.0, least)[:, None] * np.ones(2)
+    run = dict(qdot0=[0.0, 0.0], t_span=(0.0, 1.0), progress=False,
+               params=dict(g=9.81, l1=1.0, l2=0.5, m1=1.0, m2=2.0))
+    used, with_energy = driver(lambda: double.simulate_grid(q0, energy=True, **run))
+    assert used == "per point"
+    used, plain = driver(lambda: double.simulate_grid(q0, **run))
+    assert used == "lanes"
+    assert np.all(with_energy.energy_drift < 1e-7)
+    np.testing.assert_allclose(plain.q, with_energy.q, rtol=0, atol=1e-7)
+
+
+def test_band_exits_on_lanes_equal_the_per_point_dop853_and_scipy(pendulum, monkeypatch):
+    """Points leaving their band on the lanes: the same statuses, exit coordinates and
+    steps as the per-point DOP853; exit times and the state there to 1e-9 (measured 3e-11
+    and 7e-10), the time mean to 1e-8 (2.5e-9), the deviation — a maximum over the steps'
+    ends — to 1e-6 (9e-8: the steps end a little apart, as the error estimate, a
+    difference of nearly equal sums, carries the lanes' rounding — fused multiply-adds,
+    sin and cos within 2 ulp — to ~1e-7 of a step).  Exit times equal scipy's DOP853 with a
+    terminal event at rtol 1e-13 to 5e-5 s: both paths locate the exit on the step's cubic
+    Hermite interpolant, error O(h⁴) (lagrange_core._batch_kernels; measured 2.2e-5 s at
+    worst over every seventh point, steps of ~0.06 s)."""
+    n = 300
+    lanes = _escapes(pendulum, n, True, monkeypatch)
+    point = _escapes(pendulum, n, False, monkeypatch)
+    left = lanes.status == bk.GRID_LEFT_BAND
+    assert left.sum() == n - 30 and not left[:30].any()
+    np.testing.assert_array_equal(lanes.status, point.status)
+    np.testing.assert_array_equal(lanes.exit_coordinate, point.exit_coordinate)
+    np.testing.assert_array_equal(lanes.n_steps, point.n_steps)
+    for name, rtol in (("exit_time", 1e-9), ("t_final", 1e-9), ("q", 1e-9), ("qdot", 1e-9),
+                       ("q_mean", 1e-8), ("max_deviation", 1e-6)):
+        a, b = getattr(lanes, name), getattr(point, name)
+        np.testing.assert_array_equal(np.isnan(a), np.isnan(b), err_msg=name)
+        np.testing.assert_allclose(a, b, rtol=rtol, atol=1e-12, err_msg=name)
+    assert np.all(np.abs(np.abs(lanes.q[left, 0]) - 1.5) < 1e-12)
+    q0, qdot0, A = _escape_starts(n)
+    w, g = 2 * W0, 0.1 * W0
+    for i in range(30, n, 30):
+        def f(tt, y, a=A[i]):
+            return [y[1], -g * y[1] - (9.81 - a * w * w * math.cos(w * tt)) * math.sin(y[0])]
+
+        def leaves(tt, y):
+            return abs(y[0]) - 1.5
+        leaves.terminal = True
+        ref = solve_ivp(f, (0.0, 20 * 2 * math.pi / w), [q0[i], qdot0[i]], method="DOP853",
+                        rtol=1e-13, atol=1e-13, events=leaves)
+        assert abs(lanes.exit_time[i] - ref.t_events[0][0]) < 5e-5, i
+
+
+def test_band_exits_paused_and_resumed_equal_an_unbroken_run(pendulum):
+    """Calls of 7 steps (most exits come in a resumed call) give bit for bit the run of
+    one call: statuses, exit times and coordinates, states, means, deviations, counts."""
+    from lagrange_core.integrate import METHODS
+    load_rhs_lanes(pendulum.kernels)
+    ka = pendulum.kernels.addresses("rhs")
+    tab = METHODS["dop853"].table
+    tables = (tab["A"], tab["B"], tab["C"], tab["E3"], tab["E5"])
+    N, K = 90, 12
+    Y0, P, TS, T = _grid_arrays(pendulum, N, K)
+    Y0[::2, 1] = np.linspace(-6.0, 6.0, N // 2)     # half of them leave over the top
+    REF = np.zeros((N, 1))
+    LO, HI = np.full((N, 1), -2.5), np.full((N, 1), 2.5)
+    flags = bk.OBS_STROBE | bk.OBS_REF | bk.OBS_BAND
+
+    def run(budget):
+        out = _outputs(N, K)
+        save, savei = np.zeros((N, 12)), np.zeros((N, 1), dtype=np.int64)
+        idx = np.arange(N, dtype=np.int64)
+        calls = 0
+        while idx.size:
+            fl.grid_dop853_lanes(ka, 0, True, idx, Y0, P, TS, np.zeros(N), T, REF, LO, HI,
+                                 flags, 1e-8, 1e-8, 1 << 40, *tables, *out.values(), budget,
+                                 np.zeros(1, dtype=np.int64), idx, save, savei)
+            idx = idx[out["STATUS"][idx] == 7]
+            calls += 1
+        return out, calls
+
+    whole, one = run(1 << 40)
+    paused, many = run(7)
+    assert one == 1 and many > 10
+    left = whole["STATUS"] == bk.GRID_LEFT_BAND
+    assert 10 < left.sum() < N and np.all(whole["EXITC"][left] == 0)
+    assert np.all(np.isnan(whole["EXIT"][~left]))
+    for name, value in whole.items():
+        np.testing.assert_array_equal(paused[name], value, err_msg=name)
+
+
 # -- Lyapunov maps on lanes ------------------------------------------------------------------
 
 def _lyap_grid(system, params, lanes, q0=0.0, **kw):

@@ -9,8 +9,11 @@ thread vectorised, the system's generated ``rhs_lanes``).  :func:`lanes_apply` s
 it applies: a system that is not of the form q̈ = f(q, t) (those run RKN 12 on lanes in
 ``simulate_grid`` already) or ``method="dop853"``, unconstrained, with lanes kernels.
 
-Until ``simulate_grid`` dispatches to the lanes driver itself, this is how the chaos room
-reaches it; the samples equal ``simulate_grid``'s to rounding (tests/test_first_order_lanes.py).
+``simulate_grid`` runs the same driver for grids of
+``lagrange_core.batch.FIRST_ORDER_LANES_MIN_POINTS`` points or more; the chaos room calls it
+here for any number of points (a diagram of a few values still fills the lanes with its
+starts).  The samples equal ``simulate_grid``'s per-point DOP853 to rounding
+(tests/test_first_order_lanes.py).
 """
 from __future__ import annotations
 

@@ -524,8 +524,8 @@ def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIOD
     ref = _coordinate_values(system, about, "about")
     start = _coordinate_values(system, q0, "q0")
     rate = _coordinate_values(system, qdot0, "qdot0")
-    check_grid_memory("params, about, q0, qdot0 (broadcast)", grid_shape(
-        *params.values(), ref[..., 0], start[..., 0], rate[..., 0]),
+    shape = grid_shape(*params.values(), ref[..., 0], start[..., 0], rate[..., 0])
+    check_grid_memory("params, about, q0, qdot0 (broadcast)", shape,
         measure_bytes_per_point(system.n_dof, periods if wanted else 0), where="measure_grid: ",
         fix="use fewer periods (the strobe samples of every period are kept for Ω and the "
             "amplitude) or observables='classification' (none kept: any number of periods); "
@@ -557,7 +557,8 @@ def measure_grid(system, params, about, q0, qdot0=0.0, *, periods=DEFAULT_PERIOD
     # first compile of the shared kernels says how long measuring with this driver
     # compiles (the grid's and the fit's kernels)
     _compile_in_background(system, method, "omega_slow" in wanted)
-    with defer_ctrl_c(), declared(compile_activity("measure", system.kernels, method)):
+    points = None if shape is None else math.prod(shape)
+    with defer_ctrl_c(), declared(compile_activity("measure", system.kernels, method, points)):
         try:
             grid = system.simulate_grid(start, rate, (t0, t0 + periods * period), params,
                                         method=method, rtol=rtol, atol=atol,
