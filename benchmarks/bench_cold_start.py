@@ -208,7 +208,7 @@ def worker_notice(name):
             q0, qd0, (0.0, 1.0), p, method="dop853", progress=False),
         "measure, vertical": lambda: worker_measure("vertical"),
         "measure, vertical, damped": lambda: worker_measure("vertical,damped"),
-        # 256 points: DOP853's lanes (lagrange_core.batch.FIRST_ORDER_LANES_MIN_POINTS)
+        # 256 points: on DOP853's lanes (lagrange_core.batch.FIRST_ORDER_LANES_MIN_POINTS)
         "measure_grid 16 × 16, vertical, damped": lambda: kapitza.KapitzaPendulum(
             l=1.0, g=9.81, damping=0.5).measure_grid(
             *np.meshgrid(np.linspace(0.005, 0.2, 16), 2 * np.pi * np.linspace(5, 100, 16),

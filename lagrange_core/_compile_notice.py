@@ -64,7 +64,7 @@ ACTIVITY_SECONDS = {
     "simulate_grid, DOP853": 9,
     "measure, RKN 12": 14,
     "measure, DOP853": 10,          # (measure runs no fixed-step method: it passes no h)
-    # a first damped grid of 256 points or more (DOP853's lanes, the system's rhs_lanes):
+    # a first damped grid of 128 points or more (DOP853's lanes, the system's rhs_lanes):
     # the damped pendulum's 16 × 16 measure_grid 12.0–12.6 s (6.7–6.8 s per point before
     # it ran on lanes), 2026-11-28 (twenty-fifth session)
     "simulate_grid, DOP853 lanes": 12,

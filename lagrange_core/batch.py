@@ -105,11 +105,12 @@ _USE_LANES = True
 #: adaptive DOP853 (systems not of the form q̈ = f(q, t): damped, velocity-dependent) runs
 #: on lanes (lagrange_core._first_order_lanes) for grids of this many points or more on
 #: unconstrained systems with lanes kernels (lagrange_core._rhs_lanes), with no energy
-#: drift asked: 5× faster than per point on the damped pendulum's 64 × 64 grid
-#: (benchmarks/README.md).  A smaller grid runs per point: ``measure`` and the warm-up
-#: compile that path, and a few points do not pay for the lanes' kernels (their driver
-#: and the system's ``rhs_lanes``, compiled on a grid's first use).
-FIRST_ORDER_LANES_MIN_POINTS = 256
+#: drift asked: 5.7× faster than per point on the damped pendulum's 64 × 64 grid, 2.1× at
+#: 128 points, even at 64 (2026-11-28, benchmarks/README.md).  A smaller grid runs per
+#: point: ``measure`` and the warm-up compile that path, and a few points do not pay for
+#: the lanes' kernels (their driver and the system's ``rhs_lanes``, compiled on a grid's
+#: first use: ~5 s more than the per-point path's first grid).
+FIRST_ORDER_LANES_MIN_POINTS = 128
 _USE_FIRST_ORDER_LANES = True
 
 _GRID_METHODS = {"rkn12": ("second_order", 0, True), "rkn12-fixed": ("second_order", 0, False),
