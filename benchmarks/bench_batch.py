@@ -88,23 +88,25 @@ def reference(A, w, rtol=1e-12):
 _HEYOKA = {}
 
 
-def _heyoka_integrator(tol):
+def _heyoka_integrator(tol, damped=False):
     """The batch integrator, built (JIT-compiled) once per tolerance outside the timing;
     each run works on a copy."""
-    if tol not in _HEYOKA:
-        _HEYOKA[tol] = _build_heyoka(tol)
-    return _HEYOKA[tol]
+    if (tol, damped) not in _HEYOKA:
+        _HEYOKA[tol, damped] = _build_heyoka(tol, damped)
+    return _HEYOKA[tol, damped]
 
 
-def _build_heyoka(tol):
+def _build_heyoka(tol, damped=False):
     import heyoka as hy
     th, v = hy.make_vars("th", "v")
-    # τ = ωt: θ'' = −(g/(l ω²) − (A/l) cos τ) sin θ
+    # τ = ωt: θ'' = −(g/(l ω²) − (A/l) cos τ) sin θ [− (γ/ω) θ']
     rhs = -(hy.par[0] - hy.par[1] * hy.cos(hy.time)) * hy.sin(th)
+    if damped:
+        rhs = rhs - hy.par[2] * v
     B = hy.recommended_simd_size()
     evs = [hy.t_event_batch(th - math.pi / 2), hy.t_event_batch(th - 3 * math.pi / 2)]
     ta = hy.taylor_adaptive_batch([(th, v), (v, rhs)], np.zeros((2, B)), tol=tol,
-                                  pars=np.zeros((2, B)), t_events=evs)
+                                  pars=np.zeros((3 if damped else 2, B)), t_events=evs)
     return ta, B
 
 
@@ -116,13 +118,16 @@ def _padded(A, w, B):
     return np.r_[a, np.full(pad, a[-1])], np.r_[om, np.full(pad, om[-1])], N, n_iter
 
 
-def _start_batch(ta, s, a, om):
-    """Batch ``s`` of the padded grid into the integrator: t = 0, θ = π − 0.1 at rest."""
+def _start_batch(ta, s, a, om, gamma=0.0):
+    """Batch ``s`` of the padded grid into the integrator: t = 0, θ = π − 0.1 at rest (the
+    damping rate γ (1/s) when the integrator has it)."""
     ta.set_time(0.0)
     ta.state[0, :] = THETA0
     ta.state[1, :] = 0.0
     ta.pars[0, :] = G / (L * om[s] ** 2)
     ta.pars[1, :] = a[s] / L
+    if ta.pars.shape[0] > 2:
+        ta.pars[2, :] = gamma / om[s]
 
 
 def heyoka_as_issue(A, w, tol=1e-9, threads=2):
@@ -147,14 +152,15 @@ def heyoka_as_issue(A, w, tol=1e-9, threads=2):
     return up[:N].reshape(A.shape)
 
 
-def heyoka_grid(A, w, tol=1e-9, threads=2):
+def heyoka_grid(A, w, tol=1e-9, threads=2, gamma=0.0):
     """heyoka, corrected: each batch propagated until every lane has reached the end or
     fallen (a fallen lane parked at θ = 0, at rest); batches shared by ``threads``
-    threads (heyoka releases the GIL while it integrates)."""
+    threads (heyoka releases the GIL while it integrates).  ``gamma`` > 0: the damped
+    pendulum (viscous damping rate γ, 1/s)."""
     import copy
 
     import heyoka as hy
-    ta0, B = _heyoka_integrator(tol)
+    ta0, B = _heyoka_integrator(tol, gamma > 0)
     a, om, N, n_iter = _padded(A, w, B)
     end = 2 * math.pi * PERIODS
     up = np.ones(n_iter * B, dtype=bool)
@@ -170,7 +176,7 @@ def heyoka_grid(A, w, tol=1e-9, threads=2):
             if i is None:
                 return
             s = slice(i * B, (i + 1) * B)
-            _start_batch(ta, s, a, om)
+            _start_batch(ta, s, a, om, gamma)
             fallen = np.zeros(B, dtype=bool)
             while True:
                 ta.propagate_until(end)

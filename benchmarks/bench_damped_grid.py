@@ -13,12 +13,13 @@ each measures:
   kapitza.simulation.CLASSIFICATION_RTOL_OTHER), on lanes and per point
   (``lagrange_core.batch._USE_FIRST_ORDER_LANES = False``);
 * the same with every observable (Ω by the strobe fit, rtol 1e-9), on lanes and per point;
+* heyoka's batch integrator on the damped pendulum (tolerance 1e-9 and 1e-6, 2 threads;
+  bench_batch.py's corrected peer with the damping term);
 * the classification on lanes at rtol 1e-3, 1e-4, 1e-5: how many points each
   misclassifies (is the default's margin still there on the lanes?).
 
 "Misclassified" counts the points classified otherwise than by the per-point DOP853 at
-rtol 1e-11 (computed once).  There is no heyoka row: its peer in bench_measure.py
-integrates the undamped pendulum.
+rtol 1e-11 (computed once).
 
 Usage::
 
@@ -37,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_batch import PERIODS, THETA0, grid  # noqa: E402
+from bench_batch import PERIODS, THETA0, grid, heyoka_grid  # noqa: E402
 
 from kapitza import KapitzaPendulum  # noqa: E402
 from lagrange_core import batch  # noqa: E402
@@ -64,6 +65,13 @@ ROWS = {
     "measure_grid every observable (rtol 1e-9), lanes": lambda A, w: measure(A, w),
     "measure_grid every observable (rtol 1e-9), per point": lambda A, w: measure(A, w, False),
 }
+HEYOKA = "heyoka batch, tol 1e-9, 2 thr"
+try:
+    import heyoka  # noqa: F401
+    ROWS[HEYOKA] = lambda A, w: heyoka_grid(A, w, 1e-9, gamma=GAMMA)
+    ROWS["heyoka batch, tol 1e-6, 2 thr"] = lambda A, w: heyoka_grid(A, w, 1e-6, gamma=GAMMA)
+except ImportError:
+    print("heyoka is not installed: its rows are left out", file=sys.stderr)
 LOOSER = {f"classification on lanes, rtol {r:.0e}": r for r in (1e-3, 1e-4, 1e-5)}
 
 
@@ -100,7 +108,8 @@ def main():
         mism = int(np.sum(result[name] != up_ref))
         print(f"  {name:55s} {sec:7.3f} {N / sec:9.0f} {mism:>9d}/{N}")
     per_point = best["measure_grid classification, default rtol, per point"]
-    print(f"\n  classification: lanes {per_point / best[CLASSIFY]:.2f}× the per-point path")
+    print(f"\n  classification: lanes {per_point / best[CLASSIFY]:.2f}× the per-point path", end="")
+    print(f", {best[HEYOKA] / best[CLASSIFY]:.2f}× heyoka (tol 1e-9)" if HEYOKA in best else "")
     every = [v for k, v in best.items() if "every" in k]
     print(f"  every observable: lanes {every[1] / every[0]:.2f}× the per-point path")
     for name, rtol in LOOSER.items():
