@@ -26,8 +26,8 @@ differs from ``pow`` by an ulp, multiply-adds are fused, and a one-coordinate sy
 q̈ = F/M is simplified symbolically.  The error estimate, a difference of nearly equal
 sums, carries such rounding to ~1e-7 of a step: the steps are the same in number, their
 ends up to that far apart (what is sampled at step ends — the deviation, the mean —
-differs by as much; tests/test_first_order_lanes.py).  A band exit is located on the step's cubic
-Hermite interpolant, as ``point_dop853`` does.  Not here (the caller runs
+differs by as much; tests/test_first_order_lanes.py).  A band exit is located on the
+step's cubic Hermite interpolant, as ``point_dop853`` does.  Not here (the caller runs
 ``grid_dop853``): constraints (projection), energy drift, the fixed-step "rk8".
 ``System.simulate_grid`` runs this driver for grids of
 :data:`lagrange_core.batch.FIRST_ORDER_LANES_MIN_POINTS` points or more.
@@ -342,8 +342,8 @@ def grid_dop853_lanes(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, fla
                       max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT,
                       COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI):
     """Adaptive DOP853 over the points ``idx`` on lanes, with the arguments and results of
-    :func:`lagrange_core._batch_kernels.grid_dop853` (``simulate_grid`` calls either:
-    :func:`lagrange_core.batch.runs_on_first_order_lanes`): ``m`` must be 0 and
+    :func:`lagrange_core._batch_kernels.grid_dop853` (``simulate_grid`` calls this one from
+    :data:`lagrange_core.batch.FIRST_ORDER_LANES_MIN_POINTS` points): ``m`` must be 0 and
     ``adaptive`` true, and ``flags`` must not ask for the energy (``EDRIFT`` is not
     touched); ``ka`` must hold the slots ``rhs`` and ``rhs_lanes``.  A point that leaves
     its band [LO, HI] ends where the step's cubic Hermite interpolant first crosses it, as
