@@ -526,8 +526,12 @@ def _grid_method(kernels, method, h_given):
 #: seconds one compiled call is sized to take: progress is shown between calls (Ctrl-C
 #: does not wait for a call: its kernels read KERNEL_STOP at every step)
 _TARGET = 0.25
-#: steps a point may take in the first call (the next calls' budget is sized from its time)
-_FIRST_BUDGET = 2048
+#: steps a point may take in the first call (the next calls' budget is sized from its time):
+#: a grid's points end within it (the damped pendulum's 64 × 64 grid of 500 periods takes
+#: ~2100 DOP853 steps a point at rtol 1e-6: at 2048 most of its points paused once, and
+#: the calls that resumed them ended on one thread; 0.567–0.571 → 0.530–0.546 s at 8192,
+#: 2026-11-28), while a long run still pauses within milliseconds of its start
+_FIRST_BUDGET = 8192
 
 
 #: elements of the strobe's samples filled between two looks for Ctrl-C (32 MiB, ~0.1 s)

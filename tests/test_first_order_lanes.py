@@ -585,14 +585,17 @@ def _first_progress_stops(call):
 
 
 def test_a_long_lyapunov_map_on_lanes_stops_part_way(pendulum):
-    """Four points of 3000 periods (~22 000 steps each): the lanes pause them after a step
-    budget, so the first progress report (where Ctrl-C is seen) comes part-way through
-    their runs (before: after the whole runs, done = 4); the paused points are returned
-    as never run (NaN, status "not_run"), nothing half-written."""
+    """Four points of 3000 periods (~22 000 steps each): the lanes pause them after the
+    first call's step budget (lagrange_core.batch._FIRST_BUDGET, 8192 steps), so the first
+    progress report (where Ctrl-C is seen) comes part-way through their runs — each at
+    most budget / 20 000 of its way (before the budget: after the whole runs, done = 4);
+    the paused points are returned as never run (NaN, status "not_run"), nothing
+    half-written."""
+    from lagrange_core import batch
     P = _pend(np.array([0.2, 0.4, 0.6, 0.8]), 2 * W0)
     done, stop = _first_progress_stops(lambda progress: lyapunov_grid(
         pendulum, P, 0.3, periods=3000, transient=0, progress=progress))
-    assert 0 < done < 1
+    assert 0 < done < 4 * batch._FIRST_BUDGET / 20_000 < 2
     part = stop.result
     assert part.tangent == "jacobian"             # the lanes ran
     assert not stop.computed.any() and set(part.status) == {"not_run"}
