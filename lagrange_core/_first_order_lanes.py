@@ -48,7 +48,7 @@ import numba
 import numpy as np
 from numba import njit
 
-from ._batch_kernels import _band_exit, _hermite
+from ._batch_kernels import DRAIN_FRACTION, DRAIN_MIN_LANES, DRAINED, _band_exit, _hermite
 from ._integrator_kernels import FAST_MATH, starting_step
 from ._kernel_calls import RHS, call_rhs
 from ._lane_calls import rhs_on_lanes
@@ -66,7 +66,8 @@ LANES = 128
 # singular, step budget, not run
 _FINISHED, _LEFT_BAND, _UNDERFLOW, _NON_FINITE, _SINGULAR, _MAX_STEPS, _INTERRUPTED = \
     0, 1, 2, 3, 4, 5, 7
-#: SAVEI[·, _SAVED] = 1: the row holds a paused point's state (as _batch_kernels.SAVED)
+#: SAVEI[·, _SAVED] = 1: the row holds a paused point's state (as _batch_kernels.SAVED);
+#: DRAINED (2): paused by a block that drained, run on at once (:func:`_grid`)
 _SAVED = 0
 # columns of COUNTS, bits of flags (as _batch_kernels)
 _STEPS, _REJECTED, _EVALS = 0, 1, 2
@@ -265,7 +266,7 @@ def _load(ka, l, i, sv, svi, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol,
         REFl[j, l] = REF[i, j] if flags & _OBS_REF else 0.0
         LOl[j, l] = LO[i, j] if flags & _OBS_BAND else -np.inf
         HIl[j, l] = HI[i, j] if flags & _OBS_BAND else np.inf
-    if svi[_SAVED] == 1:
+    if svi[_SAVED] != 0:
         for j in range(d):
             y[j, l] = sv[j]
             K[0, j, l] = sv[d + j]
@@ -356,7 +357,10 @@ def grid_dop853_lanes(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, fla
     point pauses at its next step and no other point starts.
 
     The points are cut into two blocks per thread; a thread advances up to :data:`LANES`
-    points of a block together, refilling a lane from its block when its point ends."""
+    points of a block together, refilling a lane from its block when its point ends; once
+    they have all started and at most ``DRAIN_FRACTION`` of its lanes still run (of at
+    least ``DRAIN_MIN_LANES``: lagrange_core._batch_kernels), they pause and run on at once
+    on fewer lanes, with the same steps and numbers."""
     if m != 0 or not adaptive or flags & ~(_OBS_STROBE | _OBS_REF | _OBS_BAND):
         raise ValueError("grid_dop853_lanes runs adaptive DOP853 on unconstrained systems "
                          "observing strobe samples, deviations and bands only; use "
@@ -371,12 +375,22 @@ def _grid(ka, idx, block, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, ma
           C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, COUNTS, ERR, STATUS, budget, stop, slot,
           SAVE, SAVEI):
     """The blocks of :func:`grid_dop853_lanes` on the threads of
-    :func:`lagrange_core._thread_blocks.run_spans`."""
-    run_spans(lambda lo, hi: _block(ka, idx, lo, hi, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
-                                    rtol, atol, max_steps, A, B, C, E3, E5, YF, TF, SQ, QM,
-                                    DEV, EXIT, EXITC, COUNTS, ERR, STATUS, budget, stop, slot,
-                                    SAVE, SAVEI),
-              idx.shape[0], block, stoppable=True)
+    :func:`lagrange_core._thread_blocks.run_spans`; the points a block drained run on at
+    once, on as many lanes as they are (not after a Ctrl-C)."""
+    def work(lo, hi):
+        ii, ss = idx, slot
+        while True:
+            _block(ka, ii, lo, hi, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol,
+                   max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, COUNTS, ERR,
+                   STATUS, budget, stop, ss, SAVE, SAVEI)
+            if hi <= lo or stop[0] != 0:
+                return
+            drained = SAVEI[ss[lo:hi], _SAVED] == DRAINED
+            if not drained.any():
+                return
+            ii, ss = ii[lo:hi][drained], ss[lo:hi][drained]
+            lo, hi = 0, ii.shape[0]
+    run_spans(work, idx.shape[0], block, stoppable=True)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST_MATH)
@@ -442,6 +456,8 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, at
     hi1 = np.empty(n)
     nxt = lo_b
     active = 0
+    drained = False
+    paused = 0                  # points paused by the budget (a long run: no drain)
     for l in range(L):
         while nxt < hi_b and pt[l] < 0:
             i = idx[nxt]
@@ -459,8 +475,14 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, at
                 active += 1
             nxt += 1
     while active > 0:
-        if stop[0] != 0 and budget > 0:     # Ctrl-C: every running point pauses at its
-            budget = 0                      # next step, and no other point starts
+        # Ctrl-C, or the block drains (its points all started, few lanes still run): every
+        # running point pauses at its next step and no other point starts; drained, they
+        # run on at once on fewer lanes (_grid), as RKN 12's lanes do
+        if budget > 0 and (stop[0] != 0 or (nxt >= hi_b and paused == 0
+                                            and L >= DRAIN_MIN_LANES
+                                            and active <= DRAIN_FRACTION * L)):
+            drained = stop[0] == 0
+            budget = 0
             nxt = hi_b
         # each lane's step: shortened to land on its end or its next strobe time
         for l in range(L):
@@ -596,7 +618,8 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, at
                     sv[o + 5] = 0.0
                     sv[o + 6] = kn[l]
                     sv[o + 7] = 1.0 if rejected[l] else 0.0
-                    SAVEI[slot[pk[l]], _SAVED] = 1
+                    SAVEI[slot[pk[l]], _SAVED] = DRAINED if drained else 1
+                    paused += 0 if drained else 1
             if st < 0:
                 continue
             STATUS[i] = st
