@@ -28,9 +28,6 @@ Usage::
 """
 from __future__ import annotations
 
-import argparse
-import math
-import os
 import sys
 import time
 from pathlib import Path
@@ -39,6 +36,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_batch import PERIODS, THETA0, grid, heyoka_grid  # noqa: E402
+from bench_measure import _load as load  # noqa: E402
+from bench_measure import best_of_rounds, grid_and_rounds  # noqa: E402
 
 from kapitza import KapitzaPendulum  # noqa: E402
 from lagrange_core import batch  # noqa: E402
@@ -75,17 +74,8 @@ except ImportError:
 LOOSER = {f"classification on lanes, rtol {r:.0e}": r for r in (1e-3, 1e-4, 1e-5)}
 
 
-def _load():
-    return f"{os.getloadavg()[0]:.2f}"
-
-
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--rounds", type=int, default=3, help="timed rounds (best kept)")
-    ap.add_argument("--quick", action="store_true", help="16 × 16 grid, one round")
-    args = ap.parse_args()
-    A, w = grid(16, 16) if args.quick else grid()
-    rounds = 1 if args.quick else args.rounds
+    A, w, rounds = grid_and_rounds(__doc__.splitlines()[0])
     N = A.size
     for run in ROWS.values():                      # compile (or load) outside the timing:
         run(*grid(16, 16))                         # 256 points, on the lanes too
@@ -93,16 +83,8 @@ def main():
     up_ref = measure(A, w, False, observables="classification", rtol=1e-11)
     print(f"grid {A.shape}, {PERIODS} periods, γ = {GAMMA} 1/s; reference (per-point "
           f"DOP853, rtol 1e-11) {time.perf_counter() - t0:.1f} s, stayed up "
-          f"{up_ref.mean():.4f}, load {_load()}")
-    best, result = {}, {}
-    for r in range(rounds):
-        for name, run in ROWS.items():
-            t0 = time.perf_counter()
-            out = run(A, w)
-            sec = time.perf_counter() - t0
-            if sec < best.get(name, math.inf):
-                best[name], result[name] = sec, out
-        print(f"  round {r + 1}/{rounds} done, load {_load()}")
+          f"{up_ref.mean():.4f}, load {load()}")
+    best, result = best_of_rounds(ROWS, A, w, rounds)
     print(f"\n  {'row (API)':55s} {'best s':>7s} {'points/s':>9s} {'misclassified':>13s}")
     for name, sec in best.items():
         mism = int(np.sum(result[name] != up_ref))
@@ -117,7 +99,7 @@ def main():
         up = measure(A, w, observables="classification", rtol=rtol)
         print(f"  {name}: {time.perf_counter() - t0:.3f} s, "
               f"{int(np.sum(up != up_ref))} of {N} misclassified")
-    print(f"  load at the end {_load()}")
+    print(f"  load at the end {load()}")
 
 
 if __name__ == "__main__":

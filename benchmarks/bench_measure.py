@@ -88,13 +88,33 @@ def _load():
     return f"{os.getloadavg()[0]:.2f}"
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def grid_and_rounds(description):
+    """The command line of this script and bench_damped_grid.py: (A, ω, rounds)."""
+    ap = argparse.ArgumentParser(description=description)
     ap.add_argument("--rounds", type=int, default=3, help="timed rounds (best kept)")
     ap.add_argument("--quick", action="store_true", help="16 × 16 grid, one round")
     args = ap.parse_args()
     A, w = grid(16, 16) if args.quick else grid()
-    rounds = 1 if args.quick else args.rounds
+    return A, w, 1 if args.quick else args.rounds
+
+
+def best_of_rounds(rows, A, w, rounds):
+    """Every row timed once a round, the rounds in turn (the machine's load falls on all
+    rows alike); each row's best second and the result of that run."""
+    best, result = {}, {}
+    for r in range(rounds):
+        for name, run in rows.items():
+            t0 = time.perf_counter()
+            out = run(A, w)
+            sec = time.perf_counter() - t0
+            if sec < best.get(name, math.inf):
+                best[name], result[name] = sec, out
+        print(f"  round {r + 1}/{rounds} done, load {_load()}")
+    return best, result
+
+
+def main():
+    A, w, rounds = grid_and_rounds(__doc__.splitlines()[0])
     N = A.size
     for run in ROWS.values():                      # compile (or load) outside the timing
         run(A[:1, :8], w[:1, :8])
@@ -102,15 +122,7 @@ def main():
     up_ref, _ = reference(A, w)
     print(f"grid {A.shape}, {PERIODS} periods; reference (per-point rkn12, rtol 1e-12) "
           f"{time.perf_counter() - t0:.1f} s, stayed up {up_ref.mean():.4f}, load {_load()}")
-    best, result = {}, {}
-    for r in range(rounds):
-        for name, run in ROWS.items():
-            t0 = time.perf_counter()
-            out = run(A, w)
-            sec = time.perf_counter() - t0
-            if sec < best.get(name, math.inf):
-                best[name], result[name] = sec, out
-        print(f"  round {r + 1}/{rounds} done, load {_load()}")
+    best, result = best_of_rounds(ROWS, A, w, rounds)
     hey = best[HEYOKA]
     print(f"\n  {'row (API)':50s} {'best s':>7s} {'points/s':>9s} {'÷ heyoka':>9s} "
           f"{'misclassified':>13s}")

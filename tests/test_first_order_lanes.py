@@ -414,30 +414,49 @@ def test_band_exits_on_lanes_equal_the_per_point_dop853_and_scipy(pendulum, monk
         assert abs(lanes.exit_time[i] - ref.t_events[0][0]) < 5e-5, i
 
 
+class _BandedLanes:
+    """The damped pendulum's grid of :func:`_grid_arrays` with a band |θ| ≤ 2.5 rad (every
+    other point started at −``speed`` … ``speed`` rad/s: most of those leave over the top),
+    run on DOP853's lanes by calls of ``call(idx, budget)`` into fresh outputs."""
+
+    def __init__(self, pendulum, N, K, speed):
+        from lagrange_core.integrate import METHODS
+        load_rhs_lanes(pendulum.kernels)
+        self.ka = pendulum.kernels.addresses("rhs")
+        tab = METHODS["dop853"].table
+        self.tables = (tab["A"], tab["B"], tab["C"], tab["E3"], tab["E5"])
+        self.N, self.K = N, K
+        self.Y0, self.P, self.TS, self.T = _grid_arrays(pendulum, N, K)
+        self.Y0[::2, 1] = np.linspace(-speed, speed, N // 2)
+        self.REF = np.zeros((N, 1))
+        self.LO, self.HI = np.full((N, 1), -2.5), np.full((N, 1), 2.5)
+
+    def outputs(self):
+        self.save = np.zeros((self.N, 12))
+        self.savei = np.zeros((self.N, 1), dtype=np.int64)
+        self.out = _outputs(self.N, self.K)
+        return self.out
+
+    def call(self, idx, budget):
+        idx = np.asarray(idx, dtype=np.int64)
+        fl.grid_dop853_lanes(self.ka, 0, True, idx, self.Y0, self.P, self.TS, np.zeros(self.N),
+                             self.T, self.REF, self.LO, self.HI,
+                             bk.OBS_STROBE | bk.OBS_REF | bk.OBS_BAND, 1e-8, 1e-8, 1 << 40,
+                             *self.tables, *self.out.values(), budget,
+                             np.zeros(1, dtype=np.int64), idx, self.save, self.savei)
+
+
 def test_band_exits_paused_and_resumed_equal_an_unbroken_run(pendulum):
     """Calls of 7 steps (most exits come in a resumed call) give bit for bit the run of
     one call: statuses, exit times and coordinates, states, means, deviations, counts."""
-    from lagrange_core.integrate import METHODS
-    load_rhs_lanes(pendulum.kernels)
-    ka = pendulum.kernels.addresses("rhs")
-    tab = METHODS["dop853"].table
-    tables = (tab["A"], tab["B"], tab["C"], tab["E3"], tab["E5"])
-    N, K = 90, 12
-    Y0, P, TS, T = _grid_arrays(pendulum, N, K)
-    Y0[::2, 1] = np.linspace(-6.0, 6.0, N // 2)     # half of them leave over the top
-    REF = np.zeros((N, 1))
-    LO, HI = np.full((N, 1), -2.5), np.full((N, 1), 2.5)
-    flags = bk.OBS_STROBE | bk.OBS_REF | bk.OBS_BAND
+    grid = _BandedLanes(pendulum, 90, 12, 6.0)
 
     def run(budget):
-        out = _outputs(N, K)
-        save, savei = np.zeros((N, 12)), np.zeros((N, 1), dtype=np.int64)
-        idx = np.arange(N, dtype=np.int64)
+        out = grid.outputs()
+        idx = np.arange(grid.N, dtype=np.int64)
         calls = 0
         while idx.size:
-            fl.grid_dop853_lanes(ka, 0, True, idx, Y0, P, TS, np.zeros(N), T, REF, LO, HI,
-                                 flags, 1e-8, 1e-8, 1 << 40, *tables, *out.values(), budget,
-                                 np.zeros(1, dtype=np.int64), idx, save, savei)
+            grid.call(idx, budget)
             idx = idx[out["STATUS"][idx] == 7]
             calls += 1
         return out, calls
@@ -446,7 +465,7 @@ def test_band_exits_paused_and_resumed_equal_an_unbroken_run(pendulum):
     paused, many = run(7)
     assert one == 1 and many > 10
     left = whole["STATUS"] == bk.GRID_LEFT_BAND
-    assert 10 < left.sum() < N and np.all(whole["EXITC"][left] == 0)
+    assert 10 < left.sum() < grid.N and np.all(whole["EXITC"][left] == 0)
     assert np.all(np.isnan(whole["EXIT"][~left]))
     for name, value in whole.items():
         np.testing.assert_array_equal(paused[name], value, err_msg=name)
@@ -459,32 +478,15 @@ def test_drained_lanes_run_on_as_each_point_alone(pendulum):
     bit what each point gives alone on one lane, where nothing drains; so do their
     statuses, exits, samples and counts (checked to drain: each block of 50 points ran on
     again on 34, 26 or 18 of them, counted through a wrapper of ``_block``)."""
-    from lagrange_core.integrate import METHODS
-    load_rhs_lanes(pendulum.kernels)
-    ka = pendulum.kernels.addresses("rhs")
-    tab = METHODS["dop853"].table
-    tables = (tab["A"], tab["B"], tab["C"], tab["E3"], tab["E5"])
-    N, K = 200, 31
-    Y0, P, TS, T = _grid_arrays(pendulum, N, K)
-    Y0[::2, 1] = np.linspace(-7.0, 7.0, N // 2)     # half of them leave over the top
-    REF = np.zeros((N, 1))
-    LO, HI = np.full((N, 1), -2.5), np.full((N, 1), 2.5)
-    flags = bk.OBS_STROBE | bk.OBS_REF | bk.OBS_BAND
-
-    def run(points):
-        out = _outputs(N, K)
-        save, savei = np.zeros((N, 12)), np.zeros((N, 1), dtype=np.int64)
-        for idx in points:
-            fl.grid_dop853_lanes(ka, 0, True, np.asarray(idx, dtype=np.int64), Y0, P, TS,
-                                 np.zeros(N), T, REF, LO, HI, flags, 1e-8, 1e-8, 1 << 40,
-                                 *tables, *out.values(), 1 << 40, np.zeros(1, dtype=np.int64),
-                                 np.arange(N, dtype=np.int64)[idx], save, savei)
-        return out
-
-    together = run([np.arange(N)])
-    alone = run([[i] for i in range(N)])
+    grid = _BandedLanes(pendulum, 200, 31, 7.0)
+    together = grid.outputs()
+    grid.call(np.arange(grid.N), 1 << 40)
+    alone = grid.outputs()
+    for i in range(grid.N):
+        grid.call([i], 1 << 40)
     left = together["STATUS"] == bk.GRID_LEFT_BAND
-    assert 10 < left.sum() < N - 10 and set(together["STATUS"][~left]) == {bk.GRID_FINISHED}
+    assert 10 < left.sum() < grid.N - 10
+    assert set(together["STATUS"][~left]) == {bk.GRID_FINISHED}
     for name, value in together.items():
         np.testing.assert_array_equal(alone[name], value, err_msg=name)
 
