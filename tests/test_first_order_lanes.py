@@ -491,6 +491,32 @@ def test_drained_lanes_run_on_as_each_point_alone(pendulum):
         np.testing.assert_array_equal(alone[name], value, err_msg=name)
 
 
+def test_a_long_damped_measure_grid_on_lanes_stops_part_way(pendulum, monkeypatch):
+    """Ctrl-C at the first progress report of a long damped grid on the lanes (256 points
+    that stay up, 20 000 periods): the measurement stops there; the first call's points
+    (paused by its step budget) are "interrupted" part-way, with the time and the periods
+    they reached, the others "not_run" (NaN): nothing half-written."""
+    from kapitza import KapitzaPendulum
+    calls = _spied(monkeypatch)
+    A, omega = np.meshgrid(np.linspace(0.06, 0.1, 16), 200.0 * np.linspace(1.0, 2.0, 16),
+                           indexing="ij")
+    damped = KapitzaPendulum(l=1.0, g=9.81, damping=0.5)
+    done, stop = _first_progress_stops(lambda progress: damped.measure_grid(
+        A, omega, math.pi - 0.1, periods=20_000, observables="classification",
+        progress=progress))
+    assert calls["lanes"] > 0 and calls["per point"] == 0
+    assert 0 < done < A.size
+    part = stop.result
+    status = np.asarray(part.status)
+    reached = np.asarray(part.t_reached)
+    stopped = status == "interrupted"
+    assert set(np.unique(status)) == {"interrupted", "not_run"} and stopped.any()
+    end = (20_000 * 2 * np.pi / omega)[stopped]
+    assert np.all((reached[stopped] > 0) & (reached[stopped] < end))
+    assert np.all(np.asarray(part.completed_periods)[stopped] > 0)
+    assert np.all(np.isnan(reached[~stopped]))
+
+
 # -- Lyapunov maps on lanes ------------------------------------------------------------------
 
 def _lyap_grid(system, params, lanes, q0=0.0, **kw):
