@@ -133,7 +133,7 @@ from ._lanes_callees import (
 )
 from ._lanes_callees import addresses as lanes_callee_addresses
 from ._selection import PILOT_MIN_SETTLED, PILOT_SPAN_DIVISOR, PILOT_WIDEN, pilot_step_quantile
-from ._thread_blocks import first_span_call, run_rows, run_spans
+from ._thread_blocks import first_span_call, run_draining, run_rows, run_spans
 
 #: per-point status (``GridTrajectories.status``)
 GRID_FINISHED, GRID_LEFT_BAND, GRID_UNDERFLOW, GRID_NON_FINITE, GRID_SINGULAR, \
@@ -1164,21 +1164,11 @@ def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO
         return
     calls = NO_CALLS
 
-    def work(lo, hi):
-        ii, ss = idx, slot
-        while True:
-            _lanes_block(ka, calls, mode, hold_block, ii, lo, hi, Y0, P, TS, H, TSTR, REF, LO,
-                         HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ,
-                         QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, stop, ss,
-                         SAVE, SAVEI)
-            # the points the block drained run on, on fewer lanes (not after a Ctrl-C)
-            if hi <= lo or stop[0] != 0:
-                return
-            drained = SAVEI[ss[lo:hi], SAVED] == DRAINED
-            if not drained.any():
-                return
-            ii, ss = ii[lo:hi][drained], ss[lo:hi][drained]
-            lo, hi = 0, ii.shape[0]
+    def work(lo, hi):       # (reads ``calls`` when it runs: set below, after its compile)
+        run_draining(_lanes_block, (ka, calls, mode, hold_block), (
+            Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh,
+            bph, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, stop),
+            idx, slot, lo, hi, SAVE, SAVEI, stop, DRAINED)
 
     # the driver's first call (an empty span, which calls no callee) compiles it; then its
     # callees' addresses: compiled meanwhile in another process (simulate_grid starts it:

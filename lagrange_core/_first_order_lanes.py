@@ -52,7 +52,7 @@ from ._batch_kernels import DRAIN_FRACTION, DRAIN_MIN_LANES, DRAINED, _band_exit
 from ._integrator_kernels import FAST_MATH, starting_step
 from ._kernel_calls import RHS, call_rhs
 from ._lane_calls import rhs_on_lanes
-from ._thread_blocks import run_spans
+from ._thread_blocks import run_draining, run_spans
 
 __all__ = ["LANES", "grid_dop853_lanes", "sparse_tables", "stage_sum", "error_sums",
            "step_factor", "first_step"]
@@ -378,18 +378,10 @@ def _grid(ka, idx, block, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, ma
     :func:`lagrange_core._thread_blocks.run_spans`; the points a block drained run on at
     once, on as many lanes as they are (not after a Ctrl-C)."""
     def work(lo, hi):
-        ii, ss = idx, slot
-        while True:
-            _block(ka, ii, lo, hi, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol,
-                   max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, COUNTS, ERR,
-                   STATUS, budget, stop, ss, SAVE, SAVEI)
-            if hi <= lo or stop[0] != 0:
-                return
-            drained = SAVEI[ss[lo:hi], _SAVED] == DRAINED
-            if not drained.any():
-                return
-            ii, ss = ii[lo:hi][drained], ss[lo:hi][drained]
-            lo, hi = 0, ii.shape[0]
+        run_draining(_block, (ka,), (
+            Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, max_steps, A, B, C, E3, E5, YF,
+            TF, SQ, QM, DEV, EXIT, EXITC, COUNTS, ERR, STATUS, budget, stop),
+            idx, slot, lo, hi, SAVE, SAVEI, stop, DRAINED)
     run_spans(work, idx.shape[0], block, stoppable=True)
 
 

@@ -37,7 +37,8 @@ import numba
 from ._first_calls import first_call
 from .progress import KERNEL_STOP
 
-__all__ = ["run_blocks", "run_spans", "first_span_call", "run_rows", "thread_count"]
+__all__ = ["run_blocks", "run_spans", "first_span_call", "run_rows", "run_draining",
+           "thread_count"]
 
 _POOLS: dict[int, concurrent.futures.ThreadPoolExecutor] = {}
 
@@ -100,6 +101,24 @@ def run_spans(work: Callable[[int, int], None], npoints: int, block: int, *,
     first_span_call(work, npoints)
     run_blocks(lambda b: work(b * block, min(npoints, (b + 1) * block)), -(-npoints // block),
                stoppable=stoppable)
+
+
+def run_draining(kernel, head, middle, idx, slot, lo, hi, SAVE, SAVEI, stop, drained):
+    """``kernel(*head, idx, lo, hi, *middle, slot, SAVE, SAVEI)`` — a lanes driver's block
+    (RKN 12's and DOP853's) — on the span [lo, hi), then on the points it drained (paused
+    with ``SAVEI[·, 0] == drained`` once few of its lanes still ran), on as many lanes as
+    they are, until none drains; not after a Ctrl-C (``stop[0]``), whose paused points the
+    next call resumes.  The kernel runs first on any span, an empty one included: that call
+    is what compiles it (:func:`first_span_call`)."""
+    while True:
+        kernel(*head, idx, lo, hi, *middle, slot, SAVE, SAVEI)
+        if hi <= lo or stop[0] != 0:
+            return
+        again = SAVEI[slot[lo:hi], 0] == drained
+        if not again.any():
+            return
+        idx, slot = idx[lo:hi][again], slot[lo:hi][again]
+        lo, hi = 0, idx.shape[0]
 
 
 def first_span_call(work: Callable[[int, int], None], npoints: int) -> None:

@@ -465,8 +465,7 @@ def compile_activity(what: str, kernels, method, points: int | None = None) -> s
         return None
     family, sub, adaptive = _GRID_METHODS[method]
     driver = "DOP853" if family == "dop853" else "symplectic" if sub else "RKN 12"
-    if (family == "dop853" and adaptive and _USE_FIRST_ORDER_LANES and points is not None
-            and points >= FIRST_ORDER_LANES_MIN_POINTS and not kernels.n_constraints):
+    if points is not None and _first_order_lanes_fit(kernels, family, adaptive, points):
         driver = "DOP853 lanes"
     return f"{what}, {driver}"
 
@@ -483,12 +482,19 @@ def _runs_on_lanes(family, sub) -> bool:
     return family == "second_order" and sub == 0 and _USE_LANES
 
 
+def _first_order_lanes_fit(kernels, family, adaptive, npoints) -> bool:
+    """Whether a grid's method, size and system call for DOP853's lanes, from what is known
+    before anything is generated (:data:`FIRST_ORDER_LANES_MIN_POINTS`)."""
+    return (_USE_FIRST_ORDER_LANES and family == "dop853" and adaptive
+            and npoints >= FIRST_ORDER_LANES_MIN_POINTS and not kernels.n_constraints)
+
+
 def _runs_on_first_order_lanes(kernels, family, adaptive, flags, npoints) -> bool:
-    """Whether a grid runs DOP853 on lanes (:data:`FIRST_ORDER_LANES_MIN_POINTS`); loads
-    the system's lanes kernels when it does (generated on their first use)."""
-    if not (_USE_FIRST_ORDER_LANES and family == "dop853" and adaptive
-            and npoints >= FIRST_ORDER_LANES_MIN_POINTS and not kernels.n_constraints
-            and not flags & _bk.OBS_ENERGY):
+    """Whether a grid runs DOP853 on lanes (:func:`_first_order_lanes_fit`, no energy drift
+    asked, the system has lanes kernels); loads them when it does (generated on their
+    first use)."""
+    if not _first_order_lanes_fit(kernels, family, adaptive, npoints) \
+            or flags & _bk.OBS_ENERGY:
         return False
     from ._rhs_lanes import load_rhs_lanes
     return load_rhs_lanes(kernels)[0]
