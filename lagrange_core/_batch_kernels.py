@@ -7,9 +7,11 @@ the drivers that inline it.
 
 One call (its points in blocks on numba's thread count, each block a GIL-free compiled call
 on a thread of :mod:`lagrange_core._thread_blocks`, dynamic scheduling: trajectories end
-at different times) integrates every grid point named in ``idx`` from its own initial state and
-parameters, and records only what :func:`lagrange_core.batch.simulate_grid` asked for,
-computed as the steps are taken — never the trajectory itself:
+at different times; the lanes drivers' threads instead take points one at a time from a
+shared cursor, :mod:`lagrange_core._shared_cursor`) integrates every grid point named in
+``idx`` from its own initial state and parameters, and records only what
+:func:`lagrange_core.batch.simulate_grid` asked for, computed as the steps are taken —
+never the trajectory itself:
 
 =================  =====================  ================================================
 observable         array (per point i)    how
@@ -133,7 +135,8 @@ from ._lanes_callees import (
 )
 from ._lanes_callees import addresses as lanes_callee_addresses
 from ._selection import PILOT_MIN_SETTLED, PILOT_SPAN_DIVISOR, PILOT_WIDEN, pilot_step_quantile
-from ._thread_blocks import first_span_call, run_draining, run_rows, run_spans
+from ._shared_cursor import peek, take
+from ._thread_blocks import first_span_call, run_draining, run_rows, run_shared
 
 #: per-point status (``GridTrajectories.status``)
 GRID_FINISHED, GRID_LEFT_BAND, GRID_UNDERFLOW, GRID_NON_FINITE, GRID_SINGULAR, \
@@ -799,10 +802,10 @@ def _second_order_rows(ka, rkn, w, adaptive, pilot, hold_block, idx, Y0, P, TS, 
 #: one thread: 32 lanes 0.52 s, 64 lanes 0.37 s, 128 lanes 0.33 s, 256 lanes 0.35–0.36 s
 #: (2026-11-28, twenty-third session, callees called by address)
 LANES = 128
-#: A block's last points end at scattered times, and every step costs all its lanes: once
-#: every point of a block has started and at most this share of its lanes still run, they
-#: pause (saved, as on Ctrl-C) and run on again on as many lanes as they are (blocks of
-#: at least DRAIN_MIN_LANES lanes).  The same steps and numbers; on the 64 × 64 grid at rtol
+#: A thread's last points end at scattered times, and every step costs all its lanes: once
+#: every point of the call has been taken and at most this share of its lanes still run,
+#: they pause (saved, as on Ctrl-C) and run on again on as many lanes as they are (from
+#: DRAIN_MIN_LANES lanes).  The same steps and numbers; on the 64 × 64 grid at rtol
 #: 1e-4 (benchmarks/bench_measure.py's, 2 threads) see benchmarks/README.md.
 DRAIN_FRACTION = 0.75
 DRAIN_MIN_LANES = 16
@@ -1128,12 +1131,12 @@ def _stage_positions(s, A, c, K, q, v, hs, qs, acc, L):
                 qs[j, l] = q[j, l] + cs_ * hh * v[j, l] + hh * hh * acc[0, l]
 
 
-def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
-                   rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT, EXITC,
+def grid_rkn_lanes(ka, mode, hold_block, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol,
+                   atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT, EXITC,
                    EDRIFT, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI):
-    """RKN 12(10) over the points ``idx`` on *lanes*: each thread takes blocks of ``block``
-    points (:func:`lagrange_core._thread_blocks.run_spans`) and advances :data:`LANES` of
-    them together, refilling a lane from its block when its trajectory ends.
+    """RKN 12(10) over the points ``idx`` on *lanes*: every thread advances up to
+    :data:`LANES` of them together, refilling a lane with the next point not yet taken
+    by any thread when its trajectory ends (:func:`lagrange_core._thread_blocks.run_shared`).
 
     ``mode``: LANES_ADAPTIVE ("rkn12": the step control of :func:`point_second_order`,
     held in blocks of ``hold_block`` steps), LANES_FIXED (the step ``H``), LANES_PILOT (the
@@ -1156,49 +1159,54 @@ def grid_rkn_lanes(ka, mode, hold_block, idx, block, Y0, P, TS, H, TSTR, REF, LO
     call (after its pilot) pauses with status GRID_INTERRUPTED, its observables so far
     written and its state in row ``slot[k]`` of ``SAVE``/``SAVEI``; a point whose row is
     marked saved resumes from it.  Once ``stop[0]`` is set (Ctrl-C) every running point
-    pauses at its next step and no other point starts.  A block whose last points run on
-    few of its lanes pauses them the same way and runs them again at once, on fewer lanes
-    (:data:`DRAIN_FRACTION`).
+    pauses at its next step and no other point starts.  A thread whose last points run on
+    few of its lanes, every point taken, pauses them the same way and runs them again at
+    once, on fewer lanes (:data:`DRAIN_FRACTION`).
     """
     if idx.shape[0] == 0:
         return
     calls = NO_CALLS
 
-    def work(lo, hi):       # (reads ``calls`` when it runs: set below, after its compile)
+    def work(lo, hi, cursor=None, width=None, drained=DRAINED):
+        # (reads ``calls`` when it runs: set below, after its compile)
         run_draining(_lanes_block, (ka, calls, mode, hold_block), (
             Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh,
             bph, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, stop),
-            idx, slot, lo, hi, SAVE, SAVEI, stop, DRAINED)
+            idx, slot, lo, hi, SAVE, SAVEI, stop, drained, cursor, width)
 
     # the driver's first call (an empty span, which calls no callee) compiles it; then its
     # callees' addresses: compiled meanwhile in another process (simulate_grid starts it:
     # lagrange_core._lanes_ahead), loaded from numba's cache, or compiled now
     first_span_call(work, idx.shape[0])
     calls = lanes_callee_addresses()
-    run_spans(work, idx.shape[0], block, stoppable=True)
+    run_shared(work, idx.shape[0], LANES, DRAINED)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST_MATH)
-def _lanes_block(ka, calls, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, LO, HI,
-                 flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM, DEV, EXIT,
-                 EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI):
-    """The points idx[lo_b:hi_b] of :func:`grid_rkn_lanes` on one thread's lanes.  Its
-    callees are called by their addresses in ``calls`` (:func:`lagrange_core._lanes_callees.
-    addresses`; none is called on an empty span): their code is not compiled into it."""
+def _lanes_block(ka, calls, mode, hold_block, idx, cursor, hi_b, width, Y0, P, TS, H, TSTR, REF,
+                 LO, HI, flags, rtol, atol, max_steps, c, A, b, bp, bh, bph, YF, TF, SQ, QM,
+                 DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, budget, stop, slot, SAVE, SAVEI,
+                 drained_flag):
+    """The points idx[cursor[0]:hi_b] of :func:`grid_rkn_lanes` on up to ``width`` lanes of
+    one thread, each free lane taking the next point from ``cursor``, which other threads
+    may share (:mod:`lagrange_core._shared_cursor`); a point it drains is saved with
+    ``SAVEI[·, SAVED] = drained_flag``.  Its callees are called by their addresses in
+    ``calls`` (:func:`lagrange_core._lanes_callees.addresses`; none is called on an empty
+    span): their code is not compiled into it."""
+    L = min(LANES, width, max(hi_b - peek(cursor), 0))
     # a zero or missing address would be a call to nowhere (a crash, not an error)
-    if hi_b > lo_b and (calls.shape[0] != N_CALLEES or np.any(calls == 0)):
+    if L > 0 and (calls.shape[0] != N_CALLEES or np.any(calls == 0)):
         raise RuntimeError("RKN 12's lanes driver needs its callees' addresses "
                            "(lagrange_core._lanes_callees.addresses)")
     ns = c.shape[0]
     n = Y0.shape[1] // 2
     npar = P.shape[1]
-    nd = drive_rates(ka, P[idx[lo_b]]).shape[0]      # the same for every point
+    nd = drive_rates(ka, P[idx[0]]).shape[0]        # the same for every point
     ncs = max(2 * nd, 1)
     expo = -1.0 / 11.0
     energy = (flags & OBS_ENERGY) != 0
     db = b - bh
     dbp = bp - bph
-    L = min(LANES, hi_b - lo_b)
     pt = np.full(L, -1, dtype=np.int64)     # the lane's point, or -1
     # the lane's phase; a lane without a point that is not _IDLE is free: it takes the
     # block's next point at the top of the loop (every lane, the first time round)
@@ -1279,18 +1287,21 @@ def _lanes_block(ka, calls, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TST
     q2 = np.empty(n)
     v2 = np.empty(n)
     first = _PILOT if mode == LANES_PILOT else (_FIXED if mode == LANES_FIXED else _ADAPTIVE)
-    nxt = lo_b
+    started = False             # every point has been taken (by this thread or another)
     active = 0
     drained = False
     paused = 0                  # points paused by the budget (a long run: no drain)
     while True:
-        for l in range(L):          # free lanes take the block's next points
+        for l in range(L):          # free lanes take the next points
             if pt[l] >= 0 or ph[l] == _IDLE:
                 continue
-            while nxt < hi_b and pt[l] < 0:
-                i = idx[nxt]
-                s_ = slot[nxt]
-                nxt += 1
+            while not started and pt[l] < 0:
+                k = take(cursor)
+                if k >= hi_b:
+                    started = True
+                    break
+                i = idx[k]
+                s_ = slot[k]
                 sl[l] = s_
                 mx[l] = max_steps - COUNTS[i, CNT_STEPS]
                 lim[l] = min(budget, mx[l])
@@ -1339,12 +1350,12 @@ def _lanes_block(ka, calls, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TST
         # Ctrl-C, or the block drains (its points all started, few lanes still run): every
         # running point pauses at its next step and no other point starts; drained, they
         # run on at once on fewer lanes (grid_rkn_lanes)
-        if budget > 0 and (stop[0] != 0 or (nxt >= hi_b and paused == 0
+        if budget > 0 and (stop[0] != 0 or ((started or peek(cursor) >= hi_b) and paused == 0
                                             and L >= DRAIN_MIN_LANES
                                             and active <= DRAIN_FRACTION * L)):
             drained = stop[0] == 0
             budget = 0
-            nxt = hi_b
+            started = True
             for l in range(L):
                 lim[l] = min(lim[l], nst[l])
         # the step of every lane: its length (shortened to land on t1 or a strobe time)
@@ -1639,7 +1650,7 @@ def _lanes_block(ka, calls, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TST
                     continue
                 if st == 0:         # the pilot used the whole step budget
                     st = GRID_MAX_STEPS
-            # the point ends: record it; the lane is free for the block's next point
+            # the point ends: record it; the lane is free for the next point
             STATUS[i] = st
             TF[i] = t[l]
             EDRIFT[i] = drift[l]
@@ -1660,7 +1671,7 @@ def _lanes_block(ka, calls, mode, hold_block, idx, lo_b, hi_b, Y0, P, TS, H, TST
                                 cv, t, tc, h, hrot, kn, e0, drift, errsum, rejected, ph, tvh,
                                 sth, blk, rot)
                 if drained:
-                    SAVEI[sl[l], SAVED] = DRAINED
+                    SAVEI[sl[l], SAVED] = drained_flag
                 else:
                     paused += 1
             pt[l] = -1

@@ -17,7 +17,8 @@ is innermost and free of calls, so LLVM vectorises it:
   three square roots: no call), the compensated time, the time mean and the deviation
   are loops over lanes;
 * what is particular to a lane — a strobe sample, a failure, the end of its run and the
-  next point of the block in its place — runs for that lane alone.
+  next point in its place (taken from a cursor the threads share:
+  :mod:`lagrange_core._shared_cursor`) — runs for that lane alone.
 
 Same algorithm, statuses, counts and observables as ``point_dop853`` (final state,
 strobe samples, time mean of q, max deviation from a reference, sum of the local error
@@ -44,7 +45,6 @@ the loop, and a failed lane gets its status alone (tests/test_first_order_lanes.
 import math
 import sys
 
-import numba
 import numpy as np
 from numba import njit
 
@@ -52,7 +52,8 @@ from ._batch_kernels import DRAIN_FRACTION, DRAIN_MIN_LANES, DRAINED, _band_exit
 from ._integrator_kernels import FAST_MATH, starting_step
 from ._kernel_calls import RHS, call_rhs
 from ._lane_calls import rhs_on_lanes
-from ._thread_blocks import run_draining, run_spans
+from ._shared_cursor import peek, take
+from ._thread_blocks import run_draining, run_shared
 
 __all__ = ["LANES", "grid_dop853_lanes", "sparse_tables", "stage_sum", "error_sums",
            "step_factor", "first_step"]
@@ -356,44 +357,47 @@ def grid_dop853_lanes(ka, m, adaptive, idx, Y0, P, TS, H, TSTR, REF, LO, HI, fla
     ``stop[0]`` is set (Ctrl-C, :data:`lagrange_core.progress.KERNEL_STOP`) every running
     point pauses at its next step and no other point starts.
 
-    The points are cut into two blocks per thread; a thread advances up to :data:`LANES`
-    points of a block together, refilling a lane from its block when its point ends; once
-    they have all started and at most ``DRAIN_FRACTION`` of its lanes still run (of at
-    least ``DRAIN_MIN_LANES``: lagrange_core._batch_kernels), they pause and run on at once
-    on fewer lanes, with the same steps and numbers."""
+    Every thread advances up to :data:`LANES` points together, refilling a lane with the
+    next point not yet taken by any thread when its point ends
+    (:func:`lagrange_core._thread_blocks.run_shared`); once every point has been taken and
+    at most ``DRAIN_FRACTION`` of a thread's lanes still run (of at least
+    ``DRAIN_MIN_LANES``: lagrange_core._batch_kernels), they pause and run on at once on
+    fewer lanes, with the same steps and numbers."""
     if m != 0 or not adaptive or flags & ~(_OBS_STROBE | _OBS_REF | _OBS_BAND):
         raise ValueError("grid_dop853_lanes runs adaptive DOP853 on unconstrained systems "
                          "observing strobe samples, deviations and bands only; use "
                          "grid_dop853.")
-    block = max(8, -(-idx.shape[0] // (2 * numba.get_num_threads())))
-    _grid(ka, idx, block, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, max_steps, A, B,
+    _grid(ka, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, max_steps, A, B,
           C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, COUNTS, ERR, STATUS, budget, stop, slot,
           SAVE, SAVEI)
 
 
-def _grid(ka, idx, block, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, max_steps, A, B,
-          C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, COUNTS, ERR, STATUS, budget, stop, slot,
-          SAVE, SAVEI):
-    """The blocks of :func:`grid_dop853_lanes` on the threads of
-    :func:`lagrange_core._thread_blocks.run_spans`; the points a block drained run on at
+def _grid(ka, idx, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, max_steps, A, B, C, E3,
+          E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, COUNTS, ERR, STATUS, budget, stop, slot, SAVE,
+          SAVEI):
+    """:func:`grid_dop853_lanes` on the threads of
+    :func:`lagrange_core._thread_blocks.run_shared`; the points a thread drained run on at
     once, on as many lanes as they are (not after a Ctrl-C)."""
-    def work(lo, hi):
+    def work(lo, hi, cursor=None, width=None, drained=DRAINED):
         run_draining(_block, (ka,), (
             Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, max_steps, A, B, C, E3, E5, YF,
             TF, SQ, QM, DEV, EXIT, EXITC, COUNTS, ERR, STATUS, budget, stop),
-            idx, slot, lo, hi, SAVE, SAVEI, stop, DRAINED)
-    run_spans(work, idx.shape[0], block, stoppable=True)
+            idx, slot, lo, hi, SAVE, SAVEI, stop, drained, cursor, width)
+    run_shared(work, idx.shape[0], LANES, DRAINED)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST_MATH)
-def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, max_steps,
-           A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, COUNTS, ERR, STATUS, budget, stop,
-           slot, SAVE, SAVEI):
-    """The points idx[lo_b:hi_b] of :func:`grid_dop853_lanes` on one thread's lanes."""
+def _block(ka, idx, cursor, hi_b, width, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol,
+           max_steps, A, B, C, E3, E5, YF, TF, SQ, QM, DEV, EXIT, EXITC, COUNTS, ERR, STATUS,
+           budget, stop, slot, SAVE, SAVEI, drained_flag):
+    """The points idx[cursor[0]:hi_b] of :func:`grid_dop853_lanes` on up to ``width`` lanes
+    of one thread, each free lane taking the next point from ``cursor``, which other
+    threads may share (:mod:`lagrange_core._shared_cursor`); a point it drains is saved
+    with ``SAVEI[·, 0] = drained_flag``."""
     d = Y0.shape[1]
     n = d // 2
     npar = P.shape[1]
-    L = min(LANES, hi_b - lo_b)
+    L = min(LANES, width, max(hi_b - peek(cursor), 0))
     ref = (flags & _OBS_REF) != 0
     band = (flags & _OBS_BAND) != 0
     sidx, scoef, spairs = sparse_tables(A, B, E5, E3)
@@ -446,14 +450,18 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, at
     ye = np.empty(d)                        # a lane's state where it leaves its band
     lo1 = np.empty(n)
     hi1 = np.empty(n)
-    nxt = lo_b
+    started = False             # every point has been taken (by this thread or another)
     active = 0
     drained = False
     paused = 0                  # points paused by the budget (a long run: no drain)
     for l in range(L):
-        while nxt < hi_b and pt[l] < 0:
-            i = idx[nxt]
-            sl = slot[nxt]
+        while not started and pt[l] < 0:
+            k = take(cursor)
+            if k >= hi_b:
+                started = True
+                break
+            i = idx[k]
+            sl = slot[k]
             st = _load(ka, l, i, SAVE[sl], SAVEI[sl], Y0, P, TS, H, TSTR, REF, LO, HI, flags,
                        rtol, atol, y, K, Pl, t, tc, h, t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl,
                        HIl, errsum, rejected, base, YF, SQ, QM, DEV, COUNTS, f, W, y1, f1)
@@ -462,20 +470,19 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, at
                 TF[i] = TS[i, 0]
             else:
                 pt[l] = i
-                pk[l] = nxt
+                pk[l] = k
                 live[l] = True
                 active += 1
-            nxt += 1
     while active > 0:
         # Ctrl-C, or the block drains (its points all started, few lanes still run): every
         # running point pauses at its next step and no other point starts; drained, they
         # run on at once on fewer lanes (_grid), as RKN 12's lanes do
-        if budget > 0 and (stop[0] != 0 or (nxt >= hi_b and paused == 0
+        if budget > 0 and (stop[0] != 0 or ((started or peek(cursor) >= hi_b) and paused == 0
                                             and L >= DRAIN_MIN_LANES
                                             and active <= DRAIN_FRACTION * L)):
             drained = stop[0] == 0
             budget = 0
-            nxt = hi_b
+            started = True
         # each lane's step: shortened to land on its end or its next strobe time
         for l in range(L):
             tt = t[l]
@@ -610,7 +617,7 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, at
                     sv[o + 5] = 0.0
                     sv[o + 6] = kn[l]
                     sv[o + 7] = 1.0 if rejected[l] else 0.0
-                    SAVEI[slot[pk[l]], _SAVED] = DRAINED if drained else 1
+                    SAVEI[slot[pk[l]], _SAVED] = drained_flag if drained else 1
                     paused += 0 if drained else 1
             if st < 0:
                 continue
@@ -631,9 +638,13 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, at
             nst[l] = 0
             nrej[l] = 0
             nev[l] = 0
-            while nxt < hi_b and pt[l] < 0:
-                i2 = idx[nxt]
-                sl = slot[nxt]
+            while not started and pt[l] < 0:
+                k = take(cursor)
+                if k >= hi_b:
+                    started = True
+                    break
+                i2 = idx[k]
+                sl = slot[k]
                 st2 = _load(ka, l, i2, SAVE[sl], SAVEI[sl], Y0, P, TS, H, TSTR, REF, LO, HI,
                             flags, rtol, atol, y, K, Pl, t, tc, h, t0l, t1l, Tl, kn, QMl, DEVl,
                             REFl, LOl, HIl, errsum, rejected, base, YF, SQ, QM, DEV, COUNTS, f,
@@ -643,10 +654,9 @@ def _block(ka, idx, lo_b, hi_b, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, at
                     TF[i2] = TS[i2, 0]
                 else:
                     pt[l] = i2
-                    pk[l] = nxt
+                    pk[l] = k
                     live[l] = True
                     active += 1
-                nxt += 1
             if pt[l] < 0:           # idle: a finite state that no longer moves
                 for j in range(d):
                     if not math.isfinite(y[j, l]):

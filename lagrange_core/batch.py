@@ -95,11 +95,6 @@ __all__ = ["GridTrajectories", "GridInterrupted", "simulate_grid", "STATUS_NAMES
 STATUS_NAMES = ("finished", "left_band", "underflow", "non_finite", "singular", "max_steps",
                 "not_run", "interrupted")
 
-#: fewest points per block of the RKN lanes kernel (a thread takes one block at a time and
-#: runs it on _bk.LANES lanes, refilling a lane when its point ends); a chunk is cut into
-#: 2 blocks per thread, no smaller: large blocks keep the lanes full (their tail, when
-#: fewer points than lanes are left, runs part-empty), two per thread balance the threads
-_BLOCK = 64
 #: RKN 12(10) (adaptive, fixed, piloted) runs on lanes (_bk.grid_rkn_lanes), not per point
 _USE_LANES = True
 #: adaptive DOP853 (systems not of the form q̈ = f(q, t): damped, velocity-dependent) runs
@@ -540,6 +535,12 @@ _TARGET = 0.25
 _FIRST_BUDGET = 8192
 
 
+#: a call's points may grow this much over the last call's, its step budget 8×: a grid
+#: of 64 × 64 points goes in calls of 16, 1024 and 3056 points (at 8×: 16, 128, 1024 and
+#: 2928; every call ends with its lanes emptying, 2 % of that grid's time, 2026-11-28)
+_GROWTH = 64.0
+
+
 #: elements of the strobe's samples filled between two looks for Ctrl-C (32 MiB, ~0.1 s)
 _FILL_CHUNK = 1 << 22
 
@@ -569,8 +570,8 @@ def _run_paused(call, N, TS, TF, STATUS, width, progress, first, label="simulate
     points up to ``size``; a point that has taken ``budget`` steps in a call pauses
     (:mod:`lagrange_core._batch_kernels`, status GRID_INTERRUPTED) and goes on in the
     next.  ``size`` (points) and ``budget`` (steps) are sized from the time each call
-    took, at most 8× the last, so a grid of short runs goes by chunks of points and a
-    long run by chunks of steps.  Progress counts a paused point by the share of its
+    took, at most :data:`_GROWTH` and 8× the last, so a grid of short runs goes by chunks
+    of points and a long run by chunks of steps.  Progress counts a paused point by the share of its
     span it has reached.  On Ctrl-C (the call in flight pauses its running points at
     their next step: :data:`lagrange_core.progress.KERNEL_STOP`) the paused points keep
     status GRID_INTERRUPTED with their observables so far, the points never started
@@ -605,7 +606,7 @@ def _run_paused(call, N, TS, TF, STATUS, width, progress, first, label="simulate
             if len(paused):
                 budget = int(min(max(64.0, budget * _TARGET / dt), 8.0 * budget))
             else:
-                size = int(min(max(1.0, len(idx) / dt * _TARGET), 8.0 * size))
+                size = int(min(max(1.0, len(idx) / dt * _TARGET), _GROWTH * size))
             with np.errstate(invalid="ignore", divide="ignore"):
                 share = np.clip((TF[paused] - TS[paused, 0]) / span[paused], 0.0, 1.0)
             bar.update(ended + float(np.sum(share)))
@@ -723,8 +724,7 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
 
         def call(idx, budget, slot, save, savei):
             if lanes:
-                block = max(_BLOCK, -(-len(idx) // (2 * numba.get_num_threads())))
-                _bk.grid_rkn_lanes(ka, lane_mode, _HOLD_BLOCK, idx, block, *common, tab["c"],
+                _bk.grid_rkn_lanes(ka, lane_mode, _HOLD_BLOCK, idx, *common, tab["c"],
                                    tab["A"], tab["b"], tab["bp"], tab["bh"], tab["bph"], *outs,
                                    budget, KERNEL_STOP, slot, save, savei)
             elif first_order_lanes:

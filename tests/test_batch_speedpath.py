@@ -18,6 +18,7 @@ fast path is checked here against something independent:
 """
 import math
 
+import numba
 import numpy as np
 import pytest
 import sympy as sp
@@ -27,6 +28,8 @@ from lagrange_core import Particle, System, batch, coordinates, problems
 from lagrange_core import _batch_kernels as bk
 from lagrange_core._kernel_calls import FAST_ACCEL_LANES, call_fast_accel_lanes
 from lagrange_core._lane_math import BIG_ARGUMENT, lane_cos, lane_sin, lane_solve
+from lagrange_core._shared_cursor import take
+from lagrange_core._thread_blocks import run_blocks
 from lagrange_core.drive_kernel import load_drive_kernel
 from lagrange_core.symbols import t as T_SYM
 
@@ -350,6 +353,64 @@ def test_refilled_lanes_and_part_empty_tails(pend):
                         band=UP_BAND, method="rkn12-fixed", h=T / 4)
     assert 10 < lanes.counts()["left_band"] < N - 10
     assert_same_run(lanes, point, atol=1e-10)
+
+
+@njit(nogil=True, cache=True)
+def _take_all(cursor, end, taker, me):
+    taken = 0
+    while True:
+        k = take(cursor)
+        if k >= end:
+            return taken
+        taker[k] = me
+        taken += 1
+
+
+def test_the_shared_cursor_hands_each_point_to_one_thread():
+    """Two threads taking 2·10⁶ points from one cursor at once (lagrange_core.
+    _shared_cursor): each point taken exactly once — an increment that is not atomic
+    loses updates, and then two threads take the same point and the counts add up to
+    more than the points."""
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("one thread: nothing is shared")
+    cursor, taker = np.zeros(1, dtype=np.int64), np.zeros(2_000_000, dtype=np.int64)
+    counts = []
+    _take_all(np.zeros(1, dtype=np.int64), 0, taker, 0)           # compiled first
+    with numba.parallel_chunksize(1):
+        numba.set_num_threads(2)
+        run_blocks(lambda b: counts.append(_take_all(cursor, taker.size, taker, b + 1)), 2)
+    assert sum(counts) == taker.size and np.all(taker > 0) and cursor[0] == taker.size + 2
+    assert set(np.unique(taker)) == {1, 2}, "one thread took every point"
+
+
+def test_points_shared_by_the_threads_are_each_thread_alone(pend):
+    """Points of mixed lifetimes taken by two threads from one cursor (the lanes refill
+    and drain in whatever order the threads reach them) are bit for bit the run on one
+    thread: a point's numbers do not depend on its lane, its thread or its neighbours."""
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("one thread: nothing is shared")
+    rng = np.random.default_rng(5)
+    N = 3 * bk.LANES + 11
+    A = rng.uniform(0.003, 0.03, N)
+    w = 2 * np.pi * rng.uniform(5, 100, N)
+    T = 2 * np.pi / w
+    span = rng.integers(1, 40, N) * T
+    runs = []
+    before = numba.get_num_threads()
+    try:
+        for threads in (2, 1):
+            numba.set_num_threads(threads)
+            runs.append(pend.simulate_grid([np.pi - 0.1], [0.0], (0.0, span),
+                                           dict(PEND, A=A, omega=w), band=UP_BAND,
+                                           strobe=T, rtol=1e-7, progress=False))
+    finally:
+        numba.set_num_threads(before)
+    shared, alone = runs
+    assert 10 < alone.counts()["left_band"] < N - 10
+    for name in ("status", "n_steps", "n_rejected", "n_evaluations", "t_final", "q", "qdot",
+                 "q_mean", "strobe_q", "strobe_qdot", "exit_time", "error_estimate"):
+        np.testing.assert_array_equal(getattr(shared, name), getattr(alone, name),
+                                      err_msg=name)
 
 
 @pytest.mark.parametrize("method", ["rkn12", "rkn12-fixed"])

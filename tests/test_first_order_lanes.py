@@ -40,6 +40,7 @@ from lagrange_core._kernel_calls import (
 )
 from lagrange_core._lane_math import BIG_ARGUMENT
 from lagrange_core._rhs_lanes import evaluate_lanes, lanes_work_rows, load_rhs_lanes
+from lagrange_core._thread_blocks import thread_count
 
 W0 = math.sqrt(9.81)
 
@@ -471,16 +472,28 @@ def test_band_exits_paused_and_resumed_equal_an_unbroken_run(pendulum):
         np.testing.assert_array_equal(paused[name], value, err_msg=name)
 
 
-def test_drained_lanes_run_on_as_each_point_alone(pendulum):
-    """A block whose points have all started drains once at most 3/4 of its lanes still
-    run: they pause and run on at once on fewer lanes.  200 points of mixed lifetimes
-    (175 leave their band at scattered times, the others run 30 periods) give bit for
-    bit what each point gives alone on one lane, where nothing drains; so do their
-    statuses, exits, samples and counts (checked to drain: each block of 50 points ran on
-    again on 34, 26 or 18 of them, counted through a wrapper of ``_block``)."""
+def test_drained_lanes_run_on_as_each_point_alone(pendulum, monkeypatch):
+    """A thread whose lanes have taken every point drains once at most 3/4 of its lanes
+    still run: they pause and run on at once on fewer lanes.  200 points of mixed
+    lifetimes (175 leave their band at scattered times, the others run 30 periods), taken
+    by the threads from one shared cursor, give bit for bit what each point gives alone
+    on one lane, where nothing drains; so do their statuses, exits, samples and counts.
+    Checked to drain, through a wrapper of ``_block``: it runs again on fewer lanes than
+    a thread's first run had (62, 37, 24 … of 100 on two threads, 2026-11-28)."""
     grid = _BandedLanes(pendulum, 200, 31, 7.0)
+    block, widths = fl._block, []
+
+    def counted(*args):                 # (ka, idx, cursor, end, width, ...)
+        widths.append(args[4])
+        return block(*args)
+
+    monkeypatch.setattr(fl, "_block", counted)
     together = grid.outputs()
     grid.call(np.arange(grid.N), 1 << 40)
+    monkeypatch.setattr(fl, "_block", block)
+    first = max(widths)
+    assert first == -(-grid.N // thread_count()) or first == fl.LANES
+    assert [w for w in widths if 0 < w < first], widths       # it drained
     alone = grid.outputs()
     for i in range(grid.N):
         grid.call([i], 1 << 40)

@@ -121,11 +121,11 @@ def test_a_step_retaken_after_a_rejection_pauses_as_it_runs(pend, monkeypatch):
 
 
 def test_drained_lanes_run_on_as_each_point_alone(pend):
-    """A block of lanes whose last points end at scattered times pauses them and runs them
+    """A thread's lanes whose last points end at scattered times pause them and run them
     on, on fewer lanes (lagrange_core._batch_kernels.DRAIN_FRACTION): 96 points in
     random order, 46 falling between 70 and 270 periods, the rest staying up for 300,
-    together (blocks of 64 lanes that drain) equal each point run alone (one lane, no
-    drain) bit for bit."""
+    together (on 48 lanes a thread, two threads, that drain) equal each point run alone
+    (one lane, no drain) bit for bit."""
     A = np.random.default_rng(1).permutation(np.linspace(0.004, 0.02, 96))
     T = 2 * math.pi / W60
 

@@ -93,15 +93,15 @@ def _lanes_block_once(bk, system, g, calls, stop):
     n = system.n_dof
     N = g["N"]
     bk._lanes_block(ka, np.ascontiguousarray(calls), bk.LANES_ADAPTIVE, 8,
-                    np.arange(N, dtype=np.int64), 0, N, g["Y0"], g["P"], g["TS"], g["H"],
-                    g["TSTR"], g["REF"], g["LO"], g["HI"], 0, 1e-6, 1e-6, 10**6, tab["c"],
-                    tab["A"], tab["b"], tab["bp"], tab["bh"], tab["bph"],
+                    np.arange(N, dtype=np.int64), np.zeros(1, dtype=np.int64), N, N, g["Y0"],
+                    g["P"], g["TS"], g["H"], g["TSTR"], g["REF"], g["LO"], g["HI"], 0, 1e-6,
+                    1e-6, 10**6, tab["c"], tab["A"], tab["b"], tab["bp"], tab["bh"], tab["bph"],
                     np.zeros((N, 2 * n)), np.zeros(N), np.zeros((N, 1, 2 * n)),
                     np.zeros((N, n)), np.zeros((N, n)), np.zeros(N),
                     np.zeros(N, dtype=np.int64), np.zeros(N), np.zeros((N, 3), dtype=np.int64),
                     np.zeros(N), np.zeros(N, dtype=np.int64), 10**6, stop,
                     np.arange(N, dtype=np.int64), np.zeros((N, 1)),
-                    np.zeros((N, bk.SAVEI_WIDTH), dtype=np.int64))
+                    np.zeros((N, bk.SAVEI_WIDTH), dtype=np.int64), bk.DRAINED)
 
 
 _ORDER_CHILD = r"""
@@ -112,7 +112,7 @@ order = []
 driver, addresses = bk._lanes_block, bk.lanes_callee_addresses
 
 def spied_driver(*args):
-    order.append(["driver", int(args[6] - args[5]), bool(driver.signatures)])
+    order.append(["driver", int(args[6] - args[5][0]), bool(driver.signatures)])
     return driver(*args)
 
 def spied_addresses():
