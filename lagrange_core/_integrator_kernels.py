@@ -72,7 +72,7 @@ from ._kernel_calls import (
     call_rhs,
 )
 from ._linalg import solve_augmented
-from ._selection import kth_smallest
+from ._selection import kth_smallest_in_place
 
 # -- named constants (module globals are compile-time constants for numba) --------------
 
@@ -857,7 +857,7 @@ def held_step_record(tv, stats, block, err, hs, h_max):
     if stats[ST_BLOCK] < nb:
         return 0.0
     k = int((1.0 - HOLD_QUANTILE) * (nb - 1) + 0.5)
-    r = kth_smallest(block[:nb], k)
+    r = kth_smallest_in_place(block[:nb], k)        # (the block is refilled from 0)
     hold = HOLD_GROWTH * href if r == 0.0 else 0.9 * href * r ** (-1.0 / 11.0)
     stats[ST_BLOCK] = 0
     if not hold > 0.0:          # r overflowed: steps far below h_ref; start the block anew

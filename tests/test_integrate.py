@@ -138,6 +138,30 @@ def test_the_controllers_quantile_equals_numpys_sort():
     assert all(kth_smallest(x, k) == np.sort(x)[k] for k in (0, 819, 2048, 4095))
 
 
+def test_the_held_steps_in_place_quantile_equals_numpys_sort():
+    """The held step's selection, in place and without branches, equals ``np.sort(x)[k]``
+    for every k: random, tied (all equal, a few values, one outlier among equals), sorted
+    and reversed values, on arrays of 1 to 70 (its block has 64) and 4096; it keeps the
+    values (a permutation of them)."""
+    from lagrange_core._selection import kth_smallest_in_place
+    rng = np.random.default_rng(8)
+    for trial in range(600):
+        n = int(rng.integers(1, 71))
+        ties = np.full(n, 0.75)
+        ties[int(rng.integers(0, n))] = 0.5 if trial % 2 else 1.0
+        x = [rng.standard_normal(n), rng.integers(0, 4, n).astype(float),
+             np.sort(rng.uniform(1e-4, 1e-2, n)), np.sort(rng.standard_normal(n))[::-1].copy(),
+             np.full(n, 2.5), ties][trial % 6]
+        want = np.sort(x)
+        for k in range(n):
+            a = x.copy()
+            assert kth_smallest_in_place(a, k) == want[k], (x, k)
+            assert np.array_equal(np.sort(a), want)
+    x = rng.lognormal(-5.0, 1.0, 4096)
+    assert all(kth_smallest_in_place(x.copy(), k) == np.sort(x)[k]
+               for k in (0, 819, 2048, 4095))
+
+
 # -- methods against the closed forms -------------------------------------------------------
 
 ADAPTIVE = ["dop853", "rkn12", "scipy:DOP853", "scipy:Radau", "scipy:LSODA"]
