@@ -571,8 +571,8 @@ def _run_paused(call, N, TS, TF, STATUS, width, progress, first, label="simulate
     (:mod:`lagrange_core._batch_kernels`, status GRID_INTERRUPTED) and goes on in the
     next.  ``size`` (points) and ``budget`` (steps) are sized from the time each call
     took, at most :data:`_GROWTH` and 8× the last, so a grid of short runs goes by chunks
-    of points and a long run by chunks of steps.  Progress counts a paused point by the share of its
-    span it has reached.  On Ctrl-C (the call in flight pauses its running points at
+    of points and a long run by chunks of steps.  Progress counts a paused point by the
+    share of its span it has reached.  On Ctrl-C (the call in flight pauses its running points at
     their next step: :data:`lagrange_core.progress.KERNEL_STOP`) the paused points keep
     status GRID_INTERRUPTED with their observables so far, the points never started
     "not_run".
