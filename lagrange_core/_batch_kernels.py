@@ -809,6 +809,18 @@ LANES = 128
 #: 1e-4 (benchmarks/bench_measure.py's, 2 threads) see benchmarks/README.md.
 DRAIN_FRACTION = 0.75
 DRAIN_MIN_LANES = 16
+
+
+@njit(cache=True, inline="always")
+def lanes_pause_now(budget, stop, started, cursor, end, paused, L, active):
+    """Whether a lanes driver's thread pauses its running points now (RKN 12's and
+    DOP853's): on Ctrl-C (``stop[0]``), or to drain — every point of the call taken
+    (``started``, or the shared ``cursor`` past ``end``), none paused by the step budget
+    (a long run), and at most :data:`DRAIN_FRACTION` of its ``L`` lanes (at least
+    :data:`DRAIN_MIN_LANES`) still running.  Never once ``budget`` is 0 (it has paused)."""
+    return budget > 0 and (stop[0] != 0 or ((started or peek(cursor) >= end) and paused == 0
+                                            and L >= DRAIN_MIN_LANES
+                                            and active <= DRAIN_FRACTION * L))
 #: accepted steps a pilot records (as :func:`pilot_step`)
 PILOT_STEPS = 4096
 #: grid_rkn_lanes modes
@@ -1347,12 +1359,10 @@ def _lanes_block(ka, calls, mode, hold_block, idx, cursor, hi_b, width, Y0, P, T
                         K[m, j, l] = 0.0
         if active == 0:
             break
-        # Ctrl-C, or the block drains (its points all started, few lanes still run): every
+        # Ctrl-C, or the thread drains (every point taken, few lanes still run): every
         # running point pauses at its next step and no other point starts; drained, they
         # run on at once on fewer lanes (grid_rkn_lanes)
-        if budget > 0 and (stop[0] != 0 or ((started or peek(cursor) >= hi_b) and paused == 0
-                                            and L >= DRAIN_MIN_LANES
-                                            and active <= DRAIN_FRACTION * L)):
+        if lanes_pause_now(budget, stop, started, cursor, hi_b, paused, L, active):
             drained = stop[0] == 0
             budget = 0
             started = True

@@ -48,7 +48,7 @@ import sys
 import numpy as np
 from numba import njit
 
-from ._batch_kernels import DRAIN_FRACTION, DRAIN_MIN_LANES, DRAINED, _band_exit, _hermite
+from ._batch_kernels import DRAINED, _band_exit, _hermite, lanes_pause_now
 from ._integrator_kernels import FAST_MATH, starting_step
 from ._kernel_calls import RHS, call_rhs
 from ._lane_calls import rhs_on_lanes
@@ -474,12 +474,10 @@ def _block(ka, idx, cursor, hi_b, width, Y0, P, TS, H, TSTR, REF, LO, HI, flags,
                 live[l] = True
                 active += 1
     while active > 0:
-        # Ctrl-C, or the block drains (its points all started, few lanes still run): every
+        # Ctrl-C, or the thread drains (every point taken, few lanes still run): every
         # running point pauses at its next step and no other point starts; drained, they
         # run on at once on fewer lanes (_grid), as RKN 12's lanes do
-        if budget > 0 and (stop[0] != 0 or ((started or peek(cursor) >= hi_b) and paused == 0
-                                            and L >= DRAIN_MIN_LANES
-                                            and active <= DRAIN_FRACTION * L)):
+        if lanes_pause_now(budget, stop, started, cursor, hi_b, paused, L, active):
             drained = stop[0] == 0
             budget = 0
             started = True
