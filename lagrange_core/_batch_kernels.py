@@ -351,7 +351,8 @@ def _strobe_step(h, T):
 # -- pausing a point: its integrator state, saved between calls ----------------------------
 
 #: save[0] of a paused point's integer row: its state is saved (the next call resumes it);
-#: DRAINED: saved by a lanes block that drained (:func:`grid_rkn_lanes` resumes it at once)
+#: DRAINED + a thread's number: saved by that thread's lanes when they drained (it runs
+#: them on at once: lagrange_core._thread_blocks.run_shared)
 SAVED = 0
 DRAINED = 2
 

@@ -68,7 +68,8 @@ LANES = 128
 _FINISHED, _LEFT_BAND, _UNDERFLOW, _NON_FINITE, _SINGULAR, _MAX_STEPS, _INTERRUPTED = \
     0, 1, 2, 3, 4, 5, 7
 #: SAVEI[·, _SAVED] = 1: the row holds a paused point's state (as _batch_kernels.SAVED);
-#: DRAINED (2): paused by a block that drained, run on at once (:func:`_grid`)
+#: DRAINED (2) + a thread's number: paused by that thread's lanes when they drained, run
+#: on at once (:func:`_grid`)
 _SAVED = 0
 # columns of COUNTS, bits of flags (as _batch_kernels)
 _STEPS, _REJECTED, _EVALS = 0, 1, 2
