@@ -184,13 +184,12 @@ def pytest_configure(config):
         return
     start = time.perf_counter()
     # beside kapitza.warmup's groups, the kernels many test files share that a user's
-    # first call does not: the grid's symplectic driver with the energy record (~50 s cold),
-    # the chaos room's lanes (Lyapunov and the strobe's DOP853, ~90 s) and its per-point
-    # Lyapunov kernel (two files' tests called it at once, and each compiled it: 5 s)
-    suite = subprocess.Popen([sys.executable, "-c", _SUITE_KERNELS],
-                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    # first call does not (_SUITE_KERNELS), each script in a process of its own
+    suite = [subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL) for script in _SUITE_KERNELS]
     compile_in_processes(list(GROUPS), 2, False, start)
-    suite.wait()
+    for process in suite:
+        process.wait()
     print(f"\nconftest: numba's cache was cold: the shared kernels compiled in "
           f"{time.perf_counter() - start:.0f} s before the workers start")
 
@@ -253,14 +252,32 @@ def _rewrite_test_modules(config):
             return                                  # read-only tree: only slower
 
 
-_SUITE_KERNELS = """
+#: The kernels many test files share that a user's first call does not, compiled before the
+#: workers start on a cold cache (:func:`pytest_configure`), two scripts in two processes:
+#: (1) the grid's symplectic driver with the energy record (~50 s cold) and RKN 12's
+#: per-point driver, the lanes' reference in tests/test_batch_speedpath.py and
+#: tests/test_long_runs.py (each file compiled it at once in its own worker: 2 × 32 s
+#: of a fresh clone's run, 2026-11-28); (2) the chaos room's lanes (Lyapunov and the
+#: strobe's DOP853, ~90 s) and its per-point Lyapunov kernel (two files' tests called it
+#: at once, and each compiled it: 5 s).
+_SUITE_KERNELS = ("""
+import math, warnings
+warnings.simplefilter("ignore")
+from lagrange_core import batch, problems
+pend = problems.pendulum()
+pend.simulate_grid([1.0], [0.0], (0.0, 2.0), dict(g=9.81, l=1.0, m=1.0), method="yoshida6",
+                   h=0.2, energy=True, progress=False)
+batch._USE_LANES = False
+w = 2 * math.pi * 60
+problems.driven_pendulum("vertical").simulate_grid(
+    [math.pi - 0.1], [0.0], (0.0, 3 / 60), dict(g=9.81, l=1.0, m=1.0, A=[0.05], omega=[w]),
+    band=([math.pi / 2], [3 * math.pi / 2]), strobe=1 / 60, reference=[math.pi],
+    progress=False)
+""", """
 import math, warnings
 warnings.simplefilter("ignore")
 from lagrange_core import problems
 from kapitza.chaos import bifurcation_diagram, lyapunov, lyapunov_grid
-pend = problems.pendulum()
-pend.simulate_grid([1.0], [0.0], (0.0, 2.0), dict(g=9.81, l=1.0, m=1.0), method="yoshida6",
-                   h=0.2, energy=True, progress=False)
 driven = problems.driven_pendulum("vertical", damping=True)
 w0 = math.sqrt(9.81)
 p = dict(A=0.1, g=9.81, l=1.0, m=1.0, omega=2 * w0, gamma=0.1 * w0)
@@ -268,7 +285,7 @@ lyapunov_grid(driven, p, 0.3, periods=4, transient=0, blocks=2, progress=False)
 bifurcation_diagram(driven, p, parameter="A", values=[0.1, 0.2], angles="theta", periods=2,
                     transient=1, progress=False)
 lyapunov(driven, p, 0.3, periods=4, transient=0, blocks=2, progress=False)
-"""
+""")
 
 
 @pytest.fixture(scope="session")

@@ -1,12 +1,15 @@
 """The reference site (``docs/``), built once per test process for tests/test_docs.py and
 tests/test_docs_browser.py (tests/conftest.py puts both files in one xdist group).
 
-The build is the README's command with two differences: it goes to a temporary folder,
-and the notebooks are rendered as stored (``nb_execution_mode=off``: stripped of outputs)
-because tests/test_notebooks.py executes each of them on its own.  Everything else is as
-a reader's build: warnings are errors, the guide's examples run, the API pages are written
-from the packages' ``__all__``.  It runs as a subprocess: a fresh interpreter as on the
-command line, and ``-j auto`` (two cores: two processes).
+The build is the README's command with three differences: it goes to a temporary folder;
+the notebooks are rendered as stored (``nb_execution_mode=off``: stripped of outputs)
+because tests/test_notebooks.py executes each of them on its own; and it reads and writes
+in one process (``-j 1``): the suite's workers already use every core, and ``-j auto``'s
+processes only add their cost (forking, pickling each page back: 37.6 CPU-s against 30.6,
+two builds of each alone on the 2-core machine, 2026-11-28; 27 s of wall time against
+31 s when the cores are free).  Everything else is as a reader's build: warnings are
+errors, the guide's examples run, the API pages are written from the packages'
+``__all__``.  It runs as a subprocess: a fresh interpreter as on the command line.
 """
 
 from __future__ import annotations
@@ -65,5 +68,5 @@ def built_site(tmp_path_factory) -> Site:
     """The quick build of ``docs/``, made on first use in this process."""
     if "site" not in _BUILT:
         out = tmp_path_factory.mktemp("docs-site")
-        _BUILT["site"] = sphinx(DOCS, out, "-j", "auto", "-D", "nb_execution_mode=off")
+        _BUILT["site"] = sphinx(DOCS, out, "-j", "1", "-D", "nb_execution_mode=off")
     return _BUILT["site"]
