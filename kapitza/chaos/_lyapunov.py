@@ -42,8 +42,9 @@ record ends, or a quasi-periodic exponent of 0 from a slowly decaying one).
 
 Speed
 -----
-:func:`lyapunov_grid` runs one compiled parallel call per chunk of points (numba
-``prange``; parameters, states and results as arrays; no Python per step or point);
+:func:`lyapunov_grid` runs each chunk of points as compiled GIL-free calls on numba's
+thread count, a block of points per call (parameters, states and results as arrays; no
+Python per step or point);
 ``benchmarks/bench_chaos.py`` measures it against a loop of :func:`lyapunov`.  For an
 unconstrained system of up to six coordinates it runs on *lanes*
 (:mod:`kapitza.chaos._lanes`): 64 points per thread advanced together, every loop over
@@ -428,7 +429,7 @@ def lyapunov_grid(system, params, q0, qdot0=0.0, *, periods=2000, transient=200,
                                save, savei)
 
     import numba
-    with defer_ctrl_c(), numba.parallel_chunksize(1):
+    with defer_ctrl_c():
         if lanes:
             # as simulate_grid: calls of ~0.25 s, a long run paused after a step budget and
             # resumed, so Ctrl-C stops within a second whatever the periods
