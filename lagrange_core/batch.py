@@ -746,9 +746,8 @@ def simulate_grid(system, q0, qdot0, t_span, params=None, *, method=None, rtol=1
             SQ = np.broadcast_to(np.nan, sq_shape)      # no point ran (read-only, no memory)
             done, interrupted = 0, True
         else:
-            with numba.parallel_chunksize(1):
-                done, interrupted = _run_paused(call, N, g["TS"], TF, STATUS, width,
-                                                progress, 8 * numba.get_num_threads())
+            done, interrupted = _run_paused(call, N, g["TS"], TF, STATUS, width, progress,
+                                            8 * numba.get_num_threads())
     run = STATUS != _bk.GRID_NOT_RUN
     span = TF - g["TS"][:, 0]
     with np.errstate(invalid="ignore", divide="ignore"):

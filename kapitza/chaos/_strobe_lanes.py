@@ -17,7 +17,6 @@ starts).  The samples equal ``simulate_grid``'s per-point DOP853 to rounding
 """
 from __future__ import annotations
 
-import numba
 import numpy as np
 
 from lagrange_core import _first_order_lanes as _fl
@@ -81,7 +80,7 @@ def _run(ka, Y0, P, t_start, t_end, T, K, rtol, atol, max_steps, progress, table
                               atol, max_steps, *tables, YF, TF, SQ, QM, DEV, nan, EXITC, nan,
                               COUNTS, ERR, STATUS, budget, KERNEL_STOP, slot, save, savei)
 
-    with defer_ctrl_c(), numba.parallel_chunksize(1):
+    with defer_ctrl_c():
         _, interrupted = _run_paused(call, N, TS, TF, STATUS, _save_width(n), progress,
                                      call_points())
     return YF, SQ, STATUS, interrupted
