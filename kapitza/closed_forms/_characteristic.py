@@ -44,9 +44,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
-
-from lagrange_core._thread_blocks import run_rows
+from numba import njit, prange
 
 from .. import _arguments as arguments
 from ..results import InceStruttChart
@@ -199,19 +197,12 @@ def _char_value(kind_b, r, q, guess):
     return _eigen_k(d, e2, K, k, guess)
 
 
+@njit(cache=True, parallel=True)
 def _char_values(kind_b, r, q):
-    """_char_value at every q, in blocks on numba's thread count (GIL-free calls of
-    :func:`_char_value_rows`, :func:`lagrange_core._thread_blocks.run_rows`: no ``prange``
-    loop, which numba's parallel lowering compiled at a first call)."""
     out = np.empty(q.size)
-    run_rows(_char_value_rows, q.size, kind_b, r, q, out)
-    return out
-
-
-@njit(cache=True, nogil=True)
-def _char_value_rows(kind_b, r, q, out, lo, hi):
-    for i in range(lo, hi):
+    for i in prange(q.size):
         out[i] = _char_value(kind_b, r, q[i], np.nan)
+    return out
 
 
 def characteristic_value(kind, r, q):
