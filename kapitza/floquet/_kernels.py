@@ -32,7 +32,7 @@ import sys
 
 import numba
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from lagrange_core import _kernel_calls
 from lagrange_core._kernel_calls import JACOBIAN, call_jacobian
@@ -66,22 +66,13 @@ def _threads_for(npts):
         numba.set_num_threads(before)
 
 
+@njit(cache=True, parallel=True)
 def floquet_sample_jacobian(ka, P, ystar, T, n_samples, out, status):
     """out[i, k] = J(k T[i] / n_samples, ystar, P[i]) for every grid point i; ``ka`` is the
-    system's kernel-address table (:mod:`lagrange_core._kernel_calls`, slot JACOBIAN).
-
-    On numba's thread count: the points in blocks, each block one GIL-free call of
-    :func:`_sample_jacobian_rows` on a thread (:func:`lagrange_core._thread_blocks.run_rows`,
-    as :func:`_monodromy_grid`; a ``prange`` loop here was compiled by numba's parallel
-    lowering at a first Floquet map)."""
-    run_rows(_sample_jacobian_rows, P.shape[0], ka, P, ystar, T, n_samples, out, status)
-
-
-@njit(cache=True, nogil=True)
-def _sample_jacobian_rows(ka, P, ystar, T, n_samples, out, status, lo, hi):
-    """The points lo … hi − 1 of :func:`floquet_sample_jacobian`, on the calling thread."""
+    system's kernel-address table (:mod:`lagrange_core._kernel_calls`, slot JACOBIAN)."""
+    npts = P.shape[0]
     d = ystar.size
-    for i in range(lo, hi):
+    for i in prange(npts):
         J = np.empty((d, d))
         st = 0
         for k in range(n_samples):
