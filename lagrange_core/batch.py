@@ -572,10 +572,10 @@ def _run_paused(call, N, TS, TF, STATUS, width, progress, first, label="simulate
     next.  ``size`` (points) and ``budget`` (steps) are sized from the time each call
     took, at most :data:`_GROWTH` and 8× the last, so a grid of short runs goes by chunks
     of points and a long run by chunks of steps.  Progress counts a paused point by the
-    share of its span it has reached.  On Ctrl-C (the call in flight pauses its running points at
-    their next step: :data:`lagrange_core.progress.KERNEL_STOP`) the paused points keep
-    status GRID_INTERRUPTED with their observables so far, the points never started
-    "not_run".
+    share of its span it has reached.  On Ctrl-C (the call in flight pauses its running
+    points at their next step: :data:`lagrange_core.progress.KERNEL_STOP`) the paused
+    points keep status GRID_INTERRUPTED with their observables so far, the points never
+    started "not_run".
     """
     bar = ProgressLine(progress, N, label, "points" if N != 1 else "of the run",
                        fraction=N == 1)
