@@ -376,7 +376,7 @@ def test_the_shared_cursor_hands_each_point_to_one_thread():
     The check means something only where both threads took points.  They start together
     (a barrier), yet on a loaded machine one thread can take all 2·10⁶ (~20 ms) before the
     other gets a core (seen once in a fresh clone's run, its workers compiling; with a
-    non-atomic increment, on the idle machine, 4 runs in 10 had both threads taking points,
+    non-atomic increment, on the idle machine, 3 runs in 10 had both threads taking points,
     and each of those failed the check): up to twenty runs, every one checked, until three
     had both threads taking points; none in twenty fails (the blocks never ran at once)."""
     if numba.config.NUMBA_NUM_THREADS < 2:
