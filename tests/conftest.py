@@ -159,7 +159,8 @@ def _pytest_drops_xdist_groups() -> bool:
 
 def pytest_configure(config):
     """On a cold numba cache (a fresh clone), compile the kernels the whole suite shares
-    once, in two processes, before the workers start: each worker would otherwise compile
+    once, before the workers start (kapitza.warmup's groups in two processes, the two
+    scripts of :data:`_SUITE_KERNELS` beside them): each worker would otherwise compile
     the same ones at the same time (the RKN 12 lanes ~20 s).  In the controller of a
     ``-n`` run only; ``KAPITZA_TEST_WARMUP=0`` skips it."""
     if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
