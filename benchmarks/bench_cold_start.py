@@ -174,6 +174,7 @@ def worker_measure(name):
 
 NOTICE_CASES = ["simulate, driven pendulum", "simulate_grid rkn12, driven pendulum",
                 "simulate_grid yoshida6, pendulum", "simulate_grid dop853, driven pendulum",
+                "simulate_grid dop853 lanes, damped pendulum",
                 "measure, vertical", "measure, vertical, damped",
                 "measure_grid 16 × 16, vertical, damped",
                 "floquet_point, driven 2-link chain", "pendulum_window",
@@ -208,6 +209,11 @@ def worker_notice(name):
             progress=False),
         "simulate_grid dop853, driven pendulum": lambda: driven.simulate_grid(
             q0, qd0, (0.0, 1.0), p, method="dop853", progress=False),
+        # 256 points: on DOP853's lanes (lagrange_core.batch.FIRST_ORDER_LANES_MIN_POINTS)
+        "simulate_grid dop853 lanes, damped pendulum": lambda: problems.driven_pendulum(
+            "vertical", damping=True).simulate_grid(
+            np.linspace(math.pi - 0.3, math.pi + 0.3, 256)[:, None], np.zeros((256, 1)),
+            (0.0, 1.0), damped, method="dop853", progress=False),
         "measure, vertical": lambda: worker_measure("vertical"),
         "measure, vertical, damped": lambda: worker_measure("vertical,damped"),
         # 256 points: on DOP853's lanes (lagrange_core.batch.FIRST_ORDER_LANES_MIN_POINTS)

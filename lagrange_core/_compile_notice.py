@@ -58,17 +58,21 @@ ACTIVITY_SECONDS = {
     # compiles them there too on its own (lagrange_core._lanes_ahead.start_if_cold):
     # RKN 12's first grid 12.7–13.3 s (20.0–21.0 s in one process), its first measure
     # 12.2–13.5 s (2026-11-28, twenty-third session; 21.4–21.6 s and 16.3–17.4 s
-    # before), 8.5–10.5 s (38 s, 15.5–17 s on one core)
-    "simulate_grid, RKN 12": 14,
+    # before), 8.5–10.5 s (38 s, 15.5–17 s on one core); since the lanes driver grew
+    # (drain, four stages a pass: its own compile 16–17.5 s alone, 10.3 s then) the first
+    # grid 22.2 s and the first measure 20.6 s (2026-11-29, twenty-ninth session, where
+    # the notice quoted ~14 s: 0.63 and 0.68 of the wait)
+    "simulate_grid, RKN 12": 22,
     "simulate_grid, symplectic": 10,
     "simulate_grid, DOP853": 9,
-    "measure, RKN 12": 14,
+    "measure, RKN 12": 21,
     "measure, DOP853": 10,          # (measure runs no fixed-step method: it passes no h)
     # a first damped grid of 128 points or more (DOP853's lanes, the system's rhs_lanes):
     # the damped pendulum's 16 × 16 measure_grid 12.0–12.6 s (6.7–6.8 s per point before
-    # it ran on lanes), 2026-11-28 (twenty-fifth session)
-    "simulate_grid, DOP853 lanes": 12,
-    "measure, DOP853 lanes": 12,
+    # it ran on lanes), 2026-11-28 (twenty-fifth session); 19.0 s, and a first damped
+    # simulate_grid of 256 points 18.7 s, 2026-11-29 (twenty-ninth session; quoted ~12 s)
+    "simulate_grid, DOP853 lanes": 19,
+    "measure, DOP853 lanes": 19,
     # a general system's first Floquet analysis (the sampler, the monodromy rows): a
     # 2-link chain's floquet_point, 13.5–15.5 s, 2026-11-27
     "Floquet": 15,
@@ -78,8 +82,8 @@ ACTIVITY_SECONDS = {
     "periodic orbit": 12,
     # a first Lyapunov map (lyapunov_grid: the system's lanes kernels and the chaos
     # lanes), the damped driven pendulum's: 15.3–16.4 s (2026-11-28; it had no activity,
-    # and the first module compiled said ~3 s)
-    "Lyapunov map": 16,
+    # and the first module compiled said ~3 s); 24.6 s, 2026-11-29 (quoted ~16 s)
+    "Lyapunov map": 25,
     "continuation": 5,
     # commands whose first compile comes before any of the API's activities (the command
     # line's checks compile the closed forms first, whose family says ~3 s): their whole
@@ -94,10 +98,11 @@ ACTIVITY_SECONDS = {
 #: driver's callees beside this one (one core, ``KAPITZA_BACKGROUND_COMPILE=0``, or none
 #: started) and they are not in numba's cache: all of it compiles here.  Measured on
 #: empty caches with the switch off, 2026-11-28 (twenty-fourth session): the grid 21.8–
-#: 21.9 s, the first measure 24.1–25.2 s (the notice had quoted ~14 s for both).
+#: 21.9 s, the first measure 24.1–25.2 s (the notice had quoted ~14 s for both); the
+#: lanes driver grown, 30.8 and 38.4 s, 2026-11-29 (twenty-ninth session; quoted ~20 s).
 ALONE_SECONDS = {
-    "simulate_grid, RKN 12": 22,
-    "measure, RKN 12": 24,
+    "simulate_grid, RKN 12": 31,
+    "measure, RKN 12": 38,
 }
 
 #: Seconds a family of shared kernels compiles on an empty cache, by module of the
