@@ -383,21 +383,26 @@ def test_the_shared_cursor_hands_each_point_to_one_thread():
         pytest.skip("one thread: nothing is shared")
     cursor, taker = np.zeros(1, dtype=np.int64), np.zeros(2_000_000, dtype=np.int64)
     _take_all(np.zeros(1, dtype=np.int64), 0, taker, 0)           # compiled first
-    numba.set_num_threads(2)                    # run_blocks' threads: numba's count
     start = threading.Barrier(2)
     shared = 0
-    for _ in range(20):
-        cursor[0], taker[:], counts = 0, 0, []
+    before = numba.get_num_threads()
+    numba.set_num_threads(2)                    # run_blocks' threads: numba's count
+    try:
+        for _ in range(20):
+            cursor[0], taker[:], counts = 0, 0, []
 
-        def block(b, counts=counts):
-            start.wait(timeout=60)
-            counts.append(_take_all(cursor, taker.size, taker, b + 1))
+            def block(b, counts=counts):
+                start.wait(timeout=60)
+                counts.append(_take_all(cursor, taker.size, taker, b + 1))
 
-        run_blocks(block, 2)
-        assert sum(counts) == taker.size and np.all(taker > 0) and cursor[0] == taker.size + 2
-        shared += set(np.unique(taker)) == {1, 2}
-        if shared == 3:
-            break
+            run_blocks(block, 2)
+            assert (sum(counts) == taker.size and np.all(taker > 0)
+                    and cursor[0] == taker.size + 2)
+            shared += set(np.unique(taker)) == {1, 2}
+            if shared == 3:
+                break
+    finally:
+        numba.set_num_threads(before)           # the worker's later tests keep their count
     assert shared, "in 20 runs one thread took every point: the blocks never ran at once"
 
 
