@@ -113,6 +113,7 @@ from ._kernel_calls import (
 )
 from ._lanes_callees import (
     FAST_ACCEL_ON_LANES,
+    LANES_BY_LANE,
     LANES_LOAD,
     LANES_RESTORE,
     LANES_SAVE,
@@ -124,6 +125,7 @@ from ._lanes_callees import (
     STAGE_POSITIONS,
     WEIGHTED_SUMS,
     call_fast_accel_on_lanes,
+    call_lanes_by_lane,
     call_lanes_load,
     call_lanes_restore,
     call_lanes_save,
@@ -1216,7 +1218,6 @@ def _lanes_block(ka, calls, mode, hold_block, idx, cursor, hi_b, width, Y0, P, T
     npar = P.shape[1]
     nd = drive_rates(ka, P[idx[0]]).shape[0]        # the same for every point
     ncs = max(2 * nd, 1)
-    expo = -1.0 / 11.0
     energy = (flags & OBS_ENERGY) != 0
     db = b - bh
     dbp = bp - bph
@@ -1530,166 +1531,212 @@ def _lanes_block(ka, calls, mode, hold_block, idx, cursor, hi_b, width, Y0, P, T
                     blk[l, k_] = errl[l] * (x4 * x4 * x2 * xr)
                     sth[l, ST_BLOCK] = k_ + 1
                     special[l] = False
-        # the rest, lane by lane: rejections, failures, band exits, strobe samples,
-        # step-size control, ends (an ended lane is free: the loop's top gives it the next point)
+        # the rest, lane by lane (_lanes_by_lane): rejections, failures, band exits,
+        # strobe samples, step-size control, ends (an ended lane is free: the loop's top
+        # gives it the next point)
+        nsp = 0
         for l in range(L):
-            if not special[l]:
-                continue
-            i = pt[l]
-            phase = ph[l]
-            adaptive = phase != _FIXED
-            observe = phase != _PILOT
-            hh = hs[l]
-            tt = t[l]
-            st = -1
-            jx = -1
-            if not good[l]:
-                if not fin[l]:      # a non-finite stage must not reach the next sums
-                    for j in range(n):
-                        for m in range(1, ns):
-                            K[m, j, l] = 0.0
-                if sing[l]:
-                    st = GRID_SINGULAR
-                elif adaptive and not (fin[l] and errl[l] < 1.0):
-                    err = errl[l]
-                    nrej[l] += 1
-                    held_step_record(tvh[l], sth[l], blk[l] if phase == _ADAPTIVE
-                                     else blk[l, :0], err, hh, hmax[l])
-                    h[l] = hh * max(0.2, 0.9 * err ** expo) if math.isfinite(err) else 0.2 * hh
-                    h[l] = _strobe_step(h[l], Tl[l])
-                    rejected[l] = True
-                    if h[l] < 16.0 * _EPS * max(abs(tt), abs(t1l[l])):
-                        st = GRID_NON_FINITE if not fin[l] else GRID_UNDERFLOW
-                    else:
-                        continue
-                elif not fin[l]:
-                    st = GRID_NON_FINITE
-                else:               # the acceleration at the step's end failed
-                    nst[l] += 1
-                    errsum[l] += est[l]
-                    if phase == _PILOT and nh[l] < PILOT_STEPS and not clip[l]:
-                        hbuf[l, nh[l]] = hh
-                        nh[l] += 1
-                    st = GRID_SINGULAR
-            else:
+            nsp += 1 if special[l] else 0
+        if nsp > 0:
+            # (no conditional expression among the arguments: numba cannot read a call of
+            # this many arguments with control flow inside it)
+            drained_now = 1 if drained else 0
+            ended, now_paused = call_lanes_by_lane(
+                calls[LANES_BY_LANE], ka, calls, nd, budget, drained_now,
+                drained_flag, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, c, A, b, bp,
+                YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT, COUNTS, ERR, STATUS, SAVE, SAVEI, pt,
+                ph, special, good, fin, sing, upd, clip, rejected, hs, errl, est, t, tc, h,
+                hrot, t0l, t1l, Tl, kn, e0, drift, errsum, hmax, hpl, nst, nrej, nev, nh, mx,
+                lim, sl, q, v, qn, vn, cq, cv, K, QMl, DEVl, REFl, LOl, HIl, Pl, R, rot, tvh,
+                sth, blk, hbuf, scr, Wn, q1, v1, a1, q2, v2)
+            active -= ended
+            paused += now_paused
+
+
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+def _lanes_by_lane(ka, calls, nd, budget, drained, drained_flag, Y0, P, TS, H, TSTR, REF, LO,
+                   HI, flags, rtol, atol, c, A, b, bp, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT,
+                   COUNTS, ERR, STATUS, SAVE, SAVEI, pt, ph, special, good, fin, sing, upd, clip,
+                   rejected, hs, errl, est, t, tc, h, hrot, t0l, t1l, Tl, kn, e0, drift, errsum,
+                   hmax, hpl, nst, nrej, nev, nh, mx, lim, sl, q, v, qn, vn, cq, cv, K, QMl,
+                   DEVl, REFl, LOl, HIl, Pl, R, rot, tvh, sth, blk, hbuf, scr, Wn, q1, v1, a1,
+                   q2, v2):
+    """The lanes of :func:`_lanes_block` whose step needs work lane by lane (``special``):
+    rejections, failures, band exits, strobe samples, energy, step-size control, a pilot's
+    end, a point's end (recorded; its lane freed: ``pt[l] = -1``, the block's loop gives
+    it the next point).  Returns (points ended, of them paused by the budget).
+
+    Called by the driver by address (:mod:`lagrange_core._lanes_callees`), its code not
+    compiled into the driver's: these ~160 lines, with the step control inlined, made the
+    driver's own compile 11.7–12.8 s, 7.3–8.0 s without them (every callee cached, two
+    runs each, 2026-11-29; benchmarks/README.md, thirtieth session).  Here they compile
+    on their own (~4 s), ahead in a second process or from numba's cache."""
+    L = pt.shape[0]
+    n = q.shape[0]
+    ns = K.shape[0]
+    expo = -1.0 / 11.0
+    energy = (flags & OBS_ENERGY) != 0
+    ended = 0
+    paused = 0
+    for l in range(L):
+        if not special[l]:
+            continue
+        i = pt[l]
+        phase = ph[l]
+        adaptive = phase != _FIXED
+        observe = phase != _PILOT
+        hh = hs[l]
+        tt = t[l]
+        st = -1
+        jx = -1
+        if not good[l]:
+            if not fin[l]:      # a non-finite stage must not reach the next sums
+                for j in range(n):
+                    for m in range(1, ns):
+                        K[m, j, l] = 0.0
+            if sing[l]:
+                st = GRID_SINGULAR
+            elif adaptive and not (fin[l] and errl[l] < 1.0):
+                err = errl[l]
+                nrej[l] += 1
+                held_step_record(tvh[l], sth[l], blk[l] if phase == _ADAPTIVE
+                                 else blk[l, :0], err, hh, hmax[l])
+                h[l] = hh * max(0.2, 0.9 * err ** expo) if math.isfinite(err) else 0.2 * hh
+                h[l] = _strobe_step(h[l], Tl[l])
+                rejected[l] = True
+                if h[l] < 16.0 * _EPS * max(abs(tt), abs(t1l[l])):
+                    st = GRID_NON_FINITE if not fin[l] else GRID_UNDERFLOW
+                else:
+                    continue
+            elif not fin[l]:
+                st = GRID_NON_FINITE
+            else:               # the acceleration at the step's end failed
+                nst[l] += 1
+                errsum[l] += est[l]
                 if phase == _PILOT and nh[l] < PILOT_STEPS and not clip[l]:
                     hbuf[l, nh[l]] = hh
                     nh[l] += 1
-                if not upd[l]:      # left the band inside the step: stop there
+                st = GRID_SINGULAR
+        else:
+            if phase == _PILOT and nh[l] < PILOT_STEPS and not clip[l]:
+                hbuf[l, nh[l]] = hh
+                nh[l] += 1
+            if not upd[l]:      # left the band inside the step: stop there
+                for j in range(n):
+                    q1[j] = q[j, l]
+                    v1[j] = v[j, l]
+                    q2[j] = qn[j, l]
+                    v2[j] = vn[j, l]
+                    a1[j] = K[0, j, l]
+                xf, jx, ev = call_rkn_band_exit(calls[RKN_BAND_EXIT], ka, tt, hh, q1, v1,
+                                                a1, q2, v2, P[i], LO[i], HI[i], c, A, b,
+                                                bp, R[:nd, l].copy(), YF[i])
+                nev[l] += ev
+                for j in range(n):
+                    QMl[j, l] += (0.5 * xf * hh * (q1[j] + YF[i, j]) + xf * hh * xf
+                                  * hh * (v1[j] - YF[i, n + j]) / 12.0)
+                t[l] = tt + xf * hh
+                st = GRID_LEFT_BAND
+            else:
+                if observe and energy:
                     for j in range(n):
                         q1[j] = q[j, l]
                         v1[j] = v[j, l]
-                        q2[j] = qn[j, l]
-                        v2[j] = vn[j, l]
-                        a1[j] = K[0, j, l]
-                    xf, jx, ev = call_rkn_band_exit(calls[RKN_BAND_EXIT], ka, tt, hh, q1, v1,
-                                                    a1, q2, v2, P[i], LO[i], HI[i], c, A, b,
-                                                    bp, R[:nd, l].copy(), YF[i])
-                    nev[l] += ev
-                    for j in range(n):
-                        QMl[j, l] += (0.5 * xf * hh * (q1[j] + YF[i, j]) + xf * hh * xf
-                                      * hh * (v1[j] - YF[i, n + j]) / 12.0)
-                    t[l] = tt + xf * hh
-                    st = GRID_LEFT_BAND
-                else:
-                    if observe and energy:
+                    d = abs(call_energy(ka[ENERGY], q1, v1, t[l], P[i]) - e0[l])
+                    if d > drift[l]:
+                        drift[l] = d
+                if clip[l] and Tl[l] > 0.0 and t[l] == t0l[l] + kn[l] * Tl[l]:
+                    k_ = int(kn[l])
+                    if k_ < SQ.shape[1]:
                         for j in range(n):
-                            q1[j] = q[j, l]
-                            v1[j] = v[j, l]
-                        d = abs(call_energy(ka[ENERGY], q1, v1, t[l], P[i]) - e0[l])
-                        if d > drift[l]:
-                            drift[l] = d
-                    if clip[l] and Tl[l] > 0.0 and t[l] == t0l[l] + kn[l] * Tl[l]:
-                        k_ = int(kn[l])
-                        if k_ < SQ.shape[1]:
-                            for j in range(n):
-                                SQ[i, k_, j] = q[j, l]
-                                SQ[i, k_, n + j] = v[j, l]
-                        kn[l] += 1.0
-                    if t[l] >= t1l[l] or (phase == _PILOT and nh[l] >= PILOT_STEPS):
-                        st = GRID_FINISHED      # (a pilot with all the steps it records)
-                    elif observe and nst[l] >= mx[l]:
-                        st = GRID_MAX_STEPS
-                    else:
-                        if adaptive:
-                            h[l] = rkn_next_step(tvh[l], sth[l], blk[l] if phase == _ADAPTIVE
-                                                 else blk[l, :0], h[l], hh, errl[l], clip[l],
-                                                 rejected[l], hmax[l])
-                            h[l] = _strobe_step(h[l], Tl[l])
-                            rejected[l] = False
-                            if not h[l] >= 16.0 * _EPS * max(abs(t[l]), abs(t1l[l])):
-                                st = GRID_UNDERFLOW
-                        if st < 0 and observe and nst[l] >= lim[l]:
-                            st = GRID_INTERRUPTED   # pause: saved below, resumed next call
-            if st < 0:
-                continue
-            if phase == _PILOT:     # the pilot ends (however): the run itself begins
-                m_ = nh[l]
-                span = TS[i, 1] - TS[i, 0]
-                tw = t1l[l]
-                hq, settled = call_pilot_step_quantile(calls[PILOT_STEP_QUANTILE], hbuf[l], m_)
-                if st != GRID_FINISHED and tw > TS[i, 0] + span / PILOT_SPAN_DIVISOR:
-                    # a widened pilot failed (a blow-up, an underflow): its shrinking steps
-                    # say nothing; the step of the last window that finished (as pilot_step)
-                    hq = hpl[l]
-                elif (st == GRID_FINISHED and settled < PILOT_MIN_SETTLED
-                        and m_ < PILOT_STEPS and tw < TS[i, 1]):
-                    hpl[l] = hq
-                    # too few steps beyond the starting ramp: the pilot again, over a
-                    # longer window (as pilot_step)
-                    st = call_lanes_load(calls[LANES_LOAD], ka, l, i, _PILOT, Y0, P,
-                                         TS, H, TSTR, REF, LO, HI, flags, rtol, atol, q, v, K,
-                                         cq, cv, Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl, kn,
-                                         QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum,
-                                         rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh,
-                                         sth)
-                    t1l[l] = min(TS[i, 1], TS[i, 0] + PILOT_WIDEN * (tw - TS[i, 0]))
-                    if st == 0:
-                        continue
-                hf = span
-                if hq > 0.0:
-                    period = TSTR[i] if TSTR[i] > 0.0 else span
-                    hf = period / math.ceil(period / hq)
-                h[l] = hf
-                st = call_lanes_load(calls[LANES_LOAD], ka, l, i, _FIXED, Y0, P, TS,
-                                     H, TSTR, REF, LO, HI, flags, rtol, atol, q, v, K, cq, cv,
-                                     Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl, kn, QMl, DEVl,
-                                     REFl, LOl, HIl, e0, drift, errsum, rejected, nh, ph, YF,
-                                     SQ, COUNTS, scr, Wn, hmax, tvh, sth)
-                lim[l] = min(nst[l] + budget, mx[l])
-                if st == 0 and nst[l] < mx[l]:
-                    continue
-                if st == 0:         # the pilot used the whole step budget
+                            SQ[i, k_, j] = q[j, l]
+                            SQ[i, k_, n + j] = v[j, l]
+                    kn[l] += 1.0
+                if t[l] >= t1l[l] or (phase == _PILOT and nh[l] >= PILOT_STEPS):
+                    st = GRID_FINISHED      # (a pilot with all the steps it records)
+                elif observe and nst[l] >= mx[l]:
                     st = GRID_MAX_STEPS
-            # the point ends: record it; the lane is free for the next point
-            STATUS[i] = st
-            TF[i] = t[l]
-            EDRIFT[i] = drift[l]
-            ERR[i] = errsum[l]
-            EXITC[i] = jx
-            EXIT[i] = t[l] if jx >= 0 else np.nan
-            COUNTS[i, CNT_STEPS] += nst[l]
-            COUNTS[i, CNT_REJECTED] += nrej[l]
-            COUNTS[i, CNT_EVALS] += nev[l]
-            for j in range(n):
-                QM[i, j] = QMl[j, l]
-                DEV[i, j] = DEVl[j, l]
-                if jx < 0:
-                    YF[i, j] = q[j, l]
-                    YF[i, n + j] = v[j, l]
-            if st == GRID_INTERRUPTED:
-                call_lanes_save(calls[LANES_SAVE], l, SAVE[sl[l]], SAVEI[sl[l]], q, v, K, cq,
-                                cv, t, tc, h, hrot, kn, e0, drift, errsum, rejected, ph, tvh,
-                                sth, blk, rot)
-                if drained:
-                    SAVEI[sl[l], SAVED] = drained_flag
                 else:
-                    paused += 1
-            pt[l] = -1
-            active -= 1
-            nst[l] = 0
-            nrej[l] = 0
-            nev[l] = 0
+                    if adaptive:
+                        h[l] = rkn_next_step(tvh[l], sth[l], blk[l] if phase == _ADAPTIVE
+                                             else blk[l, :0], h[l], hh, errl[l], clip[l],
+                                             rejected[l], hmax[l])
+                        h[l] = _strobe_step(h[l], Tl[l])
+                        rejected[l] = False
+                        if not h[l] >= 16.0 * _EPS * max(abs(t[l]), abs(t1l[l])):
+                            st = GRID_UNDERFLOW
+                    if st < 0 and observe and nst[l] >= lim[l]:
+                        st = GRID_INTERRUPTED   # pause: saved below, resumed next call
+        if st < 0:
+            continue
+        if phase == _PILOT:     # the pilot ends (however): the run itself begins
+            m_ = nh[l]
+            span = TS[i, 1] - TS[i, 0]
+            tw = t1l[l]
+            hq, settled = call_pilot_step_quantile(calls[PILOT_STEP_QUANTILE], hbuf[l], m_)
+            if st != GRID_FINISHED and tw > TS[i, 0] + span / PILOT_SPAN_DIVISOR:
+                # a widened pilot failed (a blow-up, an underflow): its shrinking steps
+                # say nothing; the step of the last window that finished (as pilot_step)
+                hq = hpl[l]
+            elif (st == GRID_FINISHED and settled < PILOT_MIN_SETTLED
+                    and m_ < PILOT_STEPS and tw < TS[i, 1]):
+                hpl[l] = hq
+                # too few steps beyond the starting ramp: the pilot again, over a
+                # longer window (as pilot_step)
+                st = call_lanes_load(calls[LANES_LOAD], ka, l, i, _PILOT, Y0, P,
+                                     TS, H, TSTR, REF, LO, HI, flags, rtol, atol, q, v, K,
+                                     cq, cv, Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl, kn,
+                                     QMl, DEVl, REFl, LOl, HIl, e0, drift, errsum,
+                                     rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh,
+                                     sth)
+                t1l[l] = min(TS[i, 1], TS[i, 0] + PILOT_WIDEN * (tw - TS[i, 0]))
+                if st == 0:
+                    continue
+            hf = span
+            if hq > 0.0:
+                period = TSTR[i] if TSTR[i] > 0.0 else span
+                hf = period / math.ceil(period / hq)
+            h[l] = hf
+            st = call_lanes_load(calls[LANES_LOAD], ka, l, i, _FIXED, Y0, P, TS,
+                                 H, TSTR, REF, LO, HI, flags, rtol, atol, q, v, K, cq, cv,
+                                 Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl, kn, QMl, DEVl,
+                                 REFl, LOl, HIl, e0, drift, errsum, rejected, nh, ph, YF,
+                                 SQ, COUNTS, scr, Wn, hmax, tvh, sth)
+            lim[l] = min(nst[l] + budget, mx[l])
+            if st == 0 and nst[l] < mx[l]:
+                continue
+            if st == 0:         # the pilot used the whole step budget
+                st = GRID_MAX_STEPS
+        # the point ends: record it; the lane is free for the next point
+        STATUS[i] = st
+        TF[i] = t[l]
+        EDRIFT[i] = drift[l]
+        ERR[i] = errsum[l]
+        EXITC[i] = jx
+        EXIT[i] = t[l] if jx >= 0 else np.nan
+        COUNTS[i, CNT_STEPS] += nst[l]
+        COUNTS[i, CNT_REJECTED] += nrej[l]
+        COUNTS[i, CNT_EVALS] += nev[l]
+        for j in range(n):
+            QM[i, j] = QMl[j, l]
+            DEV[i, j] = DEVl[j, l]
+            if jx < 0:
+                YF[i, j] = q[j, l]
+                YF[i, n + j] = v[j, l]
+        if st == GRID_INTERRUPTED:
+            call_lanes_save(calls[LANES_SAVE], l, SAVE[sl[l]], SAVEI[sl[l]], q, v, K, cq,
+                            cv, t, tc, h, hrot, kn, e0, drift, errsum, rejected, ph, tvh,
+                            sth, blk, rot)
+            if drained:
+                SAVEI[sl[l], SAVED] = drained_flag
+            else:
+                paused += 1
+        pt[l] = -1
+        ended += 1
+        nst[l] = 0
+        nrej[l] = 0
+        nev[l] = 0
+    return ended, paused
 
 
 # -- any system: DOP853 on the right-hand side, with projection onto the constraints -----

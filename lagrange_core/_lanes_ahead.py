@@ -6,30 +6,26 @@ callees (:mod:`lagrange_core._lanes_callees`), which it calls by address, once i
 compiled.  :data:`CODE`, run in a second process as the first grid starts
 (:func:`start_if_cold`, from ``simulate_grid``; kapitza's ``measure`` runs it in its own
 background process, ``kapitza.simulation._measurement``), compiles them into numba's disk
-cache meanwhile, on the machine's other core; the driver's process then loads them.
-A callee the second process has not finished compiles in the driver's process too: it
-costs time, never a result.
+cache meanwhile, on the machine's other core, from the first slot on; the driver's
+process, its driver compiled, takes those not yet begun from the last back and loads the
+others as they land (:func:`lagrange_core._lanes_callees.addresses`).  A second process
+that ends without them leaves them to the driver's process: it costs time, never a result.
 """
 from __future__ import annotations
 
 import os
 
 from . import _background
-from ._lanes_callees import callees
+from ._lanes_callees import AHEAD_CODE, callees
 
-__all__ = ["CODE", "GROUP", "compile_callees", "start_if_cold", "wanted"]
+__all__ = ["CODE", "GROUP", "start_if_cold", "wanted"]
 
-#: What the second process runs.
-CODE = "from lagrange_core._lanes_ahead import compile_callees\ncompile_callees()\n"
+#: What the second process runs (:func:`lagrange_core._lanes_callees.compile_ahead`: the
+#: callees from the first slot on, while the driver's process, its driver compiled, takes
+#: them from the last back).
+CODE = AHEAD_CODE
 #: Its group's name (:mod:`lagrange_core._background`) when ``simulate_grid`` starts it.
 GROUP = "RKN 12 lanes callees"
-
-
-def compile_callees() -> None:
-    """Compile (or load) every callee with its declared signature, in slot order (the
-    order :func:`lagrange_core._lanes_callees.addresses` asks for them)."""
-    for dispatcher, sig in callees():
-        dispatcher.compile(tuple(sig.args))
 
 
 def start_if_cold() -> None:

@@ -16,17 +16,25 @@ typing met them: the first undamped ``measure`` took 16.3–17.4 s on empty cach
 from __future__ import annotations
 
 import importlib
+import os
+import shutil
+import tempfile
+import time
+from pathlib import Path
 
 import numpy as np
 
+from . import _background
 from ._first_calls import aside
 from ._native_calls import native_address, native_caller
 
 __all__ = ["CALLEES", "N_CALLEES", "signature", "callees", "addresses", "NO_CALLS",
-           "LANES_RESTORE", "LANES_LOAD", "SINCOS_ROWS", "STAGE_POSITIONS",
+           "AHEAD_CODE", "compile_ahead",
+           "LANES_BY_LANE", "LANES_RESTORE", "LANES_LOAD", "SINCOS_ROWS", "STAGE_POSITIONS",
            "FAST_ACCEL_ON_LANES", "WEIGHTED_SUMS", "RKN_BAND_EXIT", "PILOT_STEP_QUANTILE",
            "LANES_SAVE",
-           "call_lanes_restore", "call_lanes_load", "call_sincos_rows", "call_stage_positions",
+           "call_lanes_by_lane", "call_lanes_restore", "call_lanes_load", "call_sincos_rows",
+           "call_stage_positions",
            "call_fast_accel_on_lanes", "call_weighted_sums", "call_rkn_band_exit",
            "call_pilot_step_quantile", "call_lanes_save"]
 
@@ -35,6 +43,11 @@ __all__ = ["CALLEES", "N_CALLEES", "signature", "callees", "addresses", "NO_CALL
 #: C-contiguous array of ``ndim`` dimensions as ``i``, ``f`` or ``b`` (bool) followed by
 #: ``ndim``; no return token is None, several are a tuple.
 CALLEES = (
+    ("_batch_kernels", "_lanes_by_lane",
+     "i1 i1 i i i i f2 f2 f2 f1 f1 f2 f2 f2 i f f f1 f2 f1 f1 f2 f1 f3 f2 f2 f1 i1 f1 i2 f1 i1 "
+     "f2 i2 i1 i1 b1 b1 b1 b1 b1 b1 b1 f1 f1 f1 f1 f1 f1 f1 f1 f1 f1 f1 f1 f1 f1 f1 f1 i1 "
+     "i1 i1 i1 i1 i1 i1 f2 f2 f2 f2 f2 f2 f3 f2 f2 f2 f2 f2 f2 f2 f3 f2 i2 f2 f2 f2 f2 f1 "
+     "f1 f1 f1 f1", "i i"),
     ("_batch_kernels", "_lanes_restore",
      "i1 i i f1 i1 f2 f2 f2 f1 f2 f2 f2 i f2 f2 f3 f2 f2 f2 f2 i f1 f1 f1 f1 f1 f1 f1 f1 "
      "f2 f2 f2 f2 f2 f1 f1 f1 b1 i1 f2 f2 f1 f2 i2 f2 f3 f2", ""),
@@ -51,8 +64,8 @@ CALLEES = (
     ("_batch_kernels", "_lanes_save",
      "i f1 i1 f2 f2 f3 f2 f2 f1 f1 f1 f1 f1 f1 f1 f1 b1 i1 f2 i2 f2 f3", ""),
 )
-(LANES_RESTORE, LANES_LOAD, SINCOS_ROWS, STAGE_POSITIONS, FAST_ACCEL_ON_LANES, WEIGHTED_SUMS,
- RKN_BAND_EXIT, PILOT_STEP_QUANTILE, LANES_SAVE) = range(len(CALLEES))
+(LANES_BY_LANE, LANES_RESTORE, LANES_LOAD, SINCOS_ROWS, STAGE_POSITIONS, FAST_ACCEL_ON_LANES,
+ WEIGHTED_SUMS, RKN_BAND_EXIT, PILOT_STEP_QUANTILE, LANES_SAVE) = range(len(CALLEES))
 #: how many (the length of the address table)
 N_CALLEES = len(CALLEES)
 
@@ -85,6 +98,73 @@ def callees():
              signature(args, returns)) for module, name, args, returns in CALLEES]
 
 
+#: What a second process runs to compile the callees ahead (:mod:`lagrange_core._lanes_ahead`).
+AHEAD_CODE = "from lagrange_core._lanes_callees import compile_ahead\ncompile_ahead()\n"
+
+
+def _claims(pid: int) -> Path:
+    """The folder in which the second process ``pid`` (running :data:`AHEAD_CODE`) and the
+    process that started it share out the callees: one empty file per slot taken."""
+    return Path(tempfile.gettempdir()) / f"lagrange-core-lanes-callees-{pid}"
+
+
+def _take(folder: Path, slot: int) -> bool:
+    """Whether this process takes ``slot`` (False: the other process took it first)."""
+    try:
+        folder.mkdir(exist_ok=True)
+        os.close(os.open(folder / str(slot), os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+    except FileExistsError:
+        return False
+    except OSError:             # nowhere to share them out: compile it here
+        return True
+    return True
+
+
+def compile_ahead() -> None:
+    """In the second process: compile (or load) every callee not yet taken, from the first
+    slot on; the process that started it takes them from the last back once its driver has
+    compiled (:func:`addresses`), and the two meet in the middle."""
+    folder = _claims(os.getpid())
+    try:
+        for slot, (dispatcher, sig) in enumerate(callees()):
+            if _take(folder, slot):
+                dispatcher.compile(tuple(sig.args))
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def _ahead_process():
+    """The running second process this one started to compile the callees, or None."""
+    for proc in _background.RUNNING.values():
+        if proc.poll() is None and AHEAD_CODE in proc.args[-1]:
+            return proc
+    return None
+
+
+def _compiled_addresses() -> np.ndarray:
+    """Every callee's address, compiled or loaded here; with a second process compiling them
+    ahead (:func:`compile_ahead`), those it has taken are waited for and loaded from numba's
+    cache (compiled here after all if it ends without them): each compiles once."""
+    pairs = callees()
+    partner = _ahead_process()
+    if partner is None:
+        return np.array([native_address(d, sig) for d, sig in pairs], dtype=np.int64)
+    folder = _claims(partner.pid)
+    found = [0] * len(pairs)
+    theirs = []
+    for slot in reversed(range(len(pairs))):
+        if _take(folder, slot):
+            found[slot] = native_address(*pairs[slot])
+        else:
+            theirs.append(slot)
+    for slot in theirs:
+        while partner.poll() is None and _background.cold(pairs[slot][0]):
+            time.sleep(0.02)
+        found[slot] = native_address(*pairs[slot])
+    shutil.rmtree(folder, ignore_errors=True)
+    return np.array(found, dtype=np.int64)
+
+
 #: the table :func:`addresses` made (the addresses hold for the process's life)
 _ADDRESSES: list = []
 
@@ -92,11 +172,10 @@ _ADDRESSES: list = []
 def addresses() -> np.ndarray:
     """The callees' addresses (int64, in slot order), each compiled or loaded the first time
     in the process (on the compiling thread, where a Ctrl-C need not wait for it:
-    :func:`lagrange_core._first_calls.aside`)."""
+    :func:`lagrange_core._first_calls.aside`), shared out with a second process compiling
+    them ahead (:func:`compile_ahead`)."""
     if not _ADDRESSES:
-        table = aside(lambda: np.array([native_address(d, sig) for d, sig in callees()],
-                                       dtype=np.int64))
-        _ADDRESSES[:] = [table]
+        _ADDRESSES[:] = [aside(_compiled_addresses)]
     return _ADDRESSES[0]
 
 
@@ -105,6 +184,7 @@ def _caller(slot: int):
     return native_caller(name.lstrip("_"), signature(args, returns))
 
 
+call_lanes_by_lane = _caller(LANES_BY_LANE)
 call_lanes_restore = _caller(LANES_RESTORE)
 call_lanes_load = _caller(LANES_LOAD)
 call_sincos_rows = _caller(SINCOS_ROWS)

@@ -7,6 +7,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import types
 
 import numpy as np
 import pytest
@@ -253,12 +254,13 @@ class _FakeProcess:
 @pytest.mark.parametrize("damping", [0.5, 0.0], ids=["damped (DOP853)", "undamped (RKN 12)"])
 @pytest.mark.parametrize("case", ["cold", "classification only", "switched off", "one core"])
 def test_measure_compiles_on_the_other_core_on_a_cold_cache(monkeypatch, case, damping):
-    """On a cold cache ``measure`` starts one background process before its grid: RKN 12
-    lanes driver's callees when the grid runs on them (undamped; the first undamped
-    measure on empty caches: 33.2–34.6 s → 27.6–27.9 s, 2026-11-28), then the fit's
-    kernels when Ω is wanted (the first damped one: 15.5–17 s → 8.5–10.5 s); and waits
-    for it before fitting.  Nothing with ``KAPITZA_BACKGROUND_COMPILE=0`` or on one
-    core."""
+    """On a cold cache ``measure`` starts one background process before its grid: the
+    fit's kernels when Ω is wanted (the first damped one: 15.5–17 s → 8.5–10.5 s,
+    2026-11-28), then RKN 12 lanes driver's callees when the grid runs on them
+    (undamped; the first undamped measure on empty caches: 33.2–34.6 s → 27.6–27.9 s,
+    2026-11-28; the fit first since 2026-11-29, as the driver's process takes the
+    callees from the last back once its driver has compiled); and waits for it before
+    fitting.  Nothing with ``KAPITZA_BACKGROUND_COMPILE=0`` or on one core."""
     from kapitza import KapitzaPendulum
     from kapitza.simulation import _measurement
     from lagrange_core import _background, _lanes_ahead
@@ -287,7 +289,7 @@ def test_measure_compiles_on_the_other_core_on_a_cold_cache(monkeypatch, case, d
         assert started == []
         return
     fit = _measurement._FIT_CODE if case == "cold" else ""
-    assert [(name, code) for name, code, _ in started] == [("measure kernels", lanes + fit)]
+    assert [(name, code) for name, code, _ in started] == [("measure kernels", fit + lanes)]
     assert started[0][2].waited == (1 if fit else 0)
     assert np.all(np.isfinite(m.omega_slow)) if fit else m.omega_slow is None
 
@@ -374,6 +376,106 @@ def test_the_lanes_callees_are_compiled_with_their_declared_signatures():
             "driver calls it with (if another kernel now calls it too, check the driver's "
             "alone)")
         assert dispatcher.overloads[tuple(sig.args)].signature.return_type == sig.return_type
+
+
+class _Callee:
+    """A callee of the sharing tests: its compiles, and a numba cache it lands in."""
+
+    def __init__(self, slot, log):
+        self.slot, self.log, self.landed = slot, log, False
+
+    def compile(self, args):
+        self.log.append(("compiled", self.slot))
+
+
+def _shared_out(monkeypatch, tmp_path, n=6):
+    """_lanes_callees with ``n`` fake callees, its folder of claims under ``tmp_path``."""
+    from lagrange_core import _lanes_callees
+    log = []
+    pairs = [(_Callee(k, log), types.SimpleNamespace(args=(k,))) for k in range(n)]
+    monkeypatch.setattr(_lanes_callees, "callees", lambda: pairs)
+    monkeypatch.setattr(_lanes_callees, "_claims", lambda pid: tmp_path / f"claims-{pid}")
+    return _lanes_callees, pairs, log
+
+
+def test_the_process_compiling_the_callees_ahead_skips_those_taken(monkeypatch, tmp_path):
+    """The second process (``compile_ahead``) compiles from the first slot on every callee
+    the driver's process has not taken (here the last two), and removes the folder of
+    claims when it ends."""
+    import os
+    lc, pairs, log = _shared_out(monkeypatch, tmp_path)
+    folder = lc._claims(os.getpid())
+    for slot in (4, 5):
+        assert lc._take(folder, slot)
+    lc.compile_ahead()
+    assert log == [("compiled", k) for k in range(4)]
+    assert not folder.exists()
+
+
+def test_the_driver_process_shares_the_callees_out_with_the_second_process(
+        monkeypatch, tmp_path):
+    """Once its driver has compiled, the driver's process takes the callees from the last
+    back, each not yet taken by the second process compiling them ahead (here it has
+    taken 0–2); those it waits for until numba's cache has them, then loads them — each
+    callee compiled once, in one of the two (the first undamped ``measure`` on empty
+    caches: 14.6–15.9 s → 13.8–14.4 s, three alternated pairs, 2026-11-29)."""
+    from lagrange_core import _background
+    lc, pairs, log = _shared_out(monkeypatch, tmp_path)
+
+    class Ahead:                # the second process, running compile_ahead
+        pid = 4242
+        args = ["python", "-c", lc.AHEAD_CODE]
+
+        def poll(self):
+            return None
+
+    monkeypatch.setattr(_background, "RUNNING", {"measure kernels": Ahead()})
+    folder = lc._claims(Ahead.pid)
+    for slot in (0, 1, 2):
+        assert lc._take(folder, slot)
+    looks = {}
+
+    def cold(dispatcher):       # each of the second process's callees lands after 2 looks
+        looks[dispatcher.slot] = looks.get(dispatcher.slot, 0) + 1
+        return looks[dispatcher.slot] <= 2
+
+    monkeypatch.setattr(_background, "cold", cold)
+    monkeypatch.setattr(lc.time, "sleep", lambda s: None)
+    monkeypatch.setattr(lc, "native_address",
+                        lambda d, sig: (log.append(("address", d.slot)), 1000 + d.slot)[1])
+    table = lc._compiled_addresses()
+    assert list(table) == [1000 + k for k in range(6)]
+    # its own from the last back, then the second process's once they landed (3 looks)
+    assert log == [("address", k) for k in (5, 4, 3, 2, 1, 0)]
+    assert looks == {2: 3, 1: 3, 0: 3}
+    assert not folder.exists()
+
+
+def test_the_driver_process_compiles_what_an_ended_second_process_left(monkeypatch, tmp_path):
+    """A second process that has ended (Ctrl-C, killed) with callees taken but not in
+    numba's cache: the driver's process does not wait for them; it compiles them itself
+    (``native_address`` compiles what the cache lacks)."""
+    from lagrange_core import _background
+    lc, pairs, log = _shared_out(monkeypatch, tmp_path)
+
+    class Ended:
+        pid = 4343
+        args = ["python", "-c", lc.AHEAD_CODE]
+        polls = 0
+
+        def poll(self):         # running when looked for, ended afterwards
+            Ended.polls += 1
+            return None if Ended.polls == 1 else -2
+
+    monkeypatch.setattr(_background, "RUNNING", {"g": Ended()})
+    for slot in (0, 1):
+        assert lc._take(lc._claims(Ended.pid), slot)
+    monkeypatch.setattr(_background, "cold", lambda d: True)
+    monkeypatch.setattr(lc.time, "sleep", lambda s: pytest.fail("waited for an ended process"))
+    monkeypatch.setattr(lc, "native_address",
+                        lambda d, sig: (log.append(("address", d.slot)), 1000 + d.slot)[1])
+    assert list(lc._compiled_addresses()) == [1000 + k for k in range(6)]
+    assert sorted(log) == [("address", k) for k in range(6)]
 
 
 def test_a_background_compile_that_cannot_start_is_skipped(monkeypatch):

@@ -270,10 +270,14 @@ def _compile_in_background(system, method, fit: bool) -> None:
     if not _background.enabled() or (os.cpu_count() or 1) < 2:
         return
     code = []
-    if runs_on_lanes(system.kernels, method) and _lanes_ahead.wanted():
-        code.append(_lanes_ahead.CODE)
+    # the fit's kernels first: the lanes' callees are needed sooner, but this process
+    # compiles them too once its driver has compiled, from the last back, while the
+    # background process goes from the first (lagrange_core._lanes_callees.addresses);
+    # the fit's, needed last, only the background process compiles
     if fit and not _fit_in_process() and _background.cold(*_FIT_KERNELS):
         code.append(_FIT_CODE)
+    if runs_on_lanes(system.kernels, method) and _lanes_ahead.wanted():
+        code.append(_lanes_ahead.CODE)
     if code:
         _background.start(_GROUP, "".join(code))
 
