@@ -270,7 +270,7 @@ def _longest_step(rates):
     return h_max
 
 
-@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy", fastmath=FAST_MATH)
 def _rkn_band_exit(ka, t, h, q, v, a0, qn, vn, p, lo, hi, c, A, b, bp, rates, y):
     """Where an RKN 12 step from (q, v) at t to (qn, vn) at t + h first leaves [lo, hi]:
     (fraction x of the step, coordinate, kernel evaluations); (2.0, −1, 0) if it does not.
@@ -832,7 +832,7 @@ LANES_ADAPTIVE, LANES_FIXED, LANES_PILOT = range(3)
 _IDLE, _PILOT, _ADAPTIVE, _FIXED = range(4)
 
 
-@njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
+@njit(cache=True, no_cpython_wrapper=True, fastmath=FAST_MATH, error_model="numpy")
 def _lanes_load(ka, l, i, phase, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, atol, q, v, K,
                 cq, cv, Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl,
                 e0, drift, errsum, rejected, nh, ph, YF, SQ, COUNTS, scr, Wn, hmax, tvh, sth):
@@ -925,7 +925,7 @@ def _lanes_load(ka, l, i, phase, Y0, P, TS, H, TSTR, REF, LO, HI, flags, rtol, a
     return 0
 
 
-@njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
+@njit(cache=True, no_cpython_wrapper=True, fastmath=FAST_MATH, error_model="numpy")
 def _lanes_restore(ka, l, i, save, savei, Y0, P, TS, TSTR, REF, LO, HI, flags, q, v, K, cq, cv,
                    Pl, R, nd, t, tc, h, hrot, t0l, t1l, Tl, kn, QMl, DEVl, REFl, LOl, HIl, e0,
                    drift, errsum, rejected, ph, QM, DEV, hmax, tvh, sth, blk, rot, scr):
@@ -987,7 +987,7 @@ def _lanes_restore(ka, l, i, save, savei, Y0, P, TS, TSTR, REF, LO, HI, flags, q
     savei[SAVED] = 0
 
 
-@njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
+@njit(cache=True, no_cpython_wrapper=True, fastmath=FAST_MATH, error_model="numpy")
 def _lanes_save(l, save, savei, q, v, K, cq, cv, t, tc, h, hrot, kn, e0, drift, errsum, rejected,
                 ph, tvh, sth, blk, rot):
     """Save the state of the point in lane l, paused after an accepted step (the layout
@@ -1036,7 +1036,7 @@ def _acc4(x, a, K, m, j, l):
     return x
 
 
-@njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
+@njit(cache=True, no_cpython_wrapper=True, fastmath=FAST_MATH, error_model="numpy")
 def _weighted_sums(b, bp, db, dbp, K, j, acc, L):
     """acc[0..3, l] = Σ_m (b, b', b − b̂, b' − b̂')[m] K[m, j, l]: the step's increments and
     error estimates, summed in point_second_order's order.  Four stages a pass, the four
@@ -1100,7 +1100,7 @@ def _weighted_sums(b, bp, db, dbp, K, j, acc, L):
         m += 1
 
 
-@njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
+@njit(cache=True, no_cpython_wrapper=True, fastmath=FAST_MATH, error_model="numpy")
 def _stage_positions(s, A, c, K, q, v, hs, qs, acc, L):
     """qs = q + c_s h v + h² Σ_{m<s} A[s, m] K[m] for every lane.
 
@@ -1221,10 +1221,12 @@ def _lanes_block(ka, calls, mode, hold_block, idx, cursor, hi_b, width, Y0, P, T
     energy = (flags & OBS_ENERGY) != 0
     db = b - bh
     dbp = bp - bph
-    pt = np.full(L, -1, dtype=np.int64)     # the lane's point, or -1
+    # (every array by np.zeros, filled after where it starts elsewhere: each other
+    # allocation function, or type, is one more compile of numba's own, ~0.1 s each)
+    pt = np.zeros(L, dtype=np.int64)        # the lane's point, or -1
     # the lane's phase; a lane without a point that is not _IDLE is free: it takes the
     # block's next point at the top of the loop (every lane, the first time round)
-    ph = np.full(L, _FIXED, dtype=np.int64)
+    ph = np.zeros(L, dtype=np.int64)
     q = np.zeros((n, L))
     v = np.zeros((n, L))
     cq = np.zeros((n, L))
@@ -1239,9 +1241,9 @@ def _lanes_block(ka, calls, mode, hold_block, idx, cursor, hi_b, width, Y0, P, T
     QMl = np.zeros((n, L))
     DEVl = np.zeros((n, L))
     REFl = np.zeros((n, L))
-    LOl = np.full((n, L), -np.inf)
-    HIl = np.full((n, L), np.inf)
-    Pl = np.ones((max(npar, 1), L))
+    LOl = np.zeros((n, L))
+    HIl = np.zeros((n, L))
+    Pl = np.zeros((max(npar, 1), L))
     R = np.zeros((max(nd, 1), L))
     rot = np.zeros((ns, ncs, L))
     cs0 = np.zeros((ncs, L))
@@ -1290,16 +1292,24 @@ def _lanes_block(ka, calls, mode, hold_block, idx, cursor, hi_b, width, Y0, P, T
     hmax = np.zeros(L)
     tvh = np.zeros((L, TV_SIZE))
     sth = np.zeros((L, STATS_SIZE), dtype=np.int64)
-    blk = np.empty((L, hold_block if mode == LANES_ADAPTIVE else 0))
-    hbuf = np.empty((L, PILOT_STEPS if mode == LANES_PILOT else 0))
+    blk = np.zeros((L, hold_block if mode == LANES_ADAPTIVE else 0))
+    hbuf = np.zeros((L, PILOT_STEPS if mode == LANES_PILOT else 0))
     hpl = np.zeros(L)           # a pilot's step from its last window that finished
     scr = np.zeros((7, max(2 * n, MAX_DRIVE_RATES)))
     Wn = np.zeros((n, n + 1))
-    q1 = np.empty(n)
-    v1 = np.empty(n)
-    a1 = np.empty(n)
-    q2 = np.empty(n)
-    v2 = np.empty(n)
+    q1 = np.zeros(n)
+    v1 = np.zeros(n)
+    a1 = np.zeros(n)
+    q2 = np.zeros(n)
+    v2 = np.zeros(n)
+    for l in range(L):
+        pt[l] = -1
+        ph[l] = _FIXED
+        for j in range(n):
+            LOl[j, l] = -np.inf
+            HIl[j, l] = np.inf
+        for k in range(Pl.shape[0]):
+            Pl[k, l] = 1.0
     first = _PILOT if mode == LANES_PILOT else (_FIXED if mode == LANES_FIXED else _ADAPTIVE)
     started = False             # every point has been taken (by this thread or another)
     active = 0
@@ -1553,7 +1563,7 @@ def _lanes_block(ka, calls, mode, hold_block, idx, cursor, hi_b, width, Y0, P, T
             paused += now_paused
 
 
-@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy", fastmath=FAST_MATH)
 def _lanes_by_lane(ka, calls, nd, budget, drained, drained_flag, Y0, P, TS, H, TSTR, REF, LO,
                    HI, flags, rtol, atol, c, A, b, bp, YF, TF, SQ, QM, DEV, EXIT, EXITC, EDRIFT,
                    COUNTS, ERR, STATUS, SAVE, SAVEI, pt, ph, special, good, fin, sing, upd, clip,

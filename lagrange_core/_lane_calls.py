@@ -71,7 +71,7 @@ def _lane(a, l, out):
         out[i] = a[i, l]
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True)
 def fast_accel_on_lanes(ka, q, tl, cs, p, out, work, L):
     """``fast_accel_lanes`` of the system whose address table is ``ka`` (arrays as its
     contract: lanes last), the lanes it leaves by the scalar ``fast_accel``.  Returns

@@ -92,7 +92,7 @@ def lane_sincos(x):
     return lane_sin(x), lane_cos(x)
 
 
-@njit(cache=True, fastmath=_FM, error_model="numpy")
+@njit(cache=True, no_cpython_wrapper=True, fastmath=_FM, error_model="numpy")
 def lane_sincos_rows(x, s, c, L):
     """s[l], c[l] = sin x[l], cos x[l] for l < L, libm where the polynomial gives NaN."""
     for l in range(L):

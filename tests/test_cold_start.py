@@ -376,6 +376,13 @@ def test_the_lanes_callees_are_compiled_with_their_declared_signatures():
             "driver calls it with (if another kernel now calls it too, check the driver's "
             "alone)")
         assert dispatcher.overloads[tuple(sig.args)].signature.return_type == sig.return_type
+        # called by address only, a callee needs no wrapper callable from Python: without
+        # it the callees compile in 7.8-9.3 s, not 9.6-11.0 s (2026-11-29, in turn);
+        # pilot_step_quantile is called from Python too (lagrange_core.integrate)
+        python_called = dispatcher.py_func.__name__ == "pilot_step_quantile"
+        assert dispatcher.targetoptions.get("no_cpython_wrapper", False) != python_called, (
+            f"{dispatcher.py_func.__qualname__}: no_cpython_wrapper=True where it is called "
+            "by address only, and not where Python calls it")
 
 
 class _Callee:
