@@ -61,11 +61,13 @@ ACTIVITY_SECONDS = {
     # before), 8.5–10.5 s (38 s, 15.5–17 s on one core); since the lanes driver grew
     # (drain, four stages a pass: its own compile 16–17.5 s alone, 10.3 s then) the first
     # grid 22.2 s and the first measure 20.6 s (2026-11-29, twenty-ninth session, where
-    # the notice quoted ~14 s: 0.63 and 0.68 of the wait)
-    "simulate_grid, RKN 12": 22,
+    # the notice quoted ~14 s: 0.63 and 0.68 of the wait); the driver's lane-by-lane
+    # section a callee, the callees shared out between the two processes and compiled
+    # without Python's wrapper (thirtieth session): 12.5, 13.5 s and 15.0, 17.3 s
+    "simulate_grid, RKN 12": 13,
     "simulate_grid, symplectic": 10,
     "simulate_grid, DOP853": 9,
-    "measure, RKN 12": 21,
+    "measure, RKN 12": 16,
     "measure, DOP853": 10,          # (measure runs no fixed-step method: it passes no h)
     # a first damped grid of 128 points or more (DOP853's lanes, the system's rhs_lanes):
     # the damped pendulum's 16 × 16 measure_grid 12.0–12.6 s (6.7–6.8 s per point before
@@ -99,10 +101,12 @@ ACTIVITY_SECONDS = {
 #: started) and they are not in numba's cache: all of it compiles here.  Measured on
 #: empty caches with the switch off, 2026-11-28 (twenty-fourth session): the grid 21.8–
 #: 21.9 s, the first measure 24.1–25.2 s (the notice had quoted ~14 s for both); the
-#: lanes driver grown, 30.8 and 38.4 s, 2026-11-29 (twenty-ninth session; quoted ~20 s).
+#: lanes driver grown, 30.8 and 38.4 s, 2026-11-29 (twenty-ninth session; quoted ~20 s);
+#: its lane-by-lane section a callee, the callees without Python's wrapper, 22.1, 26.3 s
+#: and 27.7, 27.9 s (thirtieth session; quoted ~30 and ~40 s).
 ALONE_SECONDS = {
-    "simulate_grid, RKN 12": 31,
-    "measure, RKN 12": 38,
+    "simulate_grid, RKN 12": 24,
+    "measure, RKN 12": 28,
 }
 
 #: Seconds a family of shared kernels compiles on an empty cache, by module of the
