@@ -6,12 +6,18 @@ intrinsics below, by address (:mod:`lagrange_core._native_calls`): the driver's 
 needs only their signatures, declared here, and makes no machine code of theirs.  They
 compile on their own — ahead, in a second process (:mod:`lagrange_core._lanes_ahead`), or
 from numba's cache — while the driver compiles, and :func:`addresses` gives the driver
-their addresses once it has compiled (a callee not compiled by then compiles here).
+their addresses once it has compiled: the second process takes them from the first slot
+on (:func:`compile_ahead`), the driver's process from the last back, each taking a slot
+by creating its file in a folder of the second process's id, so that none compiles
+twice; each process loads from numba's cache what the other compiled.
 
 Linked into the driver, as numba links a callee called directly, they made ~40 % of the
 LLVM IR of the driver's compile, and were compiled (or loaded) one after another as its
 typing met them: the first undamped ``measure`` took 16.3–17.4 s on empty caches
-(2026-11-28, benchmarks/README.md, twenty-second and twenty-third sessions).
+(2026-11-28, benchmarks/README.md, twenty-second and twenty-third sessions).  Called by
+address only, they are compiled without the wrapper through which Python would call them
+(``no_cpython_wrapper``; ``pilot_step_quantile`` keeps it, Python calls it too): the ten
+in 7.8–9.3 s, not 9.6–11.0 s (2026-11-29, thirtieth session).
 """
 from __future__ import annotations
 
