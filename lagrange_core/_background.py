@@ -25,7 +25,7 @@ import subprocess
 import sys
 import time
 
-__all__ = ["enabled", "cold", "start", "running", "wait", "RUNNING"]
+__all__ = ["enabled", "cold", "start", "running", "wait", "end", "RUNNING"]
 
 #: this process's background compiles, by group name
 RUNNING: dict[str, subprocess.Popen] = {}
@@ -67,7 +67,7 @@ def start(name: str, code: str) -> subprocess.Popen | None:
     except OSError:
         return None
     RUNNING[name] = proc
-    atexit.register(_end, proc)
+    atexit.register(end, proc)
     return proc
 
 
@@ -88,8 +88,9 @@ def wait(names) -> float:
     return time.perf_counter() - begun
 
 
-def _end(proc) -> None:
-    """At exit: end a background process still running (5 s to go, then killed)."""
+def end(proc) -> None:
+    """End a background process still running (5 s to go, then killed): at exit, for every
+    one started here."""
     if proc.poll() is None:
         proc.terminate()
     try:

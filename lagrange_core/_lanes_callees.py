@@ -21,6 +21,7 @@ in 7.8–9.3 s, not 9.6–11.0 s (2026-11-29, thirtieth session).
 """
 from __future__ import annotations
 
+import atexit
 import importlib
 import os
 import shutil
@@ -147,6 +148,12 @@ def _ahead_process():
     return None
 
 
+def _end_and_remove(partner, folder: Path) -> None:
+    """End the second process (if it runs still), then remove its folder of claims."""
+    _background.end(partner)
+    shutil.rmtree(folder, ignore_errors=True)
+
+
 def _compiled_addresses() -> np.ndarray:
     """Every callee's address, compiled or loaded here; with a second process compiling them
     ahead (:func:`compile_ahead`), those it has taken are waited for and loaded from numba's
@@ -156,6 +163,9 @@ def _compiled_addresses() -> np.ndarray:
     if partner is None:
         return np.array([native_address(d, sig) for d, sig in pairs], dtype=np.int64)
     folder = _claims(partner.pid)
+    # at exit (a Ctrl-C while they compile: the second process is ended, and this
+    # process's compiling thread with it) no folder is left behind
+    atexit.register(_end_and_remove, partner, folder)
     found = [0] * len(pairs)
     theirs = []
     for slot in reversed(range(len(pairs))):

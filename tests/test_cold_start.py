@@ -450,12 +450,17 @@ def test_the_driver_process_shares_the_callees_out_with_the_second_process(
     monkeypatch.setattr(lc.time, "sleep", lambda s: None)
     monkeypatch.setattr(lc, "native_address",
                         lambda d, sig: (log.append(("address", d.slot)), 1000 + d.slot)[1])
+    at_exit = []
+    monkeypatch.setattr(lc.atexit, "register", lambda *call: at_exit.append(call))
     table = lc._compiled_addresses()
     assert list(table) == [1000 + k for k in range(6)]
     # its own from the last back, then the second process's once they landed (3 looks)
     assert log == [("address", k) for k in (5, 4, 3, 2, 1, 0)]
     assert looks == {2: 3, 1: 3, 0: 3}
     assert not folder.exists()
+    # at exit (after a Ctrl-C, say) the second process is ended and its folder removed
+    (call, partner, where), = at_exit
+    assert call is lc._end_and_remove and where == folder and partner.pid == Ahead.pid
 
 
 def test_the_driver_process_compiles_what_an_ended_second_process_left(monkeypatch, tmp_path):
@@ -481,8 +486,26 @@ def test_the_driver_process_compiles_what_an_ended_second_process_left(monkeypat
     monkeypatch.setattr(lc.time, "sleep", lambda s: pytest.fail("waited for an ended process"))
     monkeypatch.setattr(lc, "native_address",
                         lambda d, sig: (log.append(("address", d.slot)), 1000 + d.slot)[1])
+    monkeypatch.setattr(lc.atexit, "register", lambda *call: None)
     assert list(lc._compiled_addresses()) == [1000 + k for k in range(6)]
     assert sorted(log) == [("address", k) for k in range(6)]
+
+
+def test_a_real_second_process_shares_the_callees_out(monkeypatch):
+    """The same with a real second process (``_background.start``, as ``measure`` starts
+    it): the driver's process finds it by its code, both take slots in its folder (each
+    loads what numba's cache has, compiles what it lacks), every address is found, the
+    second process ends cleanly and its folder is gone."""
+    from lagrange_core import _background
+    from lagrange_core import _lanes_callees as lc
+    monkeypatch.setattr(_background, "RUNNING", {})
+    monkeypatch.setenv("KAPITZA_BACKGROUND_COMPILE", "1")
+    proc = _background.start("lanes callees (test)", lc.AHEAD_CODE)
+    assert lc._ahead_process() is proc
+    table = lc._compiled_addresses()
+    assert table.shape == (lc.N_CALLEES,) and np.all(table != 0)
+    assert proc.wait(timeout=300) == 0
+    assert not lc._claims(proc.pid).exists()
 
 
 def test_a_background_compile_that_cannot_start_is_skipped(monkeypatch):
