@@ -306,7 +306,9 @@ def test_a_first_rkn12_grid_compiles_the_callees_on_the_other_core(monkeypatch, 
     from lagrange_core import _background, _lanes_ahead
     started = []
 
-    class Running:
+    class Running:              # another group's process (a Popen's poll and args)
+        args = ["python", "-c", "pass"]
+
         def poll(self):
             return None
 
