@@ -36,7 +36,7 @@ import time
 from pathlib import Path
 
 import pytest
-from hypothesis import event, example, given, reject, settings, target
+from hypothesis import Phase, event, example, given, reject, settings, target
 from hypothesis import strategies as st
 from numba.core import event as numba_event
 
@@ -345,7 +345,16 @@ def _strict_json(text):
     return json.loads(text, parse_constant=refuse)
 
 
-@settings(max_examples=3 * UNIT)
+#: Hypothesis's targeting (hill-climbing on ``target``'s latency) is left to the random
+#: profiles: under the derandomized "ci" one it spent half the 30 examples re-running
+#: ``kapitza report`` (the same command line 6-8 times, each 1.5 s to the Ctrl-C) on a
+#: score that is timing noise, and made the examples depend on the machine's load.  Without
+#: it those examples are fresh command lines, no longer steered by the load; the Ctrl-C path
+#: is still exercised (``summary`` and ``report``: 4 runs interrupted at the deadline).
+_PHASES = [p for p in settings().phases if p is not Phase.target or not settings().derandomize]
+
+
+@settings(max_examples=3 * UNIT, phases=_PHASES)
 @given(argv=command_lines())
 @example(argv=["map", "--A", "0:0.5:100000", "--omega", "20:2000:100000"]).via(
     "issue 22.1: refused up front, exit 2")
