@@ -1,9 +1,10 @@
 """kapitza report (issue 14.2): the folder it writes, checked against independent calls.
 
-The quick report of the default scene is built once per process (tests/report_builds.py);
-its tables are checked against references computed here: the exact window against the
-map's own labels and the closed form of first-order averaging, the spot checks' Floquet
-verdicts and the slow frequencies against monodromies integrated by scipy (tests/helpers.py).
+The quick reports of the default scene and of period_doubling.toml are built once per
+process (tests/report_builds.py, shared with tests/test_report_browser.py); their tables
+are checked against references computed here: the exact window against the map's own
+labels and the closed form of first-order averaging, the spot checks' Floquet verdicts
+and the slow frequencies against monodromies integrated by scipy (tests/helpers.py).
 """
 import html
 import json
@@ -21,7 +22,7 @@ from kapitza import KapitzaPendulum
 from kapitza.cli import main
 from kapitza.report import SECTIONS, build_report
 
-from helpers import G, L, interrupt_child, pendulum_monodromy
+from helpers import G, L, pendulum_monodromy
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -74,33 +75,33 @@ def test_frontier_section_skipped_unless_the_scene_asks(quick):
     assert html.escape(s.reason) in report.index.read_text(encoding="utf-8")
 
 
-def test_frontier_section_of_the_period_doubling_scene(tmp_path):
+def test_frontier_section_of_the_period_doubling_scene(tmp_path_factory):
     """The section for kapitza/scenes/period_doubling.toml (quick): the branches, the
     diagram and the exponents drawn; its numbers against independent references (the
-    damped Mathieu window of the hanging state; the phase-space contraction −γ)."""
-    from kapitza.report._frontier_section import bifurcations_section
-    from kapitza.report._job import Job
-    (tmp_path / "figures").mkdir()
-    (tmp_path / "data").mkdir()
+    damped Mathieu window of the hanging state; the phase-space contraction −γ).  Read off
+    the scene's quick report (tests/report_builds.py), which tests/test_report_browser.py
+    builds in the same process: the section ran there as in any report (running it here on
+    its own computed the same section a second time)."""
+    report = quick_report("period_doubling", tmp_path_factory).report
     scene = kapitza.Scene.example("period_doubling")
-    job = Job(scene=scene, out=tmp_path, quick=True, grid_progress=False)
-    result = bifurcations_section(job)
-    assert (tmp_path / result.figure).stat().st_size > 50_000
-    assert result.tables == ["continuation", "continuation_bifurcations", "bifurcation_diagram",
-                             "lyapunov", "lyapunov_along_A"]
+    result = report.section("bifurcations")
+    assert result.status == "done", result.reason
+    assert (report.out / result.figure).stat().st_size > 50_000
+    assert list(result.tables) == ["continuation", "continuation_bifurcations",
+                                   "bifurcation_diagram", "lyapunov", "lyapunov_along_A"]
     for name in result.tables:
-        parquet, csv = job.tables[name]
+        parquet, csv = report.tables[name]
         frame = pd.read_parquet(parquet)
         assert len(frame) == len(pd.read_csv(csv)) > 0 and "method" in frame
-    bifs = pd.read_parquet(job.tables["continuation_bifurcations"][0])
+    bifs = pd.read_parquet(report.tables["continuation_bifurcations"][0])
     assert bifs.kind.tolist() == ["period_doubling", "pitchfork"]
     win = kapitza.pendulum_window(scene.params["omega"], l=1.0, g=9.81,
                                   damping=scene.params["gamma"], about="hanging")
     assert bifs.A[0] == pytest.approx(float(win.A_max), rel=1e-9)
-    lam = pd.read_parquet(job.tables["lyapunov"][0])
+    lam = pd.read_parquet(report.tables["lyapunov"][0])
     assert lam.exponent.sum() == pytest.approx(-scene.params["gamma"], abs=1e-8)
     assert "chaotic: λ1 > 0" in result.caption and "agrees at" in result.caption
-    along = pd.read_parquet(job.tables["lyapunov_along_A"][0])
+    along = pd.read_parquet(report.tables["lyapunov_along_A"][0])
     assert along.chaotic.any() and not along.chaotic[along.A < 0.4].any()
 
 
@@ -227,65 +228,29 @@ def test_undriven_scene_is_refused(tmp_path):
         build_report(path, tmp_path / "r", quick=True, progress=False)
 
 
-_CHILD = """
-import json, sys, time
-sys.path.insert(0, {root!r})
-from kapitza.report import ReportInterrupted, build_report
-
-
-def progress(message):        # "ready" once the first section is written
-    if message.startswith("[1/8]") and ": done" in message:
-        print("ready", flush=True)
-
-
-try:
-    build_report(out={out!r}, quick=True, progress=progress)
-    print(json.dumps({{"finished": True}}), flush=True)
-except ReportInterrupted as stop:
-    r = stop.report
-    print(json.dumps({{"stopped": time.time(), "missing": list(r.missing),
-                      "done": [s.name for s in r.sections if s.status == "done"],
-                      "page": r.index.read_text()}}), flush=True)
-"""
-
-
-def test_ctrl_c_keeps_the_finished_sections(tmp_path, quick):
-    out = tmp_path / "r"
-    res, sent = interrupt_child(tmp_path, _CHILD.format(root=str(ROOT), out=str(out)),
-                                delay=0.5, timeout=60)
-    assert "finished" not in res, "the report finished before the interrupt"
-    assert res["stopped"] - sent < 1.5
-    assert res["missing"] and res["done"]
-    assert "Incomplete" in res["page"]
-    for name in res["missing"]:
-        assert SECTIONS[name] in res["page"].split("Incomplete")[1].split("</p>")[0]
-    for x in _links(res["page"]):
-        assert x.startswith("#") or (out / x).is_file()
-
-
-# A child process whose "potential" section is the function BUILDER (defined between the
-# head and the tail): the report's Ctrl-C handling, with stderr kept to be read.
-_CHILD_HEAD = """
-import io, json, sys, time, weakref
+# One child process for the three Ctrl-C tests (each started Python and imported kapitza,
+# ~1 CPU-s, in a process of its own): it builds the report three times in turn, and the
+# parent interrupts each build DELAYS[name] s after it prints "ready".  "finished": the
+# default scene as a user runs it, "ready" once the first section is written;
+# "swallowed" and "weakref": the "potential" section replaced by a function that loses the
+# Ctrl-C (the sections then never start).  Each build has its stderr kept to be read
+# (what the user's terminal would show).  Between builds the child waits for the
+# report's repeat thread (it raises the Ctrl-C again every REPEAT_AFTER s while a section
+# runs; named "Thread-N (_repeat)") to end, so that no repeat of one build can reach the
+# next.
+_CTRL_C_CHILD = """
+import io, json, sys, threading, time, weakref
 sys.path.insert(0, {root!r})
 from kapitza.report import ReportInterrupted, build_report
 from kapitza.report import _sections
 
-err = sys.stderr = io.StringIO()      # what the user's terminal would show
-"""
-_CHILD_TAIL = """
-_sections.BUILDERS["potential"] = BUILDER
-try:
-    build_report(out={out!r}, quick=True, progress=False)
-    print(json.dumps({{"finished": True}}), flush=True)
-except ReportInterrupted as stop:
-    print(json.dumps({{"stopped": time.time(), "missing": list(stop.report.missing),
-                      "stderr": err.getvalue()}}), flush=True)
-"""
 
-_SWALLOWING_CHILD = _CHILD_HEAD + """
+def first_written(message):     # "ready" once the first section is written
+    if message.startswith("[1/8]") and ": done" in message:
+        print("ready", flush=True)
 
-def BUILDER(job):           # the Ctrl-C lost inside the section (as in a weakref callback)
+
+def swallowing(job):        # the Ctrl-C lost inside the section (as in a weakref callback)
     print("ready", flush=True)
     try:
         time.sleep(30)
@@ -293,25 +258,7 @@ def BUILDER(job):           # the Ctrl-C lost inside the section (as in a weakre
         pass
     time.sleep(30)          # then a long computation that would see the next one
     raise AssertionError("never stopped")
-""" + _CHILD_TAIL
 
-
-def test_a_ctrl_c_lost_inside_a_section_is_raised_again(tmp_path):
-    """A KeyboardInterrupt can vanish (Python only reports one raised in a weakref callback
-    or ``__del__``; a computation may catch it and go on): the report raises it again
-    into the section until it stops — here a section that swallows the first one stops
-    within REPEAT_AFTER (1 s) of the Ctrl-C, plus the child's own latency (without the
-    repeat: when its 60 s were up)."""
-    out = tmp_path / "r"
-    res, sent = interrupt_child(tmp_path, _SWALLOWING_CHILD.format(root=str(ROOT),
-                                                                   out=str(out)),
-                                delay=0.3, timeout=60)
-    assert "finished" not in res
-    assert res["stopped"] - sent < 2.0
-    assert "potential" in res["missing"]
-
-
-_CALLBACK_CHILD = _CHILD_HEAD + """
 
 class Thing:
     pass
@@ -326,7 +273,7 @@ def callback(ref):          # the Ctrl-C arrives while this weakref callback run
         time.sleep(1.0)
 
 
-def BUILDER(job):
+def in_callback(job):
     print("ready", flush=True)
     deadline = time.time() + 30
     while time.time() < deadline:
@@ -335,17 +282,105 @@ def BUILDER(job):
         del thing           # runs the callback
         time.sleep(0.01)
     raise AssertionError("never stopped")
-""" + _CHILD_TAIL
 
 
-def test_a_ctrl_c_lost_in_a_weakref_callback_shows_no_traceback(tmp_path):
+potential = _sections.BUILDERS["potential"]
+for name, builder in (("finished", potential), ("swallowed", swallowing),
+                      ("weakref", in_callback)):
+    _sections.BUILDERS["potential"] = builder
+    err = sys.stderr = io.StringIO()
+    try:
+        build_report(out={out!r} + "/" + name, quick=True,
+                     progress=first_written if builder is potential else False)
+        print(json.dumps({{"finished": True}}), flush=True)
+    except ReportInterrupted as stop:
+        r = stop.report
+        print(json.dumps({{"stopped": time.time(), "missing": list(r.missing),
+                          "done": [s.name for s in r.sections if s.status == "done"],
+                          "page": r.index.read_text(), "stderr": err.getvalue()}}),
+              flush=True)
+    finally:
+        sys.stderr = sys.__stderr__
+    for thread in threading.enumerate():       # the repeat thread (not lagrange_core's)
+        if thread.name.endswith("(_repeat)") and name != "weakref":
+            thread.join(timeout=5)
+"""
+#: s from a build's "ready" to its Ctrl-C
+DELAYS = {"finished": 0.5, "swallowed": 0.3, "weakref": 0.3}
+
+
+@pytest.fixture(scope="module")
+def interrupted(tmp_path_factory, quick):
+    """``{name: (the child's JSON report, the time its Ctrl-C was sent)}`` for the builds of
+    :data:`_CTRL_C_CHILD`, and the folder they wrote to (after the in-process quick build:
+    the kernels are in the disk cache before the child loads them)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from helpers import sigint_default
+    tmp = tmp_path_factory.mktemp("ctrl-c")
+    script = tmp / "child.py"
+    script.write_text(_CTRL_C_CHILD.format(root=str(ROOT), out=str(tmp)))
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True,
+                            preexec_fn=sigint_default)
+    results = {}
+    try:
+        for name, delay in DELAYS.items():
+            line = proc.stdout.readline()
+            if line.strip() != "ready":
+                break           # the tests of this build and the later ones say so
+            time.sleep(delay)
+            sent = time.time()
+            os.kill(proc.pid, signal.SIGINT)
+            results[name] = (json.loads(proc.stdout.readline()), sent)
+        proc.wait(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    return results, tmp
+
+
+def _interrupted(interrupted, name):
+    results, tmp = interrupted
+    assert name in results, (f"the child ended before its {name!r} build was interrupted "
+                             f"(it ran {list(results)})")
+    res, sent = results[name]
+    return res, sent, tmp / name
+
+
+def test_ctrl_c_keeps_the_finished_sections(interrupted):
+    res, sent, out = _interrupted(interrupted, "finished")
+    assert "finished" not in res, "the report finished before the interrupt"
+    assert res["stopped"] - sent < 1.5
+    assert res["missing"] and res["done"]
+    assert "Incomplete" in res["page"]
+    for name in res["missing"]:
+        assert SECTIONS[name] in res["page"].split("Incomplete")[1].split("</p>")[0]
+    for x in _links(res["page"]):
+        assert x.startswith("#") or (out / x).is_file()
+
+
+def test_a_ctrl_c_lost_inside_a_section_is_raised_again(interrupted):
+    """A KeyboardInterrupt can vanish (Python only reports one raised in a weakref callback
+    or ``__del__``; a computation may catch it and go on): the report raises it again
+    into the section until it stops — here a section that swallows the first one stops
+    within REPEAT_AFTER (1 s) of the Ctrl-C, plus the child's own latency (without the
+    repeat: when its 60 s were up)."""
+    res, sent, _ = _interrupted(interrupted, "swallowed")
+    assert "finished" not in res
+    assert res["stopped"] - sent < 2.0
+    assert "potential" in res["missing"]
+
+
+def test_a_ctrl_c_lost_in_a_weakref_callback_shows_no_traceback(interrupted):
     """A Ctrl-C that lands in a weakref callback is dropped by Python, which prints
     "Exception ignored in: <function ...>" and a traceback on stderr (seen in the CLI's
     property test): the report keeps that off the terminal and raises the Ctrl-C again,
     so the section stops within REPEAT_AFTER (1 s) plus the child's latency."""
-    out = tmp_path / "r"
-    res, sent = interrupt_child(tmp_path, _CALLBACK_CHILD.format(root=str(ROOT), out=str(out)),
-                                delay=0.3, timeout=60)
+    res, sent, _ = _interrupted(interrupted, "weakref")
     assert "finished" not in res
     assert res["stopped"] - sent < 2.0
     assert "potential" in res["missing"]

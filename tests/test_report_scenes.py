@@ -16,7 +16,7 @@ import kapitza
 from kapitza.report import _build, _checks, _html, _stability
 from kapitza.report._job import Job, Skip, upright
 
-from helpers import pendulum_monodromy
+from helpers import G, L, pendulum_monodromy
 
 DATA = Path(__file__).parent / "data"
 #: kapitza.floquet.boundaries flags the fast drives' points it certifies only to ~1e-9 (the
@@ -53,6 +53,30 @@ def _damped_unstable(A, omega, gamma, sign):
     """scipy's verdict (helpers.pendulum_monodromy): |tr M| > 1 + e^(−γT) (PHYSICS.md)."""
     tr = np.trace(pendulum_monodromy(A, omega, sign, gamma=gamma))
     return abs(tr) > 1 + math.exp(-2 * math.pi * gamma / omega)
+
+
+def _damped_unstable_at(amplitudes, omega, gamma, sign):
+    """:func:`_damped_unstable` at each of ``amplitudes`` (one ω), the monodromies of all
+    of them integrated in one solve_ivp call (DOP853): the same linearised equation as
+    helpers.pendulum_monodromy, θ̈ = −γ θ̇ − sign (g − A ω² cos ωt) θ / l, 200 calls of
+    which took 1.3 CPU-s.  solve_ivp holds the root-mean-square of the error estimate over
+    all 4 N components within the tolerance, so each amplitude's own (over its 4) could
+    be √N times it: the tolerances are divided by √N, each amplitude's step error is held
+    to helpers.monodromy's (rtol 1e-12, atol 1e-13) or tighter."""
+    from scipy.integrate import solve_ivp
+    amplitudes = np.asarray(amplitudes, float)
+    n = amplitudes.size
+    shrink = math.sqrt(n)
+
+    def f(t, y):            # y: (N, 2, 2), the fundamental matrix of each amplitude
+        x = y.reshape(n, 2, 2)
+        k = sign * (G - amplitudes * omega**2 * math.cos(omega * t)) / L
+        return np.stack([x[:, 1], -k[:, None] * x[:, 0] - gamma * x[:, 1]], 1).ravel()
+    period = 2 * math.pi / omega
+    sol = solve_ivp(f, (0.0, period), np.tile(np.eye(2), (n, 1, 1)).ravel(),
+                    method="DOP853", rtol=1e-12 / shrink, atol=1e-13 / shrink)
+    tr = np.trace(sol.y[:, -1].reshape(n, 2, 2), axis1=1, axis2=2)
+    return np.abs(tr) > 1 + math.exp(-gamma * period)
 
 
 # -- the state the report is about --------------------------------------------------------------
@@ -197,7 +221,8 @@ def test_where_the_window_leaves_the_map_is_computed_not_read_off_the_grid(tmp_p
     middle = 0.5 * (float(above.A_min) + float(above.A_max))
     assert middle < 4.0 and not _damped_unstable(middle, edge * 1.001, gamma, -1)
     below = edge * 0.999
-    assert all(_damped_unstable(a, below, gamma, -1) for a in np.linspace(3.8, 4.0, 200))
+    scan = np.linspace(3.8, 4.0, 200)
+    assert _damped_unstable_at(scan, below, gamma, -1).all()
     higher = kapitza.floquet.window(job.scene.system, job.fixed, [math.pi], omega=below,
                                     A_range=(0.0, 8.0))
     assert 4.0 < float(higher.A_min) < float(higher.A_max)
@@ -231,13 +256,29 @@ def invisible_legend_lines(fig):
     return bad
 
 
-def test_map_legend_in_physics_words_every_entry_visible(tmp_path, figures):
+@pytest.fixture(scope="module")
+def double_pendulum_map(tmp_path_factory):
+    """The map section of double_pendulum.toml (quick), run once for the two tests that read
+    it: (its job, the figure it saved)."""
+    job = _job(tmp_path_factory.mktemp("double-pendulum-map"), "double_pendulum")
+    kept = {}
+    save = Job.figure
+
+    def figure(self, fig, name):
+        kept[name] = fig
+        return save(self, fig, name)
+    with pytest.MonkeyPatch.context() as mp, warnings.catch_warnings():
+        warnings.filterwarnings("ignore", "boundaries.*certified only", RuntimeWarning)
+        mp.setattr(Job, "figure", figure)
+        _stability.map_section(job)
+    return job, kept["stability_map"]
+
+
+def test_map_legend_in_physics_words_every_entry_visible(double_pendulum_map):
     """Acheson's double pendulum: averaging's window edge runs along the exact period-T
     boundary; drawn over it, both entries show (under it, the dashed line was hidden);
     the legend speaks of period-T/2T boundaries and their multipliers."""
-    job = _job(tmp_path, "double_pendulum")
-    _stability.map_section(job)
-    fig = figures["stability_map"]
+    _, fig = double_pendulum_map
     assert invisible_legend_lines(fig) == []
     legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
     assert "exact period-T boundary (multiplier +1)" in legend
@@ -246,14 +287,15 @@ def test_map_legend_in_physics_words_every_entry_visible(tmp_path, figures):
     assert not any(type(c).__name__.endswith("ContourSet") for c in fig.axes[0].collections)
 
 
-def test_spot_check_growth_never_overflows(tmp_path, figures):
+def test_spot_check_growth_never_overflows(tmp_path, double_pendulum_map):
     """The growth of the linear instability over a spot check's run is kept as its log10
     (e^(log|μ| · periods) overflows a float for a strongly unstable point), agreeing with
     kapitza.floquet_point at each point; no numpy warning is raised."""
     from kapitza.report import _spots
-    job = _job(tmp_path, "double_pendulum")
-    _stability.map_section(job)
-    job.quick = False              # the scene's 2000 periods: far beyond 1e308 where unstable
+    # the scene's 2000 periods (not quick): far beyond 1e308 where unstable; on the quick
+    # map, handed over as the report hands it (job.state), in a job of this test's own
+    job = _job(tmp_path, "double_pendulum", quick=False)
+    job.state.update(double_pendulum_map[0].state)
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)
         _spots.spots_section(job)
