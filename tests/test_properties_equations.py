@@ -22,9 +22,10 @@ parameter values to a relative 1e-10 of their size (1e-12 of the natural scale
 (``System.equations``, its entries as derived: the sympy view ``mass_matrix`` is them
 after sympy's ``trigsimp``, which took 25 s for some of these statements).
 
-LagrangesMethod's values are kept in pytest's cache between runs (:class:`_Reference`: they
-depend on the statements, the states and sympy alone, never on the engine), so a second
-run derives only the engine's side: 3.7 s instead of 19.3 s, one process (2026-11-28).
+LagrangesMethod's values are kept between runs in the user's cache folder, next to
+lagrange_core's kernels (:class:`_Reference`, :class:`_ValueStore`: they depend on the
+statements, the states and sympy alone, never on the engine), so a second run derives only
+the engine's side: 3.7 s instead of 19.3 s, one process (2026-11-28).
 
 Inputs tried (``--hypothesis-show-statistics``, 2026-11-26): profile "ci" 20 chains and
 6 particle systems, 3 states each, all passing — 27 s with the kernels cached (load
@@ -37,9 +38,11 @@ chains and 120 particle systems passed before pytest-timeout's 600 s stopped the
 import functools
 import hashlib
 import inspect
+import json
 import math
 import os
 import tempfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -76,17 +79,53 @@ def _kernel_cache():
                 os.environ["LAGRANGE_CORE_CACHE"] = old
 
 
-#: pytest's cache, where LagrangesMethod's values are kept between runs (None: not kept)
+class _ValueStore:
+    """LagrangesMethod's values by key, one JSON file a key in ``folder``.
+
+    The user's cache folder, not pytest's (``.pytest_cache``, where they were kept until
+    2026-11-29): like the kernels' cache it serves every checkout and copy of the tree and
+    runs with ``-p no:cacheprovider``, which derived every value again (~20 CPU-s, the
+    most of this file's time, for the same values every run).  ``--cache-clear`` still
+    derives them again (and keeps the new ones).  A folder that cannot be written keeps
+    nothing: the values are derived."""
+
+    def __init__(self, folder, clear=False):
+        self.folder, self.clear = Path(folder), clear
+
+    def get(self, key, default=None):
+        if self.clear:
+            return default
+        try:
+            return json.loads((self.folder / f"{key}.json").read_text())
+        except (OSError, ValueError):
+            return default
+
+    def set(self, key, value):
+        path = self.folder / f"{key}.json"
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            part = path.with_name(f"{path.name}.{os.getpid()}.part")
+            part.write_text(json.dumps(value))
+            os.replace(part, path)      # whole or not at all: a worker may read it meanwhile
+        except OSError:
+            pass
+
+
+#: Where LagrangesMethod's values are kept between runs (None: not kept)
 _STORE = None
 
 
 @pytest.fixture(scope="module", autouse=True)
 def _reference_store(request):
-    """Keep the reference's values in pytest's cache (``.pytest_cache``) under the "ci"
-    profile, whose statements are the same every run; any other profile draws new ones
-    (hundreds of one-off entries) and derives each."""
+    """Keep the reference's values (:class:`_ValueStore`, in ``$XDG_CACHE_HOME`` or
+    ``~/.cache``, ``kapitza-tests/lagranges-method``) under the "ci" profile, whose
+    statements are the same every run; any other profile draws new ones (hundreds of
+    one-off entries) and derives each."""
     global _STORE
-    _STORE = getattr(request.config, "cache", None) if settings().derandomize else None
+    if settings().derandomize:
+        root = os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache")
+        _STORE = _ValueStore(Path(root, "kapitza-tests", "lagranges-method"),
+                             clear=bool(request.config.getoption("cacheclear", False)))
     yield
     _STORE = None
 
@@ -124,7 +163,7 @@ class _Reference:
     is most of this file's time — ~13 CPU-s of the suite's, for the same statements every
     run under the "ci" profile.  The values are a function of the statement, the state,
     the parameter values, sympy's version and this file's reference code alone, none of
-    them the engine's: they are kept in pytest's cache under a digest of all of these,
+    them the engine's: they are kept (:data:`_STORE`) under a digest of all of these,
     derived again whenever one changes (and on ``pytest --cache-clear``).  The engine's
     side — its derivation, kernels and equations — is computed in every run."""
 
@@ -138,7 +177,7 @@ class _Reference:
             text = repr((self.kind, self.statement, np.asarray(q, float).tolist(),
                          np.asarray(qd, float).tolist(), float(t), sorted(values.items()),
                          sp.__version__, _REFERENCE_CODE))
-            key = "kapitza/lagranges-method/" + hashlib.sha256(text.encode()).hexdigest()
+            key = hashlib.sha256(text.encode()).hexdigest()
             kept = _STORE.get(key, None)
             if kept is not None:
                 self.stored = True
@@ -293,7 +332,10 @@ def _chain_lagranges_method(links, gravity, drive, vector, harmonics, damping, d
             forces.append((bob, force))
     for j, rest in zip(springs, rests, strict=True):
         V += sp.Symbol(f"k_theta{j}") * (qs[j - 1] - rest) ** 2 / 2
-    lm = LagrangesMethod(T - V, qs, forcelist=forces or None, frame=N)
+    # multiplied out (sympy's expand_mul, an identity): LagrangesMethod then differentiates a
+    # sum of products of the coordinates' sines and cosines, a third faster than the
+    # squares of sums that the points' velocities give
+    lm = LagrangesMethod(sp.expand_mul(T - V), qs, forcelist=forces or None, frame=N)
     lm.form_lagranges_equations()
     return _reference_functions(lm, coordinates, parameters)
 
