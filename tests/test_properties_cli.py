@@ -348,9 +348,10 @@ def _strict_json(text):
 #: Hypothesis's targeting (hill-climbing on ``target``'s latency) is left to the random
 #: profiles: under the derandomized "ci" one it spent half the 30 examples re-running
 #: ``kapitza report`` (the same command line 6-8 times, each 1.5 s to the Ctrl-C) on a
-#: score that is timing noise, and made the examples depend on the machine's load.  Without
-#: it those examples are fresh command lines, no longer steered by the load; the Ctrl-C path
-#: is still exercised (``summary`` and ``report``: 4 runs interrupted at the deadline).
+#: score that is timing noise.  Without it those examples are fresh command lines (which
+#: ones still varies a little with the load: a run the Ctrl-C lands on as it ends is
+#: rejected); the Ctrl-C path is still exercised (``summary``, ``report``, ``warmup``: 4-5
+#: runs interrupted at the deadline).
 _PHASES = [p for p in settings().phases if p is not Phase.target or not settings().derandomize]
 
 
