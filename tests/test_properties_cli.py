@@ -350,7 +350,7 @@ def _strict_json(text):
 #: ``kapitza report`` (the same command line 6-8 times, each 1.5 s to the Ctrl-C) on a
 #: score that is timing noise.  Without it those examples are fresh command lines (which
 #: ones still varies a little with the load: a run the Ctrl-C lands on as it ends is
-#: rejected); the Ctrl-C path is still exercised (``summary``, ``report``, ``warmup``: 4-5
+#: rejected); the Ctrl-C path is still exercised (``summary``, ``report``, ``warmup``: 3-4
 #: runs interrupted at the deadline).
 _PHASES = [p for p in settings().phases if p is not Phase.target or not settings().derandomize]
 
