@@ -28,8 +28,11 @@ SCENE = pendulum(theta=3.0, analyses="simulate = { periods = 50 }", sweep="tile_
                  axes="A = { start = 0.0, stop = 0.3, num = 6 }\ninitial.theta = [2.9, 3.0]")
 
 
-def slow_scene(points=96, tile=8, periods=2000):
-    """Tiles of ~0.1 s: long enough to kill or interrupt a sweep between them."""
+def slow_scene(points=96, tile=8, periods=1000):
+    """Tiles of ~0.05 s: long enough to kill or interrupt a sweep between them (the
+    parent sees a part within 10 ms, and 9 tiles are left then, ~0.5 s; at 2000 periods
+    the tiles took twice the CPU for nothing more: the killed sweep's test computes them
+    all twice more, resumed and whole)."""
     return (SCENE.replace("num = 6", f"num = {points // 2}")
             .replace("tile_points = 4", f"tile_points = {tile}")
             .replace("periods = 50", f"periods = {periods}"))
