@@ -7,7 +7,9 @@ modules are walked like the top level.  Run as ``python -m pytest tests/test_arc
 a failure message names the module, the import and the rule it breaks.
 """
 import ast
+import functools
 import pathlib
+import typing
 
 import pytest
 
@@ -44,6 +46,28 @@ KAPITZA_ROOMS = {
     "warmup": {"", "results", "averaging", "floquet", "closed_forms", "simulation",
                "pendulum"},
 }
+
+
+class _Read(typing.NamedTuple):
+    """What the tests read of one module's source, from one parse."""
+    runtime_imports: tuple      # the import statements that run (:func:`_runtime_nodes`)
+    every_import: tuple         # every import statement, ``if TYPE_CHECKING:`` included
+    docstring: str
+
+
+@functools.cache
+def _read(text: str) -> _Read:
+    """One parse of the module ``text``, once per distinct source text.  Several tests
+    read the same modules (the import graph three times, the engine's imports, the
+    modules' docstrings): parsing the tree once instead of once per test was most of
+    their time.  Keyed on the text itself, so an edited (or a planted, ``tmp_path``) module
+    is read afresh.  Only the import statements and the docstring are kept, not the tree:
+    161 trees kept alive made each of the collector's full passes walk them all."""
+    tree = ast.parse(text)
+    kinds = (ast.Import, ast.ImportFrom)
+    return _Read(tuple(node for node in _runtime_nodes(tree) if isinstance(node, kinds)),
+                 tuple(node for node in ast.walk(tree) if isinstance(node, kinds)),
+                 ast.get_docstring(tree) or "")
 
 
 def _runtime_nodes(tree):
@@ -89,7 +113,7 @@ def imports(package: str, root: pathlib.Path = ROOT) -> dict[str, set[str]]:
     for name, path in mods.items():
         is_package = path.name == "__init__.py"
         edges = set()
-        for node in _runtime_nodes(ast.parse(path.read_text())):
+        for node in _read(path.read_text()).runtime_imports:
             if isinstance(node, ast.ImportFrom):
                 if node.level:
                     source = _resolve(name, is_package, node.level, node.module)
@@ -251,7 +275,7 @@ def test_cycle_finder_finds_a_planted_cycle():
 def test_the_engine_does_not_import_the_analysis():
     """lagrange_core is the layer below kapitza: it never imports it."""
     for path in (ROOT / "lagrange_core").rglob("*.py"):
-        for node in ast.walk(ast.parse(path.read_text())):
+        for node in _read(path.read_text()).every_import:
             if isinstance(node, ast.ImportFrom) and node.module:
                 assert not node.module.startswith("kapitza"), path.name
             if isinstance(node, ast.Import):
@@ -266,9 +290,10 @@ def test_modules_are_short(package):
     (it contains the words "over 800 lines")."""
     too_long = []
     for path in (ROOT / package).rglob("*.py"):
-        n = len(path.read_text().splitlines())
+        text = path.read_text()
+        n = len(text.splitlines())
         rel = str(path.relative_to(ROOT))
-        doc = ast.get_docstring(ast.parse(path.read_text())) or ""
+        doc = _read(text).docstring
         if n > 900 and package == "kapitza":
             too_long.append(f"{rel}: {n} lines (the limit is 900)")
         elif n > 820 and "over 800 lines" not in doc:
