@@ -65,7 +65,8 @@ def test_warm_store_never_derives():
         tr = s.simulate([math.pi - 0.1], [0.0], (0, 0.2), p)
         print(json.dumps({"derived": "equations" in s.__dict__, "method": tr.method}))
     """
-    _run(code)                                  # fills the store
+    s = problems.driven_pendulum()                  # fills the store (here: no third process)
+    s.simulate([math.pi - 0.1], [0.0], (0, 0.2), {k: 1.0 for k in s.parameters})
     assert _run(code) == {"derived": False, "method": "rkn12"}
 
 
@@ -93,42 +94,44 @@ def test_rigid_triangle_keeps_its_constraints():
     assert tr.multipliers.shape == (len(tr.t), 3) and np.all(np.isfinite(tr.multipliers))
 
 
-def test_numba_cache_is_flushed_when_a_module_it_calls_into_changes(tmp_path):
+def test_numba_cache_is_flushed_when_a_module_it_calls_into_changes(tmp_path, monkeypatch):
     """numba keys a cached function by its own file; guard_numba_cache also empties the
     cache when a module the functions call into changes (a changed kernel slot would
-    otherwise call the wrong kernel)."""
-    (tmp_path / "dep.py").write_text("VALUE = 1\n")
-    (tmp_path / "user.py").write_text(textwrap.dedent("""
+    otherwise call the wrong kernel).
+
+    Each "run" imports the module afresh, as a new process would: a new dispatcher, which
+    looks in numba's cache on disk at its first call, and guard_numba_cache, which compares
+    the marker on disk (neither keeps anything in the process).  Run in this process, not
+    in four fresh ones (10 s: each imported lagrange_core for a one-line function)."""
+    (tmp_path / "_flush_dep.py").write_text("VALUE = 1\n")
+    (tmp_path / "_flush_user.py").write_text(textwrap.dedent("""
         import sys
         from numba import njit
-        import dep
+        import _flush_dep
         from lagrange_core.module_store import guard_numba_cache
 
         @njit(cache=True)
         def f(x):
-            return x + dep.VALUE
+            return x + _flush_dep.VALUE
 
-        guard_numba_cache(sys.modules[__name__], dep)
+        guard_numba_cache(sys.modules[__name__], _flush_dep)
     """))
-    code = """
-        import json, sys
-        sys.path.insert(0, sys.argv[1])
-        import user
-        value = user.f(1)
-        print(json.dumps([value, sum(user.f.stats.cache_hits.values())]))
-    """
-    env = {**__import__("os").environ, "LAGRANGE_CORE_CACHE": str(tmp_path / "store")}
+    monkeypatch.setenv("LAGRANGE_CORE_CACHE", str(tmp_path / "store"))
+    monkeypatch.syspath_prepend(str(tmp_path))
 
     def run():
-        out = subprocess.run([sys.executable, "-c", textwrap.dedent(code), str(tmp_path)],
-                             capture_output=True, text=True, check=True, env=env)
-        return json.loads(out.stdout.strip().splitlines()[-1])
+        for name in ("_flush_user", "_flush_dep"):
+            monkeypatch.delitem(sys.modules, name, raising=False)
+        import _flush_user
+        return [_flush_user.f(1), sum(_flush_user.f.stats.cache_hits.values())]
 
     assert run() == [2, 0]          # compiled
     assert run() == [2, 1]          # from the cache
-    (tmp_path / "dep.py").write_text("VALUE = 5\n")
-    assert run() == [6, 0]          # the callee's module changed: recompiled, not stale
-    assert run() == [6, 1]
+    # (a new length: the import system and inspect tell an edited file by its size and
+    # whole-second time, and this edit comes within the second)
+    (tmp_path / "_flush_dep.py").write_text("VALUE = 50\n")
+    assert run() == [51, 0]         # the callee's module changed: recompiled, not stale
+    assert run() == [51, 1]
 
 
 def test_the_symplectic_grid_compiles_its_driver_without_rkn12():
@@ -179,13 +182,21 @@ def test_no_kernel_is_compiled_again_for_a_constant_argument():
     from pathlib import Path
 
     root = Path(__file__).resolve().parent.parent
-    trees = {path: ast.parse(path.read_text()) for package in ("lagrange_core", "kapitza")
+    # Only a file whose text contains "jit" can hold a jitted function (the decorator's
+    # name must contain it, _jit_decorated), so only those are parsed -- a quarter of the
+    # lines -- and each is walked once, for its jitted functions.
+    texts = {path: path.read_text() for package in ("lagrange_core", "kapitza")
              for path in sorted((root / package).rglob("*.py"))}
+    jitted_functions = []       # (path, function definition) of every jitted function
     compiled = set()            # jitted functions numba compiles as functions of their own
-    for tree in trees.values():
-        for node in ast.walk(tree):
+    for path, text in texts.items():
+        if "jit" not in text:
+            continue
+        for node in ast.walk(ast.parse(text)):
             if isinstance(node, ast.FunctionDef):
                 jitted, inlined = _jit_decorated(node)
+                if jitted:
+                    jitted_functions.append((path, node))
                 if jitted and not inlined:
                     compiled.add(node.name)
 
@@ -196,21 +207,18 @@ def test_no_kernel_is_compiled_again_for_a_constant_argument():
         return ast.unparse(arg) if ok else None         # (−1 stays −1)
 
     passed = {}                 # (callee, position) -> {constant or "a variable": [where]}
-    for path, tree in trees.items():
-        for function in ast.walk(tree):
-            if not (isinstance(function, ast.FunctionDef) and _jit_decorated(function)[0]):
+    for path, function in jitted_functions:
+        for call in ast.walk(function):
+            if not isinstance(call, ast.Call):
                 continue
-            for call in ast.walk(function):
-                if not isinstance(call, ast.Call):
-                    continue
-                f = call.func
-                name = f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", None)
-                if name not in compiled:
-                    continue
-                for k, arg in enumerate(call.args):
-                    value = constant(arg) or "a variable"
-                    passed.setdefault((name, k), {}).setdefault(value, []).append(
-                        f"{path.relative_to(root)}:{call.lineno}")
+            f = call.func
+            name = f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", None)
+            if name not in compiled:
+                continue
+            for k, arg in enumerate(call.args):
+                value = constant(arg) or "a variable"
+                passed.setdefault((name, k), {}).setdefault(value, []).append(
+                    f"{path.relative_to(root)}:{call.lineno}")
     twice = {f"{name} argument {k}": values for (name, k), values in passed.items()
              if len(values) > 1 and set(values) != {"a variable"}}
     assert not twice, twice
