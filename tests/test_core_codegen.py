@@ -178,30 +178,60 @@ def test_kernels_are_callable_from_numba_code(double):
     assert np.all(np.isfinite(y)) and y[0] < 0.1
 
 
-@pytest.mark.parametrize("factory", ["double_pendulum()", "n_link_pendulum(8)"],
-                         ids=["printed kernels", "LLVM program"])
-def test_fresh_process_loads_from_disk_cache_without_deriving(factory):
-    """The disk cache is keyed by the statement: a new process neither derives nor compiles
-    (for printed kernels and for the intrinsic-based program alike)."""
+_FRESH_FACTORIES = ("double_pendulum()", "n_link_pendulum(8)")
+
+
+def _first_calls(system):
+    """The system's kernels (from the store, or derived and written to it) and a first call
+    of ``rhs`` and ``jacobian`` (from numba's cache, or compiled and written to it)."""
+    k = system.kernels
+    n = system.n_dof
+    k.rhs(0.0, np.zeros(2 * n), np.ones(len(system.parameters)), np.empty(2 * n),
+          k.work_array())
+    k.jacobian(0.0, np.zeros(2 * n), np.ones(len(system.parameters)),
+               np.empty((2 * n, 2 * n)))
+    return k
+
+
+@pytest.fixture(scope="module")
+def fresh_process_kernels():
+    """factory -> what one new process found for that system: whether it derived, and
+    its kernels' numba cache hits and misses.
+
+    The calls are made here first (they fill the store and numba's cache if this is the
+    first test to need them: a cold cache), then by one new process for both systems
+    (the systems are independent: each has its own store entry and numba cache)."""
+    import json
+    for factory in _FRESH_FACTORIES:
+        _first_calls(eval(f"problems.{factory}"))
     script = textwrap.dedent(f"""
         import json, numpy as np, lagrange_core as lc
-        s = lc.problems.{factory}
-        k = s.kernels
-        n = s.n_dof
-        k.rhs(0.0, np.zeros(2 * n), np.ones(len(s.parameters)), np.empty(2 * n), k.work_array())
-        k.jacobian(0.0, np.zeros(2 * n), np.ones(len(s.parameters)), np.empty((2 * n, 2 * n)))
-        print(json.dumps({{"derived": "equations" in s.__dict__,
-                          "hits": sum(k.rhs.stats.cache_hits.values())
-                                  + sum(k.jacobian.stats.cache_hits.values()),
-                          "misses": sum(k.rhs.stats.cache_misses.values())
-                                    + sum(k.jacobian.stats.cache_misses.values())}}))
+        info = {{}}
+        for factory in {_FRESH_FACTORIES!r}:
+            s = eval(f"lc.problems.{{factory}}")
+            k = s.kernels                               # the calls of _first_calls
+            n = s.n_dof
+            k.rhs(0.0, np.zeros(2 * n), np.ones(len(s.parameters)), np.empty(2 * n),
+                  k.work_array())
+            k.jacobian(0.0, np.zeros(2 * n), np.ones(len(s.parameters)),
+                       np.empty((2 * n, 2 * n)))
+            info[factory] = {{"derived": "equations" in s.__dict__,
+                             "hits": sum(k.rhs.stats.cache_hits.values())
+                                     + sum(k.jacobian.stats.cache_hits.values()),
+                             "misses": sum(k.rhs.stats.cache_misses.values())
+                                       + sum(k.jacobian.stats.cache_misses.values())}}
+        print(json.dumps(info))
     """)
-    for _ in range(2):      # the first run compiles if this test is the first to need them
-        out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                             check=True)
-    import json
-    info = json.loads(out.stdout.strip().splitlines()[-1])
-    assert info == {"derived": False, "hits": 2, "misses": 0}
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.parametrize("factory", _FRESH_FACTORIES, ids=["printed kernels", "LLVM program"])
+def test_fresh_process_loads_from_disk_cache_without_deriving(factory, fresh_process_kernels):
+    """The disk cache is keyed by the statement: a new process neither derives nor compiles
+    (for printed kernels and for the intrinsic-based program alike)."""
+    assert fresh_process_kernels[factory] == {"derived": False, "hits": 2, "misses": 0}
 
 
 @pytest.mark.parametrize("make", [lambda: problems.n_link_pendulum(4), "cartesian pendulum"],
