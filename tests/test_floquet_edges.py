@@ -15,7 +15,7 @@ from kapitza import floquet as fq
 from kapitza.closed_forms import _mathieu as mm
 from kapitza.pendulum import KapitzaPendulum
 
-from helpers import W0, G, L, interrupt_child
+from helpers import W0, G, L
 
 
 @pytest.fixture(scope="module")
@@ -209,39 +209,62 @@ def test_progress_line_only_on_request(capsys):
         p.stability_map(A, w, progress="yes")
 
 
-CHILD = r"""
-import json, signal, sys, time
-import numpy as np
-# a shell that starts commands in the background ignores SIGINT in them, and Python then
-# installs no handler: restore Ctrl-C's KeyboardInterrupt, as in an interactive run
-signal.signal(signal.SIGINT, signal.default_int_handler)
-from kapitza.pendulum import KapitzaPendulum
-from kapitza.results._results import ComputationInterrupted
-p = KapitzaPendulum(l=1.0, g=9.81, damping=0.3)
-# 1500 x 1500 damped points: ~7 s on this machine (the trace ~3 µs a point), never done
-# before the Ctrl-C 1 s in
-A, w = np.linspace(0.0, 0.7, 1500), np.linspace(2.0, 400.0, 1500) * np.sqrt(9.81)
-p.stability_map(A[:2], w[:2], progress=False)            # compiled / loaded
-print("ready", flush=True)
-try:
-    p.stability_map(A, w, progress=False)
-    print(json.dumps({"finished": True}))
-except ComputationInterrupted as e:
-    t = time.time()
+def _ctrl_c_in_process(call, delay):
+    """Run ``call()`` here, with Python's own Ctrl-C handler (as in an interactive run),
+    and send this process SIGINT ``delay`` s after it began, from a timer thread.  Returns
+    (the ComputationInterrupted raised, the time it was caught, the time the signal was
+    sent); fails if the call finished or a plain KeyboardInterrupt escaped it.
+
+    In process, not in a child: a child spent 1.5 CPU-s importing the packages and
+    loading the kernels before its "ready" (the suite's process has both), and the
+    kernels see the signal the same way (the handler of ``defer_ctrl_c`` runs in the main
+    thread wherever SIGINT comes from).  A signal arriving after the call ends nothing:
+    the handler is a no-op from then until the timer is gone."""
+    import os
+    import signal
+    import threading
+    import time
+
+    sent = []
+
+    def ctrl_c():
+        sent.append(time.time())
+        os.kill(os.getpid(), signal.SIGINT)
+
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    timer = threading.Timer(delay, ctrl_c)
+    outcome = "the call finished: it was never interrupted"
+    try:
+        try:
+            timer.start()
+            call()
+        except ComputationInterrupted as e:
+            outcome = (e, time.time())
+        finally:
+            signal.signal(signal.SIGINT, lambda signum, frame: None)
+            timer.cancel()
+            timer.join()
+    except KeyboardInterrupt:
+        outcome = "a plain KeyboardInterrupt, not ComputationInterrupted"
+    finally:
+        signal.signal(signal.SIGINT, old)
+    assert isinstance(outcome, tuple), outcome
+    return outcome[0], outcome[1], sent[0]
+
+
+def test_ctrl_c_stops_a_long_map_within_a_second():
+    p = KapitzaPendulum(l=1.0, g=9.81, damping=0.3)
+    # 1500 x 1500 damped points: ~7 s on this machine (the trace ~3 µs a point), never
+    # done before the Ctrl-C 1 s in
+    A, w = np.linspace(0.0, 0.7, 1500), np.linspace(2.0, 400.0, 1500) * np.sqrt(9.81)
+    p.stability_map(A[:2], w[:2], progress=False)            # compiled / loaded
+    e, t, sent = _ctrl_c_in_process(lambda: p.stability_map(A, w, progress=False), 1.0)
+    assert t - sent < 1.0
     rows = e.computed.all(axis=1)
+    n = int(rows.sum())
     tr = e.result.trace
-    print(json.dumps({"finished": False, "t": t, "rows": int(rows.sum()),
-                      "prefix": bool(rows[:rows.sum()].all()),
-                      "done_finite": bool(np.isfinite(tr[rows]).all()),
-                      "rest_nan": bool(np.isnan(tr[~rows]).all())}), flush=True)
-"""
-
-
-def test_ctrl_c_stops_a_long_map_within_a_second(tmp_path):
-    res, sent = interrupt_child(tmp_path, CHILD, 1.0, 30)
-    assert res["finished"] is False
-    assert res["t"] - sent < 1.0
-    assert 0 < res["rows"] < 1500 and res["prefix"] and res["done_finite"] and res["rest_nan"]
+    assert 0 < n < 1500 and rows[:n].all()
+    assert np.isfinite(tr[rows]).all() and np.isnan(tr[~rows]).all()
 
 
 def test_a_map_stopped_inside_a_chunk_keeps_the_rows_before():
@@ -350,14 +373,22 @@ def test_general_map_takes_the_axes_as_keywords(pendulum):
 
 # -- issue 10, item 3: Ctrl-C while J(t) is sampled and while the points are analysed -----
 
-@pytest.mark.parametrize("stage", [0, 1, 2])
-def test_floquet_grid_interrupt_at_each_stage(stage):
+@pytest.fixture(scope="module")
+def stage_grid():
+    """The damped 100 × 100 grid the stages are interrupted in, and its whole result:
+    computed once for the three stages, which only read it."""
     p = KapitzaPendulum(l=L, g=G, damping=0.5)
     A = np.linspace(0.0, 0.6, 100)
     w = np.linspace(20.0, 200.0, 100)
     base = dict(m=1.0, l=L, g=G, gamma=0.5)
     params = dict(base, A=A[:, None], omega=w[None, :])
     full = fq.floquet_grid(p.system, params, [math.pi], progress=False)
+    return p, A, w, base, params, full
+
+
+@pytest.mark.parametrize("stage", [0, 1, 2])
+def test_floquet_grid_interrupt_at_each_stage(stage, stage_grid):
+    p, A, w, base, params, full = stage_grid
     with pytest.raises(ComputationInterrupted) as info:
         fq.floquet_grid(p.system, params, [math.pi], progress=_stop_in(stage))
     e = info.value
@@ -387,39 +418,22 @@ def test_floquet_grid_interrupt_at_each_stage(stage):
         assert np.array_equal(d.monodromy[ok], full.monodromy[ok])
 
 
-GENERAL_CHILD = r"""
-import json, math, signal, sys, time
-import numpy as np
-signal.signal(signal.SIGINT, signal.default_int_handler)     # see CHILD
-from kapitza import floquet as fq
-from kapitza.pendulum import KapitzaPendulum
-from kapitza.results._results import ComputationInterrupted
-p = KapitzaPendulum(l=1.0, g=9.81, damping=0.3)
-base = dict(m=1.0, l=1.0, g=9.81, gamma=0.3)
-A, w = np.linspace(0.0, 0.7, 600), np.linspace(2.0, 400.0, 600) * np.sqrt(9.81)
-fq.stability_map(p.system, base, [math.pi], A=A[:2], omega=w[:2], progress=False)  # compiled
-print("ready", flush=True)
-try:
-    fq.stability_map(p.system, base, [math.pi], A=A, omega=w, progress=False)
-    print(json.dumps({"finished": True}), flush=True)
-except ComputationInterrupted as e:
-    t = time.time()
+@pytest.mark.parametrize("delay", [0.1, 0.6])
+def test_ctrl_c_stops_a_general_map_within_a_second(delay):
+    # early (J(t) is being sampled) or later (integration or analysis): stopped within
+    # a second, never a plain KeyboardInterrupt from the NumPy code between the chunks
+    # (_ctrl_c_in_process fails on one).  (Not at 0 s: a signal that lands before the
+    # call has begun is a plain Ctrl-C with nothing to keep.)
+    p = KapitzaPendulum(l=1.0, g=9.81, damping=0.3)
+    base = dict(m=1.0, l=1.0, g=9.81, gamma=0.3)
+    A, w = np.linspace(0.0, 0.7, 600), np.linspace(2.0, 400.0, 600) * np.sqrt(9.81)
+    fq.stability_map(p.system, base, [math.pi], A=A[:2], omega=w[:2], progress=False)
+    e, t, sent = _ctrl_c_in_process(
+        lambda: fq.stability_map(p.system, base, [math.pi], A=A, omega=w, progress=False),
+        delay)
+    assert t - sent < 1.0
     c = e.computed.ravel()
     n = int(c.sum())
     tr = e.result.trace.ravel()
-    print(json.dumps({"finished": False, "t": t, "n": n, "prefix": bool(c[:n].all()),
-                      "done_finite": bool(np.isfinite(tr[c]).all()),
-                      "rest_nan": bool(np.isnan(tr[~c]).all())}), flush=True)
-"""
-
-
-@pytest.mark.parametrize("delay", [0.1, 0.6])
-def test_ctrl_c_stops_a_general_map_within_a_second(tmp_path, delay):
-    # early (J(t) is being sampled) or later (integration or analysis): stopped within
-    # a second, never a plain KeyboardInterrupt from the NumPy code between the chunks.
-    # (Not at 0 s: a signal that lands before the call has begun, while the child is still
-    # between "ready" and the map, is a plain Ctrl-C with nothing to keep.)
-    res, sent = interrupt_child(tmp_path, GENERAL_CHILD, delay, 60)
-    assert res["finished"] is False
-    assert res["t"] - sent < 1.0
-    assert res["n"] < 360000 and res["prefix"] and res["done_finite"] and res["rest_nan"]
+    assert n < 360000 and c[:n].all()
+    assert np.isfinite(tr[c]).all() and np.isnan(tr[~c]).all()
