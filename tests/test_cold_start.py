@@ -3,7 +3,6 @@ kernel twice.  Cheap on purpose: no real cold run (that takes a minute and more;
 benchmark ``benchmarks/bench_cold_start.py --report`` measures it)."""
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 import textwrap
@@ -123,37 +122,40 @@ def test_the_notice_can_be_turned_off(fresh_notice, capsys, monkeypatch):
     assert NOTICE not in capsys.readouterr().err
 
 
-def test_said_on_a_cold_cache_and_never_on_a_warm_one(tmp_path):
-    """Two processes on one numba cache: the first compiles (one line), the second loads
-    the machine code and prints nothing."""
-    (tmp_path / "fake_kernels.py").write_text(textwrap.dedent("""
+def test_said_on_a_cold_cache_and_never_on_a_warm_one(fresh_notice, capsys, monkeypatch,
+                                                     tmp_path):
+    """Two runs on one numba cache: the first compiles (one line), the second loads the
+    machine code and prints nothing.
+
+    A "run" imports the kernels' module afresh with the notice not yet printed, as a new
+    process would: a new dispatcher, which looks in numba's cache on disk at its first
+    call (and numba tells its listeners of a compile only, not of a load).  Run in this
+    process, not in two fresh ones (each imported numba for a one-line function)."""
+    import numba
+    (tmp_path / "_cold_fake_kernels.py").write_text(textwrap.dedent("""
         from numba import njit
 
         @njit(cache=True)
         def twice(x):
             return 2 * x
     """))
-    # the notice module alone (what importing lagrange_core installs), not the package:
-    # the two processes then take a second each
-    code = textwrap.dedent(f"""
-        import importlib.util, sys
-        spec = importlib.util.spec_from_file_location("notice", {_compile_notice.__file__!r})
-        notice = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(notice)
-        notice.install()
-        notice.SHARED_PREFIXES = ("fake_kernels",)      # announced as a shared kernel
-        sys.path.insert(0, {str(tmp_path)!r})
-        import fake_kernels
-        fake_kernels.twice(1)
-        fake_kernels.twice(2.5)
-    """)
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
-    env.pop("LAGRANGE_CORE_COMPILE_NOTICE", None)
-    runs = [subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                           text=True, timeout=120, check=False) for _ in range(2)]
-    assert [r.returncode for r in runs] == [0, 0], runs[0].stderr[-2000:]
-    assert runs[0].stderr.count(NOTICE) == 1, runs[0].stderr
-    assert NOTICE not in runs[1].stderr, runs[1].stderr
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path / "numba"))
+    monkeypatch.setattr(_compile_notice, "SHARED_PREFIXES", ("_cold_fake_kernels",))
+    monkeypatch.syspath_prepend(str(tmp_path))
+
+    def run():
+        _compile_notice.reset_for_tests()
+        monkeypatch.delitem(sys.modules, "_cold_fake_kernels", raising=False)
+        import _cold_fake_kernels
+        _cold_fake_kernels.twice(1)
+        _cold_fake_kernels.twice(2.5)
+        stats = _cold_fake_kernels.twice.stats
+        return (capsys.readouterr().err, sum(stats.cache_hits.values()),
+                sum(stats.cache_misses.values()))
+
+    cold, warm = run(), run()
+    assert cold[0].count(NOTICE) == 1 and cold[1:] == (0, 2), cold
+    assert NOTICE not in warm[0] and warm[1:] == (2, 0), warm       # loaded, both
 
 
 def test_grid_inputs_are_writable_whatever_the_caller_gave():
@@ -172,18 +174,50 @@ def test_grid_inputs_are_writable_whatever_the_caller_gave():
         {k: (a.flags.writeable, a.flags.c_contiguous) for k, a in arrays.items()}
 
 
-def test_import_leaves_the_heavy_libraries_for_first_use():
+_HEAVY = ("scipy.optimize", "scipy.linalg", "pandas", "matplotlib")
+
+
+@pytest.fixture(scope="module")
+def fresh_kapitza_process():
+    """One fresh interpreter for two checks (an interpreter and kapitza's import each,
+    ~2 s, not twice): first what ``import kapitza, kapitza.cli`` imported (a JSON line,
+    printed before anything else runs), then the fit kernels' signatures before the
+    background group's code, after it, and after a measure and a 3-coordinate record's
+    fit (a JSON line).  Returns (return code, stdout's lines, stderr)."""
+    script = textwrap.dedent(f'''
+        import json, math, sys
+        import kapitza, kapitza.cli
+        print(json.dumps([m for m in {_HEAVY!r} if m in sys.modules]), flush=True)
+        import numpy as np
+        from kapitza import KapitzaPendulum
+        from kapitza.simulation import _measurement, slow_frequencies
+        def seen():
+            return {{k.py_func.__name__: sorted(map(str, k.signatures))
+                     for k in _measurement._FIT_KERNELS}}
+        before_group = seen()
+        exec(_measurement._FIT_CODE)
+        after_group = seen()
+        KapitzaPendulum(l=1.0, g=9.81, damping=0.5).measure(0.05, 2 * math.pi * 60,
+                                                             math.pi - 0.1, periods=200)
+        k = np.arange(300)[:, None]
+        slow_frequencies(np.cos(0.1 * k * np.arange(1, 4)), np.sin(0.1 * k * np.arange(1, 4)),
+                         0.01)
+        print(json.dumps([before_group, after_group, seen()]))
+    ''')
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         timeout=600)
+    return out.returncode, out.stdout.splitlines(), out.stderr
+
+
+def test_import_leaves_the_heavy_libraries_for_first_use(fresh_kapitza_process):
     """``import kapitza`` (every CLI command, every worker process) does not import what
     only some calls need: scipy.optimize and scipy.linalg (~0.4 s, in the averaging and
     closed-form functions that call them), pandas (``to_dataframe``), matplotlib (the
-    figures).  Checked in a fresh interpreter."""
-    heavy = ("scipy.optimize", "scipy.linalg", "pandas", "matplotlib")
-    code = ("import sys, kapitza, kapitza.cli\n"
-            f"print(' '.join(m for m in {heavy!r} if m in sys.modules))")
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         timeout=120)
-    assert run.returncode == 0, run.stderr
-    assert run.stdout.strip() == "", f"imported by `import kapitza`: {run.stdout.strip()}"
+    figures).  Checked in a fresh interpreter, before it does anything else."""
+    returncode, lines, stderr = fresh_kapitza_process
+    assert lines, stderr[-2000:]                # (the import itself failed)
+    imported = __import__("json").loads(lines[0])
+    assert imported == [], f"imported by `import kapitza`: {' '.join(imported)}"
 
 
 class _Reached(Exception):
@@ -325,32 +359,15 @@ def test_a_first_rkn12_grid_compiles_the_callees_on_the_other_core(monkeypatch, 
     assert started == ([(_lanes_ahead.GROUP, _lanes_ahead.CODE)] if case == "cold" else [])
 
 
-def test_the_background_fit_compiles_what_a_measure_fits_with():
+def test_the_background_fit_compiles_what_a_measure_fits_with(fresh_kapitza_process):
     """The background group's records reach every specialisation of the fit's kernels that
     measuring a pendulum (one coordinate) and a 3-coordinate record use: after it, they
     compile (or load) nothing more.  In a fresh process: there, a kernel has a signature
-    once it is called."""
-    script = textwrap.dedent('''
-        import json, math
-        import numpy as np
-        from kapitza import KapitzaPendulum
-        from kapitza.simulation import _measurement, slow_frequencies
-        def seen():
-            return {k.py_func.__name__: sorted(map(str, k.signatures))
-                    for k in _measurement._FIT_KERNELS}
-        exec(_measurement._FIT_CODE)
-        after_group = seen()
-        KapitzaPendulum(l=1.0, g=9.81, damping=0.5).measure(0.05, 2 * math.pi * 60,
-                                                             math.pi - 0.1, periods=200)
-        k = np.arange(300)[:, None]
-        slow_frequencies(np.cos(0.1 * k * np.arange(1, 4)), np.sin(0.1 * k * np.arange(1, 4)),
-                         0.01)
-        print(json.dumps([after_group, seen()]))
-    ''')
-    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                         timeout=600)
-    assert out.returncode == 0, out.stderr[-2000:]
-    after_group, after_use = __import__("json").loads(out.stdout.splitlines()[-1])
+    once it is called (none before the group: the imports call none)."""
+    returncode, lines, stderr = fresh_kapitza_process
+    assert returncode == 0, stderr[-2000:]
+    before_group, after_group, after_use = __import__("json").loads(lines[-1])
+    assert not any(before_group.values()), before_group
     assert all(after_group.values()), after_group        # the group called every kernel
     assert after_use == after_group
 
