@@ -360,18 +360,23 @@ def test_scene_report_builds_cleanly(scene_report, name):
 
 
 @pytest.mark.parametrize("name", SCENES)
-def test_scene_page_in_the_browser(browser, scene_report, name):
+def test_scene_page_in_the_browser(browser, scene_report, name, request):
     """The page of each scene as a reader sees it: every image loads, the console is clean,
     no table makes the page wider than the window (they scroll in their wrappers), and no
     "nan", "inf" or Python warning class stands where a number should.  No screenshot is
     checked here (test_full_page_screenshot checks the capture on the default page): one is
-    taken only to be kept, where ``KAPITZA_SCREENSHOT_DIR`` is set."""
+    taken only to be kept, where ``KAPITZA_SCREENSHOT_DIR`` is set.  The default scene's
+    page is the one the tests above opened (``report_page``), read again."""
     report = scene_report(name).report
     keep = os.environ.get("KAPITZA_SCREENSHOT_DIR")
-    if keep:
-        Path(keep).mkdir(parents=True, exist_ok=True)
-    page = open_page(browser, report.index,
-                     Path(keep) / f"scene-{name}-quick.png" if keep else None)
+    if name == "report":
+        page = request.getfixturevalue("report_page")
+        assert _local_path(page.url).resolve() == report.index.resolve()
+    else:
+        if keep:
+            Path(keep).mkdir(parents=True, exist_ok=True)
+        page = open_page(browser, report.index,
+                         Path(keep) / f"scene-{name}-quick.png" if keep else None)
     assert broken_images(page) == []
     assert console_problems(page) == []
     assert layout_problems(page) == []
