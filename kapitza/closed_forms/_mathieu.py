@@ -231,6 +231,9 @@ def _from_log(sign, logv):
 #: seen against a 20-digit reference, 2026-11-27)
 _ROUNDING = 1.6e-14
 
+#: √(|a| + 2|q|) from which :func:`_trace_tol`'s first step count no longer fits an int64
+_STEP_RULE_LIMIT = 2.0 ** 63
+
 
 @njit(cache=True)
 def _trace_tol(a, q, tol, nmax, res):
@@ -246,9 +249,26 @@ def _trace_tol(a, q, tol, nmax, res):
 
     res = [trace (±inf if > 1e304), sign, log|trace|, error estimate (relative to
     max(1, |tr|)), steps per half period].
+
+    Where that first N would pass 2^64 steps (√(|a| + 2|q|) ≥ 2^63, e.g. the pendulum at
+    ω ≤ 2e-19·√(g/l), or a NaN) no budget reaches it: res = [NaN, −1, NaN, NaN, the last
+    step count of the doubling], at once.  That is what the doubling gave there (its
+    int(...) overflowed to N = 4 and every run overflowed to NaN, measured for budgets up
+    to 2^24 steps), after running to ``nmax`` (1.35 s a point at 2^22); callers flag it.
     """
+    s = math.sqrt(abs(a) + 2.0 * abs(q))
+    if not s < _STEP_RULE_LIMIT:
+        N = 4
+        while 4 * N <= nmax and N < (1 << 60):
+            N *= 2
+        res[0] = np.nan
+        res[1] = -1.0
+        res[2] = np.nan
+        res[3] = np.nan
+        res[4] = 2 * N
+        return
     buf = np.empty(6)
-    N = 4 + 2 * int(math.sqrt(abs(a) + 2.0 * abs(q)))
+    N = 4 + 2 * int(s)
     s1, l1 = _trace_log(a, q, N, buf)
     last = np.inf
     while True:
