@@ -24,11 +24,41 @@ VERIFICATION = ("A", "omega", "about", "length", "omega0", "methods", "stable_fl
 
 def figure(figsize):
     """A Figure on the Agg canvas: no pyplot state, nothing shown."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
     fig = Figure(figsize=figsize, layout="constrained")
-    FigureCanvasAgg(fig)
+    agg_canvas(fig)
     return fig
+
+
+_CANVAS = None
+
+
+def agg_canvas(fig):
+    """Put ``fig`` on an Agg canvas whose renderers share one mathtext parser.
+
+    Each Agg renderer (one per figure and resolution) has its own parser, and matplotlib
+    caches a parsed formula per parser: every figure re-parsed the same log-axis tick
+    labels ("10^{-2}") when it was laid out and again when saved, ~10 ms a formula and
+    most of the cost of measuring text.  A shared parser's cache is keyed as before (the
+    formula, resolution, font, antialiasing, hinting), so the drawn pixels are the same."""
+    global _CANVAS
+    if _CANVAS is None:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.mathtext import MathTextParser
+        parser = MathTextParser("path")          # what RendererAgg makes for itself
+
+        class SharedParserCanvas(FigureCanvasAgg):
+            """An Agg canvas whose renderers parse formulas with one shared parser."""
+
+            def get_renderer(self):
+                renderer = super().get_renderer()
+                renderer.mathtext_parser = parser
+                return renderer
+
+        _CANVAS = SharedParserCanvas
+    if not isinstance(fig.canvas, _CANVAS):
+        _CANVAS(fig)
+    return fig.canvas
 
 
 def axes(ax, figsize):
@@ -138,10 +168,7 @@ def fit_texts(fig, margin=4.0):
         return changed
     given = {}
     for _ in range(3):
-        # the layout, and the titles where they are drawn, without rasterising a pixel:
-        # a full draw of a map or a long record took 8x as long, and savefig draws again
-        fig.draw_without_rendering()
-        renderer = fig.canvas.get_renderer()
+        renderer = _laid_out(fig)
         width = fig.bbox.width
         again = False
         for title in _titles(fig):
@@ -161,6 +188,23 @@ def fit_texts(fig, margin=4.0):
         if not again:
             break
     return changed
+
+
+def _laid_out(fig):
+    """``fig`` laid out as its next draw lays it out, and the renderer to measure on.
+
+    Only the layout engine runs (the positions a title is centred on), not the draw pass
+    of every artist: ``savefig`` draws again, and the draw pass was a third of a measuring
+    round (a full draw of a map or a long record, rasterised, 8x as long as the layout).
+    An axes of fixed aspect is shrunk into its box here as in a draw (``apply_aspect``)."""
+    renderer = fig.canvas.get_renderer()
+    engine = fig.get_layout_engine()
+    if engine is not None and fig.axes:
+        engine.execute(fig)
+    for ax in fig.axes:
+        locator = ax.get_axes_locator()
+        ax.apply_aspect(locator(ax, renderer) if locator else None)
+    return renderer
 
 
 def _clearly_fit(fig, margin, slack=0.25):

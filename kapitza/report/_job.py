@@ -167,6 +167,8 @@ class Job:
         every title first wrapped to fit the figure (:func:`kapitza.figures.fit_texts`: a
         title the section made too long for its panel is never cut)."""
         from ..figures import fit_texts
+        from ..figures._common import agg_canvas
+        agg_canvas(fig)          # formulas parsed once for all the report's figures
         fit_texts(fig)
         rel = Path("figures") / f"{name}.png"
         fig.savefig(self.out / rel, dpi=150)
