@@ -219,7 +219,7 @@ def run(out: Path, quick: bool = False) -> dict:
     write_table(table, out, "acheson_chain")
     f["simulated_periods"] = periods
     f["simulation_omega_ratio"] = SIM_RATIO
-    save_figure(figure(table, sim_table, f, ns), out, "acheson_chain")
+    save_figure(figure(table, sim_table, f, ns), out, "acheson_chain", quick=quick)
     return f
 
 

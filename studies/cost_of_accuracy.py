@@ -270,7 +270,7 @@ def run(out, quick=False):
     integ.insert(0, "panel", "integrators")
     table = pd.concat([integ, fq, av, bt], ignore_index=True)
     write_table(table, out, "cost_of_accuracy")
-    save_figure(figure(wp, fq, av, bt, batch_ref_error), out, "cost_of_accuracy")
+    save_figure(figure(wp, fq, av, bt, batch_ref_error), out, "cost_of_accuracy", quick=quick)
 
     f = {}
     f["integrator_span_s"] = round(wp.t_span[1], 4)

@@ -381,7 +381,7 @@ def run(out: Path, quick: bool = False) -> dict:
     write_table(frac, out, "inverted_basin")
     write_table(maps, out, "inverted_basin_maps")
     write_table(tilts, out, "inverted_basin_tilts")
-    save_figure(figure(maps, tilts, frac, A_l, w_ratio), out, "inverted_basin")
+    save_figure(figure(maps, tilts, frac, A_l, w_ratio), out, "inverted_basin", quick=quick)
 
     # phase maps: simulation against the averaged separatrix
     for kappa in MAP_KAPPAS:

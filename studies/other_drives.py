@@ -299,7 +299,7 @@ def run(out: Path, quick: bool = False) -> dict:
     table = pd.DataFrame(rows)
     write_table(table, out, "other_drives")
     save_figure(figure(table, ratios, err_t, err_o, A_c, w_h, f, bif_ratios, bif_shift), out,
-                "other_drives")
+                "other_drives", quick=quick)
     f["compute_s"] = round(time.perf_counter() - t_start, 1)
     return f
 

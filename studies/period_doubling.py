@@ -643,7 +643,8 @@ def run(out: Path, quick: bool = False) -> dict:
     t0 = time.perf_counter()
     diagrams = brute_force_diagrams(system, p, found[min(2, n - 1)]["orbit"].state, quick)
     f["diagram_seconds"] = round(time.perf_counter() - t0, 1)
-    save_figure(figure(diagrams, p, g, g_err, delta, delta_err, f), out, "period_doubling")
+    save_figure(figure(diagrams, p, g, g_err, delta, delta_err, f), out, "period_doubling",
+                quick=quick)
     f["study_seconds"] = round(time.perf_counter() - t_start, 1)
     return f
 

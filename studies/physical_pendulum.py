@@ -204,7 +204,7 @@ def run(out: Path, quick: bool = False) -> dict:
     table = pd.DataFrame(rows)
     write_table(table, out, "physical_pendulum")
     save_figure(figure(wins, ratios, maps, A_axis, w_axis, t_eval, th, f), out,
-                "physical_pendulum")
+                "physical_pendulum", quick=quick)
     return f
 
 

@@ -223,7 +223,7 @@ def run(out: Path, quick: bool = False) -> dict:
     f["check_floquet_sides_right"] = right
     f["check_floquet_sides_total"] = total
 
-    save_figure(figure(table, q_inf / 2), out, "stability_window")
+    save_figure(figure(table, q_inf / 2), out, "stability_window", quick=quick)
     return f
 
 
