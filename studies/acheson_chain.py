@@ -51,7 +51,7 @@ import scipy.optimize
 
 import kapitza
 
-from _common import main, save_figure, write_table
+from _common import layout, main, save_figure, write_table
 
 QUESTION = ("What minimum drive and what upper limit hold a chain of N = 1 … 5 equal links "
             "upright on a vertically shaken pivot, exactly, in direct simulation, and by "
@@ -219,11 +219,11 @@ def run(out: Path, quick: bool = False) -> dict:
     write_table(table, out, "acheson_chain")
     f["simulated_periods"] = periods
     f["simulation_omega_ratio"] = SIM_RATIO
-    save_figure(figure(table, sim_table, f, ns), out, "acheson_chain", quick=quick)
+    save_figure(figure(table, sim_table, f, ns, quick), out, "acheson_chain", quick=quick)
     return f
 
 
-def figure(table, sims, f, ns):
+def figure(table, sims, f, ns, quick=False):
     import matplotlib.pyplot as plt
     fig, (ax, bx, cx) = plt.subplots(1, 3, figsize=(17, 5.6),
                                      gridspec_kw=dict(width_ratios=[1.6, 1, 1]))
@@ -281,7 +281,7 @@ def figure(table, sims, f, ns):
     cx.yaxis.set_minor_formatter(NullFormatter())
     cx.set_yticks([10, 20, 30, 50, 80])
     cx.legend(fontsize=8, loc="upper left")
-    fig.tight_layout()
+    layout(fig, quick)
     return fig
 
 

@@ -45,7 +45,7 @@ import pandas as pd
 import kapitza
 from kapitza.verification import fit_order
 
-from _common import main, save_figure, write_table
+from _common import layout, main, save_figure, write_table
 
 QUESTION = ("How large is the relative error of the upright pendulum's slow frequency "
             "predicted by first-order and corrected averaging over the (A/l, ω/ω0) plane, "
@@ -306,7 +306,7 @@ def figure(table, sims, vfits, alines, A_l, w_ratio, quick=False):
     ax.legend(fontsize=8)
     fig.suptitle("How good is averaging? Upright pendulum, relative error of the slow "
                  "frequency Ω (exact: Floquet; l = 1 m, g = 9.81 m/s²)", fontsize=13)
-    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    layout(fig, quick, rect=(0, 0, 1, 0.97))
     return fig
 
 

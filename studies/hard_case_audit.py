@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from _common import main, save_figure, write_table
+from _common import layout, main, save_figure, write_table
 
 QUESTION = ("How far inside its asserted bound is each hard case the tests cover — the "
             "error or drift measured again beside the bound, as a margin?")
@@ -606,7 +606,7 @@ def figure(table, quick):
     ax.set_title(f"Hard-case audit: {n} cases, {int(table.within.sum())} within their bound "
                  f"({size})\nred: margin < 3, orange: < 100, blue: ≥ 100")
     ax.grid(axis="x", which="major", alpha=0.3)
-    fig.tight_layout()
+    layout(fig, quick)
     return fig
 
 

@@ -51,7 +51,7 @@ import pandas as pd
 
 import kapitza
 
-from _common import main, save_figure, write_table
+from _common import layout, main, save_figure, write_table
 
 QUESTION = ("How far from upright can a dynamically stabilised pendulum be tilted or pushed "
             "and still recover, over the drive's amplitude and frequency, and does that basin "
@@ -265,7 +265,7 @@ def _log_ticks(axis, ticks):
     axis.set_minor_formatter(NullFormatter())
 
 
-def figure(maps, tilts, frac, A_l, w_ratio):
+def figure(maps, tilts, frac, A_l, w_ratio, quick=False):
     import matplotlib.pyplot as plt
     from matplotlib.colors import ListedColormap
 
@@ -350,7 +350,7 @@ def figure(maps, tilts, frac, A_l, w_ratio):
     ax.legend(fontsize=8, loc="upper left")
     fig.suptitle("Basin of the inverted state (l = 1 m, g = 9.81 m/s², released at t = 0, "
                  "stays up: |θ − π| < 0.8π for the whole run)", fontsize=13)
-    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    layout(fig, quick, rect=(0, 0, 1, 0.97))
     return fig
 
 
@@ -381,7 +381,7 @@ def run(out: Path, quick: bool = False) -> dict:
     write_table(frac, out, "inverted_basin")
     write_table(maps, out, "inverted_basin_maps")
     write_table(tilts, out, "inverted_basin_tilts")
-    save_figure(figure(maps, tilts, frac, A_l, w_ratio), out, "inverted_basin", quick=quick)
+    save_figure(figure(maps, tilts, frac, A_l, w_ratio, quick), out, "inverted_basin", quick=quick)
 
     # phase maps: simulation against the averaged separatrix
     for kappa in MAP_KAPPAS:

@@ -37,7 +37,7 @@ import pandas as pd
 import kapitza
 from kapitza import KapitzaPendulum, Scene, periodic_orbit
 
-from _common import main, save_figure, write_table
+from _common import layout, main, save_figure, write_table
 
 QUESTION = ("How well does first-order averaging describe the horizontal drive's tilted state "
             "and the elliptic pivot (circular: never upright; damped: a tilt), measured "
@@ -298,13 +298,13 @@ def run(out: Path, quick: bool = False) -> dict:
 
     table = pd.DataFrame(rows)
     write_table(table, out, "other_drives")
-    save_figure(figure(table, ratios, err_t, err_o, A_c, w_h, f, bif_ratios, bif_shift), out,
+    save_figure(figure(table, ratios, err_t, err_o, A_c, w_h, f, bif_ratios, bif_shift, quick), out,
                 "other_drives", quick=quick)
     f["compute_s"] = round(time.perf_counter() - t_start, 1)
     return f
 
 
-def figure(table, ratios, err_t, err_o, A_c, w_h, f, bif_ratios, bif_shift):
+def figure(table, ratios, err_t, err_o, A_c, w_h, f, bif_ratios, bif_shift, quick=False):
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(2, 3, figsize=(15, 8.6))
     fig.suptitle("Other drives: exact periodic orbits (points) against first-order averaging "
@@ -376,7 +376,7 @@ def figure(table, ratios, err_t, err_o, A_c, w_h, f, bif_ratios, bif_shift):
     a.set(xlabel="B / A  (dotted: circular, B = ±A)", ylabel="|θ_formula / θ_exact − 1|",
           title="(f) damped elliptic pivot: error of each formula")
     a.legend(fontsize=8)
-    fig.tight_layout()
+    layout(fig, quick)
     return fig
 
 

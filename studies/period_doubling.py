@@ -96,7 +96,7 @@ import kapitza
 from lagrange_core import problems
 from lagrange_core.variational import flow
 
-from _common import main, save_figure, write_table
+from _common import layout, main, save_figure, write_table
 
 QUESTION = ("Does the damped pendulum on a vertically shaken pivot reach chaos through a "
             "period-doubling cascade whose doubling amplitudes close in with Feigenbaum's "
@@ -643,7 +643,7 @@ def run(out: Path, quick: bool = False) -> dict:
     t0 = time.perf_counter()
     diagrams = brute_force_diagrams(system, p, found[min(2, n - 1)]["orbit"].state, quick)
     f["diagram_seconds"] = round(time.perf_counter() - t0, 1)
-    save_figure(figure(diagrams, p, g, g_err, delta, delta_err, f), out, "period_doubling",
+    save_figure(figure(diagrams, p, g, g_err, delta, delta_err, f, quick), out, "period_doubling",
                 quick=quick)
     f["study_seconds"] = round(time.perf_counter() - t_start, 1)
     return f
@@ -691,7 +691,7 @@ def _mark(ax, p, lo, hi):
                 fontsize=8, va="bottom", ha="left" if len(group) > 1 else "center")
 
 
-def figure(diagrams, p, g, g_err, delta, delta_err, f):
+def figure(diagrams, p, g, g_err, delta, delta_err, f, quick=False):
     import matplotlib.pyplot as plt
     overview, detail = diagrams
     fig, ax = plt.subplots(2, 2, figsize=(13, 9.5))
@@ -763,7 +763,7 @@ def figure(diagrams, p, g, g_err, delta, delta_err, f):
     a.legend(fontsize=8)
     a.set_title(f"δ_k = (p_(k+1) − p_k)/(p_(k+2) − p_(k+1)) → δ = {FEIGENBAUM_DELTA:.6f};\n"
                 f"last δ_{len(delta)} = {delta[-1]:.6f} ± {delta_err[-1]:.1e}", fontsize=9)
-    fig.tight_layout()
+    layout(fig, quick)
     return fig
 
 

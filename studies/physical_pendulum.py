@@ -52,7 +52,7 @@ import sympy as sp
 import kapitza
 from lagrange_core import problems
 
-from _common import main, save_figure, write_table
+from _common import layout, main, save_figure, write_table
 
 QUESTION = ("Is a shaken uniform rod exactly a point pendulum of the equivalent length "
             "2L/3 — windows, stability maps, slow frequencies, nonlinear motion — and how "
@@ -203,12 +203,12 @@ def run(out: Path, quick: bool = False) -> dict:
 
     table = pd.DataFrame(rows)
     write_table(table, out, "physical_pendulum")
-    save_figure(figure(wins, ratios, maps, A_axis, w_axis, t_eval, th, f), out,
+    save_figure(figure(wins, ratios, maps, A_axis, w_axis, t_eval, th, f, quick), out,
                 "physical_pendulum", quick=quick)
     return f
 
 
-def figure(wins, ratios, maps, A_axis, w_axis, t_eval, th, f):
+def figure(wins, ratios, maps, A_axis, w_axis, t_eval, th, f, quick=False):
     import matplotlib.pyplot as plt
     from matplotlib.colors import ListedColormap
     fig, (ax, bx, cx) = plt.subplots(1, 3, figsize=(17, 5.2))
@@ -256,7 +256,7 @@ def figure(wins, ratios, maps, A_axis, w_axis, t_eval, th, f):
     hi = max(float(np.max(v)) for v in th.values())
     cx.set_ylim(lo - 0.35 * (hi - lo), hi + 0.05 * (hi - lo))
     cx.legend(fontsize=8, loc="lower center", ncol=3)
-    fig.tight_layout()
+    layout(fig, quick)
     return fig
 
 

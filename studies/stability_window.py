@@ -44,7 +44,7 @@ import scipy.special
 
 import kapitza
 
-from _common import main, save_figure, write_table
+from _common import layout, main, save_figure, write_table
 
 QUESTION = ("Between which drive amplitudes A_min < A < A_max is the inverted pendulum stable "
             "for ω/ω0 from 1 to 1000, and where and by how much do first-order and corrected "
@@ -223,11 +223,11 @@ def run(out: Path, quick: bool = False) -> dict:
     f["check_floquet_sides_right"] = right
     f["check_floquet_sides_total"] = total
 
-    save_figure(figure(table, q_inf / 2), out, "stability_window", quick=quick)
+    save_figure(figure(table, q_inf / 2, quick), out, "stability_window", quick=quick)
     return f
 
 
-def figure(table, a_inf):
+def figure(table, a_inf, quick=False):
     import matplotlib.pyplot as plt
     fig, (ax, bx, cx) = plt.subplots(1, 3, figsize=(16, 5.2))
     und = table[table.gamma_ratio == 0]
@@ -281,7 +281,7 @@ def figure(table, a_inf):
     cx.set(xlabel="ω/ω0", ylabel="|edge(γ) / edge(0) − 1|",
            title="(c) damping's shift of the exact edges (both move up)")
     cx.legend(fontsize=8, loc="lower left", ncol=2)
-    fig.tight_layout()
+    layout(fig, quick)
     return fig
 
 
