@@ -57,6 +57,22 @@ def test_characteristic_values_match_scipy():
             assert np.max(np.abs(got - ref) / np.maximum(1, np.abs(ref))) < 1e-12
 
 
+def test_characteristic_values_on_threads_and_on_the_caller_s_are_the_same():
+    """A few values are computed on the calling thread, many on numba's threads
+    (``_SERIAL_BELOW``): the same numbers bit for bit, each matching scipy's."""
+    from kapitza.closed_forms import _characteristic as cv
+    for n in (cv._SERIAL_BELOW - 1, cv._SERIAL_BELOW, 300):
+        q = np.linspace(0.0, 15.0, n)
+        for kind, r in (("a", 0), ("b", 1), ("a", 3)):
+            parallel = cv._char_values(kind == "b", r, q)
+            serial = cv._char_values_serial(kind == "b", r, q)
+            assert np.array_equal(parallel, serial), (n, kind, r)
+            ref = (scipy.special.mathieu_b if kind == "b" else scipy.special.mathieu_a)(r, q)
+            got = mm.characteristic_value(kind, r, q)
+            assert np.array_equal(got, serial)
+            assert np.max(np.abs(got - ref) / np.maximum(1, np.abs(ref))) < 1e-12
+
+
 def test_characteristic_values_where_scipy_fails():
     # scipy.special.mathieu_a(5, 20.9) returns 15.03; the tridiagonal problem (LAPACK,
     # 80 rows) and ours give 37.3836...

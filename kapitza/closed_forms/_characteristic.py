@@ -205,6 +205,26 @@ def _char_values(kind_b, r, q):
     return out
 
 
+@njit(cache=True)
+def _char_values_serial(kind_b, r, q):
+    """:func:`_char_values` on the calling thread: the same values, bit for bit."""
+    out = np.empty(q.size)
+    for i in range(q.size):
+        out[i] = _char_value(kind_b, r, q[i], np.nan)
+    return out
+
+
+#: Below this many values :func:`characteristic_value` loops on the calling thread (a call
+#: under 0.1 ms).  A value takes ~1.5–2.5 µs; a parallel region costs ~5 µs to start, and
+#: afterwards OpenMP's idle threads spin, waiting for the next one, while the caller runs
+#: Python — the window's bisections call it ~1400 times on 1–2 values (a stability_window
+#: study's small run: 4.6–11 CPU-s with the threads spinning on a loaded machine, ~2 with
+#: them passive), and a first call compiled the parallel kernel for a handful of values.
+#: Measured 2026-11-29, 2 cores: serial/parallel wall 0.7× at 1 value, 1.4× at 4, 1.7× at
+#: 16–1024; CPU-s equal from 16 values on.
+_SERIAL_BELOW = 64
+
+
 def characteristic_value(kind, r, q):
     """Mathieu characteristic value a_r(q) or b_r(q) (DLMF 28.2(v)).
 
@@ -230,7 +250,8 @@ def characteristic_value(kind, r, q):
     qa = np.asarray(q, dtype=float)
     if not np.all(np.isfinite(qa)):
         raise ValueError("q must be finite.")
-    out = _char_values(kind == "b", int(r), np.ascontiguousarray(qa.ravel())).reshape(qa.shape)
+    values = _char_values_serial if qa.size < _SERIAL_BELOW else _char_values
+    out = values(kind == "b", int(r), np.ascontiguousarray(qa.ravel())).reshape(qa.shape)
     return float(out) if out.ndim == 0 else out
 
 
