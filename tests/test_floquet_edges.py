@@ -327,6 +327,27 @@ def test_mathieu_map_at_extreme_slow_drives():
             KapitzaPendulum(l=L, g=G, damping=damping).stability_map([0.1], [1e-300])
 
 
+def test_a_trace_whose_first_run_passes_the_step_budget_is_flagged_at_once():
+    """ω = 1e-7 rad/s (a = 4ω0²/ω² ≈ 3.9e15): the trace's first run alone needs ~1.3e8
+    steps, over the budget (2^22) — it ran them (over a minute a point; at ω = 1e-10, years)
+    and, with √a between 2^62 and 2^63, wrapped its step count negative.  Now NaN at once,
+    flagged and reported unstable, as at ω = 1e-100; the trace function says which of
+    its traces it did not compute."""
+    import time
+    p = KapitzaPendulum(l=L, g=G, damping=0.3)
+    p.stability_map([0.1], [1e-3], progress=False)            # compiled / loaded
+    for w in (1e-7, 1e-10, 2.0 * math.sqrt(G) / 2.0**62.5):     # the last: √a = 2^62.5
+        start = time.perf_counter()
+        m = p.stability_map([0.1], [w], progress=False)
+        assert time.perf_counter() - start < 1.0, w
+        assert np.isnan(m.log_growth[0, 0]) and not m.stable[0, 0], w
+        assert m.flagged_points == 1 and "rad/s" in m.flags_example[0], w
+    with pytest.warns(RuntimeWarning, match=r"1 of 2 traces did not reach tol=1e-12 "
+                                            r"\(largest error .*1 not computed \(NaN\)"):
+        tr, _, err = mm.mathieu_monodromy_trace([2.0, 1e16], 0.1)
+    assert np.isfinite(tr[0]) and err[0] <= 1e-12 and np.isnan(tr[1]) and np.isnan(err[1])
+
+
 def test_hanging_map_at_very_slow_drive_names_omega():
     # a = 4ω0²/ω² = 4e41 lies above ~1e20 tongues: this raised OverflowError ("int too big")
     with pytest.raises(ValueError, match=r"omega = 1e-20 .*floquet\.stability_map"):

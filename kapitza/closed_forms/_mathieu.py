@@ -255,6 +255,12 @@ def _trace_tol(a, q, tol, nmax, res):
     step count of the doubling], at once.  That is what the doubling gave there (its
     int(...) overflowed to N = 4 and every run overflowed to NaN, measured for budgets up
     to 2^24 steps), after running to ``nmax`` (1.35 s a point at 2^22); callers flag it.
+    Where the first run alone would pass the budget (N > ``nmax``: at 2^20 steps
+    √(|a| + 2|q|) > 2^19, the pendulum at ω ≲ 1e-5·√(g/l)) the trace is not computed either:
+    res = [NaN, −1, NaN, NaN, 2N], at once — the first run took as many steps as that
+    square root (ω = 1e-7 rad/s: over a minute a point; ω = 1e-10: years), and between
+    2^62 and 2^63 its step count wrapped negative.  The first pair of runs still goes
+    over a smaller budget (``nmax`` = 16 at a = 25: N = 14, the runs 14 and 28 steps).
     """
     s = math.sqrt(abs(a) + 2.0 * abs(q))
     if not s < _STEP_RULE_LIMIT:
@@ -266,6 +272,13 @@ def _trace_tol(a, q, tol, nmax, res):
         res[2] = np.nan
         res[3] = np.nan
         res[4] = 2 * N
+        return
+    if 4.0 + 2.0 * math.floor(s) > nmax:         # in floats: 2·int(s) may not fit an int64
+        res[0] = np.nan
+        res[1] = -1.0
+        res[2] = np.nan
+        res[3] = np.nan
+        res[4] = 2.0 * (4.0 + 2.0 * math.floor(s))
         return
     buf = np.empty(6)
     N = 4 + 2 * int(s)
@@ -342,11 +355,16 @@ def mathieu_monodromy_trace(a, q, c=0.0, tol=1e-12, max_steps=1 << 20):
     trace, log_abs, error = _monodromy_trace(a, q, c, tol, max_steps)
     missed = ~(error <= tol)
     if missed.any():
+        unknown = np.isnan(error)
+        largest = (f"largest error {np.max(error[~unknown]):.2g}" if (~unknown).any()
+                   else "none computed")
+        uncomputed = (f"; {int(unknown.sum())} not computed (NaN): the first run alone "
+                      f"would pass max_steps, or the trace overflows" if unknown.any() else "")
         warnings.warn(f"mathieu_monodromy_trace: {int(missed.sum())} of {error.size} traces "
-                      f"did not reach tol={tol:g} (largest error {np.nanmax(error):.2g}): the "
-                      f"step count reached max_steps={max_steps} or rounding stopped the "
-                      f"refinement; the returned error bounds them; raise max_steps or "
-                      f"loosen tol.", RuntimeWarning, stacklevel=2)
+                      f"did not reach tol={tol:g} ({largest}): the step count reached "
+                      f"max_steps={max_steps} or rounding stopped the refinement; the "
+                      f"returned error bounds them{uncomputed}; raise max_steps or loosen "
+                      f"tol.", RuntimeWarning, stacklevel=2)
     return trace, log_abs, error
 
 
