@@ -17,6 +17,7 @@ frequencies), ``_windows`` (a window's edges and boundary curves against ω), ``
 """
 from ._branches import branch_figure
 from ._chaos import basin_figure, bifurcation_figure, lyapunov_map_figure, section_figure
+from ._common import agg_canvas as agg_canvas
 from ._common import fit_texts as fit_texts
 from ._common import fit_title as fit_title
 from ._common import legend_below
