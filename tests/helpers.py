@@ -153,3 +153,57 @@ def pendulum_scene(direction="vertical", theta=3.1, analyses="", axes="", sweep=
     """A pendulum scene on a pivot driven at A = 5 cm, ω = 200 rad/s, swept over ``axes``."""
     return _PENDULUM_SCENE.format(direction=direction, theta=theta, analyses=analyses,
                                   axes=axes, sweep=sweep)
+
+
+def ctrl_c_in_process(call, delay, after=None):
+    """Run ``call()`` in this process with Python's own Ctrl-C handler (as in an interactive
+    run: a shell's background job, and so perhaps this worker, has SIGINT ignored) and send
+    this process SIGINT from a thread, as from outside, ``delay`` s after the call began —
+    or after the event ``after`` is set (by the call, e.g. from its progress callback: the
+    call's set-up then lies behind it).  Returns (the ComputationInterrupted raised, the
+    time it was caught, the time the signal was sent, both ``time.time()``); fails if the
+    call finished or a plain KeyboardInterrupt escaped it.
+
+    In process, not in a child: a child spent ~1 CPU-s importing the packages and loading
+    the kernels before its "ready" (the suite's process has both), and the kernels see the
+    signal the same way (the handler of ``defer_ctrl_c`` runs in the main thread wherever
+    SIGINT comes from).  After the call a late signal ends nothing: the handler is a no-op
+    until the thread is gone."""
+    import os
+    import signal
+    import threading
+    import time
+
+    from kapitza.results import ComputationInterrupted
+    started = after if after is not None else threading.Event()
+    if after is None:
+        started.set()
+    done = threading.Event()
+    sent = []
+
+    def fire():
+        started.wait()
+        if not done.wait(delay):
+            sent.append(time.time())
+            os.kill(os.getpid(), signal.SIGINT)
+
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    thread = threading.Thread(target=fire, daemon=True)
+    outcome = "the call finished: it was never interrupted"
+    try:
+        try:
+            thread.start()
+            call()
+        except ComputationInterrupted as e:
+            outcome = (e, time.time())
+        finally:
+            signal.signal(signal.SIGINT, lambda signum, frame: None)
+            done.set()
+            started.set()
+            thread.join()
+    except KeyboardInterrupt:
+        outcome = "a plain KeyboardInterrupt, not ComputationInterrupted"
+    finally:
+        signal.signal(signal.SIGINT, old)
+    assert isinstance(outcome, tuple), outcome
+    return outcome[0], outcome[1], sent[0]

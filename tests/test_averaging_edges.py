@@ -16,7 +16,7 @@ from kapitza import averaging as av
 from kapitza.closed_forms import _pendulum as pcf
 from kapitza.closed_forms import pendulum_window
 
-from helpers import G
+from helpers import G, ctrl_c_in_process
 
 # -- item 4: the averaging window ------------------------------------------------------------
 
@@ -254,52 +254,21 @@ def test_ctrl_c_stops_a_long_call_within_a_second():
     arrives within a second, with the chunks finished.
 
     In this process, not a child (which spent 0.8 CPU-s importing kapitza before the
-    call): Python's own Ctrl-C handler is put in place for the call, as in an interactive
-    run (a shell's background job, and so perhaps this worker, has SIGINT ignored), and
-    the signal comes from a thread, as from outside.  The call's temporaries and the kept
-    part take ≈ 250 MB, freed on return.  After the call a late signal ends nothing: the
-    handler is a no-op until the thread is gone."""
-    import os
-    import signal
+    call): :func:`helpers.ctrl_c_in_process`.  The call's temporaries and the kept part
+    take ≈ 250 MB, freed on return."""
     import threading
-    import time
 
-    from kapitza.results import ComputationInterrupted
     A = np.linspace(0.0, 0.2, 10_000_000)
     # compiled (or loaded) before the signal: the call below, order 2 (on an empty cache an
     # order-1 call here left order 2's kernels to compile through the Ctrl-C: nothing kept)
     pcf.pendulum_averaged(A[:10], 300.0, order=2, warn=False)
-    sent = []
     started = threading.Event()     # the first chunk reported: the call's set-up (~0.5 s
-    done = threading.Event()        # for 10⁷ points, more on a loaded machine) is behind it
-
-    def fire():
-        started.wait()
-        if not done.wait(0.3):
-            sent.append(time.perf_counter())
-            os.kill(os.getpid(), signal.SIGINT)
-    old = signal.signal(signal.SIGINT, signal.default_int_handler)
-    ctrl_c = threading.Thread(target=fire, daemon=True)
-    outcome = "the call finished: it was never interrupted"
-    try:
-        try:
-            ctrl_c.start()
-            pcf.pendulum_averaged(A, 300.0, order=2, warn=False,
-                                  progress=lambda d, total: d and started.set())
-        except ComputationInterrupted as e:
-            outcome = (time.perf_counter() - sent[0], int(e.computed.sum()))
-        finally:
-            signal.signal(signal.SIGINT, lambda signum, frame: None)
-            done.set()
-            started.set()
-            ctrl_c.join()
-    except KeyboardInterrupt:
-        outcome = "a plain KeyboardInterrupt, not ComputationInterrupted"
-    finally:
-        signal.signal(signal.SIGINT, old)
-    assert isinstance(outcome, tuple), outcome
-    delay, kept = outcome
-    assert delay < 1.0 and kept > 0
+    #                                 for 10⁷ points, more on a loaded machine) is behind it
+    e, t, sent = ctrl_c_in_process(
+        lambda: pcf.pendulum_averaged(A, 300.0, order=2, warn=False,
+                                      progress=lambda d, total: d and started.set()),
+        0.3, after=started)
+    assert t - sent < 1.0 and int(e.computed.sum()) > 0
 
 
 def test_general_sweep_progress_and_ctrl_c():

@@ -209,20 +209,19 @@ def test_every_kernel_module_guards_its_first_calls():
     assert not unguarded
 
 
-COLD_MEASURE = r'''
-import sys
+#: A child's lines that say "driver compiling" on stdout, once, when numba starts compiling
+#: the function named DRIVER (on the compiling thread: a second line would stand where
+#: the test reads what follows).
+SAYS_DRIVER = r'''
 from numba.core import event
-from kapitza.cli import main
 
 
 class Driver(event.Listener):
-    """Says, once, when numba starts compiling RKN 12's lanes driver (on the compiling
-    thread), before the command prints anything on stdout."""
     said = False
 
     def on_start(self, ev):
         function = getattr(ev.data.get("dispatcher"), "py_func", None)
-        if getattr(function, "__name__", "") == "_lanes_block" and not self.said:
+        if getattr(function, "__name__", "") == DRIVER and not self.said:
             self.said = True
             print("driver compiling", flush=True)
 
@@ -231,6 +230,14 @@ class Driver(event.Listener):
 
 
 event.register("numba:compile", Driver())
+'''
+
+
+COLD_MEASURE = r'''
+import sys
+from kapitza.cli import main
+DRIVER = "_lanes_block"         # RKN 12's lanes driver
+''' + SAYS_DRIVER + r'''
 sys.exit(main(["measure", "--A", "0.05", "--f", "60", "--theta0", "3.0"]))
 '''
 
@@ -265,27 +272,10 @@ def test_ctrl_c_while_the_first_measure_compiles_stops_within_a_second(tmp_path)
 
 COLD_SIMULATE = r'''
 import json, math, sys, time
-from numba.core import event
 from lagrange_core import problems
 from lagrange_core.integrate import SimulationInterrupted
-
-
-class Driver(event.Listener):
-    """Says, once, when numba starts compiling RKN 12's chunk driver (on the compiling
-    thread): a second line would stand where the test reads the outcome."""
-    said = False
-
-    def on_start(self, ev):
-        function = getattr(ev.data.get("dispatcher"), "py_func", None)
-        if getattr(function, "__name__", "") == "fast_rkn_chunk" and not self.said:
-            self.said = True
-            print("driver compiling", flush=True)
-
-    def on_end(self, ev):
-        pass
-
-
-event.register("numba:compile", Driver())
+DRIVER = "fast_rkn_chunk"       # RKN 12's chunk driver
+''' + SAYS_DRIVER + r'''
 pend = problems.driven_pendulum("vertical")
 P = dict(m=1.0, l=1.0, g=9.81, A=0.05, omega=2 * math.pi * 60)
 print("ready", flush=True)

@@ -15,7 +15,7 @@ from kapitza import floquet as fq
 from kapitza.closed_forms import _mathieu as mm
 from kapitza.pendulum import KapitzaPendulum
 
-from helpers import W0, G, L
+from helpers import W0, G, L, ctrl_c_in_process
 
 
 @pytest.fixture(scope="module")
@@ -209,56 +209,13 @@ def test_progress_line_only_on_request(capsys):
         p.stability_map(A, w, progress="yes")
 
 
-def _ctrl_c_in_process(call, delay):
-    """Run ``call()`` here, with Python's own Ctrl-C handler (as in an interactive run),
-    and send this process SIGINT ``delay`` s after it began, from a timer thread.  Returns
-    (the ComputationInterrupted raised, the time it was caught, the time the signal was
-    sent); fails if the call finished or a plain KeyboardInterrupt escaped it.
-
-    In process, not in a child: a child spent 1.5 CPU-s importing the packages and
-    loading the kernels before its "ready" (the suite's process has both), and the
-    kernels see the signal the same way (the handler of ``defer_ctrl_c`` runs in the main
-    thread wherever SIGINT comes from).  A signal arriving after the call ends nothing:
-    the handler is a no-op from then until the timer is gone."""
-    import os
-    import signal
-    import threading
-    import time
-
-    sent = []
-
-    def ctrl_c():
-        sent.append(time.time())
-        os.kill(os.getpid(), signal.SIGINT)
-
-    old = signal.signal(signal.SIGINT, signal.default_int_handler)
-    timer = threading.Timer(delay, ctrl_c)
-    outcome = "the call finished: it was never interrupted"
-    try:
-        try:
-            timer.start()
-            call()
-        except ComputationInterrupted as e:
-            outcome = (e, time.time())
-        finally:
-            signal.signal(signal.SIGINT, lambda signum, frame: None)
-            timer.cancel()
-            timer.join()
-    except KeyboardInterrupt:
-        outcome = "a plain KeyboardInterrupt, not ComputationInterrupted"
-    finally:
-        signal.signal(signal.SIGINT, old)
-    assert isinstance(outcome, tuple), outcome
-    return outcome[0], outcome[1], sent[0]
-
-
 def test_ctrl_c_stops_a_long_map_within_a_second():
     p = KapitzaPendulum(l=1.0, g=9.81, damping=0.3)
     # 1500 x 1500 damped points: ~7 s on this machine (the trace ~3 µs a point), never
     # done before the Ctrl-C 1 s in
     A, w = np.linspace(0.0, 0.7, 1500), np.linspace(2.0, 400.0, 1500) * np.sqrt(9.81)
     p.stability_map(A[:2], w[:2], progress=False)            # compiled / loaded
-    e, t, sent = _ctrl_c_in_process(lambda: p.stability_map(A, w, progress=False), 1.0)
+    e, t, sent = ctrl_c_in_process(lambda: p.stability_map(A, w, progress=False), 1.0)
     assert t - sent < 1.0
     rows = e.computed.all(axis=1)
     n = int(rows.sum())
@@ -443,13 +400,13 @@ def test_floquet_grid_interrupt_at_each_stage(stage, stage_grid):
 def test_ctrl_c_stops_a_general_map_within_a_second(delay):
     # early (J(t) is being sampled) or later (integration or analysis): stopped within
     # a second, never a plain KeyboardInterrupt from the NumPy code between the chunks
-    # (_ctrl_c_in_process fails on one).  (Not at 0 s: a signal that lands before the
+    # (ctrl_c_in_process fails on one).  (Not at 0 s: a signal that lands before the
     # call has begun is a plain Ctrl-C with nothing to keep.)
     p = KapitzaPendulum(l=1.0, g=9.81, damping=0.3)
     base = dict(m=1.0, l=1.0, g=9.81, gamma=0.3)
     A, w = np.linspace(0.0, 0.7, 600), np.linspace(2.0, 400.0, 600) * np.sqrt(9.81)
     fq.stability_map(p.system, base, [math.pi], A=A[:2], omega=w[:2], progress=False)
-    e, t, sent = _ctrl_c_in_process(
+    e, t, sent = ctrl_c_in_process(
         lambda: fq.stability_map(p.system, base, [math.pi], A=A, omega=w, progress=False),
         delay)
     assert t - sent < 1.0
