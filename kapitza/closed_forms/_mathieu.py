@@ -263,22 +263,20 @@ def _trace_tol(a, q, tol, nmax, res):
     over a smaller budget (``nmax`` = 16 at a = 25: N = 14, the runs 14 and 28 steps).
     """
     s = math.sqrt(abs(a) + 2.0 * abs(q))
+    uncomputed = 0.0                # the steps reported where the trace is not computed
     if not s < _STEP_RULE_LIMIT:
         N = 4
         while 4 * N <= nmax and N < (1 << 60):
             N *= 2
+        uncomputed = 2.0 * N
+    elif 4.0 + 2.0 * math.floor(s) > nmax:       # in floats: 2·int(s) may not fit an int64
+        uncomputed = 2.0 * (4.0 + 2.0 * math.floor(s))
+    if uncomputed > 0.0:
         res[0] = np.nan
         res[1] = -1.0
         res[2] = np.nan
         res[3] = np.nan
-        res[4] = 2 * N
-        return
-    if 4.0 + 2.0 * math.floor(s) > nmax:         # in floats: 2·int(s) may not fit an int64
-        res[0] = np.nan
-        res[1] = -1.0
-        res[2] = np.nan
-        res[3] = np.nan
-        res[4] = 2.0 * (4.0 + 2.0 * math.floor(s))
+        res[4] = uncomputed
         return
     buf = np.empty(6)
     N = 4 + 2 * int(s)
