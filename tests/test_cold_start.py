@@ -3,6 +3,7 @@ kernel twice.  Cheap on purpose: no real cold run (that takes a minute and more;
 benchmark ``benchmarks/bench_cold_start.py --report`` measures it)."""
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 import textwrap
@@ -216,7 +217,7 @@ def test_import_leaves_the_heavy_libraries_for_first_use(fresh_kapitza_process):
     figures).  Checked in a fresh interpreter, before it does anything else."""
     returncode, lines, stderr = fresh_kapitza_process
     assert lines, stderr[-2000:]                # (the import itself failed)
-    imported = __import__("json").loads(lines[0])
+    imported = json.loads(lines[0])
     assert imported == [], f"imported by `import kapitza`: {' '.join(imported)}"
 
 
@@ -366,7 +367,7 @@ def test_the_background_fit_compiles_what_a_measure_fits_with(fresh_kapitza_proc
     once it is called (none before the group: the imports call none)."""
     returncode, lines, stderr = fresh_kapitza_process
     assert returncode == 0, stderr[-2000:]
-    before_group, after_group, after_use = __import__("json").loads(lines[-1])
+    before_group, after_group, after_use = json.loads(lines[-1])
     assert not any(before_group.values()), before_group
     assert all(after_group.values()), after_group        # the group called every kernel
     assert after_use == after_group
