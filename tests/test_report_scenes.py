@@ -24,16 +24,27 @@ DATA = Path(__file__).parent / "data"
 pytestmark = pytest.mark.filterwarnings("ignore:boundaries.*certified only:RuntimeWarning")
 
 
-@pytest.fixture
-def figures(monkeypatch):
-    """Every Figure a section saves, by name (Job.figure still writes the PNG)."""
-    kept = {}
+def _keeping(kept):
+    """A ``Job.figure`` that keeps every Figure a section saves in ``kept``, by name, and
+    runs Job.figure on it (titles wrapped to fit) but draws no PNG: the tests here read
+    the Figure, never the file (a PNG drawn at 150 dpi, ~0.3 CPU-s a figure), and the
+    same quick sections of every shipped scene are drawn, saved and opened in
+    tests/test_report_browser.py.  (A scene of a test's own keeps its PNG: the test does
+    not ask for ``figures``.)"""
     save = Job.figure
 
     def figure(self, fig, name):
         kept[name] = fig
+        fig.savefig = lambda *args, **kwargs: None      # Job.figure's save: no PNG drawn
         return save(self, fig, name)
-    monkeypatch.setattr(Job, "figure", figure)
+    return figure
+
+
+@pytest.fixture
+def figures(monkeypatch):
+    """Every Figure a section saves, by name (:func:`_keeping`: no PNG drawn)."""
+    kept = {}
+    monkeypatch.setattr(Job, "figure", _keeping(kept))
     return kept
 
 
@@ -196,7 +207,7 @@ def test_damped_window_without_holes_and_the_maps_edge_named(tmp_path, figures):
     assert f"At the map's lower edge, ω = {win.omega.iloc[0]:.3g} rad/s" in result.caption
 
 
-def test_where_the_window_leaves_the_map_is_computed_not_read_off_the_grid(tmp_path, figures):
+def test_where_the_window_leaves_the_map_is_computed_not_read_off_the_grid(tmp_path):
     """A damped map whose lowest frequencies hold no window inside its amplitudes (up to
     4 m): the caption gives the frequency below which the window lies above the map,
     located by bisection to 1e-6.  scipy's monodromy: just above it a stable amplitude
@@ -237,39 +248,42 @@ def _pixels(fig):
 
 def invisible_legend_lines(fig):
     """Legend entries of the first axes whose lines change no pixel of the drawn figure when
-    hidden (drawn under another line, or outside the axes)."""
+    hidden (drawn under another line, or outside the axes).  The figure is laid out by its
+    first draw only: each redraw with a line hidden keeps that layout (the layout engine
+    off, restored after), so that the pixels compared differ by the line alone, and a
+    redraw runs no layout."""
     ax = fig.axes[0]
     base = _pixels(fig)
+    engine = fig.get_layout_engine()
+    fig.set_layout_engine(None)
     bad = []
-    for label in [t.get_text() for t in ax.get_legend().get_texts()]:
-        lines = [ln for ln in ax.lines if ln.get_label() == label
-                 or ln.get_label() == "_" + label]
-        if not lines:
-            continue
-        for ln in lines:
-            ln.set_visible(False)
-        changed = int(np.any(_pixels(fig) != base, axis=-1).sum())
-        for ln in lines:
-            ln.set_visible(True)
-        if changed < 30:
-            bad.append(f"{label}: {changed} px")
+    try:
+        for label in [t.get_text() for t in ax.get_legend().get_texts()]:
+            lines = [ln for ln in ax.lines if ln.get_label() == label
+                     or ln.get_label() == "_" + label]
+            if not lines:
+                continue
+            for ln in lines:
+                ln.set_visible(False)
+            changed = int(np.any(_pixels(fig) != base, axis=-1).sum())
+            for ln in lines:
+                ln.set_visible(True)
+            if changed < 30:
+                bad.append(f"{label}: {changed} px")
+    finally:
+        fig.set_layout_engine(engine)
     return bad
 
 
 @pytest.fixture(scope="module")
 def double_pendulum_map(tmp_path_factory):
     """The map section of double_pendulum.toml (quick), run once for the two tests that read
-    it: (its job, the figure it saved)."""
+    it: (its job, the figure it saved; :func:`_keeping`: no PNG drawn)."""
     job = _job(tmp_path_factory.mktemp("double-pendulum-map"), "double_pendulum")
     kept = {}
-    save = Job.figure
-
-    def figure(self, fig, name):
-        kept[name] = fig
-        return save(self, fig, name)
     with pytest.MonkeyPatch.context() as mp, warnings.catch_warnings():
         warnings.filterwarnings("ignore", "boundaries.*certified only", RuntimeWarning)
-        mp.setattr(Job, "figure", figure)
+        mp.setattr(Job, "figure", _keeping(kept))
         _stability.map_section(job)
     return job, kept["stability_map"]
 
