@@ -24,7 +24,7 @@ from html.parser import HTMLParser
 from pathlib import Path
 
 import pytest
-from docs_site import DOCS, built_site, sphinx
+from docs_site import DOCS, built_site, sphinx_in_process
 
 sys.path.insert(0, str(DOCS / "_ext"))
 from absolute_values import escape_docstring  # noqa: E402  (docs/_ext is no package)
@@ -218,7 +218,8 @@ def broken_build(tmp_path_factory):
         "api_pages = False\n"
     )
     (src / "index.rst").write_text(BROKEN)
-    return sphinx(src, tmp_path_factory.mktemp("broken-out"), timeout=300)
+    # in this process (the checks are the extensions' code): tests/docs_site.py
+    return sphinx_in_process(src, tmp_path_factory.mktemp("broken-out"))
 
 
 def test_a_wrong_example_fails_the_build(broken_build):

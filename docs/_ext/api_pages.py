@@ -27,7 +27,9 @@ signatures (code, not docstrings).
 
 from __future__ import annotations
 
+import functools
 import importlib
+import importlib.util
 import inspect
 import itertools
 import os
@@ -112,6 +114,8 @@ class Catalogue:
     home: dict[int, str] = field(default_factory=dict)
     #: full names documented on a page of their own → ("function" | "class" | "data")
     pages: dict[str, str] = field(default_factory=dict)
+    #: (dotted name, module?) → :meth:`canonical`'s answer
+    _answers: dict[tuple[str, bool], str | None] = field(default_factory=dict, repr=False)
 
     @classmethod
     def build(cls) -> Catalogue:
@@ -163,7 +167,21 @@ class Catalogue:
         importable but not documented).  ``module``: a module is meant (the ``:mod:``
         role); otherwise a package attribute that shadows a submodule of the same name
         (``kapitza.continuation``, the function) is meant."""
+        # asked again and again (the build's ~2000 references name a few hundred objects,
+        # each tried with up to three spellings), and each answer imports: a failed import
+        # searches the whole path anew.  The answer depends only on what is importable and
+        # on the catalogue, neither of which changes during a build.
+        key = (dotted, module)
+        if key not in self._answers:
+            self._answers[key] = self._canonical(dotted, module)
+        return self._answers[key]
+
+    def _canonical(self, dotted: str, module: bool) -> str | None:
         parts = dotted.split(".")
+        if parts[0] not in PACKAGES:
+            # only our packages' objects are documented: matplotlib.figure.Figure names
+            # nothing here, and importing matplotlib.figure to see that costs 0.3 CPU-s
+            return None
         if not module and len(parts) > 1:
             try:
                 parent = importlib.import_module(".".join(parts[:-1]))
@@ -227,24 +245,48 @@ def _write_if_changed(path: Path, text: str) -> None:
 def _doc_comment(modname: str, name: str, value) -> list[str] | None:
     """The ``#:`` comment above ``name = ...`` in the module that assigns it (the public
     module itself, or one of its package's modules), or None."""
-    package = importlib.import_module(modname.split(".")[0])
-    candidates = [modname] + sorted(
-        info.name
-        for info in pkgutil.walk_packages(package.__path__, package.__name__ + ".")
-        if not info.name.endswith("__main__")
-    )
+    found = _assignment_comment(modname, name)
+    return None if found is None else list(found)
+
+
+@functools.cache
+def _assignment_comment(modname: str, name: str) -> tuple[str, ...] | None:
+    # asked twice per constant (its row's summary, its page), and each answer reads the
+    # package's modules: the answers and the sources are kept for the build
+    candidates = [modname, *_package_modules(modname.split(".")[0])]
     assigned = re.compile(rf"^{re.escape(name)}\s*(:[^=]*)?=", re.M)
     for candidate in candidates:
-        try:
-            source = inspect.getsource(importlib.import_module(candidate))
-        except (OSError, TypeError, ImportError):
-            continue
-        if not assigned.search(source):
+        source = _module_source(candidate)
+        if source is None or not assigned.search(source):
             continue
         docs = ModuleAnalyzer.for_module(candidate).find_attr_docs()
         if ("", name) in docs:
-            return list(docs[("", name)])
+            return tuple(docs[("", name)])
     return None
+
+
+@functools.cache
+def _package_modules(package: str) -> tuple[str, ...]:
+    """Every module of ``package`` (but ``__main__``), sorted by name."""
+    path = importlib.import_module(package).__path__
+    return tuple(
+        sorted(
+            info.name
+            for info in pkgutil.walk_packages(path, package + ".")
+            if not info.name.endswith("__main__")
+        )
+    )
+
+
+@functools.cache
+def _module_source(modname: str) -> str | None:
+    """The source of ``modname``, or None; read, not imported (a search of the text needs
+    no import, and kapitza.scenes' dask module imports dask and distributed: 0.5 CPU-s)."""
+    try:
+        spec = importlib.util.find_spec(modname)
+        return spec.loader.get_source(modname) if spec is not None and spec.loader else None
+    except (OSError, ImportError, AttributeError):
+        return None
 
 
 def _data_page(full: str, value) -> str:
