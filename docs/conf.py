@@ -40,6 +40,7 @@ extensions = [
     "absolute_values",
     "cli_reference",
     "executed_examples",
+    "page_writing",  # the navigation column and the search stems: once, not per page
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "myst-nb", ".ipynb": "myst-nb"}
