@@ -27,10 +27,35 @@ SMALL = dict(duration=1.6, frames_per_period=4, width=300, fps=20)
 
 
 @pytest.fixture(scope="module")
-def anim(tmp_path_factory):
+def drawn(tmp_path_factory):
+    """The module's GIF, and the RGBA frames ``render()`` handed its writer: kept as they
+    reach the writer's ``finish``, which then writes the GIF as always, so the blitting
+    test compares this animation's own frames with full redraws instead of drawing all
+    its frames a second time."""
+    import kapitza.animation._drawing as drawing
+    real, frames = drawing._gif_writer, []
+
+    def keeping(fps, exact=()):
+        writer = real(fps, exact=exact)
+        finish = writer.finish
+
+        def finish_keeping():
+            frames.extend(writer._frames)
+            finish()
+        writer.finish = finish_keeping
+        return writer
+
     path = tmp_path_factory.mktemp("anim") / "pendulum.gif"
-    return kapitza.pendulum_animation(path, A=A, omega=OMEGA, l=L, g=G, theta0=THETA0,
-                                      progress=False, **SMALL)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(drawing, "_gif_writer", keeping)
+        anim = kapitza.pendulum_animation(path, A=A, omega=OMEGA, l=L, g=G, theta0=THETA0,
+                                          progress=False, **SMALL)
+    return anim, frames
+
+
+@pytest.fixture(scope="module")
+def anim(drawn):
+    return drawn[0]
 
 
 def test_the_gif_has_the_stated_frames_size_rate_and_loops(anim):
@@ -91,27 +116,24 @@ def test_the_drawn_angles_are_an_independent_simulation(anim):
     np.testing.assert_array_equal(frame["stable_theta"], anim.theta[0])
 
 
-def test_blitted_frames_equal_full_redraws(anim, monkeypatch, tmp_path):
+def test_blitted_frames_equal_full_redraws(drawn):
     """render() draws the static figure once and only the moving artists per frame; each
-    frame equals a full redraw of the figure pixel for pixel (before the GIF's palette)."""
-    from matplotlib.animation import PillowWriter
-
-    import kapitza.animation._drawing as drawing
-    stage_args = dict(l=L, g=G, damping=0.0, omega=OMEGA, window=anim.window,
-                      stayed=anim.stayed_up, fall=anim.fall_time, floquet=anim.floquet_stable,
-                      tilt0=0.1, slow=anim.slow_motion, frames_per_period=4, width=300)
-    frames = []         # the RGBA frames render() hands the writer, kept instead of written
-    monkeypatch.setattr(drawing, "_gif_writer", lambda fps, exact=(): PillowWriter(fps=fps))
-    monkeypatch.setattr(PillowWriter, "finish", lambda self: frames.extend(self._frames))
-    drawing.render("", pendulum_stage(anim.t, anim.theta, anim.pivot, anim.A, **stage_args),
-                   tmp_path / "unused.gif", 20, False, "test")
-    full = pendulum_stage(anim.t, anim.theta, anim.pivot, anim.A, **stage_args)
+    frame equals a full redraw of the figure pixel for pixel (before the GIF's palette).
+    The frames are those the module's animation handed its GIF writer (``drawn``)."""
+    anim, frames = drawn
+    full = pendulum_stage(anim.t, anim.theta, anim.pivot, anim.A, l=L, g=G, damping=0.0,
+                          omega=OMEGA, window=anim.window, stayed=anim.stayed_up,
+                          fall=anim.fall_time, floquet=anim.floquet_stable, tilt0=0.1,
+                          slow=anim.slow_motion, frames_per_period=4, width=300)
     assert len(frames) == anim.frames
-    for k in (0, 7, anim.frames - 1):
-        full.draw(k)
-        full.fig.canvas.draw()
-        np.testing.assert_array_equal(np.asarray(frames[k]),
-                                      np.asarray(full.fig.canvas.buffer_rgba()))
+    try:
+        for k in (0, 7, anim.frames - 1):
+            full.draw(k)
+            full.fig.canvas.draw()
+            np.testing.assert_array_equal(np.asarray(frames[k]),
+                                          np.asarray(full.fig.canvas.buffer_rgba()))
+    finally:
+        full.close()
 
 
 @pytest.mark.parametrize("as_images", [False, True], ids=["canvas bytes", "PIL images"])
@@ -247,15 +269,19 @@ def test_a_fast_drive_is_strobed_at_one_phase_with_the_period_drawn_faint(tmp_pa
 
 
 def test_cli_writes_the_gif_and_json(tmp_path, capsys):
+    """The command's options reach pendulum_animation and its result is the JSON; 0.4 s (8
+    frames over two drive periods) is enough for that: what the frames show and the driven
+    pendulum staying up over 1.6 s are the module animation's tests."""
     out = tmp_path / "cli.gif"
     code = cli.main(["animate", "--A-over-l", "0.25", "--omega-over-omega0", "10",
-                     "--duration", "1.2", "--frames-per-period", "4", "--width", "300",
+                     "--duration", "0.4", "--frames-per-period", "4", "--width", "300",
                      "--out", str(out), "--json"])
     captured = capsys.readouterr()
     assert code == 0, captured.err
     data = json.loads(captured.out)
     with Image.open(out) as im:
         assert im.n_frames == data["frames"] and im.size == (300, 210)
+    assert data["frames"] == 8          # t_k = k T/4 ≤ 0.4 s (T = 0.2006 s): k ≤ 7
     assert data["path"] == str(out) and data["A"] == pytest.approx(0.25)
     assert data["omega_over_omega0"] == pytest.approx(10)
     assert data["floquet_stable"] == [True, False] and data["stayed_up"][0] is True
@@ -338,18 +364,21 @@ def test_shaken_chain_stays_up_as_achesons_theorem_says(chains):
 
 
 def test_cli_animates_several_scenes(chains, tmp_path, capsys):
+    """Scene files on the command line: one panel each, their classification in the JSON
+    (Floquet's, which does not depend on the duration: 0.1 s, 7 frames, is enough here;
+    the chains' fixture checks what is drawn over 1.2 s)."""
     up, down = tmp_path / "up.toml", tmp_path / "down.toml"
     up.write_text(CHAIN.format(title="shaken", drive=DRIVE))
     down.write_text(CHAIN.format(title="still", drive=""))
     out = tmp_path / "c.gif"
-    code = cli.main(["animate", str(up), str(down), "--duration", "0.3", "--width", "300",
+    code = cli.main(["animate", str(up), str(down), "--duration", "0.1", "--width", "300",
                      "--frames-per-period", "4", "--out", str(out), "--json"])
     captured = capsys.readouterr()
     assert code == 0, captured.err
     data = json.loads(captured.out)
     assert data["scenes"] == [str(up), str(down)] and data["floquet_stable"] == [True, False]
     with Image.open(out) as im:
-        assert im.n_frames == data["frames"] == 20
+        assert im.n_frames == data["frames"] == 7          # t_k = k T/4 ≤ 0.1 s, k ≤ 6
     assert cli.main(["animate", str(up), "--A", "0.1", "--out", str(out)]) == 2
     assert "the scene sets the drive" in capsys.readouterr().err
 
