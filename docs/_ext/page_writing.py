@@ -27,7 +27,8 @@ except ImportError:  # another theme
     _theme_toctree = None
 
 #: id(soup) of each of the theme's cached columns -> {"texts": {id(top-level entry): (entry,
-#: its text)}, "checks": pages still to compare with the theme's own text}
+#: its text)}, "checks": pages still to compare with the theme's own text, "links": its
+#: links by address, "current": the current page's links}
 _STATE: dict[int, dict] = {}
 #: pages of each column whose text is compared with the theme's own
 _CHECKS = 3
@@ -78,20 +79,31 @@ def _patch_cached_sidebar(app, cache_key, pagename, show_nav_level):
     cached_pagename, cached_soup = cached
     old_href = app.builder.get_relative_uri(pagename, cached_pagename)
     new_href = app.builder.get_relative_uri(cached_pagename, pagename)
-    before = cached_soup.find_all("a", href="#")
+    state = _STATE.get(id(cached_soup))
+    if state is None:
+        # the column's links by the address each shows when not the current page's (the
+        # current page's own shows "#"; it gets ``old_href`` back when the marks move)
+        links: dict[str, list] = {}
+        current = cached_soup.find_all("a", href="#")
+        current_ids = {id(anchor) for anchor in current}
+        for anchor in cached_soup.find_all("a"):
+            href = old_href if id(anchor) in current_ids else anchor.get("href")
+            links.setdefault(href, []).append(anchor)
+        state = {"texts": {}, "checks": _CHECKS, "links": links, "current": current}
+        _STATE[id(cached_soup)] = state
     patched = _theme_toctree._move_current_markers(
         cached_soup, old_href=old_href, new_href=new_href, show_nav_level=show_nav_level
     )
     if not patched:
         return None
     cached[0] = pagename
-    if old_href == new_href:
-        stale = set()
-    else:
-        stale = _top_entries(cached_soup, before + cached_soup.find_all("a", href="#"))
-    state = _STATE.setdefault(id(cached_soup), {"texts": {}, "checks": _CHECKS})
     if state["texts"] is None:  # the kept texts gave another column once: not used
         return str(cached_soup)
+    stale = set()
+    if old_href != new_href:
+        now = state["links"].get(new_href, [])
+        stale = _top_entries(cached_soup, [*state["current"], *now])
+        state["current"] = now
     text = _serialize(cached_soup, state["texts"], stale)
     if state["checks"]:
         # the first pages of each column are compared with the theme's own text: should a
