@@ -1,7 +1,8 @@
 """kapitza report (issue 14.2): the folder it writes, checked against independent calls.
 
 The quick reports of the default scene and of period_doubling.toml are built once per
-process (tests/report_builds.py, shared with tests/test_report_browser.py); their tables
+process (tests/report_builds.py, shared with tests/test_report_browser.py; so is that of
+horizontal_drive.toml, built by the command ``kapitza report ... --json``); their tables
 are checked against references computed here: the exact window against the map's own
 labels and the closed form of first-order averaging, the spot checks' Floquet verdicts
 and the slow frequencies against monodromies integrated by scipy (tests/helpers.py).
@@ -193,11 +194,17 @@ def test_verification_numbers(quick):
     assert str(len(dis)) in report.section("verification").caption
 
 
-def test_cli_horizontal_scene_json(tmp_path, capsys):
-    scene = ROOT / "kapitza" / "scenes" / "horizontal_drive.toml"
-    rc = main(["report", str(scene), "--out", str(tmp_path / "h"), "--quick", "--json"])
-    out = json.loads(capsys.readouterr().out)
+def test_cli_horizontal_scene_json(tmp_path_factory):
+    """``kapitza report kapitza/scenes/horizontal_drive.toml --out DIR --quick --json``: exit
+    0 and the JSON of the report.  The command is run, in process, as the scene's quick
+    build (tests/report_builds.py), which tests/test_report_browser.py opens: the command
+    and build_report built the same quick report twice."""
+    built = quick_report("horizontal_drive", tmp_path_factory)
+    assert built.cli is not None, "tests/report_builds.py built the scene without the command"
+    rc, stdout = built.cli
+    out = json.loads(stdout)
     assert rc == 0
+    assert out["out"] == str(built.report.out) and out["quick"] is True
     status = {s["section"]: s["status"] for s in out["sections"]}
     assert status["potential"] == status["spots"] == status["slow"] == "done"
     assert status["map"] == status["verification"] == status["animation"] == "skipped"

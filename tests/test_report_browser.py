@@ -338,10 +338,11 @@ _NOT_A_NUMBER = re.compile(r"\b(nan|NaN|inf|-inf|Infinity|RuntimeWarning)\b")
 @pytest.mark.parametrize("name", SCENES)
 def test_scene_report_builds_cleanly(scene_report, name):
     """No section fails; no warning reaches the terminal (each section's warnings are notes
-    on the page), nothing but the cold-cache compile notice is written on stderr; no numpy
-    floating-point warning (an
-    overflow, an invalid value) among the notes — those are handled where they arise; every
-    figure's drawn extent (titles, legends) lies within the figure: nothing cut."""
+    on the page), nothing but the cold-cache compile notice is written on stderr (and the
+    progress lines, for the scene built by the command: report_builds.VIA_CLI); no numpy
+    floating-point warning (an overflow, an invalid value) among the notes — those are
+    handled where they arise; every figure's drawn extent (titles, legends) lies within the
+    figure: nothing cut."""
     built = scene_report(name)
     report = built.report
     assert report.failed == (), [(s.name, s.reason) for s in report.sections]
