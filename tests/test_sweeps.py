@@ -160,12 +160,16 @@ def _child(tmp_path, text):
                             preexec_fn=sigint_default)
 
 
-def _wait_for_parts(directory, count, timeout=120):
+def _wait_for_parts(directory, count, timeout=120, until=None):
+    """The sweep's parts in ``directory`` once there are ``count``; [] if the event
+    ``until`` is set first (the sweep is over)."""
     deadline = time.time() + timeout
     while time.time() < deadline:
         found = list(directory.glob("*/part-*.parquet"))
         if len(found) >= count:
             return found
+        if until is not None and until.is_set():
+            return []
         time.sleep(0.01)
     raise AssertionError(f"no {count} parts in {directory} after {timeout} s")
 
@@ -215,11 +219,8 @@ def test_ctrl_c_keeps_the_finished_tiles(tmp_path):
     first, over = threading.Event(), threading.Event()
 
     def watch():                    # sets ``first`` when a part is on disk
-        while not over.is_set():
-            if list((tmp_path / "out").glob("*/part-*.parquet")):
-                first.set()
-                return
-            time.sleep(0.01)
+        if _wait_for_parts(tmp_path / "out", 1, until=over):
+            first.set()
 
     watcher = threading.Thread(target=watch, daemon=True)
     watcher.start()
