@@ -15,6 +15,12 @@ them up.
 The rows stay there as ``<pid>.tsv`` (node id, own CPU-s, children's CPU-s, wall s) for a
 closer look.  A child that outlives its test, or is never waited for (a killed
 grandchild), is charged to no test: compare the total with ``/usr/bin/time``'s.
+
+The shared machine's speed is not the same from one day to the next (on 2026-11-29 the warm suite
+took 1.5× its CPU-s of the day before, the same code, its files 1.3–2×): the summary ends with a
+*yardstick*, the CPU-s of a fixed pure-Python loop timed in the
+controller after the run (the best of three), and the total divided by it — the figure
+to compare between days.
 """
 from __future__ import annotations
 
@@ -22,6 +28,7 @@ import collections
 import os
 import shutil
 import tempfile
+import time
 from pathlib import Path
 
 import pytest
@@ -29,11 +36,25 @@ import pytest
 _ROWS: list[tuple[str, float, float, float]] = []
 #: files printed at the end of the run, the costliest first
 TOP = 30
+#: steps of the yardstick's loop (0.20 CPU-s on the 2026-11-29 machine)
+YARDSTICK_STEPS = 3_000_000
 
 
 def _folder() -> Path:
     default = Path(tempfile.gettempdir()) / "kapitza-suite-cpu"
     return Path(os.environ.get("SUITE_CPU_DIR", default)).resolve()
+
+
+def yardstick() -> float:
+    """CPU-s of a fixed pure-Python loop, the best of three: the machine's speed now."""
+    best = float("inf")
+    for _ in range(3):
+        start = time.process_time()
+        total = 0
+        for i in range(YARDSTICK_STEPS):
+            total += i
+        best = min(best, time.process_time() - start)
+    return best
 
 
 def pytest_configure(config):
@@ -79,3 +100,6 @@ def pytest_terminal_summary(terminalreporter):
         write(f"{cpu:8.1f} {own[name]:8.1f} {children[name]:8.1f}  {name}")
     write(f"{sum(total.values()):8.1f} {sum(own.values()):8.1f} "
           f"{sum(children.values()):8.1f}  all {len(total)} files")
+    stick = yardstick()
+    write(f"yardstick: a {YARDSTICK_STEPS:.0e}-step Python loop {stick:.3f} CPU-s; "
+          f"the suite's CPU-s in yardsticks: {sum(total.values()) / stick:.0f}")
