@@ -31,6 +31,7 @@ import io
 import json
 import math
 import os
+import sys
 import threading
 import time
 from pathlib import Path
@@ -107,16 +108,14 @@ def _recorded(build):
 
 
 def _record_kernel_builds():
-    import sys as _sys
-
     from lagrange_core import codegen, module_store
     original = module_store.load_generated
 
     def load_generated(prefix, key, generate):
-        if f"{prefix}_{key}" in _sys.modules:       # this process has it: nothing built
+        if f"{prefix}_{key}" in sys.modules:       # this process has it: nothing built
             return original(prefix, key, generate)
         return _recorded(original)(prefix, key, generate)
-    for name, module in list(_sys.modules.items()):
+    for name, module in list(sys.modules.items()):
         if (name.startswith(("lagrange_core", "kapitza")) and module is not None
                 and getattr(module, "load_generated", None) is original):
             module.load_generated = load_generated
@@ -320,6 +319,7 @@ def run(argv):
         try:
             with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
                 code = main(list(argv))
+                streams = sys.stdout, sys.stderr
         finally:
             with lock:
                 state["running"] = False
@@ -334,6 +334,14 @@ def run(argv):
             reject()            # it arrived after main returned: nothing to judge
         raise AssertionError(f"Ctrl-C came out of kapitza.cli.main({argv}) as "
                              "KeyboardInterrupt (a traceback for the user)") from stop
+    # another thread that swaps the streams and sets back the ones it found (numba's
+    # error messages, made inside colorama's init/deinit, on a compiling thread) undoes
+    # the redirection: what the command wrote then went to the process's stderr
+    # (tests/test_cli_streams.py)
+    assert streams[0] is out and streams[1] is err, (
+        f"kapitza {' '.join(argv)}: sys.stdout, sys.stderr were {streams} when the command "
+        f"returned, not this test's; it wrote:\n--- stdout:\n{out.getvalue()}\n--- "
+        f"stderr:\n{err.getvalue()}")
     latency = None if state["fired"] is None else returned - state["fired"]
     # in this process the Ctrl-C waits for numba's compiler (see ctrl_c); when the command
     # enters it again after the Ctrl-C (a fresh clone's cold cache: the report's next
