@@ -30,6 +30,16 @@ over the ~600 000 that sympy and numba keep alive took ~10 % of a compile (a fir
 grid: 35.6 s on average against 32.8 s paused, seven alternated pairs of processes,
 2026-11-28, benchmarks/README.md), for ~100 MB more at the peak; it resumes, as it was,
 when the outermost compilation ends.
+
+numba's compiler makes thousands of error messages it catches itself, each within
+colorama's ``init()`` … ``deinit()``, which replace ``sys.stdout`` and ``sys.stderr`` and
+then set back the streams they found: on the compiling thread (or a grid pool's) that set
+back a stream the main thread had replaced meanwhile, and a caller's
+``contextlib.redirect_stderr`` was undone in the middle of its work (numba issue 3027;
+found as a rare "exit 2 without a message" of tests/test_properties_cli.py, its command's
+error line gone to the process's stderr).  So numba's calls to them do nothing here
+(:func:`_numba_leaves_the_streams_alone`): the messages' text, colours included, is built
+without them.
 """
 from __future__ import annotations
 
@@ -122,6 +132,25 @@ class _CollectorPaused(event.Listener):
 
 
 event.register("numba:compile", _CollectorPaused())
+
+
+def _numba_leaves_the_streams_alone() -> None:
+    """numba's calls to colorama's ``init``, ``reinit`` and ``deinit`` (its error messages,
+    made on whichever thread compiles) do nothing, for this process: their only effect is
+    to replace ``sys.stdout`` and ``sys.stderr`` and set back the streams they found
+    (module docstring).  colorama itself is left as it is (another library's ``init`` is
+    its own); on Windows, numba's coloured messages (``NUMBA_COLOR_SCHEME``, off by
+    default) are then not translated for an old console."""
+    from numba.core import errors
+    if hasattr(errors, "ColorShell"):       # colorama installed: numba's highlighting on
+        errors.init = errors.reinit = errors.deinit = _streams_unchanged
+
+
+def _streams_unchanged(*args, **kwargs) -> None:
+    """colorama's ``init``, ``reinit`` and ``deinit`` as numba's errors module calls them."""
+
+
+_numba_leaves_the_streams_alone()
 
 
 def compiling() -> bool:

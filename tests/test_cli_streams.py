@@ -9,6 +9,7 @@ back a stream the main thread had replaced since: tests/test_properties_cli.py r
 inside ``contextlib.redirect_stderr`` while the compilation of an interrupted ``kapitza
 summary`` went on, and the command's error line went to the process's stderr ("exit 2
 without a message"; reproduced with cold caches: every command after the interrupted one).
+lagrange_core._first_calls, imported with any kernel, turns numba's calls to them off.
 """
 import contextlib
 import io
@@ -23,8 +24,6 @@ from kapitza.cli import main
 def test_numba_compiling_on_another_thread_leaves_the_callers_streams():
     """A numba error made on another thread (as its compiler makes them) while the caller
     replaces the streams: the caller's streams stay in place."""
-    with contextlib.redirect_stdout(io.StringIO()):
-        assert main(["--version"]) == 0
     found, go = threading.Event(), threading.Event()
 
     class Earlier(io.StringIO):

@@ -54,7 +54,6 @@ DEBUG_VARIABLE = "KAPITZA_DEBUG"
 
 def main(argv=None) -> int:
     """Run ``kapitza`` with ``argv`` (default ``sys.argv[1:]``); the exit code."""
-    _numba_leaves_the_streams_alone()
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--traceback" in argv or os.environ.get(DEBUG_VARIABLE, "") not in ("", "0")
     argv = [a for a in argv if a != "--traceback"]
@@ -160,29 +159,6 @@ def _one_line_warning(name):
             f"{category.__name__}: "
         say(f"{name}: warning: {label}{text}")
     return show
-
-
-def _numba_leaves_the_streams_alone() -> None:
-    """Keep numba from rebinding ``sys.stdout`` and ``sys.stderr`` (for this process).
-
-    numba makes its error messages (thousands while it compiles, nearly all caught inside
-    its compiler) within colorama's ``init()`` … ``deinit()``: ``sys.stdout`` and
-    ``sys.stderr`` replaced by wrappers, then set back to the streams ``init()`` found.  On
-    a thread of its own — a kernel's first call compiling on lagrange_core._first_calls's
-    thread, which goes on after a Ctrl-C into whatever the process does next; the grid
-    pool's threads — that sets back a stream the main thread has replaced in the meantime:
-    a caller's ``contextlib.redirect_stderr`` was undone in the middle of a command, whose
-    error line then went to the process's stderr (tests/test_properties_cli.py: "exit 2
-    without a message", seen three times over the sessions; numba issue 3027).  The messages'
-    text is built without those calls (their only effect is on the streams), so numba's
-    use of them is turned off; colorama itself is left as it is."""
-    from numba.core import errors
-    if hasattr(errors, "ColorShell"):       # colorama installed (numba's highlighting on)
-        errors.init = errors.reinit = errors.deinit = _streams_unchanged
-
-
-def _streams_unchanged(*args, **kwargs) -> None:
-    """colorama's ``init``, ``reinit`` and ``deinit`` as numba's errors module calls them."""
 
 
 def _announced_as(name):
