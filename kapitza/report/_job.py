@@ -165,12 +165,14 @@ class Job:
     def figure(self, fig, name: str) -> Path:
         """Save ``fig`` as figures/<name>.png (150 dpi: sharp on high-density screens),
         every title first wrapped to fit the figure (:func:`kapitza.figures.fit_texts`: a
-        title the section made too long for its panel is never cut)."""
+        title the section made too long for its panel is never cut), drawn once
+        (:func:`kapitza.figures._common.save_png`)."""
         from ..figures import agg_canvas, fit_texts
+        from ..figures._common import save_png
         agg_canvas(fig)          # formulas parsed once for all the report's figures
         fit_texts(fig)
         rel = Path("figures") / f"{name}.png"
-        fig.savefig(self.out / rel, dpi=150)
+        save_png(fig, self.out / rel, 150)
         return rel
 
     def table(self, name: str, frame, section: str, shown: str | None = None, *,
