@@ -174,3 +174,36 @@ def test_a_title_is_wrapped_exactly_when_the_drawn_figure_cuts_it():
             assert bool(changed) == cut, (colorbar, text)
             assert _within(fig), (colorbar, text)
             plt.close(fig)
+
+
+def test_save_png_draws_the_pixels_savefig_draws(pend, tmp_path):
+    """The report saves its figures with figures.save_png (the layout run once at the
+    file's resolution, then one draw): the same pixels as ``savefig`` (which lays out in a
+    draw pass of its own first), each from a figure made afresh (a constrained layout
+    starts from the positions of the last one), for a map with its colorbar and a wrapped
+    title and a curve with its legend below; the figure's engine and resolution are as
+    before."""
+    from matplotlib.image import imread
+    m = pend.stability_map(np.linspace(0.01, 0.3, 8), np.geomspace(10.0, 100.0, 8))
+    theta = np.linspace(-np.pi, 2 * np.pi, 300)
+    U = kapitza.pendulum_effective_potential(0.05, 150.0, theta=theta)
+
+    def made(k):
+        if k == 0:
+            fig = figures.stability_map_figure(m, title="Stability of the upright pendulum " * 4)
+        else:
+            fig = figures.effective_potential_figure(theta, U)
+            fig.axes[0].plot(theta, U[0] if np.ndim(U) > 1 else U, label="again")
+            figures.legend_below(fig.axes[0])
+        figures.fit_texts(fig)
+        assert fig.get_layout_engine() is not None, "the case worth checking: an engine's"
+        return fig
+
+    for k in (0, 1):
+        made(k).savefig(tmp_path / f"savefig{k}.png", dpi=150)
+        fig = made(k)
+        engine, dpi = fig.get_layout_engine(), fig.dpi
+        figures.save_png(fig, tmp_path / f"save_png{k}.png", 150)
+        assert fig.get_layout_engine() is engine and fig.dpi == dpi
+        a, b = imread(tmp_path / f"savefig{k}.png"), imread(tmp_path / f"save_png{k}.png")
+        assert a.shape == b.shape and np.array_equal(a, b), f"figure {k}: pixels differ"

@@ -21,6 +21,7 @@ from ._common import agg_canvas as agg_canvas
 from ._common import fit_texts as fit_texts
 from ._common import fit_title as fit_title
 from ._common import legend_below
+from ._common import save_png as save_png
 from ._grids import grid_figure
 from ._lines import (
     effective_potential_figure,

@@ -166,9 +166,8 @@ class Job:
         """Save ``fig`` as figures/<name>.png (150 dpi: sharp on high-density screens),
         every title first wrapped to fit the figure (:func:`kapitza.figures.fit_texts`: a
         title the section made too long for its panel is never cut), drawn once
-        (:func:`kapitza.figures._common.save_png`)."""
-        from ..figures import agg_canvas, fit_texts
-        from ..figures._common import save_png
+        (:func:`kapitza.figures.save_png`)."""
+        from ..figures import agg_canvas, fit_texts, save_png
         agg_canvas(fig)          # formulas parsed once for all the report's figures
         fit_texts(fig)
         rel = Path("figures") / f"{name}.png"
