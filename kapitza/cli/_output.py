@@ -115,8 +115,11 @@ def write_frame(frame, path: Path) -> Path:
 
 def save_figure(fig, path, dpi=120) -> Path:
     """Save a matplotlib figure to ``path`` (its format from the suffix) whole or not at
-    all (:func:`whole`)."""
+    all (:func:`whole`); a PNG drawn once (:func:`kapitza.figures.save_png`)."""
     fmt = Path(path).suffix.lstrip(".").lower() or None
+    if fmt == "png":
+        from ..figures import save_png
+        return whole(path, lambda tmp: save_png(fig, tmp, dpi))
     return whole(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format=fmt))
 
 

@@ -150,6 +150,8 @@ def draw(function: str, *args, **options):
 
 def thumbnail(make: Callable[[], Any]) -> tuple[str | None, str | None]:
     """(a PNG data URI of the figure ``make()`` returns, None) or (None, why not)."""
+    # the figures room sits above the results: imported here, as in draw
+    from ..figures import save_png
     try:
         fig = make()
         for ax in fig.axes:
@@ -158,7 +160,7 @@ def thumbnail(make: Callable[[], Any]) -> tuple[str | None, str | None]:
                 legend.remove()                 # too small to read at this size
         width = fig.get_figwidth()
         buffer = io.BytesIO()
-        fig.savefig(buffer, format="png", dpi=THUMBNAIL_PIXELS / width)
+        save_png(fig, buffer, THUMBNAIL_PIXELS / width)
     except Exception as error:                  # a repr must never raise
         return None, f"no thumbnail: {type(error).__name__}: {error}"
     data = base64.b64encode(buffer.getvalue()).decode("ascii")
