@@ -16,9 +16,9 @@ The rows stay there as ``<pid>.tsv`` (node id, own CPU-s, children's CPU-s, wall
 closer look.  A child that outlives its test, or is never waited for (a killed
 grandchild), is charged to no test: compare the total with ``/usr/bin/time``'s.
 
-The shared machine's speed is not the same from one day to the next (on 2026-11-29 the warm suite
-took 1.5× its CPU-s of the day before, the same code, its files 1.3–2×): the summary ends with a
-*yardstick*, the CPU-s of a fixed pure-Python loop timed in the
+The shared machine's speed is not the same from one day to the next (on 2026-11-29 the
+warm suite took 1.5× its CPU-s of the day before, the same code, its files 1.3–2×): the
+summary ends with a *yardstick*, the CPU-s of a fixed pure-Python loop timed in the
 controller after the run (the best of three), and the total divided by it — the figure
 to compare between days.
 """
