@@ -415,3 +415,44 @@ def test_a_drive_without_an_upright_equilibrium_is_drawn_not_classified(tmp_path
     np.testing.assert_allclose(anim.anchor[0, :, 0], 0.05 * np.cos(200.0 * anim.t),
                                atol=1e-12)
     np.testing.assert_array_equal(anim.anchor[0, :, 1], 0.0)
+
+
+def test_clock_split_draws_the_frames_the_whole_clock_does(tmp_path, monkeypatch):
+    """render() draws the clock's unchanging tail once and only its time each frame
+    (``_ClockSplit``): on this clip every frame is drawn that way, and each equals the frame
+    drawn with the whole clock (the split turned off), pixel for pixel; so do the GIFs' bytes."""
+    import kapitza.animation._drawing as drawing
+    real_writer, real_make = drawing._gif_writer, drawing._ClockSplit.make
+    runs = {}
+
+    def run(name, split):
+        frames, made = [], []
+
+        def keeping(fps, exact=()):
+            writer = real_writer(fps, exact=exact)
+            finish = writer.finish
+
+            def finish_keeping():
+                frames.extend(writer._frames)
+                finish()
+            writer.finish = finish_keeping
+            return writer
+
+        def make(stage, static):
+            made.append(real_make(stage, static) if split else None)
+            return made[-1]
+        monkeypatch.setattr(drawing, "_gif_writer", keeping)
+        monkeypatch.setattr(drawing._ClockSplit, "make", make)
+        path = tmp_path / f"{name}.gif"
+        kapitza.pendulum_animation(path, A=A, omega=OMEGA, l=L, g=G, theta0=THETA0,
+                                   progress=False, **SMALL)
+        runs[name] = frames, made[0], path.read_bytes()
+
+    run("split", True)
+    run("whole", False)
+    frames, split, gif = runs["split"]
+    assert split is not None and all(split.same)
+    assert len(frames) == len(runs["whole"][0])
+    for k, (a, b) in enumerate(zip(frames, runs["whole"][0], strict=True)):
+        np.testing.assert_array_equal(a, b, err_msg=f"frame {k}")
+    assert gif == runs["whole"][2]
