@@ -193,7 +193,7 @@ def test_save_png_draws_the_pixels_savefig_draws(pend, tmp_path):
             fig = figures.stability_map_figure(m, title="Stability of the upright pendulum " * 4)
         else:
             fig = figures.effective_potential_figure(theta, U)
-            fig.axes[0].plot(theta, U[0] if np.ndim(U) > 1 else U, label="again")
+            fig.axes[0].plot(theta, 1.1 * U, label="a second curve, for the legend below")
             figures.legend_below(fig.axes[0])
         figures.fit_texts(fig)
         assert fig.get_layout_engine() is not None, "the case worth checking: an engine's"
