@@ -141,7 +141,9 @@ class _ClockSplit:
 
     @staticmethod
     def _drop(head):
+        """No split (``make`` returns None): the head is taken off the figure."""
         head.remove()
+        return None
 
 
 def _gif_writer(fps, exact=()):
