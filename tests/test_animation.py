@@ -26,14 +26,11 @@ THETA0 = math.pi - 0.1
 SMALL = dict(duration=1.6, frames_per_period=4, width=300, fps=20)
 
 
-@pytest.fixture(scope="module")
-def drawn(tmp_path_factory):
-    """The module's GIF, and the RGBA frames ``render()`` handed its writer: kept as they
-    reach the writer's ``finish``, which then writes the GIF as always, so the blitting
-    test compares this animation's own frames with full redraws instead of drawing all
-    its frames a second time."""
+def _keeping_frames(frames):
+    """``render()``'s GIF writer, keeping in ``frames`` the RGBA frames handed to it as they
+    reach its ``finish`` (which then writes the GIF as always)."""
     import kapitza.animation._drawing as drawing
-    real, frames = drawing._gif_writer, []
+    real = drawing._gif_writer
 
     def keeping(fps, exact=()):
         writer = real(fps, exact=exact)
@@ -44,10 +41,20 @@ def drawn(tmp_path_factory):
             finish()
         writer.finish = finish_keeping
         return writer
+    return keeping
 
+
+@pytest.fixture(scope="module")
+def drawn(tmp_path_factory):
+    """The module's GIF, and the RGBA frames ``render()`` handed its writer: kept as they
+    reach the writer's ``finish``, which then writes the GIF as always, so the blitting
+    test compares this animation's own frames with full redraws instead of drawing all
+    its frames a second time."""
+    import kapitza.animation._drawing as drawing
+    frames = []
     path = tmp_path_factory.mktemp("anim") / "pendulum.gif"
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(drawing, "_gif_writer", keeping)
+        mp.setattr(drawing, "_gif_writer", _keeping_frames(frames))
         anim = kapitza.pendulum_animation(path, A=A, omega=OMEGA, l=L, g=G, theta0=THETA0,
                                           progress=False, **SMALL)
     return anim, frames
@@ -417,35 +424,26 @@ def test_a_drive_without_an_upright_equilibrium_is_drawn_not_classified(tmp_path
     np.testing.assert_array_equal(anim.anchor[0, :, 1], 0.0)
 
 
-def test_clock_split_draws_the_frames_the_whole_clock_does(tmp_path, monkeypatch):
+def test_clock_split_draws_the_frames_the_whole_clock_does(tmp_path):
     """render() draws the clock's unchanging tail once and only its time each frame
     (``_ClockSplit``): on this clip every frame is drawn that way, and each equals the frame
     drawn with the whole clock (the split turned off), pixel for pixel; so do the GIFs' bytes."""
     import kapitza.animation._drawing as drawing
-    real_writer, real_make = drawing._gif_writer, drawing._ClockSplit.make
+    real_make = drawing._ClockSplit.make
     runs = {}
 
     def run(name, split):
         frames, made = [], []
 
-        def keeping(fps, exact=()):
-            writer = real_writer(fps, exact=exact)
-            finish = writer.finish
-
-            def finish_keeping():
-                frames.extend(writer._frames)
-                finish()
-            writer.finish = finish_keeping
-            return writer
-
         def make(stage, static):
             made.append(real_make(stage, static) if split else None)
             return made[-1]
-        monkeypatch.setattr(drawing, "_gif_writer", keeping)
-        monkeypatch.setattr(drawing._ClockSplit, "make", make)
         path = tmp_path / f"{name}.gif"
-        kapitza.pendulum_animation(path, A=A, omega=OMEGA, l=L, g=G, theta0=THETA0,
-                                   progress=False, **SMALL)
+        with pytest.MonkeyPatch.context() as mp:         # each run the writer of the module
+            mp.setattr(drawing, "_gif_writer", _keeping_frames(frames))
+            mp.setattr(drawing._ClockSplit, "make", make)
+            kapitza.pendulum_animation(path, A=A, omega=OMEGA, l=L, g=G, theta0=THETA0,
+                                       progress=False, **SMALL)
         runs[name] = frames, made[0], path.read_bytes()
 
     run("split", True)
