@@ -150,9 +150,10 @@ def draw(function: str, *args, **options):
 
 def thumbnail(make: Callable[[], Any]) -> tuple[str | None, str | None]:
     """(a PNG data URI of the figure ``make()`` returns, None) or (None, why not)."""
-    # the figures room sits above the results: imported here, as in draw
-    from ..figures import save_png
     try:
+        # the figures room sits above the results: imported here, as in draw (and inside
+        # the try: a repr must never raise, not even for a figure that cannot be imported)
+        from ..figures import save_png
         fig = make()
         for ax in fig.axes:
             legend = ax.get_legend()
