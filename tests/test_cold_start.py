@@ -184,7 +184,9 @@ def fresh_kapitza_process():
     ~2 s, not twice): first what ``import kapitza, kapitza.cli`` imported (a JSON line,
     printed before anything else runs), then the fit kernels' signatures before the
     background group's code, after it, and after a measure and a 3-coordinate record's
-    fit (a JSON line).  Returns (return code, stdout's lines, stderr)."""
+    fit (a JSON line); last, whether a DOP853 ``simulate`` (and the damped measure before
+    it, on DOP853's grid driver) imported scipy.integrate (a JSON line).  Returns (return
+    code, stdout's lines, stderr)."""
     script = textwrap.dedent(f'''
         import json, math, sys
         import kapitza, kapitza.cli
@@ -204,6 +206,11 @@ def fresh_kapitza_process():
         slow_frequencies(np.cos(0.1 * k * np.arange(1, 4)), np.sin(0.1 * k * np.arange(1, 4)),
                          0.01)
         print(json.dumps([before_group, after_group, seen()]))
+        from lagrange_core import problems
+        problems.double_pendulum().simulate([1.0, -0.5], [0.0, 0.3], (0.0, 0.5),
+                                            dict(m1=1.0, m2=0.5, l1=1.0, l2=0.7, g=9.81),
+                                            method="dop853")
+        print(json.dumps("scipy.integrate" in sys.modules))
     ''')
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
                          timeout=600)
@@ -219,6 +226,16 @@ def test_import_leaves_the_heavy_libraries_for_first_use(fresh_kapitza_process):
     assert lines, stderr[-2000:]                # (the import itself failed)
     imported = json.loads(lines[0])
     assert imported == [], f"imported by `import kapitza`: {' '.join(imported)}"
+
+
+def test_dop853_runs_leave_scipy_integrate_for_first_use(fresh_kapitza_process):
+    """A damped ``measure`` (DOP853's grid driver) and a double pendulum's DOP853
+    ``simulate`` in a fresh interpreter read DOP853's table without importing
+    scipy.integrate, whose package imports scipy.optimize and scipy.sparse (0.33 CPU-s of
+    a new system's first ``simulate``)."""
+    returncode, lines, stderr = fresh_kapitza_process
+    assert returncode == 0 and len(lines) == 3, stderr[-2000:]
+    assert json.loads(lines[2]) is False, "scipy.integrate was imported"
 
 
 class _Reached(Exception):
@@ -367,7 +384,7 @@ def test_the_background_fit_compiles_what_a_measure_fits_with(fresh_kapitza_proc
     once it is called (none before the group: the imports call none)."""
     returncode, lines, stderr = fresh_kapitza_process
     assert returncode == 0, stderr[-2000:]
-    before_group, after_group, after_use = json.loads(lines[-1])
+    before_group, after_group, after_use = json.loads(lines[1])
     assert not any(before_group.values()), before_group
     assert all(after_group.values()), after_group        # the group called every kernel
     assert after_use == after_group

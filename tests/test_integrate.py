@@ -120,6 +120,26 @@ def test_rkn12_table_satisfies_its_order_conditions():
     assert sum(abs(b - bh) for b, bh in zip(tab["b"], tab["bh"], strict=True)) > 0
 
 
+def test_dop853_table_read_from_scipys_file_is_scipys(monkeypatch):
+    """DOP853's table is read from scipy's module file (not importing scipy.integrate's
+    package): the same arrays, to the bit, as the module imported by name, contiguous
+    float64; and the same where the file cannot be read (the import by name then)."""
+    from scipy.integrate._ivp import dop853_coefficients as by_name
+
+    from lagrange_core import integrate
+    names = ("A", "B", "C", "E3", "E5", "D")
+    read = integrate._dop853_coefficients()
+    assert read["A"].shape == (16, 16) and read["D"].shape == (4, 16)
+    for name in names:
+        np.testing.assert_array_equal(read[name], getattr(by_name, name), err_msg=name)
+        assert read[name].dtype == np.float64 and read[name].flags.c_contiguous
+    assert integrate._scipy_file_module("integrate/_ivp/no_such_module.py") is None
+    monkeypatch.setattr(integrate, "_scipy_file_module", lambda relative: None)
+    imported = integrate._dop853_coefficients()
+    for name in names:
+        np.testing.assert_array_equal(imported[name], read[name], err_msg=name)
+
+
 def test_the_controllers_quantile_equals_numpys_sort():
     """The k-th smallest step (the pilot's and the held step's quantile, in the kernels)
     equals ``np.sort(x)[k]``: random, tied, sorted and reversed values, every k of small
