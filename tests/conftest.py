@@ -14,7 +14,8 @@ import os
 # and the rest keep alive again and again (the collector's CPU in a worker's whole run
 # 2.8–3.1 → 2.2–2.5 s, 3050–3850 → 2000–2660 passes; a collection alone in one process
 # 8.6, 7.9 → 6.0, 6.4 CPU-s; the same peak memory; 2026-11-29)
-if os.environ.get("PYTEST_XDIST_WORKER"):
+_COLLECTOR_OFF_WHILE_COLLECTING = bool(os.environ.get("PYTEST_XDIST_WORKER"))
+if _COLLECTOR_OFF_WHILE_COLLECTING:
     gc.disable()
 
 import numpy as np  # noqa: E402
@@ -156,6 +157,7 @@ def pytest_collection_finish(session):
     the collector back on (off since this file was read, above)."""
     if hasattr(session.config, "workerinput"):
         gc.freeze()
+    if _COLLECTOR_OFF_WHILE_COLLECTING:     # (also in a pytest started inside a worker)
         gc.enable()
 
 
