@@ -137,6 +137,7 @@ whose ``trajectory`` attribute holds everything computed so far (status
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 import time
 from dataclasses import dataclass, field, replace
@@ -218,16 +219,20 @@ def _dop853_coefficients():
             for name in ("A", "B", "C", "E3", "E5", "D")}
 
 
+@functools.cache
 def _scipy_file_module(relative: str):
     """The module at ``relative`` inside the scipy package, executed from its file without
-    importing the packages above it; None where it cannot be."""
+    importing the packages above it; None where it cannot be.  Once per process, as an
+    import is ("dop853" and "rk8" both read DOP853's table)."""
     import importlib.util
     from pathlib import Path
 
     import scipy
     path = Path(scipy.__file__).parent / relative
+    if not path.is_file():
+        return None
     spec = importlib.util.spec_from_file_location(f"_lagrange_core_scipy_{path.stem}", path)
-    if spec is None or spec.loader is None or not path.is_file():
+    if spec is None or spec.loader is None:
         return None
     module = importlib.util.module_from_spec(spec)
     try:
